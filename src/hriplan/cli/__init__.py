@@ -1,0 +1,1 @@
+"""The `hriplan` command line."""

@@ -1,0 +1,1 @@
+"""Constrained motion planning: constraints, OMPL, validation, trajectories."""

@@ -1,0 +1,189 @@
+"""A posable human from example-robot-data's articulated `human` model, with capsule geometry.
+
+Each body segment gets one capsule that contains its display mesh (plus an optional safety
+margin). Re-posing (standing / seated, base pose, an arm reaching to a point) only moves these
+capsules: nothing on the robot side is rebuilt.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import Literal
+
+import coal
+import numpy as np
+import pinocchio as pin
+from example_robot_data.human import HumanLoader
+from pydantic import BaseModel, ConfigDict, Field
+
+from hriplan import HriplanError
+
+from .assets import resolve_package_uri
+from .bounding import fit_box, fit_capsule
+
+Side = Literal["left", "right"]
+SEGMENTS = (
+    "middle_pelvis", "middle_abdomen", "middle_thorax", "middle_head",
+    "left_upperarm", "left_lowerarm", "left_hand", "right_upperarm", "right_lowerarm", "right_hand",
+    "left_upperleg", "left_lowerleg", "left_foot", "right_upperleg", "right_lowerleg", "right_foot",
+)  # fmt: skip
+REACH_JOINTS = ("shoulder_Z", "shoulder_X", "shoulder_Y", "elbow_Z", "elbow_Y")
+POSTURE_JOINTS = {
+    "standing": {},
+    "seated": {"left_hip_Z": np.pi / 2, "right_hip_Z": np.pi / 2, "left_knee_Z": np.pi / 2, "right_knee_Z": np.pi / 2},
+}
+DEFAULT_WEIGHT = 75.0
+
+
+class HumanSpec(BaseModel):
+    """Where a person is and how they stand; the model faces +x of its base frame at yaw 0."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = "human"
+    posture: Literal["standing", "seated"] = "standing"
+    position: tuple[float, float] = (1.0, 0.0)
+    yaw: float = np.pi
+    height: float | None = Field(default=None, gt=0.5, lt=2.5)
+    reach: dict[Side, tuple[float, float, float]] = Field(default_factory=dict)
+    margin: float = Field(default=0.0, ge=0.0)
+
+
+@dataclass(frozen=True)
+class HumanCapsule:
+    name: str
+    joint: int
+    radius: float
+    length: float
+    placement: pin.SE3  # in the segment's joint frame
+
+
+@functools.cache
+def _loaded(height: float | None) -> tuple[pin.Model, tuple[HumanCapsule, ...], dict[str, tuple[int, pin.SE3]]]:
+    loader = HumanLoader(height=height, weight=DEFAULT_WEIGHT if height else None)
+    model, visual = loader.robot.model, loader.robot.visual_model
+    points: dict[str, list[np.ndarray]] = {s: [] for s in SEGMENTS}
+    joints: dict[str, int] = {}
+    loader_mesh = coal.MeshLoader()
+    for geom in visual.geometryObjects:
+        segment = model.frames[geom.parentFrame].name
+        if segment not in points:
+            continue
+        mesh = loader_mesh.load(resolve_package_uri(geom.meshPath), np.asarray(geom.meshScale))
+        vertices = np.asarray(mesh.vertices())
+        points[segment].append(vertices @ geom.placement.rotation.T + geom.placement.translation)
+        joints[segment] = geom.parentJoint
+    capsules = []
+    named: dict[str, tuple[int, pin.SE3]] = {}
+    for segment in SEGMENTS:
+        cloud = np.vstack(points[segment])
+        radius, length, placement = fit_capsule(cloud)
+        capsules.append(HumanCapsule(segment, joints[segment], radius, length, placement))
+        if segment.endswith("hand") or segment in ("middle_head", "middle_thorax"):
+            _, centre = fit_box(cloud)
+            named[segment] = (joints[segment], centre)
+    frames = {
+        "head": named["middle_head"],
+        "torso": named["middle_thorax"],
+        "left_hand": named["left_hand"],
+        "right_hand": named["right_hand"],
+    }
+    return model, tuple(capsules), frames
+
+
+class Human:
+    """A person in the scene: pose it with a `HumanSpec`, read capsules and frames in the world."""
+
+    FRAMES = ("head", "torso", "left_hand", "right_hand", "base")
+
+    def __init__(self, spec: HumanSpec | None = None) -> None:
+        self.spec = spec or HumanSpec()
+        self.model, self.capsules, self._frames = _loaded(self.spec.height)
+        self.data = self.model.createData()
+        self.q = pin.neutral(self.model)
+        self.pose(self.spec)
+
+    def pose(self, spec: HumanSpec) -> None:
+        """Re-pose the person (posture, base pose, reaching arms) without reloading the model."""
+        if spec.height != self.spec.height:
+            raise HriplanError("a person's height is fixed when the Human is created")
+        self.spec = spec
+        q = pin.neutral(self.model)
+        for joint, value in POSTURE_JOINTS[spec.posture].items():
+            q[self._iq(joint)] = value
+        # The loader fixes the root joint's rotation (its y-up mesh frame to z-up): conjugate.
+        root = self.model.jointPlacements[1]
+        q[:7] = pin.SE3ToXYZQUAT(root.inverse() * self._base_placement(q) * root)
+        for side, target in spec.reach.items():
+            q = self._reach(q, side, np.asarray(target, dtype=float))
+        self.q = q
+        pin.forwardKinematics(self.model, self.data, q)
+
+    def _iq(self, joint: str) -> int:
+        return self.model.joints[self.model.getJointId(joint)].idx_q
+
+    def _base_placement(self, q: np.ndarray) -> pin.SE3:
+        """World placement of the body (yaw about z, lowest point of the body on the floor)."""
+        q = q.copy()
+        q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
+        pin.forwardKinematics(self.model, self.data, q)
+        lowest = min(self._capsule_world(c).translation[2] - self._half_extent_z(c) for c in self.capsules)
+        x, y = self.spec.position
+        return pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, self.spec.yaw), np.array([x, y, -lowest]))
+
+    def _half_extent_z(self, capsule: HumanCapsule) -> float:
+        axis = self._capsule_world(capsule).rotation[:, 2]
+        return abs(axis[2]) * capsule.length / 2.0 + capsule.radius
+
+    def _capsule_world(self, capsule: HumanCapsule) -> pin.SE3:
+        return self.data.oMi[capsule.joint] * capsule.placement
+
+    def _reach(self, q: np.ndarray, side: Side, target: np.ndarray) -> np.ndarray:
+        """Damped least squares on the shoulder and elbow so the palm centre reaches `target`."""
+        joint, offset = self._frames[f"{side}_hand"]
+        idx = [self._iq(f"{side}_{j}") for j in REACH_JOINTS]
+        vidx = [self.model.joints[self.model.getJointId(f"{side}_{j}")].idx_v for j in REACH_JOINTS]
+        lower, upper = self.model.lowerPositionLimit[idx], self.model.upperPositionLimit[idx]
+        best_q, best_err = q, np.inf
+        for seed in (np.zeros(5), np.array([0.8, 0.0, 0.0, 0.8, 0.0]), np.array([1.4, 0.3, 0.0, 0.3, 0.0])):
+            qs = q.copy()
+            qs[idx] = np.clip(seed, lower, upper)
+            for _ in range(200):
+                pin.forwardKinematics(self.model, self.data, qs)
+                palm = self.data.oMi[joint] * offset
+                err = target - palm.translation
+                if np.linalg.norm(err) < 1e-4:
+                    break
+                lin = self._point_jacobian(qs, joint, offset.translation)[:, vidx]
+                step = lin.T @ np.linalg.solve(lin @ lin.T + 1e-4 * np.eye(3), err)
+                qs[idx] = np.clip(qs[idx] + step, lower, upper)
+            pin.forwardKinematics(self.model, self.data, qs)
+            err = np.linalg.norm(target - (self.data.oMi[joint] * offset).translation)
+            if err < best_err:
+                best_q, best_err = qs, err
+        if best_err > 0.01:
+            raise HriplanError(
+                f"{self.spec.name}'s {side} hand cannot reach {target.round(3).tolist()} (closest {best_err:.2f} m away)"
+            )
+        return best_q
+
+    def _point_jacobian(self, q: np.ndarray, joint: int, point: np.ndarray) -> np.ndarray:
+        """World-aligned linear Jacobian of a point fixed in a joint's frame."""
+        local = pin.SE3(np.eye(3), point).toActionMatrixInverse() @ pin.computeJointJacobian(self.model, self.data, q, joint)
+        return self.data.oMi[joint].rotation @ local[:3]
+
+    # -- world geometry -------------------------------------------------------------------
+    def capsule_placements(self) -> list[pin.SE3]:
+        """World placement of every capsule, in `capsules` order."""
+        return [self._capsule_world(c) for c in self.capsules]
+
+    def frame(self, name: str) -> pin.SE3:
+        """World pose of a named frame: head, torso, left_hand, right_hand (palm centre), base."""
+        if name == "base":
+            x, y = self.spec.position
+            return pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, self.spec.yaw), np.array([x, y, 0.0]))
+        if name not in self._frames:
+            raise HriplanError(f"a human has no frame {name!r}; frames: {', '.join(self.FRAMES)}")
+        joint, offset = self._frames[name]
+        return self.data.oMi[joint] * offset

@@ -1,0 +1,237 @@
+"""Analytic inverse kinematics for the UR5 arms, so goals can be given as tool poses.
+
+`ur_analytic_ik` gives every closed-form UR5 branch (up to 8) in microseconds. Its base and
+flange frames coincide with our `{prefix}base_link` and `{prefix}wrist_3_link` and its joint
+values are ours (checked to 1e-15 on random configurations; `tests/test_ik.py` keeps that true):
+    inv(T_base_link) @ T_wrist_3_link(q) == ur_analytic_ik.ur5.forward_kinematics(*q).
+So a tool target only has to be moved into the arm base frame and back from tool to wrist_3.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import pinocchio as pin
+import ur_analytic_ik
+from pydantic import BaseModel
+
+from hriplan import HriplanError
+
+from .model import Robot
+
+AXES = {"x": 0, "y": 1, "z": 2}
+ORTHONORMAL_TOLERANCE = 1e-6
+POLISH_ITERATIONS = 10
+POLISH_DAMPING = 1e-6
+TWO_PI = 2.0 * math.pi
+
+
+class IKResult(BaseModel):
+    """Outcome of `solve_ik`; `q` is in the arm group's joint order, None on failure."""
+
+    success: bool
+    q: list[float] | None = None
+    position_error: float = math.inf
+    orientation_error: float = math.inf
+    message: str
+
+
+class _Arm:
+    """What one solve needs about an arm: its group, frames and the fixed transforms around the UR5."""
+
+    def __init__(self, robot: Robot, arm: str, base_q: np.ndarray | None) -> None:
+        self.tool = robot.tool_frame(arm)
+        self.group = robot.arm_group(arm)
+        prefix = robot.arms[arm][0]
+        self.n = len(robot.group_indices(self.group))
+        if base_q is None:
+            self.base_q = robot.q_neutral.copy()
+        else:
+            self.base_q = _vector(base_q, robot.model.nq, "base_q")
+        # Neither transform depends on this arm's joints: read them at any configuration.
+        wrist = robot.frame_pose(f"{prefix}wrist_3_link", self.base_q)
+        self.base = robot.frame_pose(f"{prefix}base_link", self.base_q)
+        self.tool_in_wrist = np.linalg.inv(wrist) @ robot.frame_pose(self.tool, self.base_q)
+        self.shoulder = robot.frame_pose(f"{prefix}shoulder_link", self.base_q)[:3, 3]
+
+
+def _vector(values: np.ndarray, size: int, what: str) -> np.ndarray:
+    vec = np.asarray(values, dtype=float).ravel()
+    if vec.shape != (size,) or not np.all(np.isfinite(vec)):
+        raise HriplanError(f"{what} must be {size} finite numbers, got {np.asarray(values).tolist()}")
+    return vec
+
+
+def _check_target(target: np.ndarray) -> np.ndarray:
+    t = np.asarray(target, dtype=float)
+    if t.shape != (4, 4):
+        raise HriplanError(f"IK target must be a 4x4 homogeneous pose, got shape {t.shape}")
+    if not np.all(np.isfinite(t)):
+        raise HriplanError("IK target contains NaN or infinite values")
+    rot = t[:3, :3]
+    if not np.allclose(t[3], (0.0, 0.0, 0.0, 1.0)):
+        raise HriplanError(f"IK target's last row must be [0, 0, 0, 1], got {t[3].tolist()}")
+    if np.abs(rot.T @ rot - np.eye(3)).max() > ORTHONORMAL_TOLERANCE or np.linalg.det(rot) < 0:
+        raise HriplanError("IK target's rotation part is not a proper orthonormal rotation matrix")
+    return t
+
+
+def _free_axis(free_axes: Sequence[str]) -> int | None:
+    """Index of the one free tool axis, or None. Two free axes would leave only a direction
+    constraint on the third, which sampling one angle cannot cover: refuse them."""
+    unknown = [a for a in free_axes if a not in AXES]
+    if unknown:
+        raise HriplanError(f"unknown free axis {unknown[0]!r}; choose from x, y, z")
+    axes = sorted(set(free_axes))
+    if len(axes) > 1:
+        raise HriplanError(f"at most one free axis is supported, got {', '.join(axes)}")
+    return AXES[axes[0]] if axes else None
+
+
+def _spin(axis: int, angle: float) -> np.ndarray:
+    spin = np.eye(4)
+    spin[:3, :3] = pin.exp3(angle * np.eye(3)[axis])
+    return spin
+
+
+def _branches(
+    arm: _Arm, target: np.ndarray, axis: int | None, samples: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every analytic solution (rows, angles in (-pi, pi]) and the exact tool pose each reaches;
+    with a free axis, the target spun about it at `samples` evenly spaced angles."""
+    if samples < 1:
+        raise HriplanError(f"samples_per_free_axis must be at least 1, got {samples}")
+    angles = [0.0] if axis is None else np.arange(samples) * TWO_PI / samples
+    solutions, poses = [], []
+    for angle in angles:
+        pose = target if axis is None else target @ _spin(axis, angle)
+        flange = np.linalg.inv(arm.base) @ pose @ np.linalg.inv(arm.tool_in_wrist)
+        for q in ur_analytic_ik.ur5.inverse_kinematics(np.ascontiguousarray(flange)):
+            solutions.append(q)
+            poses.append(pose)
+    return np.reshape(solutions, (-1, arm.n)), np.reshape(poses, (-1, 4, 4))
+
+
+def _fit_limits(
+    solutions: np.ndarray, lower: np.ndarray, upper: np.ndarray, reference: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Shift each joint by the multiple of 2*pi that is within limits and nearest the reference.
+
+    Returns the shifted solutions and a mask of those whose every joint fits."""
+    k_min = np.ceil((lower - solutions) / TWO_PI)
+    k_max = np.floor((upper - solutions) / TWO_PI)
+    k = np.clip(np.round((reference - solutions) / TWO_PI), k_min, k_max)
+    return solutions + TWO_PI * k, np.all(k_min <= k_max, axis=1)
+
+
+def _errors(pose: np.ndarray, target: np.ndarray, axis: int | None) -> tuple[float, float]:
+    """Position error (m) and orientation error (rad); with a free axis only its direction counts."""
+    position = float(np.linalg.norm(target[:3, 3] - pose[:3, 3]))
+    if axis is None:
+        return position, float(np.linalg.norm(pin.log3(target[:3, :3].T @ pose[:3, :3])))
+    a, b = target[:3, axis], pose[:3, axis]
+    return position, float(math.atan2(np.linalg.norm(np.cross(a, b)), float(a @ b)))
+
+
+def _polish(robot: Robot, arm: _Arm, q: np.ndarray, target: np.ndarray, tolerance: float) -> np.ndarray:
+    """Damped Gauss-Newton steps on the tool pose, to absorb the analytic solver's round-off."""
+    for _ in range(POLISH_ITERATIONS):
+        pose = robot.frame_pose(arm.tool, q)
+        if max(_errors(pose, target, None)) < tolerance:
+            break
+        error = np.concatenate([target[:3, 3] - pose[:3, 3], pin.log3(target[:3, :3] @ pose[:3, :3].T)])
+        jac = robot.frame_jacobian(arm.tool, q, arm.group)
+        step = jac.T @ np.linalg.solve(jac @ jac.T + POLISH_DAMPING * np.eye(6), error)
+        q = robot.configuration(robot.group_values(q, arm.group) + step, arm.group, base=q)
+    return q
+
+
+def _reference(arm: _Arm, reference: np.ndarray | None) -> np.ndarray:
+    return np.zeros(arm.n) if reference is None else _vector(reference, arm.n, "reference")
+
+
+def _ranked(
+    robot: Robot, arm: _Arm, target: np.ndarray, axis: int | None, reference: np.ndarray, samples: int
+) -> tuple[int, np.ndarray, np.ndarray]:
+    """(number of analytic solutions, those within limits nearest-first, the pose each reaches)."""
+    solutions, poses = _branches(arm, target, axis, samples)
+    shifted, fits = _fit_limits(solutions, *robot.limits(arm.group), reference)
+    shifted, poses = shifted[fits], poses[fits]
+    order = np.argsort(np.linalg.norm(shifted - reference, axis=1), kind="stable")
+    return len(solutions), shifted[order], poses[order]
+
+
+def ik_solutions(
+    robot: Robot,
+    arm: str,
+    target: np.ndarray,
+    free_axes: Sequence[str] = (),
+    *,
+    reference: np.ndarray | None = None,
+    base_q: np.ndarray | None = None,
+    samples_per_free_axis: int = 36,
+) -> list[np.ndarray]:
+    """All analytic solutions (group order) within joint limits, nearest the reference first.
+
+    Lets a caller (e.g. a goal sampler) choose among branches itself; `solve_ik` picks one."""
+    target = _check_target(target)
+    axis = _free_axis(free_axes)
+    info = _Arm(robot, arm, base_q)
+    _, solutions, _ = _ranked(robot, info, target, axis, _reference(info, reference), samples_per_free_axis)
+    return list(solutions)
+
+
+def solve_ik(
+    robot: Robot,
+    arm: str,
+    target: np.ndarray,
+    *,
+    free_axes: Sequence[str] = (),
+    reference: np.ndarray | None = None,
+    base_q: np.ndarray | None = None,
+    is_valid: Callable[[np.ndarray], bool] | None = None,
+    samples_per_free_axis: int = 36,
+    tolerance: float = 1e-6,
+) -> IKResult:
+    """Joint values putting `arm`'s tool frame at `target` (4x4 world pose), nearest `reference`.
+
+    Rotation about the tool axes in `free_axes` is left free (at most one axis). Candidates are
+    tried nearest-first, so `is_valid` (given the full configuration, e.g. a collision check)
+    runs only until one passes."""
+    target = _check_target(target)
+    axis = _free_axis(free_axes)
+    if not tolerance > 0:
+        raise HriplanError(f"IK tolerance must be positive, got {tolerance}")
+    info = _Arm(robot, arm, base_q)
+    reference = _reference(info, reference)
+    n_analytic, candidates, poses = _ranked(robot, info, target, axis, reference, samples_per_free_axis)
+    if n_analytic == 0:
+        distance = np.linalg.norm(target[:3, 3] - info.shoulder)
+        return IKResult(
+            success=False, message=f"target is out of reach of the {arm} arm ({distance:.3f} m from the shoulder)"
+        )
+    if len(candidates) == 0:
+        return IKResult(success=False, message=f"no solution within joint limits ({n_analytic} analytic solutions)")
+    lower, upper = robot.limits(info.group)
+    n_accurate = 0
+    for values, pose in zip(candidates, poses):
+        q = _polish(robot, info, robot.configuration(values, info.group, base=info.base_q), pose, tolerance)
+        polished = robot.group_values(q, info.group)
+        inside = np.all(polished >= lower) and np.all(polished <= upper)
+        if not inside or max(_errors(robot.frame_pose(info.tool, q), pose, None)) >= tolerance:
+            continue
+        n_accurate += 1
+        if is_valid is None or is_valid(q):
+            position, orientation = _errors(robot.frame_pose(info.tool, q), target, axis)
+            return IKResult(
+                success=True,
+                q=polished.tolist(),
+                position_error=position,
+                orientation_error=orientation,
+                message=f"nearest valid of {len(candidates)} solutions within joint limits",
+            )
+    if n_accurate == 0:
+        return IKResult(success=False, message=f"no solution reached the tolerance of {tolerance:g} (singular target?)")
+    return IKResult(success=False, message=f"all {n_accurate} solutions are in collision (rejected by is_valid)")

@@ -1,0 +1,213 @@
+"""The robot object the planner calls: kinematics of the arm joints with the hands' fingers fixed.
+
+`load_robot("madar")` builds the full URDF model (every joint, for display and export) and a
+planning model in which wheels and finger joints are locked at the chosen hand postures, so
+forward kinematics and Jacobians cost only the 12 arm joints.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from hriplan import HriplanError
+
+from .allegro import HAND_POSTURES, hand_joint_name, posture_values
+from .descriptions import DESCRIPTIONS
+from .spatial import Pose
+from .ur5_description import joint_names
+
+JointValues = Mapping[str, float] | Sequence[float] | np.ndarray
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """What distinguishes one loaded robot from another (and keys caches built for it)."""
+
+    name: str
+    hand_postures: tuple[tuple[str, str], ...] = ()
+    base_pose: Pose = field(default_factory=Pose)
+
+
+def _groups(name: str) -> dict[str, list[str]]:
+    if name == "madar":
+        right, left = joint_names("right_"), joint_names("left_")
+        return {"right_arm": right, "left_arm": left, "both_arms": right + left}
+    return {"arm": joint_names("")}
+
+
+def _arms(name: str) -> dict[str, tuple[str, str]]:
+    """Arm side -> (joint prefix, tool frame)."""
+    if name == "madar":
+        return {"right": ("right_", "right_tool"), "left": ("left_", "left_tool")}
+    return {"arm": ("", "tool")}
+
+
+class Robot:
+    """Pinocchio model of one robot, with named joint groups, limits, poses and Jacobians."""
+
+    def __init__(self, spec: RobotSpec) -> None:
+        self.spec = spec
+        self.name = spec.name
+        self.urdf = DESCRIPTIONS[spec.name]()
+        self.full_model = pin.buildModelFromXML(self.urdf)
+        self._place_base(self.full_model, spec.base_pose.se3())
+        self.full_collision = pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.COLLISION)
+        self.full_visual = pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.VISUAL)
+        self.hand_postures = dict(spec.hand_postures)
+        q_locked = self.full_configuration({})
+        arm_joints = set(_groups(spec.name)[self.default_group])
+        locked = [j for j in range(1, self.full_model.njoints) if self.full_model.names[j] not in arm_joints]
+        self.model, (self.collision_meshes, self.visual) = pin.buildReducedModel(
+            self.full_model, [self.full_collision, self.full_visual], locked, q_locked
+        )
+        self.data = self.model.createData()
+        self.groups = _groups(spec.name)
+        self.arms = _arms(spec.name)
+        self._index = {
+            g: np.array([self.model.joints[self.model.getJointId(j)].idx_q for j in names])
+            for g, names in self.groups.items()
+        }
+        self._vindex = {
+            g: np.array([self.model.joints[self.model.getJointId(j)].idx_v for j in names])
+            for g, names in self.groups.items()
+        }
+        self.joint_names = [self.model.names[j] for j in range(1, self.model.njoints)]
+        velocity = dict(zip(self.joint_names, self.model.velocityLimit))
+        self.velocity_limits = velocity
+        self.q_neutral = pin.neutral(self.model)
+
+    @property
+    def default_group(self) -> str:
+        return "both_arms" if self.name == "madar" else "arm"
+
+    @staticmethod
+    def _place_base(model: pin.Model, base: pin.SE3) -> None:
+        for j in range(1, model.njoints):
+            if model.parents[j] == 0:
+                model.jointPlacements[j] = base * model.jointPlacements[j]
+        for frame in model.frames:
+            if frame.parentJoint == 0 and frame.name != "universe":
+                frame.placement = base * frame.placement
+
+    def full_configuration(self, arm_values: Mapping[str, float]) -> np.ndarray:
+        """Configuration of the full URDF model: fingers at their postures, arms as given."""
+        q = pin.neutral(self.full_model)
+        for side, posture in self.hand_postures.items():
+            for joint, value in posture_values(posture).items():
+                jid = self.full_model.getJointId(hand_joint_name(f"{side}_", joint))
+                q[self.full_model.joints[jid].idx_q] = value
+        for name, value in arm_values.items():
+            q[self.full_model.joints[self.full_model.getJointId(name)].idx_q] = value
+        return q
+
+    # -- joint values -----------------------------------------------------------------------
+    def group_joints(self, group: str | None = None) -> list[str]:
+        return list(self.groups[self._group(group)])
+
+    def _group(self, group: str | None) -> str:
+        group = group or self.default_group
+        if group not in self.groups:
+            raise HriplanError(f"robot {self.name!r} has no joint group {group!r}; groups: {', '.join(self.groups)}")
+        return group
+
+    def group_indices(self, group: str | None = None) -> np.ndarray:
+        """Indices of the group's joints in the planning model's configuration vector."""
+        return self._index[self._group(group)]
+
+    def limits(self, group: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        idx = self.group_indices(group)
+        return self.model.lowerPositionLimit[idx].copy(), self.model.upperPositionLimit[idx].copy()
+
+    def velocity_limit(self, group: str | None = None) -> np.ndarray:
+        return self.model.velocityLimit[self._vindex[self._group(group)]].copy()
+
+    def configuration(self, values: JointValues, group: str | None = None, base: np.ndarray | None = None) -> np.ndarray:
+        """Full planning configuration from a dict of joint values or a vector in group order.
+
+        Joints not named keep their value in `base` (default: zeros)."""
+        q = (self.q_neutral if base is None else base).copy()
+        if isinstance(values, Mapping):
+            for name, value in values.items():
+                if not self.model.existJointName(name) or name not in self.joint_names:
+                    raise HriplanError(f"robot {self.name!r} has no arm joint {name!r}")
+                q[self.model.joints[self.model.getJointId(name)].idx_q] = float(value)
+        else:
+            vec = np.asarray(values, dtype=float).ravel()
+            idx = self.group_indices(group)
+            if vec.shape[0] != idx.shape[0]:
+                raise HriplanError(
+                    f"group {self._group(group)!r} has {idx.shape[0]} joints, got a vector of {vec.shape[0]} values"
+                )
+            q[idx] = vec
+        if not np.all(np.isfinite(q)):
+            raise HriplanError(f"joint values must be finite numbers, got {q.tolist()}")
+        return q
+
+    def group_values(self, q: np.ndarray, group: str | None = None) -> np.ndarray:
+        return np.asarray(q)[self.group_indices(group)].copy()
+
+    def within_limits(self, q: np.ndarray) -> bool:
+        return bool(np.all(q >= self.model.lowerPositionLimit) and np.all(q <= self.model.upperPositionLimit))
+
+    # -- frames -----------------------------------------------------------------------------
+    def frame_id(self, name: str) -> int:
+        if not self.model.existFrame(name):
+            raise HriplanError(f"robot {self.name!r} has no frame {name!r}")
+        return self.model.getFrameId(name)
+
+    def frame_pose(self, name: str, values: JointValues, group: str | None = None) -> np.ndarray:
+        """4x4 pose of frame `name` in the world for the given joint values."""
+        q = values if isinstance(values, np.ndarray) and values.shape == (self.model.nq,) else self.configuration(values, group)
+        fid = self.frame_id(name)
+        pin.forwardKinematics(self.model, self.data, q)
+        return pin.updateFramePlacement(self.model, self.data, fid).homogeneous
+
+    def frame_jacobian(
+        self,
+        name: str,
+        values: JointValues,
+        group: str | None = None,
+        reference: pin.ReferenceFrame = pin.LOCAL_WORLD_ALIGNED,
+    ) -> np.ndarray:
+        """6 x n Jacobian (linear; angular) of frame `name`, columns in group-joint order."""
+        q = values if isinstance(values, np.ndarray) and values.shape == (self.model.nq,) else self.configuration(values, group)
+        fid = self.frame_id(name)
+        jac = pin.computeFrameJacobian(self.model, self.data, q, fid, reference)
+        return jac[:, self._vindex[self._group(group)]]
+
+    def tool_frame(self, arm: str) -> str:
+        return self._arm(arm)[1]
+
+    def arm_group(self, arm: str) -> str:
+        self._arm(arm)
+        return f"{arm}_arm" if self.name == "madar" else "arm"
+
+    def _arm(self, arm: str) -> tuple[str, str]:
+        if arm not in self.arms:
+            raise HriplanError(f"robot {self.name!r} has no arm {arm!r}; arms: {', '.join(self.arms)}")
+        return self.arms[arm]
+
+
+ROBOT_NAMES = tuple(DESCRIPTIONS)
+
+
+def load_robot(
+    name: str,
+    hand_postures: Mapping[str, str] | None = None,
+    base_pose: Pose | None = None,
+) -> Robot:
+    """Load `madar` or `ur5`. MADAR's hands default to the open posture."""
+    if name not in DESCRIPTIONS:
+        raise HriplanError(f"unknown robot {name!r}; known robots: {', '.join(ROBOT_NAMES)}")
+    postures = {"right": "open", "left": "open"} if name == "madar" else {}
+    for side, posture in (hand_postures or {}).items():
+        if side not in postures:
+            raise HriplanError(f"robot {name!r} has no hand {side!r}")
+        if posture not in HAND_POSTURES:
+            raise HriplanError(f"unknown hand posture {posture!r}; choose one of {', '.join(HAND_POSTURES)}")
+        postures[side] = posture
+    return Robot(RobotSpec(name, tuple(sorted(postures.items())), base_pose or Pose()))

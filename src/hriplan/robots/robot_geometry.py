@@ -1,0 +1,109 @@
+"""Fast collision geometry for a loaded robot: one capsule per arm link and per finger.
+
+Capsules are fitted to the union of a part's collision and visual shapes (meshes and box
+corners) so that they contain everything the display shows; structure primitives (torso
+cylinder and boxes, wheels, hand adapter) are kept as they are. The hand's palm is a box.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+from dataclasses import dataclass
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from .assets import resolve_package_uri
+from .bounding import fit_box, fit_capsule
+from .descriptions import TORSO
+from .model import Robot, RobotSpec
+
+_STRUCTURE = re.compile(r"^(madar_\w+|\w*hand_adapter)$")
+_FINGER = re.compile(r"^(?P<prefix>\w*?)hand_link_(?P<n>\d+)\.0(_tip)?$")
+
+
+@dataclass(frozen=True)
+class RobotPart:
+    name: str
+    link: str  # URDF link that carries it (for adjacency)
+    joint: int
+    geometry: coal.CollisionGeometry
+    placement: pin.SE3
+
+
+def _points(geom: pin.GeometryObject) -> np.ndarray | None:
+    shape = geom.geometry
+    if isinstance(shape, coal.Box):
+        half = shape.halfSide
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+    elif isinstance(shape, coal.Sphere):
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * shape.radius
+    elif isinstance(shape, coal.BVHModelBase):
+        corners = np.asarray(coal.MeshLoader().load(resolve_package_uri(geom.meshPath), geom.meshScale).vertices())
+    else:
+        return None
+    return corners @ geom.placement.rotation.T + geom.placement.translation
+
+
+def _link(model: pin.Model, geom: pin.GeometryObject) -> str:
+    return model.frames[geom.parentFrame].name
+
+
+def _group(link: str) -> str:
+    finger = _FINGER.match(link)
+    if finger:
+        return f"{finger['prefix']}hand_finger_{int(finger['n']) // 4}"
+    return link
+
+
+@functools.cache
+def _parts(spec: RobotSpec, padding: float) -> tuple[RobotPart, ...]:
+    robot = Robot(spec)
+    model = robot.model
+    clouds: dict[str, list[np.ndarray]] = {}
+    owners: dict[str, tuple[str, int]] = {}
+    parts: list[RobotPart] = []
+    torso_names = iter(name for name, _, _ in TORSO)
+    for geom in robot.collision_meshes.geometryObjects:
+        link = _link(model, geom)
+        if _STRUCTURE.match(link):
+            name = next(torso_names) if link == "madar_base_link" else link
+            parts.append(RobotPart(name, link, geom.parentJoint, geom.geometry, geom.placement))
+            continue
+        group = _group(link)
+        clouds.setdefault(group, []).append(_points(geom))
+        owners.setdefault(group, (link, geom.parentJoint))
+    for geom in robot.visual.geometryObjects:
+        group = _group(_link(model, geom))
+        if group in clouds and isinstance(geom.geometry, coal.BVHModelBase) and "hand" in group:
+            clouds[group].append(_points(geom))
+    for group, cloud in clouds.items():
+        points = np.vstack(cloud)
+        link, joint = owners[group]
+        if group.endswith("palm_link"):
+            # The palm is flat: a box in the palm frame is far tighter than a capsule.
+            palm = model.frames[model.getFrameId(link)].placement
+            size, centre = fit_box(points @ palm.rotation - palm.rotation.T @ palm.translation, padding)
+            parts.append(RobotPart(group, link, joint, coal.Box(*size), palm * centre))
+        else:
+            radius, length, placement = fit_capsule(points, padding)
+            parts.append(RobotPart(group, link, joint, coal.Capsule(radius, length), placement))
+    return tuple(parts)
+
+
+def robot_parts(robot: Robot, padding: float = 0.0) -> tuple[RobotPart, ...]:
+    """The robot's collision parts (cached per robot description, hand postures and padding)."""
+    return _parts(robot.spec, padding)
+
+
+def parent_links(robot: Robot) -> dict[str, str]:
+    """URDF link -> its parent link, from the full model's frame tree."""
+    frames = robot.full_model.frames
+    parents = {}
+    for frame in frames:
+        if frame.type == pin.FrameType.BODY:
+            joint_frame = frames[frame.parentFrame]
+            parents[frame.name] = frames[joint_frame.parentFrame].name
+    return parents

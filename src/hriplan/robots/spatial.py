@@ -1,0 +1,86 @@
+"""Poses: one pydantic model for every pose in hriplan, and its conversion to pinocchio SE3.
+
+Orientation is given either as a quaternion (x, y, z, w) or as roll-pitch-yaw in the URDF
+convention (R = Rz(yaw) * Ry(pitch) * Rx(roll)); never both.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+from pydantic import BaseModel, ConfigDict, field_validator, model_validator
+
+QUATERNION_NORM_TOLERANCE = 1e-3
+
+
+def _finite(values: tuple[float, ...], what: str) -> tuple[float, ...]:
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{what} must be finite numbers, got {list(values)}")
+    return values
+
+
+class Pose(BaseModel):
+    """A rigid transform: translation `xyz` (m) and orientation `quat_xyzw` or `rpy` (rad)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    quat_xyzw: tuple[float, float, float, float] | None = None
+    rpy: tuple[float, float, float] | None = None
+
+    @field_validator("xyz", "rpy")
+    @classmethod
+    def _check_finite(cls, v):  # noqa: ANN001, ANN206 - pydantic hook
+        return None if v is None else _finite(v, "pose values")
+
+    @field_validator("quat_xyzw")
+    @classmethod
+    def _check_unit(cls, v):  # noqa: ANN001, ANN206 - pydantic hook
+        if v is None:
+            return v
+        _finite(v, "quaternion")
+        norm = math.sqrt(sum(c * c for c in v))
+        if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
+            raise ValueError(f"quaternion {list(v)} is not a unit quaternion (norm {norm:.4f})")
+        return tuple(c / norm for c in v)
+
+    @model_validator(mode="after")
+    def _one_orientation(self) -> "Pose":
+        if self.quat_xyzw is not None and self.rpy is not None:
+            raise ValueError("give the orientation as quat_xyzw or rpy, not both")
+        return self
+
+    def rotation(self) -> np.ndarray:
+        if self.quat_xyzw is not None:
+            x, y, z, w = self.quat_xyzw
+            return pin.Quaternion(w, x, y, z).toRotationMatrix()
+        if self.rpy is not None:
+            return pin.rpy.rpyToMatrix(*self.rpy)
+        return np.eye(3)
+
+    def se3(self) -> pin.SE3:
+        return pin.SE3(self.rotation(), np.array(self.xyz, dtype=float))
+
+    def matrix(self) -> np.ndarray:
+        return self.se3().homogeneous
+
+    @classmethod
+    def from_se3(cls, placement: pin.SE3) -> "Pose":
+        q = pin.Quaternion(placement.rotation)
+        return cls(xyz=tuple(placement.translation), quat_xyzw=(q.x, q.y, q.z, q.w))
+
+    @classmethod
+    def from_matrix(cls, matrix: np.ndarray) -> "Pose":
+        return cls.from_se3(pin.SE3(np.asarray(matrix, dtype=float)))
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """URDF roll-pitch-yaw to a rotation matrix (Rz(yaw) Ry(pitch) Rx(roll))."""
+    return pin.rpy.rpyToMatrix(roll, pitch, yaw)
+
+
+def se3_from(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> pin.SE3:  # noqa: ANN001
+    """A placement from URDF-style xyz and rpy."""
+    return pin.SE3(rpy_matrix(*rpy), np.array(xyz, dtype=float))

@@ -1,0 +1,1 @@
+"""Inference rules: from situations to constraint sets, with provenance."""

@@ -1,0 +1,1 @@
+"""Task descriptions (task files and their validation)."""
