@@ -32,11 +32,12 @@ class RobotSpec:
     base_pose: Pose = field(default_factory=Pose)
 
 
-def _groups(name: str) -> dict[str, list[str]]:
+def _groups(name: str, model_order: list[str]) -> dict[str, list[str]]:
+    """Joint groups; the whole-robot group follows the model's order (MADAR: left, then right),
+    so its vector is also the full planning configuration."""
     if name == "madar":
-        right, left = joint_names("right_"), joint_names("left_")
-        return {"right_arm": right, "left_arm": left, "both_arms": right + left}
-    return {"arm": joint_names("")}
+        return {"right_arm": joint_names("right_"), "left_arm": joint_names("left_"), "both_arms": model_order}
+    return {"arm": model_order}
 
 
 def _arms(name: str) -> dict[str, tuple[str, str]]:
@@ -59,13 +60,14 @@ class Robot:
         self.full_visual = pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.VISUAL)
         self.hand_postures = dict(spec.hand_postures)
         q_locked = self.full_configuration({})
-        arm_joints = set(_groups(spec.name)[self.default_group])
+        arm_joints = set(joint_names("right_") + joint_names("left_") if spec.name == "madar" else joint_names(""))
         locked = [j for j in range(1, self.full_model.njoints) if self.full_model.names[j] not in arm_joints]
         self.model, (self.collision_meshes, self.visual) = pin.buildReducedModel(
             self.full_model, [self.full_collision, self.full_visual], locked, q_locked
         )
         self.data = self.model.createData()
-        self.groups = _groups(spec.name)
+        self.joint_names = [self.model.names[j] for j in range(1, self.model.njoints)]
+        self.groups = _groups(spec.name, self.joint_names)
         self.arms = _arms(spec.name)
         self._index = {
             g: np.array([self.model.joints[self.model.getJointId(j)].idx_q for j in names])
@@ -75,9 +77,6 @@ class Robot:
             g: np.array([self.model.joints[self.model.getJointId(j)].idx_v for j in names])
             for g, names in self.groups.items()
         }
-        self.joint_names = [self.model.names[j] for j in range(1, self.model.njoints)]
-        velocity = dict(zip(self.joint_names, self.model.velocityLimit))
-        self.velocity_limits = velocity
         self.q_neutral = pin.neutral(self.model)
 
     @property
@@ -153,6 +152,12 @@ class Robot:
     def within_limits(self, q: np.ndarray) -> bool:
         return bool(np.all(q >= self.model.lowerPositionLimit) and np.all(q <= self.model.upperPositionLimit))
 
+    def _full(self, values: JointValues, group: str | None) -> np.ndarray:
+        """Fast path for a full configuration vector (what the planner passes millions of times)."""
+        if isinstance(values, np.ndarray) and values.shape == (self.model.nq,) and group in (None, self.default_group):
+            return values
+        return self.configuration(values, group)
+
     # -- frames -----------------------------------------------------------------------------
     def frame_id(self, name: str) -> int:
         if not self.model.existFrame(name):
@@ -161,7 +166,7 @@ class Robot:
 
     def frame_pose(self, name: str, values: JointValues, group: str | None = None) -> np.ndarray:
         """4x4 pose of frame `name` in the world for the given joint values."""
-        q = values if isinstance(values, np.ndarray) and values.shape == (self.model.nq,) else self.configuration(values, group)
+        q = self._full(values, group)
         fid = self.frame_id(name)
         pin.forwardKinematics(self.model, self.data, q)
         return pin.updateFramePlacement(self.model, self.data, fid).homogeneous
@@ -174,7 +179,7 @@ class Robot:
         reference: pin.ReferenceFrame = pin.LOCAL_WORLD_ALIGNED,
     ) -> np.ndarray:
         """6 x n Jacobian (linear; angular) of frame `name`, columns in group-joint order."""
-        q = values if isinstance(values, np.ndarray) and values.shape == (self.model.nq,) else self.configuration(values, group)
+        q = self._full(values, group)
         fid = self.frame_id(name)
         jac = pin.computeFrameJacobian(self.model, self.data, q, fid, reference)
         return jac[:, self._vindex[self._group(group)]]

@@ -1,0 +1,3 @@
+from hriplan.cli.main import app
+
+app(prog_name="hriplan")

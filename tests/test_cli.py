@@ -1,0 +1,42 @@
+"""The `hriplan` command: version, robot info and URDF export, clear errors."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pinocchio as pin
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "hriplan.cli", *args], capture_output=True, text=True, timeout=300)
+
+
+def test_version_and_help():
+    assert run("--version").stdout.startswith("hriplan 0.1.0")
+    assert "robot" in run("--help").stdout
+
+
+def test_robot_urdf_loads_back_in_pinocchio(madar):
+    out = run("robot", "urdf", "madar")
+    assert out.returncode == 0
+    model = pin.buildModelFromXML(out.stdout)
+    assert model.existJointName("right_wrist_3_joint") and model.existFrame("left_tool")
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, pin.neutral(model))
+    assert np.allclose(data.oMf[model.getFrameId("right_wrist_3_link")].translation, (-0.3247, 0.1914, 0.8139), atol=1e-4)
+    geoms = pin.buildGeomFromUrdfString(model, out.stdout, pin.COLLISION)
+    assert geoms.ngeoms > 30
+
+
+def test_robot_info_lists_groups_and_collision_parts():
+    out = run("robot", "info", "ur5")
+    assert out.returncode == 0
+    assert "group arm (6 joints)" in out.stdout and "elbow_joint" in out.stdout and "collision parts: 7" in out.stdout
+
+
+def test_unknown_robot_is_one_line_and_exit_2():
+    out = run("robot", "info", "pr2")
+    assert out.returncode == 2
+    assert out.stderr.strip() == "error: unknown robot 'pr2'; known robots: madar, ur5"
+    bad_hand = run("robot", "info", "madar", "--hand", "right")
+    assert bad_hand.returncode == 2 and "SIDE=POSTURE" in bad_hand.stderr and "Traceback" not in bad_hand.stderr

@@ -1,0 +1,110 @@
+"""Capsule geometry, allowed-collision matrix, scene and human checks, clearance."""
+
+import coal
+import numpy as np
+import pytest
+
+from hriplan import HriplanError
+from hriplan.robots.acm import load_acm
+from hriplan.robots.bounding import capsule_contains, fit_capsule
+from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.human import HumanSpec
+from hriplan.robots.robot_geometry import robot_parts
+from hriplan.robots.scene import AttachedObject, Box, Cylinder, Obstacle, Scene, Sphere, table
+from hriplan.robots.spatial import Pose
+
+# Right hand forward at about (0, 0.9, 1.05), left arm folded up: collision free (checked below).
+RIGHT = dict(zip(["right_shoulder_pan_joint", "right_shoulder_lift_joint", "right_elbow_joint", "right_wrist_1_joint",
+                  "right_wrist_2_joint", "right_wrist_3_joint"], [0.788, 0.215, -0.332, -0.338, 0.585, -0.427]))  # fmt: skip
+CLEAR = {**RIGHT, "left_shoulder_lift_joint": -2.2, "left_elbow_joint": 1.2}
+
+
+def test_fitted_capsule_contains_every_point(rng):
+    points = rng.normal(size=(400, 3)) * (0.03, 0.01, 0.2) + (0.5, -1.0, 2.0)
+    radius, length, placement = fit_capsule(points)
+    assert capsule_contains(radius, length, placement, points).all()
+    assert radius < 0.1  # it follows the long axis rather than a bounding sphere
+
+
+def test_arm_capsules_contain_the_ur5_meshes(madar):
+    parts = {p.name: p for p in robot_parts(madar)}
+    for geom in madar.collision_meshes.geometryObjects:
+        link = madar.model.frames[geom.parentFrame].name
+        if link in parts and isinstance(geom.geometry, coal.BVHModelBase):
+            vertices = np.asarray(coal.MeshLoader().load(geom.meshPath, geom.meshScale).vertices())
+            points = vertices @ geom.placement.rotation.T + geom.placement.translation
+            part = parts[link]
+            assert capsule_contains(part.geometry.radius, 2 * part.geometry.halfLength, part.placement, points).all(), link
+
+
+def test_acm_disables_adjacent_and_keeps_arm_against_arm(madar):
+    acm = load_acm(madar, robot_parts(madar))
+    assert acm.get("right_shoulder_link|right_upper_arm_link") == "adjacent"
+    assert "left_hand_palm_link|right_hand_palm_link" not in acm  # the hands can meet
+    assert "right_fore_arm_link|left_fore_arm_link" not in acm and "left_fore_arm_link|right_fore_arm_link" not in acm
+    assert set(acm.values()) <= {"adjacent", "always", "never", "ur5-srdf"}
+
+
+@pytest.fixture(scope="module")
+def checker(madar):
+    scene = Scene(
+        obstacles=[table(position=(0.6, 0.9), size=(0.5, 0.6, 0.04), top=0.72), Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=(3, 3, 3)))],
+        humans=[HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)],
+    )
+    return CollisionChecker(madar, scene)
+
+
+def test_clear_configuration_is_free_and_a_folded_arm_hits_the_torso(madar, checker):
+    assert not checker.in_collision(madar.configuration(CLEAR))
+    assert checker.contacts(madar.configuration(CLEAR)) == []
+    assert checker.in_collision(np.zeros(12))  # the right hand hangs into the base cylinder
+    names = {c.a for c in checker.contacts(np.zeros(12))} | {c.b for c in checker.contacts(np.zeros(12))}
+    assert "madar_base_cylinder" in names
+
+
+def test_obstacle_moved_onto_the_hand_collides_without_rebuilding(madar, checker):
+    q = madar.configuration(CLEAR)
+    model_before = checker.geom_model
+    tool = madar.frame_pose("right_tool", q)[:3, 3]
+    checker.move_obstacle("ball", Pose(xyz=tuple(tool)))
+    try:
+        assert [("ball" in (c.a, c.b)) for c in checker.contacts(q)] == [True] * len(checker.contacts(q))
+        assert checker.in_collision(q)
+    finally:
+        checker.move_obstacle("ball", Pose(xyz=(3, 3, 3)))
+    assert checker.geom_model is model_before and not checker.in_collision(q)
+    with pytest.raises(HriplanError, match="no obstacle 'shelf'"):
+        checker.move_obstacle("shelf", Pose())
+
+
+def test_human_distance_follows_the_person(madar, checker):
+    q = madar.configuration(CLEAR)
+    far, _, _ = checker.human_distance(q)
+    robot_model = madar.model
+    tool = madar.frame_pose("right_tool", q)[:3, 3]
+    checker.pose_human(HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2))
+    near, part, body = checker.human_distance(q)
+    assert near < far - 0.5 and part and body.startswith("bob/")
+    checker.pose_human(HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2, reach={"right": tuple(tool)}))
+    assert checker.in_collision(q)  # the person's hand now touches the robot's hand
+    assert madar.model is robot_model
+    checker.pose_human(HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2))
+    assert checker.human_distance(q)[0] == pytest.approx(far)
+
+
+def test_carried_object_is_checked_against_the_scene_but_not_its_hand(madar):
+    q = madar.configuration(CLEAR)
+    tool = madar.frame_pose("right_tool", q)
+    can = AttachedObject(name="can", shape=Cylinder(radius=0.033, height=0.12), arm="right")
+    under = Obstacle(name="plate", shape=Box(size=(0.2, 0.2, 0.02)), pose=Pose(xyz=tuple(tool[:3, 3] + (0, 0, -0.035))))
+    holding = CollisionChecker(madar, Scene(attached=[can]))
+    assert not holding.in_collision(q)  # fingers around the can are allowed
+    hits = CollisionChecker(madar, Scene(attached=[can], obstacles=[under])).contacts(q)
+    assert any({c.a, c.b} == {"can", "plate"} for c in hits)
+
+
+def test_scene_rejects_duplicate_names():
+    with pytest.raises(ValueError, match="repeated: a"):
+        Scene(obstacles=[Obstacle(name="a", shape=Sphere(radius=0.1)), Obstacle(name="a", shape=Sphere(radius=0.2))])
+    with pytest.raises(ValueError):
+        Box(size=(0.1, -1.0, 0.1))
