@@ -58,6 +58,17 @@ class Capsule(_Shape):
         return coal.Capsule(self.radius, self.length)
 
 
+class Cone(_Shape):
+    """Centred cone, axis z, base (radius) at z = -height/2, apex at z = +height/2 (coal's)."""
+
+    type: Literal["cone"] = "cone"
+    radius: Positive
+    height: Positive
+
+    def geometry(self) -> coal.CollisionGeometry:
+        return coal.Cone(self.radius, self.height)
+
+
 class Mesh(_Shape):
     """A mesh file, checked through its convex hull (conservative and fast)."""
 
@@ -74,7 +85,7 @@ class Mesh(_Shape):
         return mesh.convex
 
 
-Shape = Annotated[Box | Cylinder | Sphere | Capsule | Mesh, Field(discriminator="type")]
+Shape = Annotated[Box | Cylinder | Sphere | Capsule | Cone | Mesh, Field(discriminator="type")]
 
 
 class Obstacle(BaseModel):

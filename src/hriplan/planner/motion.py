@@ -1,0 +1,278 @@
+"""Plan one constrained motion: checks, goal resolution, OMPL, dense validation.
+
+The path from a start and a goal to a validated joint path:
+bind constraints -> check the start -> resolve the goal (joint values, or a tool pose by IK) ->
+choose rows and validity for the formulation -> OMPL -> validate densely -> result.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Iterator, Sequence
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from hriplan import HriplanError
+from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.ik import solve_ik
+from hriplan.robots.model import JointValues, Robot
+from hriplan.robots.spatial import Pose
+
+from .evaluator import ConstraintEvaluator
+from .keep_out import keep_out_obstacles
+from .ompl_backend import solve_with_ompl
+from .options import PlanOptions
+from .projection import project
+from .resolve import BoundConstraint, bind
+from .spec import Axis, ConstraintSpec
+from .validate import VALIDATION_TOLERANCE, PathValidation, validate_path
+
+# Planning keeps this much inside every band so that chords between planned states stay valid.
+PLANNING_MARGIN = 2e-3
+Status = Literal["solved", "invalid_start", "invalid_goal", "unreachable_goal", "timeout", "invalid_path", "planner_error"]
+
+
+class JointGoal(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    type: Literal["joints"] = "joints"
+    values: dict[str, float] | list[float]
+
+
+class ToolGoal(BaseModel):
+    """A tool pose for one arm, reached by IK (the first valid solution nearest the start)."""
+
+    model_config = ConfigDict(extra="forbid")
+    type: Literal["tool_pose"] = "tool_pose"
+    arm: str
+    pose: Pose
+    free_axes: list[Axis] = Field(default_factory=list)
+
+
+Goal = Annotated[JointGoal | ToolGoal, Field(discriminator="type")]
+
+
+class MotionResult(BaseModel):
+    status: Status
+    message: str = ""
+    group: str
+    joint_names: list[str]
+    path: list[list[float]] = Field(default_factory=list)  # validated waypoints, group order
+    validation: PathValidation | None = None
+    planning_time: float = 0.0
+    space: str = ""
+    calls: dict[str, int] = Field(default_factory=dict)
+    start_moved: float = 0.0  # how far the start was projected (0 unless project_start)
+
+    @property
+    def solved(self) -> bool:
+        return self.status == "solved"
+
+
+class _Problem:
+    """The pieces one planning call shares: evaluator, checker and the validity policy."""
+
+    def __init__(self, robot: Robot, checker: CollisionChecker, bound: list[BoundConstraint], group: str, q: np.ndarray):
+        self.robot, self.checker, self.group = robot, checker, group
+        self.evaluator = ConstraintEvaluator(robot, bound, group, q)
+
+    def margins(self, x: np.ndarray) -> np.ndarray:
+        return self.evaluator.margins(self.evaluator.full(x)) if self.evaluator.constraints else np.zeros(0)
+
+    def describe_violations(self, x: np.ndarray) -> str:
+        margins = self.margins(x)
+        bad = [f"{c.id} by {m:.4f}" for c, m in zip(self.evaluator.constraints, margins) if m > VALIDATION_TOLERANCE]
+        return ", ".join(bad)
+
+    def describe_collisions(self, x: np.ndarray) -> str:
+        return ", ".join(f"{c.a} - {c.b}" for c in self.checker.contacts(self.evaluator.full(x)))
+
+    def validity(self, limit: float):  # noqa: ANN201
+        """State validity for planning: collision free and every margin <= limit."""
+        evaluator, checker = self.evaluator, self.checker
+        has_constraints = bool(evaluator.constraints)
+
+        def is_valid(x: np.ndarray) -> bool:
+            q = evaluator.full(x)
+            if has_constraints and evaluator.margins(q).max() > limit:
+                return False
+            return not checker.in_collision(q)
+
+        return is_valid
+
+
+@contextlib.contextmanager
+def _with_keep_out(checker: CollisionChecker, bound: list[BoundConstraint]) -> Iterator[None]:
+    zones = keep_out_obstacles(bound)
+    if not zones:
+        yield
+        return
+    scene = checker.scene
+    checker.set_scene(scene.model_copy(update={"obstacles": [*scene.obstacles, *zones]}))
+    try:
+        yield
+    finally:
+        checker.set_scene(scene)
+
+
+def _check_group(robot: Robot, bound: list[BoundConstraint], group: str) -> None:
+    planned = set(robot.group_joints(group))
+    for c in bound:
+        outside = [j for j in c.spec.joints if j not in planned]
+        if outside:
+            raise HriplanError(f"constraint {c.id!r} uses joints outside the planned group {group!r}: {', '.join(outside)}")
+
+
+def plan_motion(
+    robot: Robot,
+    checker: CollisionChecker,
+    constraints: Sequence[ConstraintSpec],
+    start: JointValues,
+    goal: Goal,
+    options: PlanOptions | None = None,
+    group: str | None = None,
+) -> MotionResult:
+    """Plan a constrained, collision-free motion of `group` from `start` to `goal`."""
+    options = options or PlanOptions()
+    group = group or robot.default_group
+    joint_names = robot.group_joints(group)
+    q_start = robot.configuration(start) if isinstance(start, dict) else robot.configuration(start, group)
+    bound = bind(constraints, robot, checker)
+    _check_group(robot, bound, group)
+    result = lambda status, message, **kw: MotionResult(status=status, message=message, group=group, joint_names=joint_names, **kw)  # noqa: E731
+    with _with_keep_out(checker, bound):
+        problem = _Problem(robot, checker, bound, group, q_start)
+        x_start = robot.group_values(q_start, group)
+        if checker.in_collision(q_start):
+            return result("invalid_start", f"start is in collision: {problem.describe_collisions(x_start)}")
+        moved = 0.0
+        if problem.describe_violations(x_start):
+            if not options.project_start:
+                return result("invalid_start", f"start violates {problem.describe_violations(x_start)} (set project_start to move it onto the constraints)")
+            projected = project(x_start, lambda x: problem.evaluator.deadzone(x, PLANNING_MARGIN), lambda x: problem.evaluator.deadzone_jacobian(x, PLANNING_MARGIN))
+            if projected is None or checker.in_collision(problem.evaluator.full(projected)):
+                return result("invalid_start", f"start violates {problem.describe_violations(x_start)} and cannot be projected onto the constraints")
+            moved, x_start = float(np.abs(projected - x_start).max()), projected
+        goal_or_error = _resolve_goal(problem, goal, x_start)
+        if isinstance(goal_or_error, MotionResult):
+            return goal_or_error.model_copy(update={"group": group, "joint_names": joint_names})
+        x_goal = goal_or_error
+        outcome = _search(problem, options, x_start, x_goal)
+        return outcome.model_copy(update={"group": group, "joint_names": joint_names, "start_moved": moved})
+
+
+def _set_goal_positions(problem: _Problem, x_goal: np.ndarray) -> None:
+    """Dynamic tolerance is measured from the target link's position at the goal."""
+    evaluator = problem.evaluator
+    q = evaluator.full(x_goal)
+    for c in evaluator.constraints:
+        c.p_goal = problem.robot.frame_pose(problem.robot.model.frames[c.link].name, q)[:3, 3].copy()
+
+
+def _resolve_goal(problem: _Problem, goal: Goal, x_start: np.ndarray) -> np.ndarray | MotionResult:
+    robot, group = problem.robot, problem.group
+    blank = {"group": group, "joint_names": []}
+    if isinstance(goal, JointGoal):
+        base = problem.evaluator.full(x_start)
+        q_goal = robot.configuration(goal.values, base=base) if isinstance(goal.values, dict) else robot.configuration(goal.values, group, base=base)
+        x_goal = robot.group_values(q_goal, group)
+        _set_goal_positions(problem, x_goal)
+        if problem.checker.in_collision(q_goal):
+            return MotionResult(status="invalid_goal", message=f"goal is in collision: {problem.describe_collisions(x_goal)}", **blank)
+        if problem.describe_violations(x_goal):
+            return MotionResult(status="invalid_goal", message=f"goal violates {problem.describe_violations(x_goal)}", **blank)
+        return x_goal
+    arm_group = robot.arm_group(goal.arm)
+    if not set(robot.group_joints(arm_group)) <= set(robot.group_joints(group)):
+        raise HriplanError(f"a tool goal for the {goal.arm} arm needs its joints in the planned group {group!r}")
+    base = problem.evaluator.full(x_start)
+
+    def valid(q: np.ndarray) -> bool:
+        x = robot.group_values(q, group)
+        _set_goal_positions(problem, x)
+        return not problem.checker.in_collision(q) and not problem.describe_violations(x)
+
+    ik = solve_ik(robot, goal.arm, goal.pose.matrix(), free_axes=goal.free_axes, base_q=base,
+                  reference=robot.group_values(base, arm_group), is_valid=valid)  # fmt: skip
+    if not ik.success:
+        return MotionResult(status="unreachable_goal", message=f"no valid IK solution for the goal pose: {ik.message}", **blank)
+    x_goal = robot.group_values(robot.configuration(ik.q, arm_group, base=base), group)
+    _set_goal_positions(problem, x_goal)
+    return x_goal
+
+
+def _rows(problem: _Problem, options: PlanOptions):  # noqa: ANN202
+    """(function, jacobian, count) for the manifold, or None to plan in the plain joint space."""
+    evaluator = problem.evaluator
+    if options.space == "rejection" or not evaluator.constraints:
+        return None
+    if options.formulation == "deadzone":
+        return (lambda x: evaluator.deadzone(x, PLANNING_MARGIN), lambda x: evaluator.deadzone_jacobian(x, PLANNING_MARGIN), len(evaluator.constraints))
+    if evaluator.n_equality == 0:
+        return None
+    return evaluator.equality, evaluator.equality_jacobian, evaluator.n_equality
+
+
+def _onto_manifold(problem: _Problem, rows, x: np.ndarray, step: float) -> np.ndarray | None:  # noqa: ANN001
+    """Project an end onto the manifold if it is not on it; None if the move there is invalid."""
+    if rows is None or np.abs(rows[0](x)).max(initial=0.0) <= 1e-6:
+        return x
+    projected = project(x, rows[0], rows[1])
+    if projected is None:
+        return None
+    return projected if validate_path(problem.evaluator, problem.checker, [x, projected], step).valid else None
+
+
+def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal: np.ndarray) -> MotionResult:
+    rows = _rows(problem, options)
+    hybrid = options.formulation == "hybrid" and options.space != "rejection"
+    is_valid = problem.validity(-PLANNING_MARGIN if hybrid else 0.0)
+    blank = {"group": problem.group, "joint_names": []}
+    ends = [_onto_manifold(problem, rows, x, options.validation_step) for x in (x_start, x_goal)]
+    if ends[0] is None:
+        return MotionResult(status="invalid_start", message="the start cannot be moved onto the constraint manifold validly", **blank)
+    if ends[1] is None:
+        return MotionResult(status="invalid_goal", message="the goal cannot be moved onto the constraint manifold validly", **blank)
+    for name, x in (("start", ends[0]), ("goal", ends[1])):
+        if not is_valid(x):
+            status = "invalid_start" if name == "start" else "invalid_goal"
+            reason = problem.describe_violations(x) or problem.describe_collisions(x) or f"within {PLANNING_MARGIN} of a constraint boundary"
+            return MotionResult(status=status, message=f"{name} is not valid for planning: {reason}", **blank)
+    bounds = problem.robot.limits(problem.group)
+    started = time.perf_counter()
+    last_message = ""
+    calls: dict[str, int] = {}
+    attempt = 0
+    while True:
+        remaining = options.time_limit - (time.perf_counter() - started)
+        if remaining <= 0.0:
+            break
+        seed = None if options.seed is None else options.seed + attempt
+        run = solve_with_ompl(options.model_copy(update={"time_limit": remaining, "seed": seed}), bounds, ends[0], ends[1], is_valid, rows)
+        for key, value in vars(run.counters).items():
+            calls[key] = calls.get(key, 0) + value
+        attempt += 1
+        if not run.solved:
+            last_message = run.message
+            if run.message.startswith("OMPL:"):
+                break
+            continue
+        waypoints = _dedupe([x_start, *run.states, x_goal])
+        validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step)
+        if validation.valid:
+            return MotionResult(status="solved", group=problem.group, joint_names=[], path=[w.tolist() for w in waypoints],
+                                validation=validation, planning_time=time.perf_counter() - started, space=run.space, calls=calls)  # fmt: skip
+        last_message = f"planner path failed dense validation ({validation.message}); re-planning"
+    status = "planner_error" if last_message.startswith("OMPL:") else "invalid_path" if "dense validation" in last_message else "timeout"
+    return MotionResult(status=status, message=last_message or "time limit reached", group=problem.group, joint_names=[],
+                        planning_time=time.perf_counter() - started, calls=calls, space=options.space)  # fmt: skip
+
+
+def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:
+    out = [np.asarray(states[0], dtype=float)]
+    for s in states[1:]:
+        if np.abs(np.asarray(s) - out[-1]).max() > 1e-9:
+            out.append(np.asarray(s, dtype=float))
+    return out

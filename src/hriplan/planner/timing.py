@@ -1,0 +1,262 @@
+"""Time parameterisation of a planned joint path: time-optimal under joint limits (TOPP-RA).
+
+The planner returns a dense piecewise-linear joint path that was validated against the task
+constraints. A robot cannot follow its corners at speed, so we interpolate the waypoints with a
+natural cubic spline parameterised by arc length, retime the spline time-optimally with TOPP-RA
+under per-joint velocity and acceleration limits (at rest at both ends), and sample it at a fixed
+period. The robot follows the spline, not the polyline, so how far the spline strays from the
+validated polyline is measured, reported and optionally bounded.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import toppra
+import toppra.algorithm
+import toppra.constraint
+from pydantic import BaseModel, ConfigDict
+
+from hriplan import HriplanError
+
+# TOPP-RA logs every solve at INFO and a failure at WARNING; we report failures ourselves.
+logging.getLogger("toppra").setLevel(logging.ERROR)
+
+# Consecutive waypoints closer than this (rad, every joint) are one waypoint: a near-zero knot
+# interval would make the spline's curvature, and so the retimed motion, blow up there.
+_DUPLICATE_TOL = 1e-9
+# Segments longer than this (rad) get collinear knots inserted: the spline's ringing around a
+# corner scales with the neighbouring knot spacing, and this keeps it at dense input's scale.
+_MAX_KNOT_SPACING = 0.05
+# Spline samples per knot interval when measuring its deviation from the polyline.
+_DEVIATION_SAMPLES = 16
+# TOPP-RA gridpoints: at most this far apart (arc length, rad), at least this many; the cap
+# bounds the runtime (~25 us per gridpoint) on pathological input, which the final check catches.
+_MAX_GRID_SPACING = 0.04
+_MIN_GRIDPOINTS = 100
+_MAX_GRIDPOINTS = 20_000
+# Relative overshoot of the velocity / acceleration limits tolerated between TOPP-RA gridpoints,
+# where TOPP-RA does not check them; grid intervals that exceed it are split, at most this often.
+_GRID_VELOCITY_TOL = 5e-4
+_GRID_ACCELERATION_TOL = 5e-3
+_REFINEMENTS = 3
+# Relative overshoot of the limits allowed in the returned samples (see `time_parameterize`).
+_VELOCITY_SLACK = 1e-3
+_ACCELERATION_SLACK = 5e-2
+
+
+class TimedPath(BaseModel):
+    """A sampled joint trajectory (like trajectory_msgs/JointTrajectory): row i is at times[i]."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    times: list[float]
+    positions: list[list[float]]
+    velocities: list[list[float]]
+    accelerations: list[list[float]]
+    path_deviation: float
+    """Max per-joint distance (rad) of the followed spline from the input polyline."""
+
+
+def time_parameterize(
+    waypoints: np.ndarray,
+    velocity_limits: np.ndarray,
+    acceleration_limits: np.ndarray,
+    *,
+    velocity_scale: float = 1.0,
+    sample_dt: float = 0.01,
+    max_deviation: float | None = None,
+) -> TimedPath:
+    """Retime the piecewise-linear path `waypoints` (m x n) time-optimally, at rest at both ends.
+
+    `velocity_scale` in (0, 1] scales both the velocity and the acceleration limits. Samples are
+    `sample_dt` apart, plus the exact final time. Raises HriplanError on bad input, when the
+    spline strays more than `max_deviation` (rad, any joint) from the polyline, or when TOPP-RA
+    fails. TOPP-RA enforces the limits at its gridpoints only, so the grid is refined (at most
+    _REFINEMENTS times) until between gridpoints too velocity exceeds the scaled limit by at most
+    0.02% and acceleration by at most 0.5%; the returned samples must then stay within the scaled
+    limits +0.1% (velocity) and +5% (acceleration), else HriplanError.
+    """
+    q, vmax, amax = _validated(
+        waypoints, velocity_limits, acceleration_limits, velocity_scale, sample_dt, max_deviation
+    )
+    knots = _densified(q)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))])
+    path = toppra.SplineInterpolator(s, knots, bc_type="natural")
+
+    deviation = _deviation(path, s, knots)
+    if max_deviation is not None and deviation > max_deviation:
+        raise HriplanError(
+            f"the interpolating spline strays {deviation:.4g} rad from the waypoint path (max_deviation "
+            f"{max_deviation:.4g}); pass denser or smoother waypoints"
+        )
+
+    constraints = [
+        toppra.constraint.JointVelocityConstraint(vmax),
+        toppra.constraint.JointAccelerationConstraint(
+            amax, discretization_scheme=toppra.constraint.DiscretizationType.Interpolation
+        ),
+    ]
+    grid = _gridpoints(path, s, vmax, amax)
+    for refinement in range(_REFINEMENTS + 1):
+        algorithm = toppra.algorithm.TOPPRA(
+            constraints,
+            path,
+            gridpoints=grid,
+            solver_wrapper="seidel",
+            parametrizer="ParametrizeConstAccel",
+        )
+        trajectory = algorithm.compute_trajectory(0.0, 0.0)
+        if trajectory is None:
+            raise HriplanError(
+                f"TOPP-RA found no time parameterisation within the joint limits "
+                f"({algorithm.problem_data.return_code.value}); the path may be too sharply curved"
+            )
+        overshooting = _overshooting(path, grid, algorithm.problem_data.sd_vec, vmax, amax)
+        if not overshooting.any() or refinement == _REFINEMENTS or len(grid) > _MAX_GRIDPOINTS:
+            break
+        grid = _subdivided(grid, np.where(overshooting, 4, 1))
+
+    duration = float(trajectory.path_interval[1])
+    # Samples on the sample_dt grid strictly before the end, then the end itself; a grid time
+    # within a millionth of a period of the end counts as the end, so the last step is not ~0.
+    count = int(np.ceil(duration / sample_dt - 1e-6))
+    times = np.append(sample_dt * np.arange(count), duration)
+    velocities = trajectory(times, 1)
+    accelerations = trajectory(times, 2)
+    _check_limits(velocities, vmax, 1.0 + _VELOCITY_SLACK, "velocity")
+    _check_limits(accelerations, amax, 1.0 + _ACCELERATION_SLACK, "acceleration")
+    return TimedPath(
+        times=times.tolist(),
+        positions=trajectory(times, 0).tolist(),
+        velocities=velocities.tolist(),
+        accelerations=accelerations.tolist(),
+        path_deviation=deviation,
+    )
+
+
+def _validated(
+    waypoints: np.ndarray,
+    velocity_limits: np.ndarray,
+    acceleration_limits: np.ndarray,
+    velocity_scale: float,
+    sample_dt: float,
+    max_deviation: float | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Checked inputs as float arrays: waypoints without duplicates, and the scaled limits."""
+    q = np.asarray(waypoints, dtype=float)
+    if q.ndim != 2 or q.shape[0] < 2 or q.shape[1] < 1:
+        raise HriplanError(f"waypoints must be an (m x n) array with m >= 2, got shape {q.shape}")
+    if not np.all(np.isfinite(q)):
+        raise HriplanError("waypoints contain NaN or infinite values")
+    if not 0.0 < velocity_scale <= 1.0:
+        raise HriplanError(f"velocity_scale must be in (0, 1], got {velocity_scale}")
+    if not (np.isfinite(sample_dt) and sample_dt > 0.0):
+        raise HriplanError(f"sample_dt must be positive, got {sample_dt}")
+    if max_deviation is not None and not max_deviation >= 0.0:
+        raise HriplanError(f"max_deviation must be non-negative, got {max_deviation}")
+    n = q.shape[1]
+    limits = []
+    for name, values in (("velocity_limits", velocity_limits), ("acceleration_limits", acceleration_limits)):
+        limit = np.asarray(values, dtype=float)
+        if limit.shape != (n,):
+            raise HriplanError(f"{name} must have shape ({n},) to match the waypoints, got {limit.shape}")
+        if not np.all(np.isfinite(limit) & (limit > 0.0)):
+            raise HriplanError(f"{name} must be finite and positive, got {limit.tolist()}")
+        limits.append(limit * velocity_scale)
+
+    distinct = q[np.concatenate([[True], np.max(np.abs(np.diff(q, axis=0)), axis=1) > _DUPLICATE_TOL])]
+    if len(distinct) < 2:
+        raise HriplanError("waypoints do not move: all are the same configuration")
+    distinct[-1] = q[-1]  # if the final waypoint was a dropped near-duplicate, still stop there
+    return distinct, limits[0], limits[1]
+
+
+def _densified(q: np.ndarray) -> np.ndarray:
+    """The same polyline with collinear knots inserted so no segment exceeds _MAX_KNOT_SPACING."""
+    return _subdivided(q, np.ceil(np.linalg.norm(np.diff(q, axis=0), axis=1) / _MAX_KNOT_SPACING))
+
+
+def _subdivided(points: np.ndarray, pieces: np.ndarray) -> np.ndarray:
+    """`points` (k, ...) with segment i split into max(1, pieces[i]) equal parts."""
+    pieces = np.maximum(1, pieces).astype(int)
+    segment = np.repeat(np.arange(len(pieces)), pieces)
+    fraction = np.concatenate([np.arange(p) / p for p in pieces]).reshape((-1,) + (1,) * (points.ndim - 1))
+    return np.concatenate([points[segment] + fraction * (points[segment + 1] - points[segment]), points[-1:]])
+
+
+def _deviation(path: toppra.SplineInterpolator, s: np.ndarray, knots: np.ndarray) -> float:
+    """Max per-joint |spline - polyline| over a fine sampling of every knot interval.
+
+    Both are parameterised by the same arc length, so this compares points at equal parameter:
+    an upper bound on the distance from the spline to the polyline.
+    """
+    fraction = np.linspace(0.0, 1.0, _DEVIATION_SAMPLES + 1)[1:-1]
+    at = s[:-1, None] + np.diff(s)[:, None] * fraction
+    linear = knots[:-1, None, :] + fraction[None, :, None] * np.diff(knots, axis=0)[:, None, :]
+    return float(np.max(np.abs(path(at.ravel()).reshape(linear.shape) - linear)))
+
+
+def _gridpoints(
+    path: toppra.SplineInterpolator, s: np.ndarray, vmax: np.ndarray, amax: np.ndarray
+) -> np.ndarray:
+    """Initial TOPP-RA gridpoints, placed so that `_overshooting` rarely finds anything to refine.
+
+    Between gridpoints TOPP-RA keeps the path acceleration u constant and x = sd^2 linear in s.
+    Inside a knot interval (spline q''' constant) joint velocity q' sd then bends by about
+    |q'''| sd h^2 / 8 over a grid spacing h, and joint acceleration q' u + q'' x by about
+    5 |q'''| |u| h^2 / 8 (taking |u| <= max amax); h keeps both near the grid tolerances. At a
+    knot q''' jumps, kinking the acceleration by |jump| x, up to |jump| x h / 4 off the chord: at
+    tight corners that is large, so those knots are gridpoints themselves. sd is bounded by the
+    velocity limits and, as |q''| x <= |acceleration| on an arc-length path, by the acceleration
+    limits. The count follows path length and curvature, not the number of waypoints.
+    """
+    h = np.diff(s)
+    d1, d2 = path(s, 1), path(s, 2)
+    jerk = np.diff(d2, axis=0) / h[:, None]  # q''' per knot interval
+    x = np.minimum(
+        np.min((vmax / np.maximum(np.abs(d1), 1e-12)) ** 2, axis=1),
+        np.linalg.norm(amax) / np.maximum(np.linalg.norm(d2, axis=1), 1e-12),
+    )  # bound on x = sd^2 at each knot
+    speed = np.sqrt(np.maximum(x[:-1], x[1:]))[:, None]  # per knot interval
+    bend = np.abs(jerk) * np.maximum(  # relative bend per h^2, over the grid tolerance
+        speed / (8 * vmax * _GRID_VELOCITY_TOL), 5 * amax.max() / (8 * amax * _GRID_ACCELERATION_TOL)
+    )
+    spacing = np.minimum(_MAX_GRID_SPACING, 1.0 / np.sqrt(np.maximum(np.max(bend, axis=1), 1e-12)))
+    cells = np.concatenate([[0.0], np.cumsum(h / spacing)])  # grid cells from the start to each knot
+    cells *= np.clip(cells[-1], _MIN_GRIDPOINTS, _MAX_GRIDPOINTS) / cells[-1]
+    kink = np.max(np.abs(np.diff(jerk, axis=0)) / amax, axis=1) * x[1:-1] * np.maximum(spacing[:-1], spacing[1:])
+    marks = np.concatenate([[0], 1 + np.flatnonzero(kink / 4 > _GRID_ACCELERATION_TOL), [len(s) - 1]])
+    return np.interp(_subdivided(cells[marks], np.ceil(np.diff(cells[marks]))), cells, s)
+
+
+def _overshooting(
+    path: toppra.SplineInterpolator, grid: np.ndarray, sd: np.ndarray, vmax: np.ndarray, amax: np.ndarray
+) -> np.ndarray:
+    """Grid intervals where the retimed motion exceeds a limit by more than the grid tolerances.
+
+    Evaluates TOPP-RA's solution (constant path acceleration per interval) at 1/4, 1/2 and 3/4 of
+    each interval, where the bends described in `_gridpoints` peak.
+    """
+    x = sd**2
+    u = np.diff(x) / (2 * np.diff(grid))
+    offset = np.diff(grid)[:, None] * np.array([0.25, 0.5, 0.75])
+    xs = np.maximum(x[:-1, None] + 2 * u[:, None] * offset, 0.0)[..., None]
+    at = (grid[:-1, None] + offset).ravel()
+    d1 = path(at, 1).reshape(xs.shape[:2] + (-1,))
+    d2 = path(at, 2).reshape(d1.shape)
+    velocity = np.max(np.abs(d1) * np.sqrt(xs) / vmax, axis=(1, 2))
+    acceleration = np.max(np.abs(d2 * xs + d1 * u[:, None, None]) / amax, axis=(1, 2))
+    return (velocity > 1 + _GRID_VELOCITY_TOL) | (acceleration > 1 + _GRID_ACCELERATION_TOL)
+
+
+def _check_limits(values: np.ndarray, limits: np.ndarray, slack: float, what: str) -> None:
+    """Raise if a sampled |value| exceeds its joint's limit by more than `slack` (relative)."""
+    ratio = np.abs(values) / limits
+    sample, joint = np.unravel_index(np.argmax(ratio), ratio.shape)
+    if ratio[sample, joint] > slack:
+        raise HriplanError(
+            f"time parameterisation exceeds the {what} limit of joint {joint} by "
+            f"{100 * (ratio[sample, joint] - 1):.2f}% at sample {sample}; the path may be too sharply curved"
+        )

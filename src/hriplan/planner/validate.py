@@ -1,0 +1,84 @@
+"""Dense validation: a path is returned only if every interpolated state is valid.
+
+Every segment is split so that no joint moves more than `step` (0.01 rad by default) between
+checked states; each state must be collision free and satisfy every active constraint within its
+tolerance + 1e-4.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from pydantic import BaseModel
+
+from hriplan.robots.collision import CollisionChecker
+
+from .evaluator import ConstraintEvaluator
+
+VALIDATION_TOLERANCE = 1e-4
+DISTANCE_SAMPLES = 150
+
+
+class ConstraintCheck(BaseModel):
+    id: str
+    max_violation: float  # largest margin along the path: <= 0 satisfied, > 0 violated by that
+    satisfied: bool
+
+
+class PathValidation(BaseModel):
+    valid: bool
+    states_checked: int
+    constraints: list[ConstraintCheck]
+    collision: str | None = None  # "a - b at state k" for the first colliding state
+    min_human_distance: float | None = None
+    closest_pair: tuple[str, str] | None = None
+    message: str = ""
+
+
+def densify(states: Sequence[np.ndarray], step: float) -> np.ndarray:
+    """Linear interpolation with at most `step` change per joint between consecutive rows."""
+    out = [np.asarray(states[0], dtype=float)]
+    for a, b in zip(states, states[1:]):
+        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+        count = max(1, int(np.ceil(np.abs(b - a).max() / step)))
+        out.extend(a + (b - a) * (k / count) for k in range(1, count + 1))
+    return np.array(out)
+
+
+def validate_path(
+    evaluator: ConstraintEvaluator,
+    checker: CollisionChecker,
+    states: Sequence[np.ndarray],
+    step: float = 0.01,
+) -> PathValidation:
+    """Check the path (ambient vectors of the evaluator's group) densely."""
+    dense = densify(states, step)
+    worst = np.full(len(evaluator.constraints), -np.inf)
+    collision = None
+    for k, x in enumerate(dense):
+        q = evaluator.full(x)
+        if evaluator.constraints:
+            worst = np.maximum(worst, evaluator.margins(q))
+        if collision is None and checker.in_collision(q):
+            contacts = checker.contacts(q)
+            pair = f"{contacts[0].a} - {contacts[0].b}" if contacts else "collision"
+            collision = f"{pair} at dense state {k} of {len(dense)}"
+    checks = [
+        ConstraintCheck(id=c.id, max_violation=float(w), satisfied=bool(w <= VALIDATION_TOLERANCE))
+        for c, w in zip(evaluator.constraints, worst)
+    ]
+    sample = dense[np.unique(np.linspace(0, len(dense) - 1, min(len(dense), DISTANCE_SAMPLES)).astype(int))]
+    distances = [checker.human_distance(evaluator.full(x)) for x in sample]
+    best = min(distances, key=lambda d: d[0]) if distances else (float("inf"), "", "")
+    violated = [c.id for c in checks if not c.satisfied]
+    problems = ([f"constraint {', '.join(violated)} violated"] if violated else []) + ([collision] if collision else [])
+    return PathValidation(
+        valid=not problems,
+        states_checked=len(dense),
+        constraints=checks,
+        collision=collision,
+        min_human_distance=None if best[0] == float("inf") else best[0],
+        closest_pair=None if best[0] == float("inf") else (best[1], best[2]),
+        message="; ".join(problems),
+    )
