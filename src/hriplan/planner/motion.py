@@ -104,7 +104,8 @@ class _Problem:
 
 
 @contextlib.contextmanager
-def _with_keep_out(checker: CollisionChecker, bound: list[BoundConstraint]) -> Iterator[None]:
+def with_keep_out(checker: CollisionChecker, bound: list[BoundConstraint]) -> Iterator[None]:
+    """The checker with the keep-out zones of `bound` added as obstacles, for the block's duration."""
     zones = keep_out_obstacles(bound)
     if not zones:
         yield
@@ -142,7 +143,7 @@ def plan_motion(
     bound = bind(constraints, robot, checker)
     _check_group(robot, bound, group)
     result = lambda status, message, **kw: MotionResult(status=status, message=message, group=group, joint_names=joint_names, **kw)  # noqa: E731
-    with _with_keep_out(checker, bound):
+    with with_keep_out(checker, bound):
         problem = _Problem(robot, checker, bound, group, q_start)
         x_start = robot.group_values(q_start, group)
         if checker.in_collision(q_start):

@@ -36,3 +36,6 @@ class PlanOptions(BaseModel):
     delta: float = Field(default=0.05, gt=0.0, le=0.5)
     project_start: bool = False
     validation_step: float = Field(default=0.01, gt=0.0, le=0.05)
+    # Timing: UR5 descriptions carry no acceleration limit; pi rad/s^2 is a conservative default.
+    velocity_scale: float = Field(default=1.0, gt=0.0, le=1.0)
+    acceleration_limit: float = Field(default=3.14159, gt=0.0)

@@ -179,11 +179,15 @@ class Human:
         return [self._capsule_world(c) for c in self.capsules]
 
     def frame(self, name: str) -> pin.SE3:
-        """World pose of a named frame: head, torso, left_hand, right_hand (palm centre), base."""
+        """World pose of a named frame: head, torso, left_hand, right_hand (palm centre), base.
+
+        Every frame is oriented like the person's base (z up, x the way the person faces), so
+        that "towards the person" and "from the person's front" mean the same for every part."""
+        x, y = self.spec.position
+        base = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, self.spec.yaw), np.array([x, y, 0.0]))
         if name == "base":
-            x, y = self.spec.position
-            return pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, self.spec.yaw), np.array([x, y, 0.0]))
+            return base
         if name not in self._frames:
             raise HriplanError(f"a human has no frame {name!r}; frames: {', '.join(self.FRAMES)}")
         joint, offset = self._frames[name]
-        return self.data.oMi[joint] * offset
+        return pin.SE3(base.rotation, (self.data.oMi[joint] * offset).translation)

@@ -1,0 +1,132 @@
+"""Write the planner benchmark scenarios (benchmarks/scenarios/*.json).
+
+Starts and goals are found with hriplan's own IK so that they satisfy the constraints; the
+files are the data, this script is how they were made: `python benchmarks/make_scenarios.py`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from hriplan.planner.motion import JointGoal
+from hriplan.planner.problem import PlanningProblem
+from hriplan.planner.spec import BoxConstraint, ConeConstraint, ConstraintSet, CylinderConstraint, FrameRef, OrientationConstraint
+from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.human import HumanSpec
+from hriplan.robots.ik import ik_solutions, solve_ik
+from hriplan.robots.model import Robot, load_robot
+from hriplan.robots.scene import Box, Cylinder, Obstacle, Scene, table
+from hriplan.robots.spatial import Pose
+
+OUT = Path(__file__).parent / "scenarios"
+# MADAR tool: y is the axis of a held cylinder; upright = tool y along world z, approach (z) +y.
+MADAR_UPRIGHT = Pose.from_matrix(np.block([[np.column_stack([(-1.0, 0, 0), (0, 0, 1.0), (0, 1.0, 0)]), np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]))
+
+
+def _pose(rotation: np.ndarray, xyz) -> np.ndarray:  # noqa: ANN001
+    t = np.eye(4)
+    t[:3, :3], t[:3, 3] = rotation, xyz
+    return t
+
+
+def _ik(robot: Robot, checker: CollisionChecker, arm: str, target: np.ndarray, base: np.ndarray, ref=None, free=()) -> np.ndarray:  # noqa: ANN001
+    group = robot.arm_group(arm)
+    res = solve_ik(robot, arm, target, base_q=base, reference=ref if ref is not None else robot.group_values(base, group), free_axes=free,
+                   is_valid=lambda q: not checker.in_collision(q))  # fmt: skip
+    if not res.success:
+        raise SystemExit(f"scenario IK failed: {res.message}")
+    return robot.configuration(res.q, group, base=base)
+
+
+def _both_arms(robot: Robot, checker: CollisionChecker, right: np.ndarray, left: np.ndarray, base: np.ndarray) -> np.ndarray:
+    """Right-arm IK branches nearest `base` first, each with a valid left-arm solution if any."""
+    for values in ik_solutions(robot, "right", right, ("y",), reference=robot.group_values(base, "right_arm"), base_q=base):
+        q = robot.configuration(values, "right_arm", base=base)
+        if checker.in_collision(robot.configuration(robot.group_values(q, "right_arm"), "right_arm", base=robot.configuration({}))):
+            continue
+        res = solve_ik(robot, "left", left, free_axes=("y",), base_q=q, reference=robot.group_values(base, "left_arm"),
+                       is_valid=lambda full: not checker.in_collision(full))  # fmt: skip
+        if res.success:
+            return robot.configuration(res.q, "left_arm", base=q)
+    raise SystemExit("scenario IK failed: no valid pair of arm configurations")
+
+
+def ur5_upright_box() -> PlanningProblem:
+    robot = load_robot("ur5")
+    scene = Scene(obstacles=[table(position=(0.5, 0.0), size=(0.6, 1.2, 0.04), top=-0.05),
+                             Obstacle(name="block", shape=Box(size=(0.3, 0.08, 0.35)), pose=Pose(xyz=(0.45, 0.0, 0.125)))],
+                  humans=[HumanSpec(name="human", position=(1.2, 0.0), yaw=np.pi)])  # fmt: skip
+    checker = CollisionChecker(robot, scene)
+    joints = robot.group_joints()
+    down = Pose(rpy=(np.pi, 0.0, 0.0))
+    constraints = [
+        OrientationConstraint(id="upright", joints=joints, target_link="tool", free_axes=["z"], target=down, tolerance=0.1),
+        BoxConstraint(id="workspace", joints=joints, target_link="tool", size=(0.8, 1.2, 0.6), frame=FrameRef(offset=Pose(xyz=(0.45, 0.0, 0.3)))),
+    ]  # fmt: skip
+    home = robot.configuration([0.0, -1.2, 1.5, -1.9, -1.57, 0.0])
+    start = _ik(robot, checker, "arm", _pose(down.rotation(), (0.45, -0.3, 0.12)), home)
+    goal = _ik(robot, checker, "arm", _pose(down.rotation(), (0.45, 0.3, 0.12)), start)
+    return PlanningProblem(name="a_ur5_upright_box", description="UR5 carries an upright cup over a block, inside a workspace box",
+                           robot="ur5", scene=scene, constraints=ConstraintSet(constraints=constraints),
+                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(joints, robot.group_values(goal))))) # fmt: skip
+
+
+def madar_handover() -> PlanningProblem:
+    hands = {"right": "power"}
+    robot = load_robot("madar", hands)
+    hand_point = (0.05, 1.05, 1.05)
+    person = HumanSpec(name="receiver", position=(0.0, 1.45), yaw=-np.pi / 2, reach={"right": hand_point})
+    scene = Scene(obstacles=[table(position=(0.45, 0.85), size=(0.5, 0.5, 0.04), top=0.72)], humans=[person])
+    checker = CollisionChecker(robot, scene)
+    joints = robot.group_joints("right_arm")
+    # Approach cone: apex at the receiver's palm, axis along the receiver's front (to the robot).
+    cone_frame = FrameRef(entity="receiver/right_hand", offset=Pose(rpy=(0.0, np.pi / 2, 0.0)))
+    constraints = [
+        OrientationConstraint(id="upright", joints=joints, target_link="right_tool", free_axes=["y"], target=MADAR_UPRIGHT, tolerance=0.1),
+        BoxConstraint(id="shared_workspace", joints=joints, target_link="right_tool", size=(1.0, 0.8, 0.8), frame=FrameRef(offset=Pose(xyz=(0.1, 0.75, 1.0)))),
+        ConeConstraint(id="approach_cone", joints=joints, target_link="right_tool", radius=0.3, height=0.55, frame=cone_frame),
+    ]  # fmt: skip
+    base = robot.configuration({"left_shoulder_lift_joint": -2.2, "left_elbow_joint": 1.2})
+    up = MADAR_UPRIGHT.rotation()
+    # The goal (at the hand) first, then the start in the same IK branch.
+    goal = _ik(robot, checker, "right", _pose(up, (hand_point[0], hand_point[1] - 0.19, hand_point[2])), base,
+               ref=np.array([0.8, 0.2, -0.3, -0.3, 0.6, -0.4]))  # fmt: skip
+    start = _ik(robot, checker, "right", _pose(up, (0.25, 0.6, 1.0)), goal)
+    return PlanningProblem(name="b_madar_handover", description="MADAR's right arm brings a full can to a receiver's hand",
+                           robot="madar", hands=hands, scene=scene, constraints=ConstraintSet(constraints=constraints), group="right_arm",
+                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(joints, robot.group_values(goal, "right_arm")))))  # fmt: skip
+
+
+def madar_peg_in_hole() -> PlanningProblem:
+    hands = {"right": "power", "left": "power"}
+    robot = load_robot("madar", hands)
+    supervisor = HumanSpec(name="supervisor", position=(1.3, 0.9), yaw=np.pi)
+    scene = Scene(obstacles=[table(position=(0.0, 0.85), size=(0.9, 0.5, 0.04), top=0.72),
+                             Obstacle(name="hole_block", shape=Cylinder(radius=0.05, height=0.1), pose=Pose(xyz=(0.0, 0.85, 0.79)))],
+                  humans=[supervisor])  # fmt: skip
+    checker = CollisionChecker(robot, scene)
+    # Pegs are held along the tool y axis: aligned = tool y along world -z, approach (z) forward.
+    down = MADAR_UPRIGHT.rotation() @ np.diag([-1.0, -1.0, 1.0])
+    constraints = []
+    for side in ("right", "left"):
+        joints = robot.group_joints(f"{side}_arm")
+        constraints.append(OrientationConstraint(id=f"{side}_alignment", joints=joints, target_link=f"{side}_tool", free_axes=["y"],
+                                                 target=Pose.from_matrix(_pose(down, (0, 0, 0))), tolerance=0.05, tolerance_gradient=0.3))  # fmt: skip
+        constraints.append(CylinderConstraint(id=f"{side}_keep_out_supervisor", joints=joints, target_link=f"{side}_tool", region="outside",
+                                              radius=0.45, height=2.0, keep_out_all_links=True, frame=FrameRef(entity="supervisor/base")))  # fmt: skip
+    base = robot.configuration({})
+    start = _both_arms(robot, checker, _pose(down, (0.35, 0.6, 1.05)), _pose(down, (-0.35, 0.6, 1.05)), base)
+    goal = _both_arms(robot, checker, _pose(down, (0.06, 0.85, 0.98)), _pose(down, (-0.06, 0.85, 0.98)), start)
+    return PlanningProblem(name="c_madar_peg_in_hole", description="MADAR brings two pegs above holes beside a supervising person",
+                           robot="madar", hands=hands, scene=scene, constraints=ConstraintSet(constraints=constraints), group="both_arms",
+                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(robot.joint_names, goal))))  # fmt: skip
+
+
+if __name__ == "__main__":
+    OUT.mkdir(exist_ok=True)
+    for make in (ur5_upright_box, madar_handover, madar_peg_in_hole):
+        problem = make()
+        (OUT / f"{problem.name}.json").write_text(problem.model_dump_json(indent=1, exclude_defaults=False))
+        print("wrote", problem.name)

@@ -1,0 +1,46 @@
+"""A planning problem as data: robot, scene, constraints, start, goal, options (JSON file).
+
+This is the stage between the rules (which produce constraints) and the planner; benchmark
+scenarios and `hriplan` problem files are instances of it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from hriplan import HriplanError
+from hriplan.robots.scene import Scene
+
+from .motion import Goal
+from .options import PlanOptions
+from .spec import ConstraintSet
+
+
+class PlanningProblem(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = "problem"
+    description: str = ""
+    robot: str = "madar"
+    hands: dict[str, str] = Field(default_factory=dict)
+    scene: Scene = Field(default_factory=Scene)
+    constraints: ConstraintSet = Field(default_factory=ConstraintSet)
+    group: str | None = None
+    start: dict[str, float]
+    goal: Goal
+    options: PlanOptions = Field(default_factory=PlanOptions)
+
+
+def load_problem(path: str | Path) -> PlanningProblem:
+    """Read a problem file; errors name the file and the field."""
+    path = Path(path)
+    try:
+        return PlanningProblem.model_validate_json(path.read_text())
+    except FileNotFoundError:
+        raise HriplanError(f"{path}: no such file") from None
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"]) or "(top level)"
+        raise HriplanError(f"{path}: {where}: {first['msg']}") from None

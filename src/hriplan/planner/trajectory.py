@@ -1,0 +1,82 @@
+"""Trajectory files: a validated, time-parameterised motion plus what it had to respect.
+
+JointTrajectory-like points, the constraints resolved in the world frame (their semantics are
+in `spec.py`), and a report: planning time, path length, worst margin per constraint, minimum
+robot-human distance. The schema is versioned.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from hriplan import HriplanError
+from hriplan.robots.spatial import Pose
+
+from .spec import ConstraintSpec
+
+SCHEMA = "hriplan.trajectory"
+SCHEMA_VERSION = 1
+
+
+class TrajectoryPoint(BaseModel):
+    time_from_start: float
+    positions: list[float]
+    velocities: list[float]
+    accelerations: list[float]
+
+
+class ResolvedConstraint(BaseModel):
+    """A constraint as planned: its specification and its frame's pose in the world."""
+
+    spec: ConstraintSpec
+    frame_in_world: Pose
+    goal_position: list[float] | None = None  # target link at the goal (dynamic tolerance)
+
+
+class TrajectoryReport(BaseModel):
+    status: str
+    planner: str
+    space: str
+    planning_time: float
+    duration: float
+    path_length: float  # joint-space length of the validated path, rad
+    states_checked: int
+    max_violation: dict[str, float]  # worst margin per constraint over the timed path (<= 0: kept)
+    min_human_distance: float | None = None
+    closest_pair: tuple[str, str] | None = None
+    velocity_scale: float = 1.0
+    calls: dict[str, int] = Field(default_factory=dict)
+
+
+class TrajectoryFile(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    schema_name: Literal["hriplan.trajectory"] = Field(default=SCHEMA, alias="schema")
+    schema_version: Literal[1] = SCHEMA_VERSION
+    robot: str
+    hands: dict[str, str] = Field(default_factory=dict)
+    joint_names: list[str]
+    points: list[TrajectoryPoint]
+    constraints: list[ResolvedConstraint]
+    report: TrajectoryReport
+
+    def save(self, path: str | Path) -> None:
+        """Write atomically: a partly written trajectory never replaces a good one."""
+        path = Path(path)
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(self.model_dump_json(indent=1, by_alias=True))
+        tmp.replace(path)
+
+
+def load_trajectory(path: str | Path) -> TrajectoryFile:
+    path = Path(path)
+    try:
+        return TrajectoryFile.model_validate_json(path.read_text())
+    except FileNotFoundError:
+        raise HriplanError(f"{path}: no such file") from None
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        raise HriplanError(f"{path}: {'.'.join(str(p) for p in first['loc'])}: {first['msg']}") from None

@@ -1,0 +1,152 @@
+import logging
+
+import numpy as np
+import pytest
+import toppra.algorithm
+from scipy.spatial import cKDTree
+
+from hriplan import HriplanError
+from hriplan.planner.timing import TimedPath, time_parameterize
+
+VMAX = np.array([1.0, 1.5, 2.0, 2.0, 3.0, 3.0])
+AMAX = np.array([3.0, 4.0, 6.0, 6.0, 8.0, 8.0])
+
+
+def _curved_path(m: int = 300) -> np.ndarray:
+    """A dense polyline (steps ~0.02-0.04 rad) along a smooth 6-joint curve with a tight turn in it."""
+    t = np.linspace(0.0, 1.0, m)[:, None]
+    freq = np.array([0.5, 0.7, 0.9, 0.6, 0.8, 1.0])
+    smooth = 1.5 * np.sin(2 * np.pi * freq * t + np.arange(6))
+    turn = 0.4 * np.abs(t - 0.5)  # a V in every joint: a corner at the middle waypoint
+    return smooth + turn
+
+
+def _trapezoid_time(distance: float, vmax: float, amax: float) -> float:
+    """Minimum time to move `distance` from rest to rest under |v| <= vmax, |a| <= amax."""
+    if distance >= vmax**2 / amax:
+        return distance / vmax + vmax / amax
+    return 2.0 * np.sqrt(distance / amax)
+
+
+def _arrays(result: TimedPath) -> tuple[np.ndarray, ...]:
+    return tuple(
+        np.array(v) for v in (result.times, result.positions, result.velocities, result.accelerations)
+    )
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.1])  # scale 0.1 on a 2-rad move: triangular profile
+def test_straight_path_is_close_to_the_analytic_minimum_time(scale):
+    start = np.array([0.2, -0.1, 0.3, 0.0, 1.0, -1.0])
+    end = start + np.array([2.0, 0.5, -1.0, 0.3, 0.2, 0.6])  # joint 0 limits both v and a
+    result = time_parameterize(np.stack([start, end]), VMAX, AMAX, velocity_scale=scale)
+    times, positions, velocities, _ = _arrays(result)
+
+    optimum = _trapezoid_time(2.0, VMAX[0] * scale, AMAX[0] * scale)
+    assert optimum * (1 - 1e-3) <= times[-1] <= optimum * 1.05
+    # It stays on the segment: every sample is start + lambda (end - start).
+    lam = (positions - start) @ (end - start) / np.dot(end - start, end - start)
+    np.testing.assert_allclose(positions, start + lam[:, None] * (end - start), atol=1e-9)
+    assert np.all(np.diff(lam) >= -1e-12)
+    assert result.path_deviation < 1e-9
+    # Joint 0 reaches its (scaled) velocity limit only if the move is long enough for that.
+    reaches = 2.0 >= (VMAX[0] * scale) ** 2 / (AMAX[0] * scale)
+    assert (np.max(np.abs(velocities[:, 0])) > 0.99 * VMAX[0] * scale) == reaches
+
+
+def test_dense_curved_path_respects_limits_endpoints_and_path():
+    waypoints = _curved_path()
+    assert 0.01 < np.max(np.abs(np.diff(waypoints, axis=0))) < 0.05
+    result = time_parameterize(waypoints, VMAX, AMAX, max_deviation=0.01)
+    times, positions, velocities, accelerations = _arrays(result)
+
+    assert times[0] == 0.0
+    steps = np.diff(times)
+    assert np.all(steps > 0)
+    np.testing.assert_allclose(steps[:-1], 0.01, atol=1e-9)
+    assert steps[-1] <= 0.01 + 1e-9
+    assert positions.shape == velocities.shape == accelerations.shape == (len(times), 6)
+
+    np.testing.assert_allclose(positions[0], waypoints[0], atol=1e-6)
+    np.testing.assert_allclose(positions[-1], waypoints[-1], atol=1e-6)
+    np.testing.assert_allclose(velocities[[0, -1]], 0.0, atol=1e-9)
+
+    assert np.all(np.abs(velocities) <= VMAX * (1 + 1e-3))
+    assert np.all(np.abs(accelerations) <= AMAX * (1 + 5e-2))
+    # Time-optimal: some joint is at a limit most of the time, so limits are not left unused.
+    assert np.max(np.abs(velocities) / VMAX) > 0.99
+
+    # Max-norm distance of every sample to the polyline (densely resampled, <= 1e-4 rad error).
+    fractions = np.linspace(0.0, 1.0, 400, endpoint=False)[:, None, None]
+    dense = (waypoints[:-1] + fractions * np.diff(waypoints, axis=0)).reshape(-1, 6)
+    distance, _ = cKDTree(np.vstack([dense, waypoints[-1:]])).query(positions, p=np.inf)
+    assert 1e-4 < result.path_deviation <= 0.01  # the spline cuts the corner, but only a little
+    assert np.max(distance) <= result.path_deviation + 1e-4
+
+
+def test_half_velocity_scale_is_about_twice_as_slow_when_velocity_limited():
+    waypoints = _curved_path()
+    amax = 10 * AMAX  # velocity, not acceleration, limits the motion (which scales as 1/scale)
+    full = time_parameterize(waypoints, VMAX, amax)
+    half = time_parameterize(waypoints, VMAX, amax, velocity_scale=0.5)
+    assert half.times[-1] >= 1.9 * full.times[-1]
+    _, _, velocities, accelerations = _arrays(half)
+    assert np.all(np.abs(velocities) <= 0.5 * VMAX * (1 + 1e-3))
+    assert np.all(np.abs(accelerations) <= 0.5 * amax * (1 + 5e-2))
+
+
+def test_sparse_corner_path_is_densified_and_deviation_is_bounded():
+    corner = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0]])
+    result = time_parameterize(corner, np.ones(2), np.ones(2))
+    assert result.path_deviation < 0.01  # knots every <= 0.05 rad keep the spline near the corner
+    with pytest.raises(HriplanError, match="max_deviation"):
+        time_parameterize(corner, np.ones(2), np.ones(2), max_deviation=1e-4)
+
+
+def test_duplicate_waypoints_are_dropped_and_sample_period_is_honoured():
+    waypoints = np.array([[0.0, 0.0], [0.0, 0.0], [0.5, 0.2], [0.5, 0.2], [1.0, 0.0]])
+    result = time_parameterize(waypoints, np.ones(2), np.ones(2), sample_dt=0.05)
+    times, positions, _, _ = _arrays(result)
+    np.testing.assert_allclose(np.diff(times)[:-1], 0.05, atol=1e-9)
+    np.testing.assert_allclose(positions[[0, -1]], waypoints[[0, -1]], atol=1e-6)
+
+
+def test_toppra_is_quiet(caplog):
+    caplog.set_level(logging.DEBUG)
+    time_parameterize(_curved_path(50), VMAX, AMAX)
+    assert not [r for r in caplog.records if r.name.startswith("toppra")]
+
+
+def test_toppra_failure_raises(monkeypatch):
+    monkeypatch.setattr(toppra.algorithm.TOPPRA, "compute_trajectory", lambda self, *args: None)
+    with pytest.raises(HriplanError, match="TOPP-RA found no time parameterisation"):
+        time_parameterize(_curved_path(50), VMAX, AMAX)
+
+
+GOOD = np.array([[0.0, 0.0], [1.0, 0.5]])
+
+
+@pytest.mark.parametrize(
+    ("waypoints", "vmax", "amax", "options", "message"),
+    [
+        (np.zeros(2), [1, 1], [1, 1], {}, "shape"),
+        (GOOD[:1], [1, 1], [1, 1], {}, "m >= 2"),
+        (np.zeros((2, 0)), [], [], {}, "shape"),
+        (np.array([[0.0, np.nan], [1.0, 0.5]]), [1, 1], [1, 1], {}, "NaN"),
+        (np.zeros((3, 2)), [1, 1], [1, 1], {}, "do not move"),
+        (GOOD, [1, 1, 1], [1, 1], {}, "velocity_limits must have shape"),
+        (GOOD, [1, 1], [[1, 1]], {}, "acceleration_limits must have shape"),
+        (GOOD, [1, 0], [1, 1], {}, "velocity_limits must be finite and positive"),
+        (GOOD, [1, 1], [-1, 1], {}, "acceleration_limits must be finite and positive"),
+        (GOOD, [1, np.nan], [1, 1], {}, "velocity_limits must be finite and positive"),
+        (GOOD, [1, 1], [1, np.inf], {}, "acceleration_limits must be finite and positive"),
+        (GOOD, [1, 1], [1, 1], {"velocity_scale": 0.0}, "velocity_scale"),
+        (GOOD, [1, 1], [1, 1], {"velocity_scale": 1.5}, "velocity_scale"),
+        (GOOD, [1, 1], [1, 1], {"velocity_scale": np.nan}, "velocity_scale"),
+        (GOOD, [1, 1], [1, 1], {"sample_dt": 0.0}, "sample_dt"),
+        (GOOD, [1, 1], [1, 1], {"max_deviation": -1.0}, "max_deviation"),
+    ],
+)
+def test_bad_input_raises_one_line_error(waypoints, vmax, amax, options, message):
+    with pytest.raises(HriplanError, match=message) as error:
+        time_parameterize(waypoints, np.array(vmax, dtype=float), np.array(amax, dtype=float), **options)
+    assert "\n" not in str(error.value)
