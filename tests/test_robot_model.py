@@ -137,3 +137,30 @@ def test_non_unit_quaternion_is_rejected():
     with pytest.raises(ValueError, match="not a unit quaternion"):
         Pose(quat_xyzw=(0, 0, 0, 2))
     assert np.allclose(Pose(quat_xyzw=(0, 0, 0, 1.0005)).rotation(), np.eye(3))
+
+
+def test_meshes_sit_where_example_robot_data_puts_them(rng):
+    """Our DH-style frames and mesh origins place every UR5 mesh where example-robot-data's own
+    UR5 does at the same joint values (its base frame is ours turned by pi about z), to within
+    the 0.5 mm by which the DH and URDF link lengths differ."""
+    import coal
+    import example_robot_data
+
+    ours = load_robot("ur5")
+    ref = example_robot_data.load("ur5")
+    ref_data = ref.model.createData()
+    turn = pin.rpy.rpyToMatrix(0, 0, np.pi)
+
+    def world(model, data, geometry, q, name):
+        pin.forwardKinematics(model, data, q)
+        geom = next(g for g in geometry.geometryObjects if g.name.startswith(name) and isinstance(g.geometry, coal.BVHModelBase))
+        vertices = np.asarray(coal.MeshLoader().load(geom.meshPath, geom.meshScale).vertices())
+        placement = data.oMi[geom.parentJoint] * geom.placement
+        return vertices @ placement.rotation.T + placement.translation
+
+    for q in rng.uniform(-3, 3, (5, 6)):
+        for ours_name, ref_name in [("shoulder", "shoulder"), ("upper_arm", "upper_arm"), ("fore_arm", "forearm"),
+                                    ("wrist_1", "wrist_1"), ("wrist_2", "wrist_2"), ("wrist_3", "wrist_3")]:  # fmt: skip
+            a = world(ours.model, ours.data, ours.collision_meshes, q, ours_name)
+            b = world(ref.model, ref_data, ref.collision_model, q, ref_name)
+            assert np.abs(a @ turn.T - b).max() < 1e-3, ours_name

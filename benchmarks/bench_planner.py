@@ -1,0 +1,99 @@
+"""Planner benchmark: scenarios x constrained spaces x planners x seeds.
+
+Run: .venv/bin/python benchmarks/bench_planner.py [--seeds 50] [--quick] [--out results.json]
+Each run plans one scenario (benchmarks/scenarios/*.json) through a PlanningSession (dense
+validation included, time parameterisation excluded) in a worker process; a run counts as
+solved only if its path passed dense validation within the scenario's time limit.
+Prints a markdown table; REPORT-planner.md records a run and what it means.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+SCENARIOS = Path(__file__).parent / "scenarios"
+TIME_LIMITS = {"a_ur5_upright_box": 5.0, "b_madar_handover": 2.0, "c_madar_peg_in_hole": 5.0}
+# (space, formulation): the hybrid on every space, the dead-zone rows on the projected space,
+# and the seed framework's rejection sampling as the baseline.
+METHODS = [("atlas", "hybrid"), ("tangent_bundle", "hybrid"), ("projected", "hybrid"), ("projected", "deadzone"), ("rejection", "hybrid")]
+PLANNERS = ["RRTConnect", "BKPIECE1", "KPIECE1", "PRM"]
+_sessions: dict = {}
+
+
+def _run(job: tuple[str, str, str, str, int]) -> dict:
+    from hriplan.planner.motion import plan_motion
+    from hriplan.planner.problem import load_problem
+    from hriplan.planner.session import PlanningSession
+
+    scenario, space, formulation, planner, seed = job
+    if scenario not in _sessions:
+        problem = load_problem(SCENARIOS / f"{scenario}.json")
+        session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+        session.set_constraints(problem.constraints)
+        _sessions[scenario] = (problem, session)
+    problem, session = _sessions[scenario]
+    options = problem.options.model_copy(update={"space": space, "formulation": formulation, "planner": planner,
+                                                 "seed": seed, "time_limit": TIME_LIMITS[scenario]})  # fmt: skip
+    start = time.perf_counter()
+    result = plan_motion(session.robot, session.checker, list(session.constraints.values()), problem.start, problem.goal, options, problem.group)
+    return {"scenario": scenario, "space": space, "formulation": formulation, "planner": planner, "seed": seed,
+            "status": result.status, "seconds": time.perf_counter() - start, "calls": result.calls}  # fmt: skip
+
+
+def _jobs(seeds: int, baseline_seeds: int, planners: list[str]) -> list[tuple]:
+    jobs = []
+    for scenario in TIME_LIMITS:
+        for space, formulation in METHODS:
+            for planner in planners:
+                main = space in ("atlas", "tangent_bundle") and formulation == "hybrid"
+                if planner != "RRTConnect" and not main:
+                    continue  # other planners only on the spaces that work; keeps the run bounded
+                n = seeds if main else baseline_seeds
+                jobs += [(scenario, space, formulation, planner, s) for s in range(n)]
+    return jobs
+
+
+def _table(rows: list[dict]) -> str:
+    lines = ["| scenario | space | formulation | planner | solved | median s | p95 s | median calls (f / J / valid) |",
+             "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    keys = sorted({(r["scenario"], r["space"], r["formulation"], r["planner"]) for r in rows}, key=lambda k: (k[0], METHODS.index(k[1:3]), k[3]))
+    for key in keys:
+        runs = [r for r in rows if (r["scenario"], r["space"], r["formulation"], r["planner"]) == key]
+        solved = [r for r in runs if r["status"] == "solved"]
+        times = [r["seconds"] for r in solved]
+        med = lambda k: int(np.median([r["calls"].get(k, 0) for r in runs]))  # noqa: E731
+        stats = f"{np.median(times):.3f} | {np.percentile(times, 95):.3f}" if times else "- | -"
+        lines.append(f"| {key[0]} | {key[1]} | {key[2]} | {key[3]} | {len(solved)}/{len(runs)} | {stats} | "
+                     f"{med('function')} / {med('jacobian')} / {med('validity')} |")  # fmt: skip
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=50, help="seeds for the main spaces (atlas, tangent bundle)")
+    parser.add_argument("--baseline-seeds", type=int, default=20, help="seeds for projected and rejection (slow when they fail)")
+    parser.add_argument("--planners", default=",".join(PLANNERS))
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--out", type=Path, default=None, help="write every run as JSON")
+    args = parser.parse_args()
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"  # or the worker pool is slower than one process
+    jobs = _jobs(args.seeds, args.baseline_seeds, args.planners.split(","))
+    started = time.perf_counter()
+    with ProcessPoolExecutor(args.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        rows = list(pool.map(_run, jobs, chunksize=4))
+    if args.out:
+        args.out.write_text(json.dumps(rows, indent=0))
+    print(f"{len(rows)} runs in {time.perf_counter() - started:.0f} s with {args.workers} workers")
+    print(_table(rows))
+
+
+if __name__ == "__main__":
+    main()
