@@ -18,12 +18,14 @@ $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 
 demo: $(VENV)/.installed
 	$(BIN)/hriplan demo
+	$(BIN)/hriplan solve benchmarks/scenarios/b_madar_handover.json --seed 1 -o out/handover_trajectory.json
 
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q
 
 bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/bench_foundation.py
+	$(BIN)/python benchmarks/bench_planner.py
 
 clean:
 	rm -rf $(VENV)

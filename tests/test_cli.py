@@ -40,3 +40,34 @@ def test_unknown_robot_is_one_line_and_exit_2():
     assert out.stderr.strip() == "error: unknown robot 'pr2'; known robots: madar, ur5"
     bad_hand = run("robot", "info", "madar", "--hand", "right")
     assert bad_hand.returncode == 2 and "SIDE=POSTURE" in bad_hand.stderr and "Traceback" not in bad_hand.stderr
+
+
+SCENARIO = __import__("pathlib").Path(__file__).parents[1] / "benchmarks" / "scenarios" / "b_madar_handover.json"
+
+
+def test_solve_writes_a_validated_trajectory(tmp_path):
+    out = tmp_path / "traj.json"
+    result = run("solve", str(SCENARIO), "--seed", "1", "-o", str(out))
+    assert result.returncode == 0, result.stderr
+    assert "approach_cone" in result.stdout and "closest approach to a person" in result.stdout
+    import json
+
+    data = json.loads(out.read_text())
+    assert data["schema"] == "hriplan.trajectory" and data["joint_names"][0] == "right_shoulder_pan_joint"
+    assert all(v <= 1e-4 for v in data["report"]["max_violation"].values())
+
+
+def test_solve_failures_have_exit_codes(tmp_path):
+    import json
+
+    problem = json.loads(SCENARIO.read_text())
+    problem["start"]["right_wrist_2_joint"] += 0.5  # tilts the can beyond its tolerance
+    tilted = tmp_path / "tilted.json"
+    tilted.write_text(json.dumps(problem))
+    failed = run("solve", str(tilted))
+    assert failed.returncode == 1 and "planning failed (invalid_start): start violates upright" in failed.stderr
+    problem["constraints"]["constraints"][0]["tolerance"] = -1
+    broken = tmp_path / "broken.json"
+    broken.write_text(json.dumps(problem))
+    bad = run("solve", str(broken))
+    assert bad.returncode == 2 and bad.stderr.startswith(f"error: {broken}: constraints.constraints.0.orientation.tolerance")

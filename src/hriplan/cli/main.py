@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import sys
+from pathlib import Path
 from collections.abc import Callable
 from typing import Annotated, TypeVar
 
@@ -77,6 +78,21 @@ def robot_urdf(name: str) -> None:
     if name not in DESCRIPTIONS:
         raise HriplanError(f"unknown robot {name!r}; known robots: {', '.join(DESCRIPTIONS)}")
     sys.stdout.write(DESCRIPTIONS[name]() + "\n")
+
+
+@app.command()
+@clear_errors
+def solve(
+    problem: Annotated[Path, typer.Argument(help="A planning problem file (JSON).")],
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the trajectory here.")] = None,
+    seed: Annotated[int | None, typer.Option(help="Seed (overrides the file's).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the trajectory report as JSON.")] = False,
+) -> None:
+    """Plan a planning-problem file: constraints, start, goal -> validated trajectory."""
+    from hriplan.cli.solve import solve_problem_file
+
+    code = solve_problem_file(problem, output, seed, as_json)
+    raise typer.Exit(code)
 
 
 @app.command()

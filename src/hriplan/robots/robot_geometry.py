@@ -7,7 +7,6 @@ cylinder and boxes, wheels, hand adapter) are kept as they are. The hand's palm 
 
 from __future__ import annotations
 
-import functools
 import re
 from dataclasses import dataclass
 
@@ -58,9 +57,10 @@ def _group(link: str) -> str:
     return link
 
 
-@functools.cache
-def _parts(spec: RobotSpec, padding: float) -> tuple[RobotPart, ...]:
-    robot = Robot(spec)
+_CACHE: dict[tuple[RobotSpec, float], tuple[RobotPart, ...]] = {}
+
+
+def _parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:
     model = robot.model
     clouds: dict[str, list[np.ndarray]] = {}
     owners: dict[str, tuple[str, int]] = {}
@@ -95,7 +95,10 @@ def _parts(spec: RobotSpec, padding: float) -> tuple[RobotPart, ...]:
 
 def robot_parts(robot: Robot, padding: float = 0.0) -> tuple[RobotPart, ...]:
     """The robot's collision parts (cached per robot description, hand postures and padding)."""
-    return _parts(robot.spec, padding)
+    key = (robot.spec, padding)
+    if key not in _CACHE:
+        _CACHE[key] = _parts(robot, padding)
+    return _CACHE[key]
 
 
 def parent_links(robot: Robot) -> dict[str, str]:

@@ -1,0 +1,44 @@
+"""`hriplan solve`: plan a planning-problem file and report what the motion respected."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from hriplan.planner.problem import load_problem
+from hriplan.planner.session import PlanningSession
+
+
+def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_json: bool) -> int:
+    """Exit code: 0 solved, 1 planning failed (with the reason)."""
+    problem = load_problem(path)
+    session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+    session.set_constraints(problem.constraints)
+    options = problem.options if seed is None else problem.options.model_copy(update={"seed": seed})
+    result = session.plan(problem.start, problem.goal, options, problem.group)
+    if not result.solved:
+        typer.echo(f"planning failed ({result.motion.status}): {result.message}", err=True)
+        return 1
+    trajectory = result.trajectory
+    if output is not None:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        trajectory.save(output)
+    report = trajectory.report
+    if as_json:
+        typer.echo(report.model_dump_json(indent=1))
+        return 0
+    lines = [
+        f"{problem.name}: solved in {report.planning_time:.3f} s ({report.planner} on the {report.space} space), "
+        f"{len(trajectory.points)} points over {report.duration:.2f} s, path {report.path_length:.2f} rad",
+        f"validated at {report.states_checked} states (<= {options.validation_step} rad apart):",
+    ]
+    for constraint in trajectory.constraints:
+        spec = constraint.spec
+        lines.append(f"  {spec.id:28s} {spec.type:12s} worst margin {report.max_violation[spec.id]:+.4f} (<= 0 kept)")
+    if report.min_human_distance is not None:
+        lines.append(f"closest approach to a person: {report.min_human_distance:.3f} m ({' - '.join(report.closest_pair)})")
+    if output is not None:
+        lines.append(f"trajectory written to {output}")
+    typer.echo("\n".join(lines))
+    return 0
