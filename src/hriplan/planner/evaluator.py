@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -39,6 +40,37 @@ def shape_sd(spec: object) -> Callable[[np.ndarray], tuple[float, np.ndarray]]:
     raise TypeError(type(spec).__name__)
 
 
+@dataclass(slots=True)
+class _Term:
+    """What the hot path needs of one constraint, precomputed (attribute reads stay cheap)."""
+
+    bound: BoundConstraint
+    link: int
+    rf: np.ndarray  # constraint frame rotation (world)
+    rf_t: np.ndarray
+    origin: np.ndarray  # constraint frame origin (world)
+    sd: Callable[[np.ndarray], tuple[float, np.ndarray]] | None  # volumes
+    sign: float  # +1 inside, -1 outside
+    free: tuple[int, ...]  # orientation: free axes
+    target: np.ndarray | None
+    restricted: np.ndarray | None  # two free axes: the restricted axis
+    tolerance: float
+    gradient: float
+
+    @classmethod
+    def of(cls, c: BoundConstraint) -> "_Term":
+        orientation = c.is_orientation
+        free = tuple(c.free)
+        restricted = np.eye(3)[({0, 1, 2} - set(free)).pop()] if len(free) == 2 else None
+        return cls(
+            bound=c, link=c.link, rf=c.frame.rotation.copy(), rf_t=c.frame.rotation.T.copy(),
+            origin=c.frame.translation.copy(), sd=None if orientation else shape_sd(c.spec),
+            sign=1.0 if orientation or c.spec.region == "inside" else -1.0, free=free, target=c.target,
+            restricted=restricted, tolerance=c.spec.tolerance if orientation else 0.0,
+            gradient=c.spec.tolerance_gradient if orientation else 0.0,
+        )  # fmt: skip
+
+
 def equality_row_count(c: BoundConstraint) -> int:
     return (3, 2, 1)[len(c.free)] if c.is_orientation else 0
 
@@ -57,8 +89,8 @@ class ConstraintEvaluator:
         self.links = sorted({c.link for c in self.constraints})
         self.n = len(self.idx)
         self.n_equality = sum(equality_row_count(c) for c in self.constraints)
-        self._sd = [None if c.is_orientation else shape_sd(c.spec) for c in self.constraints]
-        self._sign = [1.0 if c.is_orientation or c.spec.region == "inside" else -1.0 for c in self.constraints]
+        self._terms = [_Term.of(c) for c in self.constraints]
+        self._orientations = [t for t in self._terms if t.target is not None]
 
     # -- kinematics ------------------------------------------------------------------------
     def full(self, x: Sequence[float]) -> np.ndarray:
@@ -79,58 +111,53 @@ class ConstraintEvaluator:
         return pin.getFrameJacobian(self.model, self.data, link, LWA)[:, self.vidx]
 
     # -- margins ---------------------------------------------------------------------------
-    def _margin(self, i: int, with_grad: bool) -> tuple[float, np.ndarray | None]:
-        c = self.constraints[i]
-        placement = self.data.oMf[c.link]
-        jac = self._jac(c.link) if with_grad else None
-        if not c.is_orientation:
-            rf = c.frame.rotation
-            value, grad_p = self._sd[i](rf.T @ (placement.translation - c.frame.translation))
-            sign = self._sign[i]
-            return sign * value, (sign * (rf @ grad_p) @ jac[:3] if with_grad else None)
-        angle, grad_w = self._orientation_error(c, placement.rotation)
-        margin = angle - c.spec.tolerance
+    def _margin(self, t: _Term, with_grad: bool) -> tuple[float, np.ndarray | None]:
+        placement = self.data.oMf[t.link]
+        jac = self._jac(t.link) if with_grad else None
+        if t.sd is not None:
+            value, grad_p = t.sd(t.rf_t @ (placement.translation - t.origin))
+            return t.sign * value, (t.sign * (t.rf @ grad_p) @ jac[:3] if with_grad else None)
+        angle, grad_w = self._orientation_error(t, placement.rotation)
+        margin = angle - t.tolerance
         grad = grad_w @ jac[3:] if with_grad else None
-        if c.spec.tolerance_gradient > 0.0 and c.p_goal is not None:
-            offset = placement.translation - c.p_goal
+        p_goal = t.bound.p_goal
+        if t.gradient > 0.0 and p_goal is not None:
+            offset = placement.translation - p_goal
             distance = math.sqrt(float(offset @ offset))
-            margin -= c.spec.tolerance_gradient * distance
+            margin -= t.gradient * distance
             if with_grad and distance > 1e-12:
-                grad = grad - c.spec.tolerance_gradient * (offset / distance) @ jac[:3]
+                grad = grad - t.gradient * (offset / distance) @ jac[:3]
         return margin, grad
 
-    def _orientation_error(self, c: BoundConstraint, r_world: np.ndarray) -> tuple[float, np.ndarray]:
+    def _orientation_error(self, t: _Term, r_world: np.ndarray) -> tuple[float, np.ndarray]:
         """(error angle, its gradient w.r.t. the world angular velocity of the link)."""
-        rf = c.frame.rotation
-        r_in_frame = rf.T @ r_world
-        free = c.free
-        if not free:
-            angle, grad_local = G.rotation_angle(c.target.T @ r_in_frame)
+        r_in_frame = t.rf_t @ r_world
+        if not t.free:
+            angle, grad_local = G.rotation_angle(t.target.T @ r_in_frame)
             return angle, r_world @ grad_local
-        if len(free) == 1:
-            a = free[0]
-            angle, grad_frame = G.axis_angle(r_in_frame[:, a], c.target[:, a])
-            return angle, rf @ grad_frame
-        restricted = ({0, 1, 2} - set(free)).pop()
-        twist, grad_local = G.twist_angle(c.target.T @ r_in_frame, np.eye(3)[restricted])
+        if t.restricted is None:
+            a = t.free[0]
+            angle, grad_frame = G.axis_angle(r_in_frame[:, a], t.target[:, a])
+            return angle, t.rf @ grad_frame
+        twist, grad_local = G.twist_angle(t.target.T @ r_in_frame, t.restricted)
         sign = 1.0 if twist >= 0.0 else -1.0
         return abs(twist), sign * (r_world @ grad_local)
 
     def margins(self, q: np.ndarray) -> np.ndarray:
         """Per constraint: > 0 means violated by that much (m or rad), <= 0 satisfied."""
         self._update(q, jacobians=False)
-        return np.array([self._margin(i, False)[0] for i in range(len(self.constraints))])
+        return np.array([self._margin(t, False)[0] for t in self._terms])
 
     def deadzone(self, x: Sequence[float], offset: float = 0.0) -> np.ndarray:
         """One row per constraint: max(margin + offset, 0)."""
         self._update(self.full(x), jacobians=False)
-        return np.array([max(self._margin(i, False)[0] + offset, 0.0) for i in range(len(self.constraints))])
+        return np.array([max(self._margin(t, False)[0] + offset, 0.0) for t in self._terms])
 
     def deadzone_jacobian(self, x: Sequence[float], offset: float = 0.0) -> np.ndarray:
         self._update(self.full(x), jacobians=True)
         rows = np.zeros((len(self.constraints), self.n))
-        for i in range(len(self.constraints)):
-            margin, grad = self._margin(i, True)
+        for i, t in enumerate(self._terms):
+            margin, grad = self._margin(t, True)
             if margin + offset > 0.0:
                 rows[i] = grad
         return rows
@@ -138,29 +165,26 @@ class ConstraintEvaluator:
     # -- equality rows (orientation made exact) ---------------------------------------------
     def equality(self, x: Sequence[float]) -> np.ndarray:
         self._update(self.full(x), jacobians=False)
-        return np.concatenate([self._equality(c, False)[0] for c in self.constraints if c.is_orientation])
+        return np.concatenate([self._equality(t, False)[0] for t in self._orientations])
 
     def equality_jacobian(self, x: Sequence[float]) -> np.ndarray:
         self._update(self.full(x), jacobians=True)
-        return np.vstack([self._equality(c, True)[1] for c in self.constraints if c.is_orientation])
+        return np.vstack([self._equality(t, True)[1] for t in self._orientations])
 
-    def _equality(self, c: BoundConstraint, with_grad: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        r_world = self.data.oMf[c.link].rotation
-        rf = c.frame.rotation
-        r_in_frame = rf.T @ r_world
-        jac_w = self._jac(c.link)[3:] if with_grad else None
-        free = c.free
-        if not free:
-            r_err = c.target.T @ r_in_frame
+    def _equality(self, t: _Term, with_grad: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        r_world = self.data.oMf[t.link].rotation
+        r_in_frame = t.rf_t @ r_world
+        jac_w = self._jac(t.link)[3:] if with_grad else None
+        if not t.free:
+            r_err = t.target.T @ r_in_frame
             values = pin.log3(r_err)
             return values, (pin.Jlog3(r_err) @ r_world.T @ jac_w if with_grad else None)
-        if len(free) == 1:
-            a = free[0]
+        if t.restricted is None:
+            a = t.free[0]
             u = r_in_frame[:, a]
-            others = [c.target[:, k] for k in range(3) if k != a]
-            values = np.array([e @ u for e in others])
-            grads = np.array([(rf @ G.cross(u, e)) @ jac_w for e in others]) if with_grad else None
+            others = [t.target[:, k] for k in range(3) if k != a]
+            values = np.array([float(e @ u) for e in others])
+            grads = np.array([(t.rf @ G.cross(u, e)) @ jac_w for e in others]) if with_grad else None
             return values, grads
-        restricted = ({0, 1, 2} - set(free)).pop()
-        twist, grad_local = G.twist_angle(c.target.T @ r_in_frame, np.eye(3)[restricted])
+        twist, grad_local = G.twist_angle(t.target.T @ r_in_frame, t.restricted)
         return np.array([twist]), ((r_world @ grad_local) @ jac_w)[None, :] if with_grad else None

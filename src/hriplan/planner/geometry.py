@@ -25,17 +25,19 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def box_sd(p: np.ndarray, size: tuple[float, float, float]) -> tuple[float, np.ndarray]:
-    half = np.asarray(size) / 2.0
-    q = np.abs(p) - half
-    sign = np.where(p >= 0.0, 1.0, -1.0)
-    outside = np.maximum(q, 0.0)
-    norm = math.sqrt(float(outside @ outside))
+    # Scalar arithmetic: for 3-vectors it is several times faster than numpy calls.
+    x, y, z = float(p[0]), float(p[1]), float(p[2])
+    qx, qy, qz = abs(x) - size[0] / 2.0, abs(y) - size[1] / 2.0, abs(z) - size[2] / 2.0
+    sx, sy, sz = (1.0 if x >= 0.0 else -1.0), (1.0 if y >= 0.0 else -1.0), (1.0 if z >= 0.0 else -1.0)
+    ox, oy, oz = max(qx, 0.0), max(qy, 0.0), max(qz, 0.0)
+    norm = math.sqrt(ox * ox + oy * oy + oz * oz)
     if norm > 0.0:
-        return norm, outside / norm * sign
-    k = int(np.argmax(q))
-    grad = np.zeros(3)
-    grad[k] = sign[k]
-    return float(q[k]), grad
+        return norm, np.array([ox * sx / norm, oy * sy / norm, oz * sz / norm])
+    if qx >= qy and qx >= qz:
+        return qx, np.array([sx, 0.0, 0.0])
+    if qy >= qz:
+        return qy, np.array([0.0, sy, 0.0])
+    return qz, np.array([0.0, 0.0, sz])
 
 
 def sphere_sd(p: np.ndarray, radius: float) -> tuple[float, np.ndarray]:
@@ -44,29 +46,36 @@ def sphere_sd(p: np.ndarray, radius: float) -> tuple[float, np.ndarray]:
     return norm - radius, grad
 
 
-def _radial(p: np.ndarray) -> tuple[float, np.ndarray]:
-    rho = math.hypot(p[0], p[1])
-    direction = np.array([p[0] / rho, p[1] / rho, 0.0]) if rho > _EPS else np.array([1.0, 0.0, 0.0])
-    return rho, direction
+def _radial(p: np.ndarray) -> tuple[float, float, float]:
+    """(rho, unit radial direction x, y) of a point about the z axis."""
+    x, y = float(p[0]), float(p[1])
+    rho = math.hypot(x, y)
+    return (rho, x / rho, y / rho) if rho > _EPS else (rho, 1.0, 0.0)
+
+
+def _lift(d_rho: float, d_z: float, cx: float, cy: float) -> np.ndarray:
+    """A gradient in the (rho, z) half-plane as a 3-vector."""
+    return np.array([d_rho * cx, d_rho * cy, d_z])
 
 
 def cylinder_sd(p: np.ndarray, radius: float, height: float) -> tuple[float, np.ndarray]:
     """Cylinder with axis z from z = 0 to z = height."""
-    rho, d_rho = _radial(p)
-    half = height / 2.0
-    q_rho, q_z = rho - radius, abs(p[2] - half) - half
-    d_z = np.array([0.0, 0.0, 1.0 if p[2] >= half else -1.0])
+    rho, cx, cy = _radial(p)
+    z, half = float(p[2]), height / 2.0
+    q_rho, q_z = rho - radius, abs(z - half) - half
+    s_z = 1.0 if z >= half else -1.0
     out_rho, out_z = max(q_rho, 0.0), max(q_z, 0.0)
     norm = math.hypot(out_rho, out_z)
     if norm > 0.0:
-        return norm, (out_rho * d_rho + out_z * d_z) / norm
-    return (q_rho, d_rho) if q_rho >= q_z else (q_z, d_z)
+        return norm, _lift(out_rho / norm, out_z * s_z / norm, cx, cy)
+    return (q_rho, _lift(1.0, 0.0, cx, cy)) if q_rho >= q_z else (q_z, _lift(0.0, s_z, cx, cy))
 
 
-def _closest_on_segment(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    ab = b - a
-    t = min(max(float((point - a) @ ab) / float(ab @ ab), 0.0), 1.0)
-    return a + t * ab
+def _closest_on_segment(r: float, z: float, a: tuple[float, float], b: tuple[float, float]) -> tuple[float, float]:
+    ab_r, ab_z = b[0] - a[0], b[1] - a[1]
+    t = ((r - a[0]) * ab_r + (z - a[1]) * ab_z) / (ab_r * ab_r + ab_z * ab_z)
+    t = min(max(t, 0.0), 1.0)
+    return a[0] + t * ab_r, a[1] + t * ab_z
 
 
 def cone_sd(p: np.ndarray, radius: float, height: float) -> tuple[float, np.ndarray]:
@@ -74,20 +83,23 @@ def cone_sd(p: np.ndarray, radius: float, height: float) -> tuple[float, np.ndar
 
     In the (rho, z) half-plane the solid is the triangle (0,0), (r,h), (0,h); its boundary there
     is the slant edge and the top edge (the axis is not a boundary)."""
-    rho, d_rho = _radial(p)
-    point = np.array([rho, p[2]])
-    apex, rim, top = np.array([0.0, 0.0]), np.array([radius, height]), np.array([0.0, height])
-    candidates = [_closest_on_segment(point, apex, rim), _closest_on_segment(point, rim, top)]
-    closest = min(candidates, key=lambda c: float((point - c) @ (point - c)))
-    delta = point - closest
-    dist = math.sqrt(float(delta @ delta))
-    inside = 0.0 <= p[2] <= height and rho * height <= radius * p[2]
+    rho, cx, cy = _radial(p)
+    z = float(p[2])
+    best, best_d2 = (0.0, 0.0), math.inf
+    for a, b in (((0.0, 0.0), (radius, height)), ((radius, height), (0.0, height))):
+        c = _closest_on_segment(rho, z, a, b)
+        d2 = (rho - c[0]) ** 2 + (z - c[1]) ** 2
+        if d2 < best_d2:
+            best, best_d2 = c, d2
+    dist = math.sqrt(best_d2)
+    inside = 0.0 <= z <= height and rho * height <= radius * z
     if dist < _EPS:  # on the boundary: use the outward normal of the nearer edge
-        normal = np.array([height, -radius]) / math.hypot(radius, height) if p[2] < height else np.array([0.0, 1.0])
-        return 0.0, normal[0] * d_rho + normal[1] * np.array([0.0, 0.0, 1.0])
-    grad2 = delta / dist * (-1.0 if inside else 1.0)
-    grad = grad2[0] * d_rho + grad2[1] * np.array([0.0, 0.0, 1.0])
-    return (-dist if inside else dist), grad
+        if z < height:
+            slant = math.hypot(radius, height)
+            return 0.0, _lift(height / slant, -radius / slant, cx, cy)
+        return 0.0, _lift(0.0, 1.0, cx, cy)
+    sign = -1.0 if inside else 1.0
+    return sign * dist, _lift(sign * (rho - best[0]) / dist, sign * (z - best[1]) / dist, cx, cy)
 
 
 def rotation_angle(r_err: np.ndarray) -> tuple[float, np.ndarray]:
@@ -103,9 +115,8 @@ def axis_angle(u: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray]:
     velocity that moves u (du = w x u), in the frame u and v are expressed in."""
     cross_vu = cross(v, u)
     sine = math.sqrt(float(cross_vu @ cross_vu))
-    angle = math.atan2(sine, float(u @ v))
-    grad = cross_vu / sine if sine > _EPS else np.zeros(3)
-    return angle, grad
+    angle = math.atan2(sine, float(u[0] * v[0] + u[1] * v[1] + u[2] * v[2]))
+    return angle, (cross_vu / sine if sine > _EPS else np.zeros(3))
 
 
 def twist_angle(r_err: np.ndarray, axis: np.ndarray) -> tuple[float, np.ndarray]:
