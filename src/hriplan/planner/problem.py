@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
-from hriplan import HriplanError
+from hriplan.files import load_model
 from hriplan.robots.scene import Scene
 
 from .motion import Goal
@@ -35,12 +35,4 @@ class PlanningProblem(BaseModel):
 
 def load_problem(path: str | Path) -> PlanningProblem:
     """Read a problem file; errors name the file and the field."""
-    path = Path(path)
-    try:
-        return PlanningProblem.model_validate_json(path.read_text())
-    except FileNotFoundError:
-        raise HriplanError(f"{path}: no such file") from None
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "(top level)"
-        raise HriplanError(f"{path}: {where}: {first['msg']}") from None
+    return load_model(path, PlanningProblem)

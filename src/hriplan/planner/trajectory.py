@@ -10,9 +10,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
-from hriplan import HriplanError
+from hriplan.files import load_model
 from hriplan.robots.spatial import Pose
 
 from .spec import ConstraintSpec
@@ -72,11 +72,4 @@ class TrajectoryFile(BaseModel):
 
 
 def load_trajectory(path: str | Path) -> TrajectoryFile:
-    path = Path(path)
-    try:
-        return TrajectoryFile.model_validate_json(path.read_text())
-    except FileNotFoundError:
-        raise HriplanError(f"{path}: no such file") from None
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        raise HriplanError(f"{path}: {'.'.join(str(p) for p in first['loc'])}: {first['msg']}") from None
+    return load_model(path, TrajectoryFile)
