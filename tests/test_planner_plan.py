@@ -164,7 +164,9 @@ def test_keep_out_zone_applies_to_every_link(problem):
     session.set_constraints([zone])
     assert session.plan(start, problem.goal).motion.status == "invalid_start"  # the elbow is inside
     session.set_constraints([zone.model_copy(update={"keep_out_all_links": False})])
-    assert session.plan(start, problem.goal, PlanOptions(seed=1)).solved  # only the tool is constrained
+    tool_only = session.plan(start, problem.goal, PlanOptions(seed=1))
+    assert tool_only.solved  # only the tool is constrained
+    assert tool_only.trajectory.scene == session.checker.scene and tool_only.trajectory.start["elbow_joint"] == start["elbow_joint"]
     assert session.checker.geom_model.ngeoms == len(session.checker.parts)  # zones are removed after planning
 
 

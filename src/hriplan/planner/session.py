@@ -95,12 +95,17 @@ class PlanningSession:
         goal_q = evaluator.full(path[-1])
         for c in bound:
             c.p_goal = self.robot.frame_pose(self.robot.model.frames[c.link].name, goal_q)[:3, 3].copy()
-        velocity = self.robot.velocity_limit(motion.group)
-        acceleration = np.full(len(velocity), options.acceleration_limit)
+        scene = self.checker.scene
         with with_keep_out(self.checker, bound):
-            return self._timed_validated(motion, bound, evaluator, path, velocity, acceleration, options)
+            timed, check, message = self._time_and_check(path, evaluator, motion.group, options)
+        if timed is None:
+            return PlanResult(motion=motion, message=message)
+        return PlanResult(motion=motion, trajectory=self._file(motion, bound, timed, check, options, scene, q0))
 
-    def _timed_validated(self, motion, bound, evaluator, path, velocity, acceleration, options) -> PlanResult:  # noqa: ANN001
+    def _time_and_check(self, path: np.ndarray, evaluator: ConstraintEvaluator, group: str, options: PlanOptions):  # noqa: ANN202
+        """TOPP-RA on the validated path, then dense validation of the timed samples."""
+        velocity = self.robot.velocity_limit(group)
+        acceleration = np.full(len(velocity), options.acceleration_limit)
         message = ""
         for step in TIMING_STEPS:
             knots = densify(list(path), step)
@@ -111,11 +116,11 @@ class PlanningSession:
                 continue
             check = validate_path(evaluator, self.checker, np.array(timed.positions), options.validation_step)
             if check.valid:
-                return PlanResult(motion=motion, trajectory=self._file(motion, bound, timed, check, options))
+                return timed, check, ""
             message = f"the timed trajectory left the validated path: {check.message}"
-        return PlanResult(motion=motion, message=message)
+        return None, None, message
 
-    def _file(self, motion, bound, timed, check, options) -> TrajectoryFile:  # noqa: ANN001
+    def _file(self, motion, bound, timed, check, options, scene, q0) -> TrajectoryFile:  # noqa: ANN001
         path = np.array(motion.path)
         report = TrajectoryReport(
             status="solved",
@@ -140,5 +145,6 @@ class PlanningSession:
                                goal_position=None if c.p_goal is None else c.p_goal.tolist())  # fmt: skip
             for c in bound
         ]
-        return TrajectoryFile(robot=self.robot.name, hands=self.robot.hand_postures, joint_names=motion.joint_names,
-                              points=points, constraints=constraints, report=report)  # fmt: skip
+        start = dict(zip(self.robot.joint_names, q0.tolist()))
+        return TrajectoryFile(robot=self.robot.name, hands=self.robot.hand_postures, joint_names=motion.joint_names, start=start,
+                              scene=self.checker.scene, points=points, constraints=constraints, report=report)  # fmt: skip

@@ -13,6 +13,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan.files import load_model
+from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
 from .spec import ConstraintSpec
@@ -34,6 +35,7 @@ class ResolvedConstraint(BaseModel):
     spec: ConstraintSpec
     frame_in_world: Pose
     goal_position: list[float] | None = None  # target link at the goal (dynamic tolerance)
+    reason: str = ""  # one line: why this constraint is there (from the rules, when they made it)
 
 
 class TrajectoryReport(BaseModel):
@@ -59,6 +61,8 @@ class TrajectoryFile(BaseModel):
     robot: str
     hands: dict[str, str] = Field(default_factory=dict)
     joint_names: list[str]
+    start: dict[str, float] = Field(default_factory=dict)  # every planning joint at the start
+    scene: Scene = Field(default_factory=Scene)  # what the motion was checked against
     points: list[TrajectoryPoint]
     constraints: list[ResolvedConstraint]
     report: TrajectoryReport
