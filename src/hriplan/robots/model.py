@@ -7,6 +7,7 @@ forward kinematics and Jacobians cost only the 12 arm joints.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -205,7 +206,10 @@ def load_robot(
     hand_postures: Mapping[str, str] | None = None,
     base_pose: Pose | None = None,
 ) -> Robot:
-    """Load `madar` or `ur5`. MADAR's hands default to the open posture."""
+    """Load `madar` or `ur5`. MADAR's hands default to the open posture.
+
+    Robots are cached per (name, hand postures, base pose): loading meshes takes about a second,
+    and callers share the instance (so share a robot between threads only with care)."""
     if name not in DESCRIPTIONS:
         raise HriplanError(f"unknown robot {name!r}; known robots: {', '.join(ROBOT_NAMES)}")
     postures = {"right": "open", "left": "open"} if name == "madar" else {}
@@ -215,4 +219,9 @@ def load_robot(
         if posture not in HAND_POSTURES:
             raise HriplanError(f"unknown hand posture {posture!r}; choose one of {', '.join(HAND_POSTURES)}")
         postures[side] = posture
-    return Robot(RobotSpec(name, tuple(sorted(postures.items())), base_pose or Pose()))
+    return _cached_robot(RobotSpec(name, tuple(sorted(postures.items())), base_pose or Pose()))
+
+
+@functools.cache
+def _cached_robot(spec: RobotSpec) -> Robot:
+    return Robot(spec)
