@@ -102,3 +102,8 @@ def demo() -> None:
     from hriplan.cli.demo import run_demo
 
     typer.echo(run_demo())
+
+
+from hriplan.cli.view import register as _register_view  # noqa: E402 - after `app` and `clear_errors`
+
+_register_view(app)

@@ -191,3 +191,18 @@ class Human:
             raise HriplanError(f"a human has no frame {name!r}; frames: {', '.join(self.FRAMES)}")
         joint, offset = self._frames[name]
         return pin.SE3(base.rotation, (self.data.oMi[joint] * offset).translation)
+
+
+@functools.cache
+def _display_model(height: float | None) -> pin.GeometryModel:
+    """The loader's visual meshes: the ones the capsules were fitted to."""
+    return HumanLoader(height=height, weight=DEFAULT_WEIGHT if height else None).robot.visual_model
+
+
+def display_meshes(human: Human) -> list[tuple[pin.GeometryObject, pin.SE3]]:
+    """Every display mesh of a posed person with its world placement (for viewers)."""
+    model = _display_model(human.spec.height)
+    data, geometry_data = human.model.createData(), model.createData()
+    pin.forwardKinematics(human.model, data, human.q)
+    pin.updateGeometryPlacements(human.model, data, model, geometry_data)
+    return [(geometry, pin.SE3(placement)) for geometry, placement in zip(model.geometryObjects, geometry_data.oMg)]

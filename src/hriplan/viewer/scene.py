@@ -1,0 +1,187 @@
+"""The plan as one meshcat drawing: robot, people, scene, constraints, tool paths and camera.
+
+The robot is drawn from its full display model (meshes and primitives, fingers at their
+postures) and animated by the placement of every part that moves, sampled uniformly in time at
+no more than `MAX_FPS` (and `MAX_FRAMES` in all, so that long motions stay small). People are
+their display meshes, with the capsules the planner checks as a hidden layer to switch on.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from hriplan.planner.spec import OrientationConstraint
+from hriplan.robots.human import display_meshes
+from hriplan.robots.scene import Mesh
+
+from .drawing import Drawing, material, rgba_color
+from .shapes import Part, beads, parts, tube
+from .volumes import colors, draw_orientation, draw_volume, link_axes
+from .world import PlannedWorld
+
+MAX_FPS = 25.0
+MAX_FRAMES = 600
+CAMERA_FOV = 45.0  # deg, vertical
+PERSON, PERSON_CAPSULES, OBSTACLE, CARRIED, TOOL_PATH = 0xE0B48F, 0x9467BD, 0xB5916B, 0x1F77B4, 0x7B2CBF
+
+
+def frame_times(duration: float) -> np.ndarray:
+    """Uniform animation times over [0, duration]: one frame for a motionless trajectory."""
+    if duration <= 0.0:
+        return np.zeros(1)
+    frames = max(1, math.ceil(duration * min(MAX_FPS, MAX_FRAMES / duration)))
+    return np.linspace(0.0, duration, frames + 1)
+
+
+def build_drawing(world: PlannedWorld) -> Drawing:
+    times = frame_times(world.duration)
+    full_qs = [world.full_q(row) for row in world.positions_at(times)]
+    traced = _traced_links(world)
+    carriers = [world.robot.tool_frame(obj.arm) for obj in world.trajectory.scene.attached]
+    link_poses = _link_poses(world, full_qs, [*traced, *carriers])
+    drawing = Drawing()
+    robot_points = _robot(drawing, world, full_qs)
+    _carried(drawing, world, link_poses)
+    _obstacles(drawing, world)
+    _people(drawing, world)
+    _constraints(drawing, world, link_poses)
+    _tool_paths(drawing, world, traced, link_poses)
+    _camera(drawing, world, robot_points)
+    if len(times) > 1:
+        drawing.finish_animation(fps=(len(times) - 1) / world.duration)
+    return drawing
+
+
+def _traced_links(world: PlannedWorld) -> list[str]:
+    """Tools of the arms that move, and every constrained link."""
+    moving = world.trajectory.joint_names
+    tools = [tool for prefix, tool in world.robot.arms.values() if any(j.startswith(prefix) for j in moving)]
+    targets = [c.spec.target_link for c in world.trajectory.constraints]
+    return list(dict.fromkeys(tools + targets))
+
+
+def _link_poses(world: PlannedWorld, full_qs: Sequence[np.ndarray], links: Sequence[str]) -> dict[str, list[pin.SE3]]:
+    """World pose of each named link at each configuration."""
+    model = world.robot.full_model
+    data = model.createData()
+    poses: dict[str, list[pin.SE3]] = {link: [] for link in links}
+    for q in full_qs:
+        pin.forwardKinematics(model, data, q)
+        for link in poses:
+            poses[link].append(pin.SE3(pin.updateFramePlacement(model, data, model.getFrameId(link))))
+    return poses
+
+
+def _robot(drawing: Drawing, world: PlannedWorld, full_qs: Sequence[np.ndarray]) -> np.ndarray:
+    """Every display geometry, animated where it moves; returns where the parts are (for the camera)."""
+    model, visual = world.robot.full_model, world.robot.full_visual
+    data, visual_data = model.createData(), visual.createData()
+    frames = []
+    for q in full_qs:
+        pin.updateGeometryPlacements(model, data, visual, visual_data, q)
+        frames.append([pin.SE3(m) for m in visual_data.oMg])
+    for i, geometry in enumerate(visual.geometryObjects):
+        path = f"robot/{geometry.name}"
+        color, opacity = rgba_color(geometry.meshColor)
+        drawing.draw(path, parts(geometry.geometry), material(color, opacity))
+        track = [frame[i] for frame in frames]
+        drawing.place(path, track[0])
+        if any(not p.isApprox(track[0], 1e-9) for p in track[1:]):
+            drawing.animate_poses(path, track)
+    return np.array([p.translation for frame in frames for p in frame])
+
+
+def _carried(drawing: Drawing, world: PlannedWorld, link_poses: dict[str, list[pin.SE3]]) -> None:
+    for obj in world.trajectory.scene.attached:
+        poses = [tool * obj.grasp.se3() for tool in link_poses[world.robot.tool_frame(obj.arm)]]
+        path = f"carried/{obj.name}"
+        drawing.draw(path, parts(obj.shape.geometry()), material(CARRIED))
+        drawing.place(path, poses[0])
+        if len(poses) > 1:
+            drawing.animate_poses(path, poses)
+
+
+def _obstacles(drawing: Drawing, world: PlannedWorld) -> None:
+    for obstacle in world.trajectory.scene.obstacles:
+        shape = obstacle.shape
+        # Collision sees a mesh's convex hull; the viewer shows the mesh itself.
+        geometry = (
+            coal.MeshLoader().load(shape.path, np.asarray(shape.scale)) if isinstance(shape, Mesh) else shape.geometry()
+        )
+        path = f"scene/{obstacle.name}"
+        drawing.draw(path, parts(geometry), material(OBSTACLE))
+        drawing.place(path, obstacle.pose.se3())
+
+
+def _people(drawing: Drawing, world: PlannedWorld) -> None:
+    for name, human in world.checker.humans.items():
+        for geometry, placement in display_meshes(human):
+            path = f"people/{name}/body/{geometry.name}"
+            drawing.draw(path, parts(geometry.geometry), material(PERSON))
+            drawing.place(path, placement)
+        margin = human.spec.margin
+        for capsule, placement in zip(human.capsules, human.capsule_placements()):
+            path = f"people/{name}/checked_capsules/{capsule.name}"
+            drawing.draw(
+                path, parts(coal.Capsule(capsule.radius + margin, capsule.length)), material(PERSON_CAPSULES, 0.3)
+            )
+            drawing.place(path, placement)
+        drawing.set(f"people/{name}/checked_capsules", "visible", False)
+
+
+def _constraints(drawing: Drawing, world: PlannedWorld, link_poses: dict[str, list[pin.SE3]]) -> None:
+    bound = {c.id: c for c in world.constraints}
+    shades = colors(world.trajectory.constraints)
+    for constraint in world.trajectory.constraints:
+        spec = constraint.spec
+        path = f"constraints/{spec.id}"
+        if not isinstance(spec, OrientationConstraint):
+            draw_volume(drawing, path, constraint, shades[spec.id])
+            continue
+        poses = link_poses[spec.target_link]
+        goal = bound[spec.id].p_goal
+        distances = [0.0 if goal is None else float(np.linalg.norm(p.translation - goal)) for p in poses]
+        tolerances = [spec.tolerance + spec.tolerance_gradient * d for d in distances]
+        draw_orientation(drawing, f"{path}/target", constraint, poses, tolerances)
+        link_axes(drawing, f"{path}/link_axes", spec, poses)
+
+
+def _tool_paths(
+    drawing: Drawing, world: PlannedWorld, links: Sequence[str], link_poses: dict[str, list[pin.SE3]]
+) -> None:
+    """A tube through the link's position at every timed point, beads at the animation frames
+    (their spacing shows the speed)."""
+    at_points = _link_poses(world, [world.full_q(row) for row in world.positions], links)
+    for link in links:
+        line = tube(np.array([p.translation for p in at_points[link]]), 0.003)
+        if line is not None:
+            drawing.draw(f"tool_paths/{link}/path", [Part(line, np.eye(4))], material(TOOL_PATH))
+        steps = beads(np.array([p.translation for p in link_poses[link]]), 0.007)
+        drawing.draw(f"tool_paths/{link}/time_steps", [Part(steps, np.eye(4))], material(TOOL_PATH))
+
+
+def _camera(drawing: Drawing, world: PlannedWorld, robot_points: np.ndarray) -> None:
+    """Frame the robot (at every frame), the people and the obstacles; look across the line from
+    the robot to the people so that nobody hides the arm, and leave the lower left to the legend."""
+    people = [np.array(h.spec.position) for h in world.checker.humans.values()]
+    interest = list(robot_points)
+    interest += [np.array([*xy, z]) for xy in people for z in (0.0, 1.8)]
+    interest += [np.array(o.pose.xyz) for o in world.trajectory.scene.obstacles]
+    low, high = np.min(interest, axis=0), np.max(interest, axis=0)
+    radius = float(np.linalg.norm(high - low)) / 2
+    towards = np.mean(people, axis=0) if people else np.array([0.0, 1.0])
+    towards = towards / (np.linalg.norm(towards) or 1.0)
+    across = np.array([towards[1], -towards[0]])  # the people on the right, the robot on the left
+    direction = np.array([*(across - 0.35 * towards), 0.55])
+    direction /= np.linalg.norm(direction)
+    right = np.cross(-direction, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, -direction)
+    target = (low + high) / 2 - radius * (0.2 * right + 0.2 * up)  # the scene sits up and right
+    eye = target + max(2.0, 1.2 * radius / math.sin(math.radians(CAMERA_FOV / 2))) * direction
+    drawing.look(eye, target, CAMERA_FOV)
