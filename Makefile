@@ -17,8 +17,7 @@ $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 	touch $(VENV)/.installed $@
 
 demo: $(VENV)/.installed
-	$(BIN)/hriplan demo
-	$(BIN)/hriplan solve benchmarks/scenarios/b_madar_handover.json --seed 1 -o out/handover_trajectory.json
+	$(BIN)/hriplan plan examples/handover_full_can.yaml -o out/handover_full_can.json --html out/handover_full_can.html --plots out/plots
 
 test: $(VENV)/.installed-test
 	$(BIN)/python -m pytest -q

@@ -15,7 +15,7 @@ from hriplan.planner.problem import PlanningProblem
 from hriplan.planner.spec import BoxConstraint, ConeConstraint, ConstraintSet, CylinderConstraint, FrameRef, OrientationConstraint
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.human import HumanSpec
-from hriplan.robots.ik import ik_solutions, solve_ik
+from hriplan.robots.ik import solve_ik, solve_two_arms
 from hriplan.robots.model import Robot, load_robot
 from hriplan.robots.scene import Box, Cylinder, Obstacle, Scene, table
 from hriplan.robots.spatial import Pose
@@ -41,16 +41,10 @@ def _ik(robot: Robot, checker: CollisionChecker, arm: str, target: np.ndarray, b
 
 
 def _both_arms(robot: Robot, checker: CollisionChecker, right: np.ndarray, left: np.ndarray, base: np.ndarray) -> np.ndarray:
-    """Right-arm IK branches nearest `base` first, each with a valid left-arm solution if any."""
-    for values in ik_solutions(robot, "right", right, ("y",), reference=robot.group_values(base, "right_arm"), base_q=base):
-        q = robot.configuration(values, "right_arm", base=base)
-        if checker.in_collision(robot.configuration(robot.group_values(q, "right_arm"), "right_arm", base=robot.configuration({}))):
-            continue
-        res = solve_ik(robot, "left", left, free_axes=("y",), base_q=q, reference=robot.group_values(base, "left_arm"),
-                       is_valid=lambda full: not checker.in_collision(full))  # fmt: skip
-        if res.success:
-            return robot.configuration(res.q, "left_arm", base=q)
-    raise SystemExit("scenario IK failed: no valid pair of arm configurations")
+    q = solve_two_arms(robot, ("right", right, ("y",)), ("left", left, ("y",)), base, lambda full: not checker.in_collision(full))
+    if q is None:
+        raise SystemExit("scenario IK failed: no valid pair of arm configurations")
+    return q
 
 
 def ur5_upright_box() -> PlanningProblem:

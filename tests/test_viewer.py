@@ -26,7 +26,7 @@ from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.viewer import write_plots, write_viewer
 from hriplan.viewer.scene import build_drawing
-from hriplan.viewer.world import PlannedWorld
+from hriplan.planner.replay import PlannedWorld
 
 SCENARIO = Path(__file__).parents[1] / "benchmarks" / "scenarios" / "b_madar_handover.json"
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")

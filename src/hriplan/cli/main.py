@@ -2,36 +2,20 @@
 
 from __future__ import annotations
 
-import functools
 import sys
 from pathlib import Path
-from collections.abc import Callable
-from typing import Annotated, TypeVar
+from typing import Annotated
 
 import typer
 
 from hriplan import HriplanError, __version__
+from hriplan.cli.errors import clear_errors
+from hriplan.cli.tasks import TASK_COMMANDS
+from hriplan.cli.view import plot, view
 
 app = typer.Typer(help="Safe human-robot collaboration planning.", no_args_is_help=True, add_completion=False)
 robot_app = typer.Typer(help="Inspect the robot models.", no_args_is_help=True)
 app.add_typer(robot_app, name="robot")
-
-F = TypeVar("F", bound=Callable)
-
-
-def clear_errors(func: F) -> F:
-    """Turn a user error into `error: ...` and exit code 2 instead of a traceback."""
-
-    @functools.wraps(func)
-    def wrapper(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
-        try:
-            return func(*args, **kwargs)
-        except HriplanError as exc:
-            typer.echo(f"error: {exc}", err=True)
-            raise typer.Exit(2) from None
-
-    return wrapper  # type: ignore[return-value]
-
 
 def _version(value: bool) -> None:
     if value:
@@ -95,15 +79,5 @@ def solve(
     raise typer.Exit(code)
 
 
-@app.command()
-@clear_errors
-def demo() -> None:
-    """The main job: for now, MADAR beside a person reaching out, a reach pose, clearance."""
-    from hriplan.cli.demo import run_demo
-
-    typer.echo(run_demo())
-
-
-from hriplan.cli.view import register as _register_view  # noqa: E402 - after `app` and `clear_errors`
-
-_register_view(app)
+for _name, _command in {"view": view, "plot": plot, **TASK_COMMANDS}.items():
+    app.command(_name)(clear_errors(_command))

@@ -49,11 +49,3 @@ def _writing(output: Path) -> Iterator[None]:
         yield
     except OSError as exc:
         raise HriplanError(f"cannot write {output}: {exc.strerror or exc}") from None
-
-
-def register(app: typer.Typer) -> None:
-    """Add the commands to the `hriplan` app (called at the end of cli/main.py)."""
-    from hriplan.cli.main import clear_errors  # main is importing us: its decorator already exists
-
-    app.command("view")(clear_errors(view))
-    app.command("plot")(clear_errors(plot))

@@ -59,6 +59,8 @@ class TrajectoryFile(BaseModel):
     schema_name: Literal["hriplan.trajectory"] = Field(default=SCHEMA, alias="schema")
     schema_version: Literal[1] = SCHEMA_VERSION
     robot: str
+    task: str = ""  # the task file's name and the step this motion is (empty for a bare problem)
+    step: str = ""
     hands: dict[str, str] = Field(default_factory=dict)
     joint_names: list[str]
     start: dict[str, float] = Field(default_factory=dict)  # every planning joint at the start

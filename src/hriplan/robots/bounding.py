@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 
-def _frame_with_z(axis: np.ndarray) -> np.ndarray:
+def frame_with_z(axis: np.ndarray) -> np.ndarray:
     """A rotation whose z column is `axis` (unit)."""
     z = axis / np.linalg.norm(axis)
     helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
@@ -20,7 +20,7 @@ def _frame_with_z(axis: np.ndarray) -> np.ndarray:
 
 
 def _capsule_along(pts: np.ndarray, centre: np.ndarray, axis: np.ndarray, padding: float) -> tuple[float, float, pin.SE3]:
-    rot = _frame_with_z(axis)
+    rot = frame_with_z(axis)
     local = (pts - centre) @ rot
     across = (local[:, :2].min(axis=0) + local[:, :2].max(axis=0)) / 2.0
     local[:, :2] -= across

@@ -235,3 +235,23 @@ def solve_ik(
     if n_accurate == 0:
         return IKResult(success=False, message=f"no solution reached the tolerance of {tolerance:g} (singular target?)")
     return IKResult(success=False, message=f"all {n_accurate} solutions are in collision (rejected by is_valid)")
+
+
+ArmTarget = tuple[str, np.ndarray, Sequence[str]]  # arm, 4x4 tool target, free axes
+
+
+def solve_two_arms(
+    robot: Robot, first: ArmTarget, second: ArmTarget, base_q: np.ndarray, is_valid: Callable[[np.ndarray], bool]
+) -> np.ndarray | None:
+    """A full configuration with both arms at their targets, or None.
+
+    The first arm's branches are tried nearest `base_q` first, each with the second arm's
+    nearest valid solution: the arms must not only reach but also clear each other."""
+    (arm_a, target_a, free_a), (arm_b, target_b, free_b) = first, second
+    group_a, group_b = robot.arm_group(arm_a), robot.arm_group(arm_b)
+    for values in ik_solutions(robot, arm_a, target_a, free_a, reference=robot.group_values(base_q, group_a), base_q=base_q):
+        q = robot.configuration(values, group_a, base=base_q)
+        res = solve_ik(robot, arm_b, target_b, free_axes=free_b, base_q=q, reference=robot.group_values(base_q, group_b), is_valid=is_valid)
+        if res.success:
+            return robot.configuration(res.q, group_b, base=q)
+    return None

@@ -41,8 +41,8 @@ def _groups(name: str, model_order: list[str]) -> dict[str, list[str]]:
     return {"arm": model_order}
 
 
-def _arms(name: str) -> dict[str, tuple[str, str]]:
-    """Arm side -> (joint prefix, tool frame)."""
+def arms_of(name: str) -> dict[str, tuple[str, str]]:
+    """Arm name -> (joint prefix, tool frame) of a robot description."""
     if name == "madar":
         return {"right": ("right_", "right_tool"), "left": ("left_", "left_tool")}
     return {"arm": ("", "tool")}
@@ -69,7 +69,7 @@ class Robot:
         self.data = self.model.createData()
         self.joint_names = [self.model.names[j] for j in range(1, self.model.njoints)]
         self.groups = _groups(spec.name, self.joint_names)
-        self.arms = _arms(spec.name)
+        self.arms = arms_of(spec.name)
         self._index = {
             g: np.array([self.model.joints[self.model.getJointId(j)].idx_q for j in names])
             for g, names in self.groups.items()

@@ -24,7 +24,7 @@ from hriplan.planner.trajectory import TrajectoryFile
 from .drawing import Drawing
 from .legend import LEGEND_CSS, legend_html
 from .scene import build_drawing
-from .world import PlannedWorld
+from hriplan.planner.replay import PlannedWorld
 
 CLIENT = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
 

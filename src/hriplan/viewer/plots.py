@@ -19,7 +19,7 @@ from hriplan.planner.spec import OrientationConstraint
 from hriplan.planner.trajectory import TrajectoryFile
 
 from .describe import describe, kind
-from .world import PlannedWorld
+from hriplan.planner.replay import PlannedWorld
 
 DPI = 110
 KEPT = "#2ca02c"

@@ -22,7 +22,7 @@ from hriplan.robots.scene import Mesh
 from .drawing import Drawing, material, rgba_color
 from .shapes import Part, beads, parts, tube
 from .volumes import colors, draw_orientation, draw_volume, link_axes
-from .world import PlannedWorld
+from hriplan.planner.replay import PlannedWorld
 
 MAX_FPS = 25.0
 MAX_FRAMES = 600

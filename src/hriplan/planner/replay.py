@@ -1,8 +1,9 @@
 """The planned world rebuilt from a trajectory file alone: robot, people, bound constraints, states.
 
 A trajectory file is self-contained (robot, hand postures, start configuration, scene, resolved
-constraints), so the viewer and the plots need nothing else. Constraints are bound again with the
-planner's own code so that plotted margins are exactly the ones the validator computed.
+constraints), so the viewer, the plots and `hriplan validate` need nothing else. Constraints are
+bound again with the planner's own code so that margins are exactly the ones the validator
+computes.
 """
 
 from __future__ import annotations
@@ -13,8 +14,10 @@ import numpy as np
 
 from hriplan import HriplanError
 from hriplan.planner.evaluator import ConstraintEvaluator
+from hriplan.planner.motion import with_keep_out
 from hriplan.planner.resolve import BoundConstraint, bind
 from hriplan.planner.trajectory import TrajectoryFile
+from hriplan.planner.validate import PathValidation, validate_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot, load_robot
 
@@ -37,10 +40,12 @@ class PlannedWorld:
         checker = CollisionChecker(robot, trajectory.scene)
         bound = bind([c.spec for c in trajectory.constraints], robot, checker)
         goals = {c.spec.id: c.goal_position for c in trajectory.constraints}
-        for c in bound:
-            if goals.get(c.id) is not None:
-                c.p_goal = np.asarray(goals[c.id], dtype=float)
-        return cls(trajectory, robot, checker, bound)
+        world = cls(trajectory, robot, checker, bound)
+        q_end = world.planning_q(world.positions[-1])
+        for c in bound:  # dynamic tolerance: from the file, else where the motion ends
+            goal = goals.get(c.id)
+            c.p_goal = np.asarray(goal, dtype=float) if goal is not None else robot.frame_pose(robot.model.frames[c.link].name, q_end)[:3, 3]
+        return world
 
     # -- time --------------------------------------------------------------------------------
     @property
@@ -84,3 +89,12 @@ class PlannedWorld:
     def human_distances(self) -> list[tuple[float, str, str]]:
         """(distance, robot part, person part) of the closest robot-person pair at every point."""
         return [self.checker.human_distance(self.planning_q(row)) for row in self.positions]
+
+    def validate(self, step: float = 0.01) -> PathValidation:
+        """Dense validation of the timed points, as the planner validated its path."""
+        group = next((g for g in self.robot.groups if self.robot.group_joints(g) == self.trajectory.joint_names), None)
+        if group is None:
+            raise HriplanError(f"the trajectory's joints are not a joint group of {self.robot.name!r}")
+        evaluator = ConstraintEvaluator(self.robot, self.constraints, group, self.planning_q(self.positions[0]))
+        with with_keep_out(self.checker, self.constraints):
+            return validate_path(evaluator, self.checker, list(self.positions), step)

@@ -1,0 +1,46 @@
+"""Using hriplan from a higher-level system: one session, perception updates, re-planning.
+
+Run: .venv/bin/python examples/plugin_api.py
+"""
+
+from pathlib import Path
+
+import numpy as np
+
+from hriplan.api import (ConeConstraint, FrameRef, HumanSpec, OrientationConstraint, PlanningSession, PlanOptions,
+                         Pose, Scene, ToolGoal, load_task, run_task, table)  # fmt: skip
+from hriplan.robots.postures import posture
+
+EXAMPLES = Path(__file__).parent
+
+# Build once: robot, collision model, scene.
+person = HumanSpec(name="bob", position=(0.0, 1.45), yaw=-np.pi / 2, reach={"right": (0.05, 1.05, 1.05)})
+session = PlanningSession("madar", Scene(obstacles=[table(position=(0.45, 0.85), size=(0.5, 0.5, 0.04), top=0.72)], humans=[person]),
+                          hands={"right": "power"})  # fmt: skip
+
+# A motion with hand-written constraints: keep the can upright, approach bob's hand in a cone.
+joints = session.robot.group_joints("right_arm")
+upright = Pose(rpy=(np.pi / 2, 0.0, np.pi))  # tool y (the can's axis) up, tool z towards +y
+session.set_constraints([
+    OrientationConstraint(id="upright", joints=joints, target_link="right_tool", free_axes=["y"], target=upright, tolerance=0.1),
+    ConeConstraint(id="approach", joints=joints, target_link="right_tool", radius=0.3, height=0.55,
+                   frame=FrameRef(entity="bob/right_hand", offset=Pose(rpy=(0.0, np.pi / 2, 0.0)))),
+])  # fmt: skip
+start = posture("madar", "ready")
+hand = session.checker.humans["bob"].frame("right_hand").translation
+goal = ToolGoal(arm="right", pose=Pose(xyz=tuple(hand + (0.0, -0.19, 0.0)), rpy=(np.pi / 2, 0.0, np.pi)), free_axes=["y"])
+result = session.plan(start, goal, PlanOptions(seed=1))
+print("first plan:", result.motion.status, f"{result.trajectory.report.planning_time:.3f} s,",
+      f"{len(result.trajectory.points)} points, worst margins {result.trajectory.report.max_violation}")
+
+# Perception: bob moved his hand a little; re-plan without rebuilding anything.
+session.pose_human(person.model_copy(update={"reach": {"right": (0.07, 1.05, 1.07)}}))
+hand = session.checker.humans["bob"].frame("right_hand").translation
+goal = goal.model_copy(update={"pose": Pose(xyz=tuple(hand + (0.0, -0.19, 0.0)), rpy=(np.pi / 2, 0.0, np.pi))})
+again = session.plan(start, goal, PlanOptions(seed=1))
+print("after bob moved:", again.motion.status, f"{again.trajectory.report.planning_time:.3f} s")
+
+# A whole task on the same session: the rules derive the constraints of every step.
+outcome = run_task(load_task(EXAMPLES / "handover_full_can.yaml"), session)
+for step in outcome.steps:
+    print(f"task step {step.name}: {step.status}, constraints: {[c.spec.id for c in step.derivation.constraints]}")

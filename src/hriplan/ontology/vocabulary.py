@@ -1,0 +1,66 @@
+"""Where the ontology lives and how its terms are named: namespaces, prefixes, the Turtle file.
+
+owlready2 reads N-Triples but not Turtle, so the Turtle file is converted once per version of
+its text (keyed by the text's hash, which also keys the reasoning cache).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+from hriplan import HriplanError
+
+NAMESPACE = "https://hriplan.org/ontology#"
+SITUATION_NAMESPACE = "https://hriplan.org/situation#"
+RULES_NAMESPACE = "https://hriplan.org/rules#"
+ONTOLOGY_IRI = "https://hriplan.org/ontology"
+ONTOLOGY_PATH = Path(__file__).with_name("hriplan.ttl")
+
+PREFIXES = {
+    "hp": NAMESPACE,
+    "sit": SITUATION_NAMESPACE,
+    "rule": RULES_NAMESPACE,
+    "rdf": "http://www.w3.org/1999/02/22-rdf-syntax-ns#",
+    "rdfs": "http://www.w3.org/2000/01/rdf-schema#",
+    "owl": "http://www.w3.org/2002/07/owl#",
+    "xsd": "http://www.w3.org/2001/XMLSchema#",
+    "swrl": "http://www.w3.org/2003/11/swrl#",
+    "swrlb": "http://www.w3.org/2003/11/swrlb#",
+}
+
+
+@dataclass(frozen=True)
+class OntologySource:
+    """One version of the ontology file: its text's hash and its triples as N-Triples."""
+
+    path: Path
+    digest: str
+
+    @property
+    def ntriples(self) -> bytes:
+        return _to_ntriples(self.path, self.digest)
+
+
+def ontology_source(path: str | Path | None = None) -> OntologySource:
+    """The ontology at `path` (default: the packaged one), identified by its content hash."""
+    path = Path(path) if path is not None else ONTOLOGY_PATH
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise HriplanError(f"cannot read ontology {path}: {exc.strerror or exc}") from None
+    return OntologySource(path, hashlib.sha256(data).hexdigest())
+
+
+@functools.lru_cache(maxsize=8)
+def _to_ntriples(path: Path, digest: str) -> bytes:
+    import rdflib  # only needed when the reasoner runs
+
+    graph = rdflib.Graph()
+    try:
+        graph.parse(path, format="turtle")
+    except Exception as exc:  # noqa: BLE001 - rdflib raises its parsers' own exception types
+        raise HriplanError(f"{path}: not valid Turtle: {str(exc).splitlines()[0]}") from None
+    return graph.serialize(format="nt", encoding="utf-8")

@@ -1,0 +1,188 @@
+"""From a required constraint kind and its anchor to the planner's constraint specification.
+
+The reasoned facts say which kind applies about which object or person; the kind's class says
+which planner constraint it becomes, its data in the ontology give the parameters, and the
+situation gives the geometry: the carried object's axis, the hole's axis, where the person
+stands and which way the robot is from them. Joints and tool come from the arm carrying the
+object (object kinds) or from every arm the task uses (person kinds).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from hriplan import HriplanError
+from hriplan.ontology.facts import Facts
+from hriplan.ontology.situation import Situation, SituationHuman, SituationObject
+from hriplan.planner.spec import (
+    BoxConstraint,
+    ConeConstraint,
+    ConstraintSpec,
+    CylinderConstraint,
+    FrameRef,
+    OrientationConstraint,
+    SphereConstraint,
+)
+from hriplan.robots.spatial import Pose
+
+from .geometry import bearing, box_between, rotation_pose, rotation_with_axis
+
+SIGNED_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+VELOCITY_KIND = "VelocityScalingKind"
+
+
+@dataclass(frozen=True)
+class Arm:
+    """An arm as the ontology describes it."""
+
+    name: str
+    joints: list[str]
+    tool: str
+    object_axis: str  # tool-frame axis along a held object's z axis
+
+
+@dataclass(frozen=True)
+class Context:
+    situation: Situation
+    facts: Facts
+
+    @property
+    def task(self) -> str:
+        return self.situation.task.name
+
+    def param(self, kind: str, prop: str) -> float:
+        return self.facts.number(kind, prop)
+
+    def arm(self, individual: str) -> Arm:
+        """An arm's name, joints in chain order, tool frame and usual grasp axis, from the ontology."""
+        facts = self.facts
+        joints = sorted(facts.get(individual, "hasJoint"), key=lambda j: facts.number(str(j), "hasChainIndex"))
+        tool_link = str(facts.one(individual, "hasToolLink"))
+        axis = str(facts.one(individual, "hasObjectAxisInTool"))
+        if axis not in SIGNED_AXES:
+            raise HriplanError(f"arm {individual} has object axis {axis!r} in the ontology; use one of {', '.join(SIGNED_AXES)}")
+        return Arm(name=str(facts.one(individual, "hasArmName")), joints=[str(facts.one(str(j), "hasUrdfName")) for j in joints],
+                   tool=str(facts.one(tool_link, "hasUrdfName")), object_axis=axis)  # fmt: skip
+
+    def robot_xy(self) -> tuple[float, float]:
+        x, y, _ = self.situation.robot_base.xyz
+        return x, y
+
+    def robot_bearing(self, human: SituationHuman) -> float:
+        return bearing(human.position, human.yaw, self.robot_xy(), human.name)
+
+
+Make = Callable[[Context, str, str, Arm, str], ConstraintSpec]
+
+
+@dataclass(frozen=True)
+class Form:
+    """How a class of constraint kinds becomes a planner constraint, and what it is about."""
+
+    about: Literal["object", "human"]
+    make: Make
+
+
+def anchored_arms(ctx: Context, form: Form, kind: str, anchor: str) -> list[Arm]:
+    """The arms a constraint binds: the one carrying the object, or every arm of the task."""
+    if form.about == "object":
+        if anchor not in ctx.situation.object_names():
+            raise HriplanError(f"constraint kind {kind} applies to a carried object, but {anchor!r} is not an object")
+        arms = ctx.facts.get(anchor, "isCarriedBy")
+        if not arms:
+            raise HriplanError(f"constraint kind {kind} applies to {anchor!r}, but no arm carries it (task.carries)")
+    else:
+        if anchor not in {h.name for h in ctx.situation.humans}:
+            raise HriplanError(f"constraint kind {kind} applies to a person, but {anchor!r} is not one")
+        arms = ctx.facts.get(ctx.task, "usesArm")
+    return [ctx.arm(str(a)) for a in arms]
+
+
+def _upright(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    obj = ctx.situation.object(anchor)
+    return _orientation(ctx, kind, obj, arm, cid, obj.pose.rotation()[:, 2], FrameRef())
+
+
+def _alignment(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    hole = ctx.situation.object(str(ctx.facts.one(ctx.task, "hasTargetObject")))
+    return _orientation(ctx, kind, ctx.situation.object(anchor), arm, cid, hole.pose.rotation()[:, 2], FrameRef())
+
+
+def _pointing_away(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    human = ctx.situation.human(str(ctx.facts.one(ctx.task, "hasTargetHuman")))
+    b = ctx.robot_bearing(human)  # away from the person = towards the robot, in their frame
+    away = np.array([math.cos(b), math.sin(b), 0.0])
+    return _orientation(ctx, kind, ctx.situation.object(anchor), arm, cid, away, FrameRef(entity=f"{human.name}/base"))
+
+
+def _orientation(ctx: Context, kind: str, obj: SituationObject, arm: Arm, cid: str, direction: np.ndarray,
+                 frame: FrameRef) -> OrientationConstraint:  # fmt: skip
+    """The held object's z axis (a signed tool axis) along `direction`, spin about it free."""
+    axis = obj.grasp_axis or arm.object_axis
+    return OrientationConstraint(
+        id=cid, joints=arm.joints, target_link=arm.tool, frame=frame,
+        target=rotation_pose(rotation_with_axis(axis, direction)), free_axes=[axis[1]],
+        tolerance=ctx.param(kind, "hasTolerance"), tolerance_gradient=ctx.param(kind, "hasToleranceGradient"),
+    )  # fmt: skip
+
+
+def _approach_cone(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    human = ctx.situation.human(anchor)
+    hand = str(ctx.facts.one(str(ctx.facts.one(anchor, "hasActiveHand")), "hasFrameName"))
+    opening = Pose(rpy=(0.0, math.pi / 2, ctx.robot_bearing(human)))  # cone axis z -> towards the robot
+    return ConeConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=FrameRef(entity=hand, offset=opening),
+                          region="inside", radius=ctx.param(kind, "hasRadius"), height=ctx.param(kind, "hasHeight"))  # fmt: skip
+
+
+def _workspace_box(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    human = ctx.situation.human(anchor)
+    pose, size = box_between(ctx.robot_xy(), human.position, ctx.param(kind, "hasRobotMargin"),
+                             ctx.param(kind, "hasHumanClearance"), ctx.param(kind, "hasWidth"),
+                             ctx.param(kind, "hasBottomHeight"), ctx.param(kind, "hasTopHeight"), anchor)  # fmt: skip
+    return BoxConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=FrameRef(offset=pose), region="inside", size=size)
+
+
+def _exclusion_box(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    frame = FrameRef(entity=f"{anchor}/torso", offset=Pose(xyz=(0.0, 0.0, ctx.param(kind, "hasVerticalOffset"))))
+    size = (ctx.param(kind, "hasDepth"), ctx.param(kind, "hasWidth"), ctx.param(kind, "hasHeight"))
+    return BoxConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=frame, region="outside",
+                         keep_out_all_links=True, size=size)  # fmt: skip
+
+
+def _keep_out_cylinder(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    return CylinderConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=FrameRef(entity=f"{anchor}/base"),
+                              region="outside", keep_out_all_links=True,
+                              radius=ctx.param(kind, "hasSeparationDistance"), height=ctx.param(kind, "hasHeight"))  # fmt: skip
+
+
+def _keep_out_sphere(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    return SphereConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=FrameRef(entity=f"{anchor}/head"),
+                            region="outside", keep_out_all_links=True, radius=ctx.param(kind, "hasSeparationDistance"))  # fmt: skip
+
+
+FORMS: dict[str, Form] = {
+    "UprightKind": Form("object", _upright),
+    "AlignmentKind": Form("object", _alignment),
+    "PointingAwayKind": Form("object", _pointing_away),
+    "ApproachConeKind": Form("human", _approach_cone),
+    "WorkspaceBoxKind": Form("human", _workspace_box),
+    "ExclusionBoxKind": Form("human", _exclusion_box),
+    "KeepOutCylinderKind": Form("human", _keep_out_cylinder),
+    "KeepOutSphereKind": Form("human", _keep_out_sphere),
+}
+
+
+def form_of(facts: Facts, kind: str) -> Form | None:
+    """The planner form of a kind from its class; None for velocity scaling; error otherwise."""
+    if facts.is_a(kind, VELOCITY_KIND):
+        return None
+    for cls, form in FORMS.items():
+        if facts.is_a(kind, cls):
+            return form
+    raise HriplanError(f"constraint kind {kind} has no planner form: make it an individual of one of "
+                       f"{', '.join([*FORMS, VELOCITY_KIND])}")  # fmt: skip

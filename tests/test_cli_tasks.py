@@ -1,0 +1,77 @@
+"""The task commands of `hriplan`: plan, constraints, explain, query, validate, import-kautham, schema."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).parents[1]
+HANDOVER = ROOT / "examples" / "handover_full_can_receiver.yaml"
+
+
+def run(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "hriplan.cli", *map(str, args)], capture_output=True, text=True, timeout=600, cwd=cwd)
+
+
+@pytest.fixture(scope="module")
+def planned(tmp_path_factory):
+    out = tmp_path_factory.mktemp("plan")
+    result = run("plan", HANDOVER, "-o", out / "handover.json", "--json", "-q")
+    return result, out
+
+
+def test_plan_writes_a_trajectory_and_reports_json(planned):
+    result, out = planned
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["solved"] and report["files"] == [str(out / "handover.json")]
+    step = report["steps"][0]
+    assert step["kind"] == "RobotToHumanHandover" and step["report"]["max_violation"]["upright_can"] <= 1e-4
+    ids = {c["spec"]["id"] for c in step["derivation"]["constraints"]}
+    assert {"upright_can", "approach_cone_bob", "shared_workspace_bob", "exclusion_box_bob"} <= ids
+    assert all(c["rules"] and c["facts"] for c in step["derivation"]["constraints"])
+
+
+def test_validate_accepts_the_plan_and_catches_tampering(planned, tmp_path):
+    _, out = planned
+    ok = run("validate", out / "handover.json", "--task", HANDOVER, "-q")
+    assert ok.returncode == 0, ok.stderr
+    assert "upright_can" in ok.stdout and "kept" in ok.stdout
+    data = json.loads((out / "handover.json").read_text())
+    for point in data["points"][len(data["points"]) // 2:]:
+        point["positions"][4] += 0.4  # tilt the wrist: the can spills
+    tampered = tmp_path / "tampered.json"
+    tampered.write_text(json.dumps(data))
+    bad = run("validate", tampered)
+    assert bad.returncode == 1 and "VIOLATED" in bad.stdout and "invalid:" in bad.stderr
+
+
+def test_constraints_and_explain_say_why():
+    constraints = run("constraints", HANDOVER, "-q")
+    assert constraints.returncode == 0 and "approach_cone_bob" in constraints.stdout and "why:" in constraints.stdout
+    explain = run("explain", HANDOVER, "-q")
+    assert explain.returncode == 0
+    assert "rules: upright_full_open_container" in explain.stdout and "facts:" in explain.stdout
+
+
+def test_query_the_task_and_the_ontology():
+    text = "SELECT ?kind WHERE { ?task hp:requiresConstraint ?kind } ORDER BY ?kind"
+    table = run("query", text, "--task", HANDOVER, "--format", "csv", "-q")
+    assert table.returncode == 0, table.stderr
+    assert "UprightFull" in table.stdout and "ApproachCone" in table.stdout
+    ask = run("query", "ASK { hp:UprightFull hp:hasTolerance ?t }", "--format", "json")
+    assert ask.returncode == 0 and json.loads(ask.stdout)["boolean"] is True
+    broken = run("query", "SELECT ?x WHERE { ?x ?y }")
+    assert broken.returncode == 2 and broken.stderr.startswith("error:") and "Traceback" not in broken.stderr
+
+
+def test_schema_import_and_bad_input(tmp_path):
+    schema = json.loads(run("schema").stdout)
+    assert "steps" in schema["properties"] and "TakeGoal" in schema["$defs"]
+    imported = run("import-kautham", ROOT / "tests" / "data" / "kautham_madar_handover.xml", "-o", tmp_path / "p.json")
+    assert imported.returncode == 0 and "3 constraints, group right_arm" in imported.stdout
+    assert json.loads((tmp_path / "p.json").read_text())["constraints"]["constraints"][1]["frame"]["entity"] == "Coke can"
+    missing = run("plan", tmp_path / "nope.yaml")
+    assert missing.returncode == 2 and missing.stderr.strip() == f"error: {tmp_path / 'nope.yaml'}: no such file"
