@@ -75,3 +75,10 @@ def test_schema_import_and_bad_input(tmp_path):
     assert json.loads((tmp_path / "p.json").read_text())["constraints"]["constraints"][1]["frame"]["entity"] == "Coke can"
     missing = run("plan", tmp_path / "nope.yaml")
     assert missing.returncode == 2 and missing.stderr.strip() == f"error: {tmp_path / 'nope.yaml'}: no such file"
+
+
+def test_plugin_api_example_runs():
+    result = subprocess.run([sys.executable, str(ROOT / "examples" / "plugin_api.py")], capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    assert "first plan: solved" in result.stdout and "after bob moved: solved" in result.stdout
+    assert "task step place_can: solved, constraints: ['upright_coke_can']" in result.stdout

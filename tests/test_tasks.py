@@ -96,3 +96,11 @@ def test_taking_from_a_giver_gets_the_handover_constraints_and_upright(tmp_path)
     outcome = TaskRunner(load_task(path)).run(plan=False)
     ids = {c.spec.id for c in outcome.steps[0].derivation.constraints}
     assert "approach_cone_alice" not in ids and "upright_coke_can" in ids
+
+
+@pytest.mark.parametrize("example", sorted(p.stem for p in EXAMPLES.glob("*.yaml")))
+def test_every_shipped_example_plans_and_validates(example):
+    outcome = TaskRunner(load_task(EXAMPLES / f"{example}.yaml")).run(plan=True)
+    assert outcome.solved, [(s.name, s.status, s.message) for s in outcome.steps]
+    for step in outcome.steps:
+        assert PlannedWorld.load(step.trajectory).validate().valid

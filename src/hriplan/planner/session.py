@@ -2,8 +2,9 @@
 
 The motion-manager workflow of the seed framework: perception moves objects and people, the
 task changes constraints and goals, and each `plan` reuses the robot model and collision
-geometry. A session is not thread-safe (pinocchio data and OMPL's global seed are shared): use
-one session per thread, or processes for parallel planning.
+geometry. A session is not thread-safe, and neither are two sessions of one robot in two threads
+(pinocchio data of a loaded robot and OMPL's global seed are shared): plan in parallel with
+processes.
 """
 
 from __future__ import annotations
