@@ -80,3 +80,15 @@ def test_bad_files_give_one_line_errors(tmp_path, old, new, message):
     with pytest.raises(HriplanError, match=message) as info:
         import_kautham(path)
     assert str(info.value).startswith(str(path)) and "\n" not in str(info.value)
+
+
+def test_an_imported_problem_plans():
+    from hriplan.planner.session import PlanningSession
+
+    problem = import_kautham(FIXTURE.with_name("kautham_ur5_upright.xml"))
+    assert problem.robot == "ur5" and problem.group == "arm" and problem.constraints.constraints[0].free_axes == ["z"]
+    session = PlanningSession(problem.robot, problem.scene)
+    session.set_constraints(problem.constraints)
+    result = session.plan(problem.start, problem.goal, problem.options.model_copy(update={"seed": 1}), problem.group)
+    assert result.solved, result.message
+    assert result.trajectory.report.max_violation["upright"] <= 1e-4 and result.trajectory.report.max_violation["workspace"] <= 1e-4
