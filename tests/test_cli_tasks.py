@@ -82,3 +82,13 @@ def test_plugin_api_example_runs():
     assert result.returncode == 0, result.stderr
     assert "first plan: solved" in result.stdout and "after bob moved: solved" in result.stdout
     assert "task step place_can: solved, constraints: ['upright_coke_can']" in result.stdout
+
+
+def test_view_and_plot_take_reasons_from_the_task(planned, tmp_path):
+    _, out = planned
+    html = tmp_path / "plan.html"
+    viewed = run("view", out / "handover.json", "--task", HANDOVER, "-o", html)
+    assert viewed.returncode == 0, viewed.stderr
+    assert "A full open container spills" in html.read_text()
+    plotted = run("plot", out / "handover.json", "--task", HANDOVER, "-o", tmp_path / "figs")
+    assert plotted.returncode == 0 and (tmp_path / "figs" / "margins.png").stat().st_size > 10_000

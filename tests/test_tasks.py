@@ -35,6 +35,12 @@ def test_rules_decide_differently_per_example():
         assert f"{side}_keep_out_sam" in pegs
 
 
+def test_hot_object_near_a_person_slows_the_trajectory():
+    outcome = TaskRunner(load_task(EXAMPLES / "handover_hot_coffee.yaml")).run(plan=False)
+    assert outcome.steps[0].derivation.velocity_scale == 0.5
+    assert TaskRunner(load_task(EXAMPLES / "handover_empty_can.yaml")).run(plan=False).steps[0].derivation.velocity_scale == 1.0
+
+
 def test_provenance_names_rules_and_facts():
     upright = derived("handover_full_can_receiver")["hand_over"]["upright_can"]
     assert "upright_full_open_container" in upright.rules

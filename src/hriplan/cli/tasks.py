@@ -29,6 +29,18 @@ def _runner(task_path: Path, quiet: bool):  # noqa: ANN202
     return TaskRunner(load_task(task_path), task_path.parent, _progress(quiet))
 
 
+def load_for_task(trajectory: Path, task: Path | None, quiet: bool):  # noqa: ANN201
+    """A trajectory file, with its step's constraints and scene taken from `task` if given."""
+    from hriplan.planner.trajectory import load_trajectory
+    from hriplan.tasks.pipeline import against_task
+
+    plan_file = load_trajectory(trajectory)
+    return plan_file if task is None else against_task(plan_file, _runner(task, quiet))
+
+
+TaskOption = Annotated[Path | None, typer.Option("--task", help="Take the constraints, reasons and scene from this task file.")]
+
+
 def _step_path(output: Path, step: str, several: bool) -> Path:
     return output.with_name(f"{output.stem}.{step}{output.suffix}") if several else output
 
@@ -136,22 +148,13 @@ def _read(path: Path) -> str:
 
 def validate(
     trajectory: Annotated[Path, typer.Argument(help="A trajectory file.")],
-    task: Annotated[Path | None, typer.Option("--task", help="Check against this task's constraints (else the file's own).")] = None,
+    task: TaskOption = None,
     quiet: Quiet = False,
 ) -> None:
     """Re-check a trajectory densely against its constraints and collisions (exit 1 if it fails)."""
     from hriplan.planner.replay import PlannedWorld
-    from hriplan.planner.trajectory import ResolvedConstraint, load_trajectory
-    from hriplan.robots.spatial import Pose
 
-    plan_file = load_trajectory(trajectory)
-    if task is not None:
-        outcome = _runner(task, quiet).run(plan=False)
-        step = next((s for s in outcome.steps if s.name == plan_file.step), None)
-        if step is None:
-            raise HriplanError(f"{trajectory}: its step {plan_file.step!r} is not a step of {task}")
-        resolved = [ResolvedConstraint(spec=c.spec, frame_in_world=Pose(), reason=c.reason) for c in step.derivation.constraints]
-        plan_file = plan_file.model_copy(update={"constraints": resolved, "scene": step.scene})
+    plan_file = load_for_task(trajectory, task, quiet)
     result = PlannedWorld.load(plan_file).validate()
     for check in result.constraints:
         typer.echo(f"{check.id:32s} worst margin {check.max_violation:+.4f} {'kept' if check.satisfied else 'VIOLATED'}")

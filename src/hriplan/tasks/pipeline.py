@@ -20,10 +20,11 @@ from hriplan.ontology.situation import Situation, SituationHuman, SituationObjec
 from hriplan.planner.motion import JointGoal, ToolGoal
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.session import PlanningSession
-from hriplan.planner.trajectory import TrajectoryFile
+from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
 from hriplan.robots.ik import solve_two_arms
 from hriplan.robots.model import arms_of
 from hriplan.robots.scene import Scene
+from hriplan.robots.spatial import Pose
 from hriplan.robots.postures import posture
 from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
@@ -203,3 +204,14 @@ def _with_reasons(trajectory: TrajectoryFile, derivation: Derivation) -> Traject
     by_id = {c.spec.id: c for c in derivation.constraints}
     constraints = [c.model_copy(update={"reason": by_id[c.spec.id].reason}) if c.spec.id in by_id else c for c in trajectory.constraints]
     return trajectory.model_copy(update={"constraints": constraints})
+
+
+def against_task(trajectory: TrajectoryFile, runner: TaskRunner) -> TrajectoryFile:
+    """The trajectory with its step's constraints (and reasons) and scene as the task derives
+    them now, so it can be re-checked or shown against the task rather than its own record."""
+    outcome = runner.run(plan=False)
+    step = next((s for s in outcome.steps if s.name == trajectory.step), None)
+    if step is None:
+        raise HriplanError(f"the trajectory's step {trajectory.step!r} is not a step of task {runner.task.name!r}")
+    resolved = [ResolvedConstraint(spec=c.spec, frame_in_world=Pose(), reason=c.reason) for c in step.derivation.constraints]
+    return trajectory.model_copy(update={"constraints": resolved, "scene": step.scene})
