@@ -26,7 +26,7 @@ from .keep_out import keep_out_obstacles
 from .ompl_backend import solve_with_ompl
 from .options import PlanOptions
 from .projection import project
-from .resolve import BoundConstraint, bind
+from .resolve import BoundConstraint, bind, set_goal_positions
 from .spec import Axis, ConstraintSpec
 from .validate import VALIDATION_TOLERANCE, PathValidation, validate_path
 
@@ -165,11 +165,7 @@ def plan_motion(
 
 
 def _set_goal_positions(problem: _Problem, x_goal: np.ndarray) -> None:
-    """Dynamic tolerance is measured from the target link's position at the goal."""
-    evaluator = problem.evaluator
-    q = evaluator.full(x_goal)
-    for c in evaluator.constraints:
-        c.p_goal = problem.robot.frame_pose(problem.robot.model.frames[c.link].name, q)[:3, 3].copy()
+    set_goal_positions(problem.robot, problem.evaluator.constraints, problem.evaluator.full(x_goal))
 
 
 def _resolve_goal(problem: _Problem, goal: Goal, x_start: np.ndarray) -> np.ndarray | MotionResult:

@@ -15,7 +15,7 @@ import numpy as np
 from hriplan import HriplanError
 from hriplan.planner.evaluator import ConstraintEvaluator
 from hriplan.planner.motion import with_keep_out
-from hriplan.planner.resolve import BoundConstraint, bind
+from hriplan.planner.resolve import BoundConstraint, bind, set_goal_positions
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.planner.validate import PathValidation, validate_path
 from hriplan.robots.collision import CollisionChecker
@@ -41,10 +41,7 @@ class PlannedWorld:
         bound = bind([c.spec for c in trajectory.constraints], robot, checker)
         goals = {c.spec.id: c.goal_position for c in trajectory.constraints}
         world = cls(trajectory, robot, checker, bound)
-        q_end = world.planning_q(world.positions[-1])
-        for c in bound:  # dynamic tolerance: from the file, else where the motion ends
-            goal = goals.get(c.id)
-            c.p_goal = np.asarray(goal, dtype=float) if goal is not None else robot.frame_pose(robot.model.frames[c.link].name, q_end)[:3, 3]
+        set_goal_positions(robot, bound, world.planning_q(world.positions[-1]), goals)  # else where the motion ends
         return world
 
     # -- time --------------------------------------------------------------------------------

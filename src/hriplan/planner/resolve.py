@@ -123,3 +123,14 @@ def bind(specs: Sequence[ConstraintSpec], robot: Robot, checker: CollisionChecke
         target = spec.target.rotation() if isinstance(spec, OrientationConstraint) else None
         bound.append(BoundConstraint(spec, frame, link, target))
     return bound
+
+
+def set_goal_positions(robot: Robot, bound: Sequence[BoundConstraint], q_goal: np.ndarray,
+                       known: dict[str, list[float] | None] | None = None) -> None:  # fmt: skip
+    """Dynamic tolerance is measured from the target link's position at the goal: record it
+    (from `known` where a trajectory file already holds it, else by FK at `q_goal`)."""
+    known = known or {}
+    pin.framesForwardKinematics(robot.model, robot.data, q_goal)
+    for c in bound:
+        given = known.get(c.id)
+        c.p_goal = np.asarray(given, dtype=float) if given is not None else robot.data.oMf[c.link].translation.copy()

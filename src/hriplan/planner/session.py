@@ -24,7 +24,7 @@ from hriplan.robots.spatial import Pose
 from .evaluator import ConstraintEvaluator
 from .motion import Goal, MotionResult, plan_motion, with_keep_out
 from .options import PlanOptions
-from .resolve import bind
+from .resolve import bind, set_goal_positions
 from .spec import ConstraintSet, ConstraintSpec
 from .timing import time_parameterize
 from .trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
@@ -93,9 +93,7 @@ class PlanningSession:
         path = np.array(motion.path)
         q0 = self.robot.configuration(dict(zip(motion.joint_names, path[0])))
         evaluator = ConstraintEvaluator(self.robot, bound, motion.group, q0)
-        goal_q = evaluator.full(path[-1])
-        for c in bound:
-            c.p_goal = self.robot.frame_pose(self.robot.model.frames[c.link].name, goal_q)[:3, 3].copy()
+        set_goal_positions(self.robot, bound, evaluator.full(path[-1]))
         scene = self.checker.scene
         with with_keep_out(self.checker, bound):
             timed, check, message = self._time_and_check(path, evaluator, motion.group, options)
