@@ -1,4 +1,6 @@
-"""The knowledge base: reasoning with Pellet, Turtle export, the cache, inconsistencies, bad input."""
+"""The knowledge base: reasoning with Pellet, Turtle export, the cache, inconsistencies, bad input.
+
+Pellet is the reference, so these tests run with it (the in-process reasoner: test_kb_fast)."""
 
 import time
 
@@ -11,7 +13,7 @@ from hriplan import HriplanError
 from hriplan.ontology import reasoner
 from hriplan.ontology.assertions import situation_assertions
 from hriplan.ontology.cache import ReasoningCache, default_cache_dir, reasoning_key
-from hriplan.ontology.knowledge_base import KnowledgeBase
+from hriplan.ontology.knowledge_base import KnowledgeBase, use_reasoner
 from hriplan.ontology.reasoner import InconsistentSituation
 from hriplan.ontology.situation import EXAMPLES_DIR, Situation, load_situation
 from hriplan.ontology.vocabulary import NAMESPACE, SITUATION_NAMESPACE, ontology_source
@@ -19,6 +21,13 @@ from hriplan.robots.spatial import Pose
 from hriplan.rules.ruleset import load_rules
 
 HP, SIT = rdflib.Namespace(NAMESPACE), rdflib.Namespace(SITUATION_NAMESPACE)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def pellet():
+    use_reasoner("pellet")
+    yield
+    use_reasoner("fast")
 
 
 @pytest.fixture(scope="module")
@@ -61,9 +70,10 @@ def test_rules_conclusions_and_the_derived_task_requirements(kb):
     assert kb.facts.get("sue", "isConstrainedBy") == ["KeepOutSupervisor"]
     assert set(kb.facts.get("handover", "requiresConstraint")) == {
         "UprightFull", "ApproachCone", "SharedWorkspaceBox", "ReceiverExclusionBox", "KeepOutSupervisor"}  # fmt: skip
-    # SWRL built-ins (Pellet): horizontal distances of carried objects against NearHuman's 1.2 m
+    # computed from the geometry before reasoning: carried objects against NearHuman's 1.2 m
     assert kb.facts.get("can1", "isNear") == ["bob", "sue"]  # 0.74 m from bob, 0.85 m from sue
     assert kb.facts.get("glass1", "isNear") == []  # not carried
+    assert kb.facts.get("can1", "hasX") == []  # no rule reads coordinates: the reasoner never sees them
 
 
 def test_turtle_export_reparses_and_holds_asserted_and_inferred_triples(kb):
@@ -71,7 +81,7 @@ def test_turtle_export_reparses_and_holds_asserted_and_inferred_triples(kb):
     assert (SIT.can1, rdflib.RDF.type, HP.Can) in graph  # asserted
     assert (SIT.can1, rdflib.RDF.type, HP.FullOpenContainer) in graph  # inferred by classification
     assert (SIT.handover, HP.requiresConstraint, HP.UprightFull) in graph  # inferred from a rule and a chain
-    assert (SIT.can1, HP.isNear, SIT.bob) in graph  # inferred by a rule with built-ins
+    assert (SIT.can1, HP.isNear, SIT.bob) in graph  # computed from the geometry
     assert (HP.UprightFull, HP.hasTolerance, None) in graph  # the ontology travels with the facts
     rule_names = {str(o) for s in graph.subjects(rdflib.RDF.type, rdflib.URIRef("http://www.w3.org/2003/11/swrl#Imp"))
                   for o in graph.objects(s, rdflib.RDFS.label)}  # fmt: skip
@@ -103,7 +113,7 @@ def test_the_key_follows_the_facts_not_the_geometry(kb, handover, cache, no_java
     same_facts = handover.model_copy(update={"humans": people, "objects": tilted})
     assert KnowledgeBase(same_facts, cache=cache).key == kb.key  # a cache hit: no JVM
     closed = handover.model_copy(update={"objects": [o.model_copy(update={"open": False}) for o in handover.objects]})
-    assert reasoning_key(ontology_source().digest, load_rules(), situation_assertions(closed)) != kb.key
+    assert reasoning_key(ontology_source().digest, load_rules(), situation_assertions(closed), "pellet") != kb.key
 
 
 def test_a_damaged_cache_entry_is_a_miss_not_an_error(tmp_path):
@@ -150,10 +160,11 @@ def test_an_inconsistency_is_cached_too(full_and_empty, cache, no_java):
     ({"facts": [["can1", "hasColour", "red"]]}, "'hasColour' is not a property of the ontology"),
     ({"facts": [["nobody", "isHot", True]]}, "'nobody' is neither in the situation nor an individual"),
 ])  # fmt: skip
-def test_bad_situations_are_one_line_errors_before_any_reasoning(handover, change, message, no_java):
+@pytest.mark.parametrize("reasoner", ["fast", "pellet"])
+def test_bad_situations_are_one_line_errors_before_any_reasoning(handover, change, message, reasoner, no_java):
     situation = Situation.model_validate({**handover.model_dump(), **change})
     with pytest.raises(HriplanError, match=message) as info:
-        KnowledgeBase(situation, cache=ReasoningCache(None))
+        KnowledgeBase(situation, cache=ReasoningCache(None), reasoner=reasoner)
     assert "\n" not in str(info.value)
 
 

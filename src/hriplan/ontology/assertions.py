@@ -2,19 +2,25 @@
 
 An assertion is (subject, predicate, object): predicate `a` states a class, any other predicate
 is an ontology property whose object is an individual's name or a data value. Geometry the
-rules never see (orientations, sizes, body height) stays out, so changing it reuses the cache.
+rules never see (orientations, sizes, body height) stays out, so changing it reuses the cache;
+so do positions and headings unless a rule reads them (relations that depend on numbers are
+computed from the geometry and asserted qualitatively instead: `relations`).
 Only the person the task hands to or takes from gets body-part individuals (with the hand they
 use): every individual costs reasoning time, and nobody else's parts are needed by name.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from hriplan import HriplanError
+from hriplan.rules.ruleset import Rule
 
 from .situation import Situation, SituationHuman
 
 Assertion = tuple[str, str, bool | int | float | str]
 TYPE = "a"
+GEOMETRY = ("hasX", "hasY", "hasZ", "hasYaw")  # asserted only for rules that read them
 BODY_PARTS = {"head": "Head", "torso": "Torso", "left_hand": "HumanHand", "right_hand": "HumanHand"}
 
 
@@ -27,8 +33,9 @@ def body_part_individual(person: str, part: str) -> str:
     return f"{person}_{part}"
 
 
-def situation_assertions(situation: Situation) -> list[Assertion]:
-    """Every fact the situation states, sorted (the order must not change the cache key)."""
+def situation_assertions(situation: Situation, rules: Sequence[Rule] = ()) -> list[Assertion]:
+    """Every fact the situation states, sorted (the order must not change the cache key);
+    positions and headings only if one of `rules` reads them."""
     facts: list[Assertion] = [*_task(situation)]
     for obj in situation.objects:
         facts += [(obj.name, TYPE, obj.kind), *_position(obj.name, obj.pose.xyz)]
@@ -42,7 +49,8 @@ def situation_assertions(situation: Situation) -> list[Assertion]:
                   (human.name, "hasYaw", float(human.yaw)), *_position(human.name, (*human.position, 0.0))]  # fmt: skip
     if situation.task.human is not None:
         facts += _body(situation, situation.human(situation.task.human))
-    facts += situation.facts
+    read = {a.predicate for r in rules for a in r.body}
+    facts = [f for f in facts if f[1] not in GEOMETRY or f[1] in read] + list(situation.facts)
     return sorted(set(facts), key=repr)
 
 

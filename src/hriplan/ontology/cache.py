@@ -1,7 +1,8 @@
 """Reasoning results cached by the facts they came from, in memory and on disk.
 
 The key is the SHA-256 of the canonical JSON of everything the reasoner sees: the ontology
-text's hash, the rules and the situation's assertions. The same situation therefore never starts
+text's hash, the rules, the situation's qualitative assertions (no coordinate that no rule
+reads) and which reasoner concluded it. The same situation therefore never starts
 the JVM twice, in one process (memory) or across processes (disk:
 `$XDG_CACHE_HOME/hriplan/reasoning/`, default `~/.cache/hriplan/reasoning/`). An inconsistency
 is a result too and is cached as its message.
@@ -24,7 +25,7 @@ from hriplan.rules.ruleset import Rule
 from .assertions import Assertion
 from .facts import Facts
 
-FORMAT_VERSION = 1  # bump when what is cached changes meaning
+FORMAT_VERSION = 2  # bump when what is cached changes meaning
 MEMORY_ENTRIES = 256
 
 
@@ -36,9 +37,10 @@ class Reasoning:
     inconsistency: str | None = None
 
 
-def reasoning_key(ontology_digest: str, rules: Sequence[Rule], assertions: Sequence[Assertion]) -> str:
+def reasoning_key(ontology_digest: str, rules: Sequence[Rule], assertions: Sequence[Assertion], reasoner: str) -> str:
     document = {
         "format": FORMAT_VERSION,
+        "reasoner": reasoner,
         "ontology": ontology_digest,
         "rules": [[r.name, r.rationale, r.swrl()] for r in rules],
         "facts": [list(a) for a in assertions],

@@ -1,8 +1,13 @@
-"""The knowledge base of one situation: reasoned once, cached by its facts, queryable.
+"""The knowledge base of one situation: reasoned once per qualitative situation, cached, queryable.
 
-Building one states the situation's facts, looks them up in the cache and only on a miss builds
-an owlready2 World with the ontology and the rules and runs Pellet. Afterwards the facts are
-plain data (`facts`), the asserted + inferred graph exports as Turtle and answers SPARQL.
+Building one computes the relations that depend on numbers (`relations`: near a person, with
+thresholds from the ontology), states the situation's qualitative facts, looks them up in the
+cache and only on a miss reasons: in process by default (`rule_engine`, no JVM), or with Pellet
+(`reasoner="pellet"`, the reference). The cache key holds no coordinate no rule reads, so a
+person who moves without crossing a threshold gets the cached conclusions; what depends on the
+current geometry (the measurements in the provenance, the constraints' frames) is not cached.
+Afterwards the facts are plain data (`facts`); the asserted + inferred graph (always Pellet's)
+exports as Turtle and answers SPARQL.
 """
 
 from __future__ import annotations
@@ -10,19 +15,37 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Literal, get_args
 
 import rdflib
 
+from hriplan import HriplanError
 from hriplan.rules.ruleset import Rule, load_rules
 
 from .assertions import Assertion, situation_assertions
 from .cache import Reasoning, ReasoningCache, default_cache, reasoning_key
+from .checks import check_input
 from .facts import Facts
 from .reasoner import InconsistentSituation, dump_ntriples, extract_facts, run_pellet
+from .relations import ComputedRelation, compute_relations
+from .rule_engine import reason
+from .schema import Schema, load_schema
 from .situation import Situation
 from .sparql import QueryResult, run_query
 from .vocabulary import PREFIXES, OntologySource, ontology_source
 from .world import build_world
+
+Reasoner = Literal["fast", "pellet"]
+REASONERS: tuple[str, ...] = get_args(Reasoner)
+_default: list[Reasoner] = ["fast"]
+
+
+def use_reasoner(name: str) -> str:
+    """Make `name` the reasoner of knowledge bases built without one (the CLI's --reasoner)."""
+    if name not in REASONERS:
+        raise HriplanError(f"unknown reasoner {name!r}; choose one of {', '.join(REASONERS)}")
+    _default[0] = name  # type: ignore[assignment]
+    return name
 
 
 class KnowledgeBase:
@@ -30,26 +53,42 @@ class KnowledgeBase:
 
     rule_files: extra rule files added to the packaged ones. ontology: another ontology file
     (e.g. with changed parameters). cache: where results are kept (default: memory + the XDG
-    cache directory). Raises HriplanError for bad input, InconsistentSituation for a contradiction.
+    cache directory). reasoner: "fast" (in process) or "pellet"; default: `use_reasoner`'s.
+    Raises HriplanError for bad input, InconsistentSituation for a contradiction.
     """
 
-    def __init__(self, situation: Situation, *, rule_files: Sequence[str | Path] = (),
-                 ontology: str | Path | None = None, cache: ReasoningCache | None = None) -> None:  # fmt: skip
+    def __init__(self, situation: Situation, *, rule_files: Sequence[str | Path] = (), ontology: str | Path | None = None,
+                 cache: ReasoningCache | None = None, reasoner: Reasoner | None = None) -> None:  # fmt: skip
         self.situation = situation
+        self.reasoner: Reasoner = reasoner or _default[0]
         self.rules: tuple[Rule, ...] = load_rules(rule_files)
-        self.assertions: list[Assertion] = situation_assertions(situation)
         self._source: OntologySource = ontology_source(ontology)
+        self.schema: Schema = load_schema(self._source)
+        self.relations: list[ComputedRelation] = compute_relations(situation, self.schema.individuals)
+        assertions = situation_assertions(situation, self.rules) + [r.assertion for r in self.relations]
+        self.assertions: list[Assertion] = sorted(set(assertions), key=repr)
         self._cache = cache if cache is not None else default_cache()
-        self.key = reasoning_key(self._source.digest, self.rules, self.assertions)
-        reasoning = self._cache.get(self.key) or self._reason()
+        self.key = reasoning_key(self._source.digest, self.rules, self.assertions, self.reasoner)
+        self._pellet_key = reasoning_key(self._source.digest, self.rules, self.assertions, "pellet")
+        reasoning = self._cache.get(self.key)
+        if reasoning is None:
+            check_input(self.schema, situation, self.rules, self.assertions)
+            reasoning = self._reason_fast() if self.reasoner == "fast" else self._reason_pellet()
         if reasoning.inconsistency is not None:
             raise InconsistentSituation(reasoning.inconsistency)
         assert reasoning.facts is not None
         self.facts: Facts = reasoning.facts
 
-    def _reason(self) -> Reasoning:
+    def _reason_fast(self) -> Reasoning:
+        """The rules in process; what it cannot settle (a contradiction) goes to Pellet."""
+        facts = reason(self.schema, self.rules, self.assertions)
+        reasoning = Reasoning(facts=facts) if facts is not None else self._cache.get(self._pellet_key) or self._reason_pellet()
+        self._cache.put(self.key, reasoning)
+        return reasoning
+
+    def _reason_pellet(self) -> Reasoning:
         """Build the World, run Pellet (the JVM start) and cache what it concluded."""
-        world = build_world(self._source, self.rules, self.situation, self.assertions)
+        world = build_world(self._source, self.rules, self.assertions)
         try:
             run_pellet(world)
         except InconsistentSituation as exc:
@@ -57,16 +96,16 @@ class KnowledgeBase:
         else:
             reasoning, ntriples = Reasoning(facts=extract_facts(world)), dump_ntriples(world)
         world.close()
-        self._cache.put(self.key, reasoning, ntriples)
+        self._cache.put(self._pellet_key, reasoning, ntriples)
         return reasoning
 
     @functools.cached_property
     def graph(self) -> rdflib.Graph:
-        """The asserted and inferred triples (ontology, rules, situation) as an rdflib graph."""
-        ntriples = self._cache.ntriples(self.key)
-        if ntriples is None:  # evicted from memory and not on disk: reason again to get it
-            self._reason()
-            ntriples = self._cache.ntriples(self.key)
+        """The asserted and inferred triples (ontology, rules, situation) as an rdflib graph (Pellet's)."""
+        ntriples = self._cache.ntriples(self._pellet_key)
+        if ntriples is None:  # reasoned in process, evicted from memory or not on disk: ask Pellet
+            self._reason_pellet()
+            ntriples = self._cache.ntriples(self._pellet_key)
         graph = rdflib.Graph()
         graph.parse(data=ntriples, format="nt")
         for prefix, namespace in PREFIXES.items():

@@ -4,31 +4,26 @@ Pellet says what follows, not which rule made it follow. So each rule whose head
 the fact is matched again, in Python, against the reasoned facts with the head's variables
 bound; every solution names the rule and the facts it used. Facts that rules derived in turn
 (a can is a FullOpenContainer, an object `isNear` a person) are explained the same way, a few
-levels deep. Numeric built-ins are evaluated; other built-ins cannot be and are taken as
+levels deep. A relation computed from geometry (`isNear`, see ontology.relations) is explained
+by its measurement ("cup1 is 0.87 m from col, below NearHuman 1.2 m"), and by any rule that
+concludes it too. Numeric built-ins are evaluated; other built-ins cannot be and are taken as
 satisfied (Pellet checked them). A class atom is worded with the individual's stated kind
 ("can1 is a Can"), so the facts read as what the situation said.
 """
 
 from __future__ import annotations
 
-import operator
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 
 from hriplan.ontology.assertions import TYPE, Assertion
 from hriplan.ontology.facts import Facts, Value
+from hriplan.ontology.relations import ComputedRelation
 
-from .ruleset import Atom, Name, Rule, Term, Var
+from .matching import Binding, resolve, solutions, unify
+from .ruleset import Atom, Rule
 
 MAX_DEPTH = 3
-Binding = dict[str, Value]
-_ARITHMETIC: dict[str, Callable[[float, float], float]] = {
-    "add": operator.add, "subtract": operator.sub, "multiply": operator.mul, "divide": operator.truediv,
-}  # fmt: skip
-_COMPARISONS: dict[str, Callable[[Value, Value], bool]] = {
-    "lessThan": operator.lt, "lessThanOrEqual": operator.le, "greaterThan": operator.gt,
-    "greaterThanOrEqual": operator.ge, "equal": operator.eq, "notEqual": operator.ne,
-}  # fmt: skip
 
 
 @dataclass
@@ -48,10 +43,12 @@ class Support:
 class Provenance:
     """Explains facts of one reasoned situation with its rules."""
 
-    def __init__(self, rules: Sequence[Rule], facts: Facts, assertions: Sequence[Assertion]) -> None:
+    def __init__(self, rules: Sequence[Rule], facts: Facts, assertions: Sequence[Assertion],
+                 computed: Sequence[ComputedRelation] = ()) -> None:  # fmt: skip
         self.rules = rules
         self.facts = facts
-        self.asserted = set(assertions)
+        self.computed = {c.assertion: c for c in computed}
+        self.asserted = set(assertions) - set(self.computed)
         self.kind_of = {s: str(o) for s, p, o in assertions if p == TYPE}
 
     def why(self, subject: str, predicate: str, value: Value | None = None, depth: int = 0) -> Support:
@@ -69,43 +66,18 @@ class Provenance:
         values = (subject,) if value is None else (subject, value)
         for rule in self.rules:
             for head in rule.head:
-                binding = _unify(head, predicate, values)
+                binding = unify(head, predicate, values)
                 if binding is not None:
-                    solutions = list(self._solve(list(rule.body), binding))
-                    if solutions:
-                        yield rule, solutions
+                    found = list(solutions(list(rule.body), binding, self.facts))
+                    if found:
+                        yield rule, found
                         break
-
-    def _solve(self, atoms: list[Atom], binding: Binding) -> Iterator[Binding]:
-        if not atoms:
-            yield binding
-            return
-        index = next((i for i, a in enumerate(atoms) if _ready(a, binding)), 0)
-        atom, rest = atoms[index], atoms[:index] + atoms[index + 1 :]
-        for extended in self._evaluate(atom, binding):
-            yield from self._solve(rest, extended)
-
-    def _evaluate(self, atom: Atom, binding: Binding) -> Iterator[Binding]:
-        args = [_resolve(a, binding) for a in atom.args]
-        if atom.builtin:
-            yield from _builtin(atom, args, binding)
-        elif len(args) == 1:
-            candidates = [args[0]] if args[0] is not None else list(self.facts.types)
-            for individual in candidates:
-                if self.facts.is_a(str(individual), atom.predicate):
-                    yield _bind(atom.args[0], individual, binding)
-        else:
-            subjects = [args[0]] if args[0] is not None else list(self.facts.values)
-            for subject in subjects:
-                for value in self.facts.get(str(subject), atom.predicate):
-                    if args[1] is None or value == args[1]:
-                        yield _bind(atom.args[1], value, _bind(atom.args[0], subject, binding))
 
     def _atom_support(self, atom: Atom, binding: Binding, depth: int) -> Support:
         """The atom in words; for a derived fact, also the rules and facts behind it."""
         if atom.builtin:
             return Support()
-        args = [_resolve(a, binding) for a in atom.args]
+        args = [resolve(a, binding) for a in atom.args]
         subject = str(args[0])
         if len(args) == 1:
             kind = self.kind_of.get(subject, atom.predicate)
@@ -119,6 +91,9 @@ class Provenance:
         value = args[1]
         assert value is not None
         support = Support(facts=[self._words(subject, atom.predicate, value)])
+        computed = self.computed.get((subject, atom.predicate, value))
+        if computed is not None:
+            support.add(Support(rules=[computed.relation], facts=[computed.words]))
         if (subject, atom.predicate, value) not in self.asserted and depth < MAX_DEPTH:
             support.add(self.why(subject, atom.predicate, value, depth + 1))
         return support
@@ -136,55 +111,3 @@ class Provenance:
 
 def _article(noun: str) -> str:
     return "an" if noun[:1].lower() in "aeiou" else "a"
-
-
-def _unify(head: Atom, predicate: str, values: tuple[Value, ...]) -> Binding | None:
-    if head.builtin or head.predicate != predicate or len(head.args) != len(values):
-        return None
-    binding: Binding = {}
-    for term, value in zip(head.args, values):
-        if isinstance(term, Var):
-            if binding.setdefault(term.name, value) != value:
-                return None
-        elif _constant(term) != value:
-            return None
-    return binding
-
-
-def _ready(atom: Atom, binding: Binding) -> bool:
-    """Built-ins wait until their inputs are bound (arithmetic binds its first argument)."""
-    if not atom.builtin:
-        return True
-    inputs = atom.args[1:] if atom.predicate in _ARITHMETIC else atom.args
-    return all(_resolve(a, binding) is not None for a in inputs)
-
-
-def _builtin(atom: Atom, args: list[Value | None], binding: Binding) -> Iterator[Binding]:
-    """Evaluate a numeric built-in; inputs that are unbound or not numbers match nothing."""
-    try:
-        if atom.predicate in _ARITHMETIC:
-            result = _ARITHMETIC[atom.predicate](float(args[1]), float(args[2]))  # type: ignore[arg-type]
-            if args[0] is None:
-                yield _bind(atom.args[0], result, binding)
-            elif abs(float(args[0]) - result) <= 1e-9 * max(1.0, abs(result)):
-                yield binding
-        elif atom.predicate in _COMPARISONS:
-            if None not in args[:2] and _COMPARISONS[atom.predicate](args[0], args[1]):  # type: ignore[arg-type]
-                yield binding
-        else:
-            yield binding
-    except (TypeError, ValueError, IndexError, ZeroDivisionError):
-        return
-
-
-def _resolve(term: Term, binding: Binding) -> Value | None:
-    return binding.get(term.name) if isinstance(term, Var) else _constant(term)
-
-
-def _constant(term: Term) -> Value:
-    assert not isinstance(term, Var)
-    return term.name if isinstance(term, Name) else term
-
-
-def _bind(term: Term, value: Value, binding: Binding) -> Binding:
-    return {**binding, term.name: value} if isinstance(term, Var) else binding
