@@ -1,0 +1,169 @@
+"""The in-process reasoner against Pellet, and reasoning keyed by the qualitative situation.
+
+Every situation of the corpus (the example situations, every step of the example tasks, the
+variants the tests build) is derived both ways: the facts, the constraints and their provenance
+must be identical. Pellet's results come from the shared content-hashed cache (they are Pellet's
+conclusions for exactly these facts); the in-process side never uses a cache.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from hriplan import HriplanError
+from hriplan.ontology import rule_engine
+from hriplan.ontology.cache import ReasoningCache, default_cache
+from hriplan.ontology.knowledge_base import KnowledgeBase
+from hriplan.ontology.reasoner import InconsistentSituation
+from hriplan.ontology.situation import EXAMPLES_DIR, Situation, load_situation
+from hriplan.ontology.vocabulary import ONTOLOGY_PATH
+from hriplan.rules.infer import derive
+from hriplan.tasks.load import load_task
+from hriplan.tasks.pipeline import TaskRunner
+
+EXAMPLE_TASKS = Path(__file__).resolve().parents[1] / "examples"
+
+
+def example(name: str) -> Situation:
+    return load_situation(EXAMPLES_DIR / f"{name}.json")
+
+
+def moved(situation: Situation, person: str, dx: float, dy: float = 0.0) -> Situation:
+    humans = [h.model_copy(update={"position": (h.position[0] + dx, h.position[1] + dy)}) if h.name == person else h
+              for h in situation.humans]  # fmt: skip
+    return situation.model_copy(update={"humans": humans})
+
+
+def with_object(situation: Situation, name: str, **update: object) -> Situation:
+    objects = [o.model_copy(update=update) if o.name == name else o for o in situation.objects]
+    return situation.model_copy(update={"objects": objects})
+
+
+def _task_steps() -> list[tuple[str, Situation]]:
+    found = []
+    for path in sorted(EXAMPLE_TASKS.glob("*.yaml")):
+        runner = TaskRunner(load_task(path), path.parent)
+        runner.run(plan=False)
+        found += [(f"{path.stem}:{step}", kb.situation) for step, kb in runner.knowledge_bases.items()]
+    return found
+
+
+def _variants() -> list[tuple[str, Situation]]:
+    handover, hot = example("handover_can"), example("transport_hot_cup")
+    return [
+        ("handover closed can", with_object(handover, "can1", open=False)),
+        ("handover full and empty (inconsistent)", handover.model_copy(update={"facts": [("can1", "hasFillLevel", "Empty")]})),
+        ("handover hot glass fact", handover.model_copy(update={"facts": [("glass1", "isHot", True)]})),
+        ("hot cup, col walks away", moved(hot, "col", 1.0, 1.0)),
+        ("hot cup, col walks away, path passes col", with_object(moved(hot, "col", 1.0, 1.0), "cup1", path=[(1.2, 1.6, 1.0), (0.9, 0.9, 0.9)])),
+        ("knife handed over, knife not sharp (inconsistent)", with_object(example("handover_knife_glass"), "knife1", sharp=False)),
+    ]  # fmt: skip
+
+
+CORPUS = [(p.stem, load_situation(p)) for p in sorted(EXAMPLES_DIR.glob("*.json"))] + _task_steps() + _variants()
+
+
+@pytest.mark.parametrize(("label", "situation"), CORPUS, ids=[label for label, _ in CORPUS])
+def test_in_process_and_pellet_conclude_the_same(label, situation):
+    try:
+        pellet = KnowledgeBase(situation, cache=default_cache(), reasoner="pellet")
+    except InconsistentSituation as clash:  # the fast reasoner hands contradictions to Pellet
+        with pytest.raises(InconsistentSituation) as info:
+            KnowledgeBase(situation, cache=ReasoningCache(None), reasoner="fast")
+        assert str(info.value) == str(clash)
+        return
+    fast = KnowledgeBase(situation, cache=ReasoningCache(None), reasoner="fast")
+    assert fast.facts == pellet.facts
+    assert derive(fast) == derive(pellet)  # constraints, velocity scales, rules, facts, reasons
+
+
+def test_the_corpus_makes_every_rule_fire():
+    """Agreement means something only where rules fire: every packaged rule is in some provenance."""
+    fired: set[str] = set()
+    for _, situation in CORPUS:
+        try:
+            derivation = derive(KnowledgeBase(situation, cache=ReasoningCache(None)))
+        except InconsistentSituation:
+            continue
+        fired |= {r for d in [*derivation.constraints, *derivation.velocity] for r in d.rules}
+    packaged = {r.name for r in KnowledgeBase(example("pouring"), cache=ReasoningCache(None)).rules}
+    # EmptyContainer is read by no rule (only the facts show it, and they are compared too)
+    assert packaged - fired == {"define_empty_container"}
+    assert "carried_object_near_human" in fired
+
+
+@pytest.fixture
+def runs(monkeypatch) -> list[int]:
+    """Counts in-process reasoner runs."""
+    counted: list[int] = []
+    original = rule_engine.reason
+
+    def counting(*args, **kwargs):
+        counted.append(1)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr("hriplan.ontology.knowledge_base.reason", counting)
+    return counted
+
+
+def test_moving_a_person_without_crossing_a_threshold_reuses_the_conclusions(runs):
+    cache, hot = ReasoningCache(None), example("transport_hot_cup")
+    cup = hot.object("cup1")
+    derivations = []
+    for step in range(5):  # col moves 10 cm at a time, staying within NearHuman of the cup
+        situation = moved(hot, "col", 0.1 * step)
+        col = situation.human("col")
+        assert math.dist(cup.pose.xyz[:2], col.position) < 1.2
+        derivations.append(derive(KnowledgeBase(situation, cache=cache)))
+    assert len(runs) == 1  # one reasoner run for five geometries
+    distances = [math.dist(cup.pose.xyz[:2], moved(hot, "col", 0.1 * s).human("col").position) for s in range(5)]
+    for derivation, distance in zip(derivations, distances):  # the explanation follows the current geometry
+        (hot_cup,) = derivation.velocity
+        assert f"cup1 is {distance:.2f} m from col, below NearHuman 1.2 m" in hot_cup.facts
+
+
+def test_crossing_the_threshold_changes_the_derivation(runs):
+    cache, hot = ReasoningCache(None), example("transport_hot_cup")
+    near = derive(KnowledgeBase(hot, cache=cache))
+    away = moved(hot, "col", 1.0, 1.0)  # 1.0 m further along x and y: beyond 1.2 m from the cup
+    assert math.dist(away.object("cup1").pose.xyz[:2], away.human("col").position) > 1.2
+    far = derive(KnowledgeBase(away, cache=cache))
+    assert near.velocity_scale == 0.5 and far.velocity_scale == 1.0 and far.velocity == []
+    assert len(runs) == 2
+
+
+def test_nearness_along_a_path_is_the_closest_approach_and_names_it():
+    hot = moved(example("transport_hot_cup"), "col", 1.0, 1.0)
+    col = hot.human("col")
+    x, y, z = hot.object("cup1").pose.xyz
+    # the cup's path runs past col 0.5 m to their side: a segment whose end points are both far from col
+    path = [(col.position[0] - 1.0, col.position[1] + 0.5, z), (col.position[0] + 1.0, col.position[1] + 0.5, z)]
+    assert min(math.dist(p[:2], col.position) for p in [(x, y), *path]) > 1.1
+    derivation = derive(KnowledgeBase(with_object(hot, "cup1", path=path), cache=ReasoningCache(None)))
+    (slow,) = derivation.velocity
+    assert slow.kind == "ReducedVelocityHot" and "carried_object_near_human" in slow.rules
+    assert "cup1 comes within 0.50 m of col, below NearHuman 1.2 m" in slow.facts
+
+
+def test_the_threshold_is_read_from_the_ontology(tmp_path):
+    text = ONTOLOGY_PATH.read_text()
+    assert text.count("hp:hasDistance 1.2 .") == 1
+    ontology = tmp_path / "hriplan.ttl"
+    ontology.write_text(text.replace("hp:hasDistance 1.2 .", "hp:hasDistance 0.5 ."))
+    hot = example("transport_hot_cup")  # cup1 is 0.71 m from col
+    assert derive(KnowledgeBase(hot, cache=ReasoningCache(None))).velocity_scale == 0.5
+    assert derive(KnowledgeBase(hot, ontology=ontology, cache=ReasoningCache(None))).velocity_scale == 1.0
+
+
+def test_what_the_fast_reasoner_cannot_evaluate_is_a_clear_error(tmp_path):
+    ontology = tmp_path / "hriplan.ttl"
+    ontology.write_text(ONTOLOGY_PATH.read_text() + "\nhp:Cup owl:equivalentClass hp:Bowl .\n")
+    with pytest.raises(HriplanError, match=r"^the fast reasoner does not handle owl:equivalentClass on Cup in the ontology; use --reasoner pellet$"):
+        KnowledgeBase(example("pouring"), ontology=ontology, cache=ReasoningCache(None), reasoner="fast")
+    rules = tmp_path / "strings.rules"
+    rules.write_text('# Needs a string built-in.\n[named] Cup(?o) ^ swrlb:startsWith("cup", "c") -> isHot(?o, true)\n')
+    with pytest.raises(HriplanError, match=r"rule 'named' uses built-in startsWith, which the fast reasoner does not evaluate"):
+        KnowledgeBase(example("pouring"), rule_files=[rules], cache=ReasoningCache(None), reasoner="fast")
