@@ -17,7 +17,7 @@ from hriplan import HriplanError
 from hriplan.ontology import rule_engine
 from hriplan.ontology.cache import ReasoningCache, default_cache
 from hriplan.ontology.knowledge_base import KnowledgeBase
-from hriplan.ontology.reasoner import InconsistentSituation
+from hriplan.ontology.reasoner import InconsistentSituation, run_pellet
 from hriplan.ontology.situation import EXAMPLES_DIR, Situation, load_situation
 from hriplan.ontology.vocabulary import ONTOLOGY_PATH
 from hriplan.rules.infer import derive
@@ -167,3 +167,22 @@ def test_what_the_fast_reasoner_cannot_evaluate_is_a_clear_error(tmp_path):
     rules.write_text('# Needs a string built-in.\n[named] Cup(?o) ^ swrlb:startsWith("cup", "c") -> isHot(?o, true)\n')
     with pytest.raises(HriplanError, match=r"rule 'named' uses built-in startsWith, which the fast reasoner does not evaluate"):
         KnowledgeBase(example("pouring"), rule_files=[rules], cache=ReasoningCache(None), reasoner="fast")
+
+
+@pytest.mark.parametrize(("flag", "pellet_runs"), [([], 0), (["--reasoner", "fast"], 0), (["--reasoner", "pellet"], 1)])
+def test_the_cli_selects_the_reasoner(monkeypatch, tmp_path, flag, pellet_runs):
+    from typer.testing import CliRunner
+
+    from hriplan.cli.main import app
+    from hriplan.ontology.reasoners import use_reasoner
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))  # nothing cached: the chosen reasoner must run
+    ran: list[int] = []
+    monkeypatch.setattr("hriplan.ontology.knowledge_base.run_pellet", lambda world: ran.append(1) or run_pellet(world))
+    try:
+        result = CliRunner().invoke(app, ["constraints", str(EXAMPLE_TASKS / "transport_cup_bystander.yaml"), "-q", *flag])
+    finally:
+        use_reasoner("fast")
+    assert len(ran) == pellet_runs
+    assert result.exit_code == 0, result.output
+    assert "keep_out_dana" in result.output and "upright_cup" in result.output

@@ -13,7 +13,8 @@ from hriplan import HriplanError
 from hriplan.ontology import reasoner
 from hriplan.ontology.assertions import situation_assertions
 from hriplan.ontology.cache import ReasoningCache, default_cache_dir, reasoning_key
-from hriplan.ontology.knowledge_base import KnowledgeBase, use_reasoner
+from hriplan.ontology.knowledge_base import KnowledgeBase
+from hriplan.ontology.reasoners import use_reasoner
 from hriplan.ontology.reasoner import InconsistentSituation
 from hriplan.ontology.situation import EXAMPLES_DIR, Situation, load_situation
 from hriplan.ontology.vocabulary import NAMESPACE, SITUATION_NAMESPACE, ontology_source

@@ -12,10 +12,12 @@ from typing import Annotated, Literal
 import typer
 
 from hriplan import HriplanError
+from hriplan.ontology.reasoners import Reasoner, use_reasoner
 
 TaskArgument = Annotated[Path, typer.Argument(help="A task file (YAML or JSON).")]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress messages.")]
 Verbose = Annotated[bool, typer.Option("--verbose", "-v", help="More detail: rules and facts, constraint calls.")]
+ReasonerOption = Annotated[Reasoner, typer.Option(callback=use_reasoner, help="fast: the rules in process; pellet: the reference.")]
 
 
 def _progress(quiet: bool):  # noqa: ANN202
@@ -53,6 +55,7 @@ def plan(
     plots: Annotated[Path | None, typer.Option("--plots", help="Also write figures into this directory.")] = None,
     quiet: Quiet = False,
     verbose: Verbose = False,
+    reasoner: ReasonerOption = "fast",
 ) -> None:
     """Run the pipeline: derive each step's constraints, plan, validate, time, write trajectories."""
     from hriplan.tasks.summary import summarize
@@ -97,7 +100,8 @@ def _json(outcome, written: list[Path]) -> dict:  # noqa: ANN001
     return {"task": outcome.task, "solved": outcome.solved, "steps": steps, "files": [str(p) for p in written]}
 
 
-def constraints(task: TaskArgument, as_json: Annotated[bool, typer.Option("--json")] = False, quiet: Quiet = False) -> None:
+def constraints(task: TaskArgument, as_json: Annotated[bool, typer.Option("--json")] = False, quiet: Quiet = False,
+                reasoner: ReasonerOption = "fast") -> None:  # fmt: skip
     """What each step would have to respect, with one-line reasons (no planning)."""
     from hriplan.tasks.summary import constraint_lines
 
@@ -110,7 +114,7 @@ def constraints(task: TaskArgument, as_json: Annotated[bool, typer.Option("--jso
         typer.echo("\n".join(constraint_lines(step.derivation)) or "  no constraints")
 
 
-def explain(task: TaskArgument, quiet: Quiet = False) -> None:
+def explain(task: TaskArgument, quiet: Quiet = False, reasoner: ReasonerOption = "fast") -> None:
     """The full reasoning chain in words: for every constraint, the rules and the facts."""
     from hriplan.rules.explain import explain as explain_derivation
 

@@ -15,11 +15,8 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Literal, get_args
-
 import rdflib
 
-from hriplan import HriplanError
 from hriplan.rules.ruleset import Rule, load_rules
 
 from .assertions import Assertion, situation_assertions
@@ -27,6 +24,7 @@ from .cache import Reasoning, ReasoningCache, default_cache, reasoning_key
 from .checks import check_input
 from .facts import Facts
 from .reasoner import InconsistentSituation, dump_ntriples, extract_facts, run_pellet
+from .reasoners import Reasoner, default_reasoner
 from .relations import ComputedRelation, compute_relations
 from .rule_engine import reason
 from .schema import Schema, load_schema
@@ -34,19 +32,6 @@ from .situation import Situation
 from .sparql import QueryResult, run_query
 from .vocabulary import PREFIXES, OntologySource, ontology_source
 from .world import build_world
-
-Reasoner = Literal["fast", "pellet"]
-REASONERS: tuple[str, ...] = get_args(Reasoner)
-_default: list[Reasoner] = ["fast"]
-
-
-def use_reasoner(name: str) -> str:
-    """Make `name` the reasoner of knowledge bases built without one (the CLI's --reasoner)."""
-    if name not in REASONERS:
-        raise HriplanError(f"unknown reasoner {name!r}; choose one of {', '.join(REASONERS)}")
-    _default[0] = name  # type: ignore[assignment]
-    return name
-
 
 class KnowledgeBase:
     """A situation with everything the ontology and the rules conclude about it.
@@ -60,7 +45,7 @@ class KnowledgeBase:
     def __init__(self, situation: Situation, *, rule_files: Sequence[str | Path] = (), ontology: str | Path | None = None,
                  cache: ReasoningCache | None = None, reasoner: Reasoner | None = None) -> None:  # fmt: skip
         self.situation = situation
-        self.reasoner: Reasoner = reasoner or _default[0]
+        self.reasoner: Reasoner = reasoner or default_reasoner()
         self.rules: tuple[Rule, ...] = load_rules(rule_files)
         self._source: OntologySource = ontology_source(ontology)
         self.schema: Schema = load_schema(self._source)
