@@ -1,15 +1,16 @@
-"""Reasoning latency of the knowledge base: cold (JVM start), warm (cached), and scaling.
+"""Reasoning latency: geometry-only changes, new qualitative situations, cold processes, sweeps.
 
-Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_reasoning.py [--reps 5] [--scales 1 10 100]
-- cold: KnowledgeBase(situation) on a cache miss (world build + Pellet in a JVM + fact
-  extraction + cache write), in a process that has imported hriplan; also once in a fresh
-  process, imports included. JVM CPU time (user + sys of child processes) is printed next to
-  wall time because wall time depends on the machine's load.
-- warm: the same situation again, from the in-memory cache and from the disk cache (what a
-  new process sees).
-- scaling: the handover example with its objects and people repeated 10x and 100x.
-Targets: cold <= 1 s, warm <= 50 ms. The JVM's class-data archive is kept in a temporary cache
-home made by this script: its first run creates the archive and is reported separately.
+Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_reasoning.py [--reps 5] [--sweep 1000] [--scales 1 10 100]
+Every time is a derivation as the pipeline does it: KnowledgeBase(situation) + derive(kb).
+- geometry: the bystander example's step, the person moved 10 cm at a time without crossing a
+  threshold (one reasoner run, then cache hits); target <= 10 ms.
+- new qualitative situation, warm process (ontology schema loaded, nothing cached): every
+  example situation and task step, in process ("fast") and with Pellet; target <= 100 ms.
+- cold process: a fresh interpreter, empty cache, imports reported apart; target <= 1 s.
+- sweep: `--sweep` variants of handover_can with the receiver and the supervisor at random
+  positions, one shared cache (memory + disk); target 1000 in <= 30 s.
+- scaling: handover_can with its objects and people repeated 10x and 100x, both reasoners.
+Ratios between reasoners hold within one run; absolute times depend on the machine's load.
 """
 
 from __future__ import annotations
@@ -17,20 +18,113 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
+import random
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
-SRC = Path(__file__).resolve().parents[1] / "src"
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src"
+BYSTANDER = ROOT / "examples" / "transport_cup_bystander.yaml"
 
 
-def children_cpu() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
+def timed(fn: Callable[[], object]) -> tuple[object, float]:
+    start = time.perf_counter()
+    result = fn()
+    return result, time.perf_counter() - start
+
+
+def derivation(situation, cache, reasoner: str = "fast"):
+    from hriplan.ontology.knowledge_base import KnowledgeBase
+    from hriplan.rules.infer import derive
+
+    return derive(KnowledgeBase(situation, cache=cache, reasoner=reasoner))
+
+
+class RunCounter:
+    """Counts in-process reasoner runs (cache misses) by wrapping the knowledge base's `reason`."""
+
+    def __init__(self) -> None:
+        import hriplan.ontology.knowledge_base as kb
+
+        self.runs, original = 0, kb.reason
+
+        def counting(*args, **kwargs):
+            self.runs += 1
+            return original(*args, **kwargs)
+
+        kb.reason = counting
+
+
+def moved(situation, person: str, x: float, y: float):
+    return situation.model_copy(update={"humans": [h.model_copy(update={"position": (x, y)}) if h.name == person else h
+                                                   for h in situation.humans]})  # fmt: skip
+
+
+def task_situations(path: Path) -> list:
+    from hriplan.tasks.load import load_task
+    from hriplan.tasks.pipeline import TaskRunner
+
+    runner = TaskRunner(load_task(path), path.parent)
+    runner.run(plan=False)
+    return [kb.situation for kb in runner.knowledge_bases.values()]
+
+
+def geometry_only(reps: int, counter: RunCounter) -> dict:
+    from hriplan.ontology.cache import ReasoningCache
+
+    (base,) = task_situations(BYSTANDER)
+    person = base.humans[0]
+    cache, before = ReasoningCache(None), counter.runs
+    _, first = timed(lambda: derivation(base, cache))
+    times = []
+    for step in range(1, reps + 1):
+        situation = moved(base, person.name, person.position[0] + 0.1 * step, person.position[1])
+        times.append(timed(lambda situation=situation: derivation(situation, cache))[1])
+    return {"first_ms": first * 1e3, "median_ms": statistics.median(times) * 1e3, "max_ms": max(times) * 1e3,
+            "moves": reps, "reasoner_runs": counter.runs - before}  # fmt: skip
+
+
+def corpus() -> dict:
+    from hriplan.ontology.situation import EXAMPLES_DIR, load_situation
+
+    found = {p.stem: load_situation(p) for p in sorted(EXAMPLES_DIR.glob("*.json"))}
+    for path in sorted((ROOT / "examples").glob("*.yaml")):
+        found |= {f"{path.stem}:{s.task.name}": s for s in task_situations(path)}
+    return found
+
+
+def new_situations(pellet_reps: int, workdir: Path) -> dict:
+    from hriplan.ontology.cache import ReasoningCache
+
+    situations = corpus()
+    fast = [timed(lambda s=s: derivation(s, ReasoningCache(None)))[1] for s in situations.values()]
+    names = list(situations)[:pellet_reps]
+    pellet = [timed(lambda n=n: derivation(situations[n], ReasoningCache(workdir / f"pellet-{n}"), "pellet"))[1] for n in names]
+    return {"situations": len(situations), "fast_median_ms": statistics.median(fast) * 1e3, "fast_max_ms": max(fast) * 1e3,
+            "pellet_situations": len(names), "pellet_median_s": statistics.median(pellet), "pellet_max_s": max(pellet)}  # fmt: skip
+
+
+def sweep(variants: int, workdir: Path, counter: RunCounter) -> dict:
+    from hriplan.ontology.cache import ReasoningCache
+    from hriplan.ontology.situation import EXAMPLES_DIR, load_situation
+
+    base, rng = load_situation(EXAMPLES_DIR / "handover_can.json"), random.Random(1)
+    situations = []
+    for _ in range(variants):  # receiver and supervisor anywhere in front of the robot, >= 0.6 m from its base
+        situation = base
+        for person in ("bob", "sue"):
+            situation = moved(situation, person, rng.uniform(-1.5, 1.5), rng.uniform(0.6, 2.5))
+        situations.append(situation)
+    cache, before = ReasoningCache(workdir / "sweep"), counter.runs
+    results, total = timed(lambda: [derivation(s, cache) for s in situations])
+    scales = sorted({d.velocity_scale for d in results})  # type: ignore[union-attr]
+    return {"variants": variants, "total_s": total, "per_variant_ms": total / variants * 1e3,
+            "reasoner_runs": counter.runs - before, "velocity_scales": scales}  # fmt: skip
 
 
 def scaled(factor: int):
@@ -52,75 +146,39 @@ def scaled(factor: int):
     return base.model_copy(update={"objects": objects, "humans": humans})
 
 
-def timed(fn):
-    cpu, start = children_cpu(), time.perf_counter()
-    result = fn()
-    return result, time.perf_counter() - start, children_cpu() - cpu
-
-
-def measure(factor: int, reps: int, workdir: Path) -> dict:
+def scaling(factor: int, workdir: Path) -> dict:
     from hriplan.ontology.cache import ReasoningCache
-    from hriplan.ontology.knowledge_base import KnowledgeBase
-    from hriplan.rules.infer import derive
 
     situation = scaled(factor)
-    colds, cpus = [], []
-    for rep in range(reps):
-        cache = ReasoningCache(workdir / f"x{factor}-{rep}")
-        kb, wall, cpu = timed(lambda cache=cache: KnowledgeBase(situation, cache=cache))
-        colds.append(wall)
-        cpus.append(cpu)
-    _, warm_memory, _ = timed(lambda: KnowledgeBase(situation, cache=cache))
-    _, warm_disk, _ = timed(lambda: KnowledgeBase(situation, cache=ReasoningCache(cache.directory)))
-    derivation, derive_s, _ = timed(lambda: derive(kb))
-    return {"factor": factor, "objects": len(situation.objects), "humans": len(situation.humans),
-            "cold_s": statistics.median(colds), "cold_min_s": min(colds), "cold_max_s": max(colds),
-            "jvm_cpu_s": statistics.median(cpus), "warm_memory_ms": warm_memory * 1e3, "warm_disk_ms": warm_disk * 1e3,
-            "derive_ms": derive_s * 1e3, "constraints": len(derivation.constraints)}  # fmt: skip
+    fast, fast_s = timed(lambda: derivation(situation, ReasoningCache(None)))
+    pellet, pellet_s = timed(lambda: derivation(situation, ReasoningCache(workdir / f"scale-{factor}"), "pellet"))
+    assert fast == pellet, f"the reasoners disagree at {factor}x"
+    return {"factor": factor, "objects": len(situation.objects), "humans": len(situation.humans), "fast_ms": fast_s * 1e3,
+            "pellet_s": pellet_s, "constraints": len(fast.constraints)}  # type: ignore[union-attr]  # fmt: skip
 
 
-def stages(workdir: Path) -> dict:
-    """Where the cold time of the base situation goes."""
-    from hriplan.ontology import reasoner
-    from hriplan.ontology.assertions import situation_assertions
-    from hriplan.ontology.vocabulary import ontology_source
-    from hriplan.ontology.world import build_world
-    from hriplan.rules.ruleset import load_rules
-
-    situation = scaled(1)
-    source = ontology_source()
-    rules, facts = load_rules(), situation_assertions(situation)
-    _, convert, _ = timed(lambda: source.ntriples)
-    world, build, _ = timed(lambda: build_world(source, rules, situation, facts))
-    _, pellet, cpu = timed(lambda: reasoner.run_pellet(world))
-    _, extract, _ = timed(lambda: reasoner.extract_facts(world))
-    _, dump, _ = timed(lambda: reasoner.dump_ntriples(world))
-    return {"ontology_to_ntriples_ms": convert * 1e3, "build_world_ms": build * 1e3, "pellet_ms": pellet * 1e3, "pellet_jvm_cpu_ms": cpu * 1e3,
-            "extract_facts_ms": extract * 1e3, "dump_ntriples_ms": dump * 1e3}  # fmt: skip
-
-
-def child(cache_dir: str) -> None:
-    """A fresh process: imports, then one cold KnowledgeBase (empty cache). Prints JSON."""
+def child(reasoner: str) -> None:
+    """A fresh process: imports, then one derivation of a new situation (empty cache). Prints JSON."""
     start = time.perf_counter()
-    from hriplan.ontology.cache import ReasoningCache
-    from hriplan.ontology.knowledge_base import KnowledgeBase
+    from hriplan.ontology.cache import default_cache
     from hriplan.ontology.situation import EXAMPLES_DIR, load_situation
 
     imports = time.perf_counter() - start
     situation = load_situation(EXAMPLES_DIR / "handover_can.json")
-    _, cold, cpu = timed(lambda: KnowledgeBase(situation, cache=ReasoningCache(cache_dir)))
-    print(json.dumps({"imports_s": imports, "cold_s": cold, "jvm_cpu_s": cpu}))
+    _, cold = timed(lambda: derivation(situation, default_cache(), reasoner))
+    print(json.dumps({"imports_s": imports, "cold_s": cold}))
 
 
-def fresh_process(workdir: Path, run: str) -> dict:
-    env = {**os.environ, "PYTHONPATH": str(SRC), "XDG_CACHE_HOME": str(workdir / "xdg")}
-    command = [sys.executable, __file__, "--child", str(workdir / f"child-{run}")]
+def fresh_process(workdir: Path, reasoner: str, run: int) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(SRC), "XDG_CACHE_HOME": str(workdir / f"xdg-{reasoner}-{run}")}
+    command = [sys.executable, __file__, "--child", reasoner]
     return json.loads(subprocess.run(command, env=env, capture_output=True, text=True, check=True).stdout)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reps", type=int, default=5)
+    parser.add_argument("--sweep", type=int, default=1000)
     parser.add_argument("--scales", type=int, nargs="+", default=[1, 10, 100])
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -129,23 +187,29 @@ def main() -> None:
         return
     with tempfile.TemporaryDirectory() as tmp:
         workdir = Path(tmp)
-        os.environ["XDG_CACHE_HOME"] = str(workdir / "xdg")  # the JVM archive starts absent
         print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cpus)")
-        first = fresh_process(workdir, "first")
-        print(f"first run ever (creates the JVM class-data archive): imports {first['imports_s']:.2f} s, "
-              f"cold {first['cold_s']:.2f} s (JVM CPU {first['jvm_cpu_s']:.2f} s)")  # fmt: skip
-        fresh = [fresh_process(workdir, str(rep)) for rep in range(args.reps)]
-        colds = sorted(f["cold_s"] for f in fresh)
-        print(f"fresh process, archive present ({args.reps} runs): imports {statistics.median(f['imports_s'] for f in fresh):.2f} s, "
-              f"cold median {statistics.median(colds):.2f} s ({colds[0]:.2f}-{colds[-1]:.2f}), "
-              f"JVM CPU {statistics.median(f['jvm_cpu_s'] for f in fresh):.2f} s")  # fmt: skip
-        print("cold stages (base situation):", ", ".join(f"{k} {v:.0f}" for k, v in stages(workdir).items()))
-        print("\n| scale | objects | humans | cold median (min-max) s | JVM CPU s | warm memory ms | warm disk ms | derive ms | constraints |")
-        print("|---|---|---|---|---|---|---|---|---|")
+        for reasoner in ("fast", "pellet"):
+            runs = [fresh_process(workdir, reasoner, r) for r in range(args.reps)]
+            colds = sorted(r["cold_s"] for r in runs)
+            print(f"cold process, {reasoner} ({args.reps} runs): imports median {statistics.median(r['imports_s'] for r in runs):.2f} s, "
+                  f"first derivation median {statistics.median(colds):.3f} s ({colds[0]:.3f}-{colds[-1]:.3f})")  # fmt: skip
+        os.environ["XDG_CACHE_HOME"] = str(workdir / "xdg-main")
+        counter = RunCounter()
+        g = geometry_only(args.reps * 4, counter)
+        print(f"geometry only ({g['moves']} moves of 10 cm): first {g['first_ms']:.1f} ms, then median {g['median_ms']:.2f} ms "
+              f"(max {g['max_ms']:.2f}), reasoner runs {g['reasoner_runs']}")  # fmt: skip
+        n = new_situations(args.reps, workdir)
+        print(f"new qualitative situation, warm process: fast median {n['fast_median_ms']:.1f} ms (max {n['fast_max_ms']:.1f}) over "
+              f"{n['situations']} situations; Pellet median {n['pellet_median_s']:.2f} s (max {n['pellet_max_s']:.2f}) over "
+              f"{n['pellet_situations']}; ratio {n['pellet_median_s'] * 1e3 / n['fast_median_ms']:.0f}x")  # fmt: skip
+        s = sweep(args.sweep, workdir, counter)
+        print(f"sweep: {s['variants']} variants in {s['total_s']:.2f} s ({s['per_variant_ms']:.2f} ms each), "
+              f"reasoner runs {s['reasoner_runs']}, velocity scales {s['velocity_scales']}")  # fmt: skip
+        print("\n| scale | objects | humans | fast ms | Pellet s | constraints |")
+        print("|---|---|---|---|---|---|")
         for factor in args.scales:
-            r = measure(factor, args.reps if factor < 100 else max(1, args.reps // 2), workdir)
-            print(f"| {r['factor']}x | {r['objects']} | {r['humans']} | {r['cold_s']:.2f} ({r['cold_min_s']:.2f}-{r['cold_max_s']:.2f}) "
-                  f"| {r['jvm_cpu_s']:.2f} | {r['warm_memory_ms']:.2f} | {r['warm_disk_ms']:.1f} | {r['derive_ms']:.1f} | {r['constraints']} |")  # fmt: skip
+            r = scaling(factor, workdir)
+            print(f"| {r['factor']}x | {r['objects']} | {r['humans']} | {r['fast_ms']:.1f} | {r['pellet_s']:.2f} | {r['constraints']} |")
         print(f"\nload average at end: {os.getloadavg()[0]:.2f}")
 
 

@@ -178,7 +178,7 @@ def test_the_cli_selects_the_reasoner(monkeypatch, tmp_path, flag, pellet_runs):
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))  # nothing cached: the chosen reasoner must run
     ran: list[int] = []
-    monkeypatch.setattr("hriplan.ontology.knowledge_base.run_pellet", lambda world: ran.append(1) or run_pellet(world))
+    monkeypatch.setattr("hriplan.ontology.reasoner.run_pellet", lambda world: ran.append(1) or run_pellet(world))
     try:
         result = CliRunner().invoke(app, ["constraints", str(EXAMPLE_TASKS / "transport_cup_bystander.yaml"), "-q", *flag])
     finally:

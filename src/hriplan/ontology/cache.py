@@ -42,7 +42,7 @@ def reasoning_key(ontology_digest: str, rules: Sequence[Rule], assertions: Seque
         "format": FORMAT_VERSION,
         "reasoner": reasoner,
         "ontology": ontology_digest,
-        "rules": [[r.name, r.rationale, r.swrl()] for r in rules],
+        "rules": [r.digest for r in rules],
         "facts": [list(a) for a in assertions],
     }
     canonical = json.dumps(document, sort_keys=True, separators=(",", ":"), ensure_ascii=True)

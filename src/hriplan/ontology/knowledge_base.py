@@ -15,7 +15,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 from pathlib import Path
-import rdflib
+from typing import TYPE_CHECKING
 
 from hriplan.rules.ruleset import Rule, load_rules
 
@@ -23,15 +23,18 @@ from .assertions import Assertion, situation_assertions
 from .cache import Reasoning, ReasoningCache, default_cache, reasoning_key
 from .checks import check_input
 from .facts import Facts
-from .reasoner import InconsistentSituation, dump_ntriples, extract_facts, run_pellet
-from .reasoners import Reasoner, default_reasoner
+from .reasoners import InconsistentSituation, Reasoner, default_reasoner
 from .relations import ComputedRelation, compute_relations
 from .rule_engine import reason
 from .schema import Schema, load_schema
 from .situation import Situation
-from .sparql import QueryResult, run_query
 from .vocabulary import PREFIXES, OntologySource, ontology_source
-from .world import build_world
+
+if TYPE_CHECKING:  # rdflib's SPARQL engine and owlready2 load only when used
+    import rdflib
+
+    from .sparql import QueryResult
+
 
 class KnowledgeBase:
     """A situation with everything the ontology and the rules conclude about it.
@@ -54,7 +57,6 @@ class KnowledgeBase:
         self.assertions: list[Assertion] = sorted(set(assertions), key=repr)
         self._cache = cache if cache is not None else default_cache()
         self.key = reasoning_key(self._source.digest, self.rules, self.assertions, self.reasoner)
-        self._pellet_key = reasoning_key(self._source.digest, self.rules, self.assertions, "pellet")
         reasoning = self._cache.get(self.key)
         if reasoning is None:
             check_input(self.schema, situation, self.rules, self.assertions)
@@ -63,6 +65,10 @@ class KnowledgeBase:
             raise InconsistentSituation(reasoning.inconsistency)
         assert reasoning.facts is not None
         self.facts: Facts = reasoning.facts
+
+    @functools.cached_property
+    def _pellet_key(self) -> str:
+        return reasoning_key(self._source.digest, self.rules, self.assertions, "pellet")
 
     def _reason_fast(self) -> Reasoning:
         """The rules in process; what it cannot settle (a contradiction) goes to Pellet."""
@@ -73,6 +79,9 @@ class KnowledgeBase:
 
     def _reason_pellet(self) -> Reasoning:
         """Build the World, run Pellet (the JVM start) and cache what it concluded."""
+        from .reasoner import dump_ntriples, extract_facts, run_pellet
+        from .world import build_world
+
         world = build_world(self._source, self.rules, self.assertions)
         try:
             run_pellet(world)
@@ -87,6 +96,8 @@ class KnowledgeBase:
     @functools.cached_property
     def graph(self) -> rdflib.Graph:
         """The asserted and inferred triples (ontology, rules, situation) as an rdflib graph (Pellet's)."""
+        import rdflib
+
         ntriples = self._cache.ntriples(self._pellet_key)
         if ntriples is None:  # reasoned in process, evicted from memory or not on disk: ask Pellet
             self._reason_pellet()
@@ -103,4 +114,6 @@ class KnowledgeBase:
 
     def query(self, text: str) -> QueryResult:
         """Answer a SPARQL 1.1 query over the asserted + inferred graph."""
+        from .sparql import run_query
+
         return run_query(self.graph, text)

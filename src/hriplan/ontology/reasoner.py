@@ -26,14 +26,11 @@ from hriplan import HriplanError
 
 from .cache import default_cache_dir
 from .facts import Facts, Value
+from .reasoners import InconsistentSituation
 from .vocabulary import NAMESPACE, SITUATION_NAMESPACE
 
 EXPLAIN_TIMEOUT = 120.0  # s; explaining is only needed for inconsistent situations
 _PELLET_JARS = Path(owlready2.__file__).parent / "pellet"
-
-
-class InconsistentSituation(HriplanError):
-    """The situation's facts contradict each other or the ontology."""
 
 
 def run_pellet(world: owlready2.World) -> None:

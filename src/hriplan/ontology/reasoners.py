@@ -1,4 +1,7 @@
-"""Which reasoner a knowledge base uses when none is named (kept light: the CLI imports it).
+"""Which reasoner a knowledge base uses when none is named, and what a contradiction raises.
+
+Kept light (no JVM bridge, no rdflib): the CLI imports it, and a process that never runs
+Pellet never imports owlready2.
 
 "fast" evaluates the rules in process (`rule_engine`); "pellet" runs Pellet on a JVM and is
 the reference the fast one is tested against.
@@ -25,3 +28,7 @@ def use_reasoner(name: str) -> str:
 
 def default_reasoner() -> Reasoner:
     return _default[0]
+
+
+class InconsistentSituation(HriplanError):
+    """The situation's facts contradict each other or the ontology."""

@@ -60,15 +60,13 @@ class Schema:
 
 
 def load_schema(source: OntologySource) -> Schema:
-    """The schema of one ontology version (parsed once per process and content hash)."""
-    return _schema(source.ntriples, source.digest)
+    """The schema of one ontology version (read once per process and content hash)."""
+    return _schema(source)
 
 
 @functools.lru_cache(maxsize=8)
-def _schema(ntriples: bytes, digest: str) -> Schema:
-    graph = rdflib.Graph()
-    graph.parse(data=ntriples, format="nt")
-    return _Reader(graph).schema
+def _schema(source: OntologySource) -> Schema:
+    return _Reader(source.graph).schema
 
 
 class _Reader:

@@ -10,8 +10,12 @@ import functools
 import hashlib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from hriplan import HriplanError
+
+if TYPE_CHECKING:
+    import rdflib
 
 NAMESPACE = "https://hriplan.org/ontology#"
 SITUATION_NAMESPACE = "https://hriplan.org/situation#"
@@ -34,7 +38,7 @@ PREFIXES = {
 
 @dataclass(frozen=True)
 class OntologySource:
-    """One version of the ontology file: its text's hash and its triples as N-Triples."""
+    """One version of the ontology file: its text's hash, its triples, and them as N-Triples (for owlready2)."""
 
     path: Path
     digest: str
@@ -42,6 +46,11 @@ class OntologySource:
     @property
     def ntriples(self) -> bytes:
         return _to_ntriples(self.path, self.digest)
+
+    @property
+    def graph(self) -> rdflib.Graph:
+        """The ontology's triples (parsed once per version; do not modify)."""
+        return _parse(self.path, self.digest)
 
 
 def ontology_source(path: str | Path | None = None) -> OntologySource:
@@ -56,11 +65,16 @@ def ontology_source(path: str | Path | None = None) -> OntologySource:
 
 @functools.lru_cache(maxsize=8)
 def _to_ntriples(path: Path, digest: str) -> bytes:
-    import rdflib  # only needed when the reasoner runs
+    return _parse(path, digest).serialize(format="nt", encoding="utf-8")
+
+
+@functools.lru_cache(maxsize=8)
+def _parse(path: Path, digest: str) -> rdflib.Graph:
+    import rdflib  # not needed when every result is cached
 
     graph = rdflib.Graph()
     try:
         graph.parse(path, format="turtle")
     except Exception as exc:  # noqa: BLE001 - rdflib raises its parsers' own exception types
         raise HriplanError(f"{path}: not valid Turtle: {str(exc).splitlines()[0]}") from None
-    return graph.serialize(format="nt", encoding="utf-8")
+    return graph

@@ -18,6 +18,9 @@ Format of a `*.rules` file (the SWRL syntax is Protégé's, so a rule pastes int
 
 from __future__ import annotations
 
+import functools
+import hashlib
+import json
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -73,6 +76,11 @@ class Rule:
         """The rule in owlready2's SWRL syntax (built-ins without prefix)."""
         return f"{_side(self.body)} -> {_side(self.head)}"
 
+    @functools.cached_property
+    def digest(self) -> str:
+        """Hash of the name, rationale and rule (computed once: it keys every reasoning)."""
+        return hashlib.sha256(json.dumps([self.name, self.rationale, self.swrl()]).encode()).hexdigest()
+
 
 def _side(atoms: tuple[Atom, ...]) -> str:
     return ", ".join(f"{a.predicate}({', '.join(_term_text(t) for t in a.args)})" for a in atoms)
@@ -100,12 +108,18 @@ def load_rules(extra_files: Sequence[str | Path] = ()) -> tuple[Rule, ...]:
             text = path.read_text(encoding="utf-8")
         except OSError as exc:
             raise HriplanError(f"cannot read rule file {path}: {exc.strerror or exc}") from None
-        for rule in parse_rules(text, str(path)):
+        for rule in _parsed(text, str(path)):
             if rule.name in seen:
                 raise HriplanError(f"{rule.source}: rule name {rule.name!r} is already used at {seen[rule.name]}")
             seen[rule.name] = rule.source
             rules.append(rule)
     return tuple(rules)
+
+
+@functools.lru_cache(maxsize=64)
+def _parsed(text: str, filename: str) -> tuple[Rule, ...]:
+    """Parsing is memoised by text: the knowledge base loads the rules for every situation."""
+    return tuple(parse_rules(text, filename))
 
 
 def parse_rules(text: str, filename: str = "<rules>") -> list[Rule]:
