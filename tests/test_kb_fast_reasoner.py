@@ -186,3 +186,53 @@ def test_the_cli_selects_the_reasoner(monkeypatch, tmp_path, flag, pellet_runs):
     assert len(ran) == pellet_runs
     assert result.exit_code == 0, result.output
     assert "keep_out_dana" in result.output and "upright_cup" in result.output
+
+
+FIELD_OF_VIEW = """
+hp:isInFrontOf a owl:ObjectProperty ; rdfs:domain hp:PhysicalObject ; rdfs:range hp:Human ;
+    rdfs:label "is in front of" ; rdfs:comment "Within the person's field of view." .
+hp:hasHalfAngle a owl:DatatypeProperty , owl:FunctionalProperty ; rdfs:subPropertyOf hp:hasParameter ;
+    rdfs:label "has half angle" ; rdfs:comment "Half the opening angle (rad)." .
+hp:FieldOfView a owl:NamedIndividual , hp:ProximityCriterion ; rdfs:label "field of view" ; hp:hasHalfAngle 0.6 .
+"""
+
+
+def _bearings(situation: Situation):
+    from hriplan.ontology.relations import Measurement
+    from hriplan.rules.geometry import bearing
+
+    for name in situation.task.carries:
+        obj = situation.object(name)
+        for human in situation.humans:
+            yield Measurement(name, human.name, abs(bearing(human.position, human.yaw, obj.pose.xyz[:2], human.name)), False)
+
+
+def test_a_new_relation_is_a_relation_kind_a_threshold_in_the_ontology_and_a_rule(tmp_path):
+    from hriplan.ontology.relations import NEAR_HUMAN, RelationKind
+
+    ontology, rules = tmp_path / "hriplan.ttl", tmp_path / "seen.rules"
+    ontology.write_text(ONTOLOGY_PATH.read_text() + FIELD_OF_VIEW)
+    rules.write_text("# What someone sees coming is handled gently.\n"
+                     "[seen_object] Task(?t) ^ movesObject(?t, ?o) ^ isInFrontOf(?o, ?h) -> isConstrainedBy(?o, ReducedVelocityFragile)\n")  # fmt: skip
+    in_front = RelationKind("object_in_front_of_human", "isInFrontOf", "FieldOfView", "hasHalfAngle", _bearings, unit="rad")
+    hot = example("transport_hot_cup")
+    expected = set()  # independently: the angle between where each person faces and each carried object
+    for obj in ("cup1", "bottle1"):
+        for human in hot.humans:
+            (x, y, _), (px, py) = hot.object(obj).pose.xyz, human.position
+            off = math.remainder(math.atan2(y - py, x - px) - human.yaw, math.tau)
+            if abs(off) < 0.6:
+                expected.add((obj, human.name))
+    assert expected == {("cup1", "col"), ("bottle1", "col")}  # ann, facing +x, sees neither
+    kinds = [NEAR_HUMAN, in_front]
+    fast = KnowledgeBase(hot, ontology=ontology, rule_files=[rules], relations=kinds, cache=ReasoningCache(None), reasoner="fast")
+    assert {(s, o) for s, p, o in fast.assertions if p == "isInFrontOf"} == expected
+    pellet = KnowledgeBase(hot, ontology=ontology, rule_files=[rules], relations=kinds, cache=default_cache(), reasoner="pellet")
+    assert derive(fast) == derive(pellet)
+    (bottle,) = [v for v in derive(fast).velocity if v.anchor == "bottle1"]
+    assert bottle.rules == ["seen_object", "object_in_front_of_human"]
+    angle = abs(math.remainder(math.atan2(0.7 - 1.2, -0.3 - 0.8) - hot.human("col").yaw, math.tau))
+    assert f"bottle1 is {angle:.2f} rad from col, below FieldOfView 0.6 rad" in bottle.facts
+    # without a rule reading it, the relation is not asserted: it cannot change the cache key
+    unread = KnowledgeBase(hot, ontology=ontology, relations=kinds, cache=ReasoningCache(None))
+    assert unread.key == KnowledgeBase(hot, ontology=ontology, cache=ReasoningCache(None)).key

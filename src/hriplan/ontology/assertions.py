@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from hriplan import HriplanError
-from hriplan.rules.ruleset import Rule
+from hriplan.rules.ruleset import Rule, read_predicates
 
 from .situation import Situation, SituationHuman
 
@@ -49,7 +49,7 @@ def situation_assertions(situation: Situation, rules: Sequence[Rule] = ()) -> li
                   (human.name, "hasYaw", float(human.yaw)), *_position(human.name, (*human.position, 0.0))]  # fmt: skip
     if situation.task.human is not None:
         facts += _body(situation, situation.human(situation.task.human))
-    read = {a.predicate for r in rules for a in r.body}
+    read = read_predicates(rules)
     facts = [f for f in facts if f[1] not in GEOMETRY or f[1] in read] + list(situation.facts)
     return sorted(set(facts), key=repr)
 

@@ -17,14 +17,14 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hriplan.rules.ruleset import Rule, load_rules
+from hriplan.rules.ruleset import Rule, load_rules, read_predicates
 
 from .assertions import Assertion, situation_assertions
 from .cache import Reasoning, ReasoningCache, default_cache, reasoning_key
 from .checks import check_input
 from .facts import Facts
 from .reasoners import InconsistentSituation, Reasoner, default_reasoner
-from .relations import ComputedRelation, compute_relations
+from .relations import RELATIONS, ComputedRelation, RelationKind, compute_relations
 from .rule_engine import reason
 from .schema import Schema, load_schema
 from .situation import Situation
@@ -42,17 +42,21 @@ class KnowledgeBase:
     rule_files: extra rule files added to the packaged ones. ontology: another ontology file
     (e.g. with changed parameters). cache: where results are kept (default: memory + the XDG
     cache directory). reasoner: "fast" (in process) or "pellet"; default: `use_reasoner`'s.
+    relations: the relations computed from the geometry (those some rule reads are asserted).
     Raises HriplanError for bad input, InconsistentSituation for a contradiction.
     """
 
     def __init__(self, situation: Situation, *, rule_files: Sequence[str | Path] = (), ontology: str | Path | None = None,
-                 cache: ReasoningCache | None = None, reasoner: Reasoner | None = None) -> None:  # fmt: skip
+                 cache: ReasoningCache | None = None, reasoner: Reasoner | None = None,
+                 relations: Sequence[RelationKind] = RELATIONS) -> None:  # fmt: skip
         self.situation = situation
         self.reasoner: Reasoner = reasoner or default_reasoner()
         self.rules: tuple[Rule, ...] = load_rules(rule_files)
         self._source: OntologySource = ontology_source(ontology)
         self.schema: Schema = load_schema(self._source)
-        self.relations: list[ComputedRelation] = compute_relations(situation, self.schema.individuals)
+        read = read_predicates(self.rules)
+        self.relations: list[ComputedRelation] = compute_relations(situation, self.schema.individuals,
+                                                                   [k for k in relations if k.predicate in read])  # fmt: skip
         assertions = situation_assertions(situation, self.rules) + [r.assertion for r in self.relations]
         self.assertions: list[Assertion] = sorted(set(assertions), key=repr)
         self._cache = cache if cache is not None else default_cache()

@@ -98,6 +98,11 @@ def _term_text(term: Term) -> str:
     return repr(term)
 
 
+def read_predicates(rules: Sequence[Rule]) -> set[str]:
+    """The classes and properties some rule's body reads (facts nobody reads need not be stated)."""
+    return {a.predicate for r in rules for a in r.body if not a.builtin}
+
+
 def load_rules(extra_files: Sequence[str | Path] = ()) -> tuple[Rule, ...]:
     """The package's rules plus the given rule files, in that order; names must be unique."""
     files = sorted(RULES_DIR.glob("*.rules")) + [Path(f) for f in extra_files]
