@@ -13,6 +13,7 @@ constructs or built-ins outside the fragment are refused with a one-line error.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable, Sequence
 
 from hriplan import HriplanError
@@ -44,6 +45,13 @@ class _Store:
     def individual(self, name: str) -> None:
         self.types.setdefault(name, set())
         self.values.setdefault(name, {})
+
+    def add(self, subject: str, predicate: str, value: Value) -> None:
+        """One assertion (predicate `a`: a class) with everything the schema makes follow from it."""
+        if predicate == TYPE:
+            self.add_type(subject, str(value))
+        else:
+            self.add_value(subject, predicate, value)
 
     def add_type(self, individual: str, cls: str) -> None:
         self.individual(individual)
@@ -85,6 +93,12 @@ class _Store:
             ends = [v for e in ends for v in self.get(str(e), link)]
         return ends
 
+    def copy(self) -> _Store:
+        other = _Store(self.schema)
+        other.types = {i: set(t) for i, t in self.types.items()}
+        other.values = {i: {p: list(vs) for p, vs in v.items()} for i, v in self.values.items()}
+        return other
+
     def facts(self) -> Facts:
         return Facts(types={i: sorted(t) for i, t in self.types.items()},
                      values={i: {p: sorted(vs, key=repr) for p, vs in v.items()} for i, v in self.values.items()},
@@ -105,18 +119,9 @@ def check_supported(schema: Schema, rules: Sequence[Rule]) -> None:
 def reason(schema: Schema, rules: Sequence[Rule], assertions: Sequence[Assertion]) -> Facts | None:
     """Everything that follows from the ontology, the rules and the assertions; None if Pellet must decide."""
     check_supported(schema, rules)
-    store = _Store(schema)
-    told = schema.individuals
-    for name, classes in told.types.items():
-        store.individual(name)
-        for cls in classes:
-            store.add_type(name, cls)
-    for name, values in told.values.items():
-        for prop, vs in values.items():
-            for value in vs:
-                store.add_value(name, prop, value)
+    store = _ontology_closure(schema).copy()
     for subject, prop, value in assertions:
-        store.add_type(subject, str(value)) if prop == TYPE else store.add_value(subject, prop, value)
+        store.add(subject, prop, value)
     for _ in range(MAX_ROUNDS):
         store.changed = False
         store.follow_chains()
@@ -124,12 +129,28 @@ def reason(schema: Schema, rules: Sequence[Rule], assertions: Sequence[Assertion
             for binding in list(solutions(list(rule.body), {}, store)):
                 for atom in rule.head:
                     args = [binding[a.name] if isinstance(a, Var) else constant(a) for a in atom.args]
-                    store.add_type(str(args[0]), atom.predicate) if len(args) == 1 else store.add_value(str(args[0]), atom.predicate, args[1])
+                    predicate, value = (TYPE, atom.predicate) if len(args) == 1 else (atom.predicate, args[1])
+                    store.add(str(args[0]), predicate, value)
         if not store.changed:
             break
     else:
         raise HriplanError(f"the fast reasoner found no fixed point in {MAX_ROUNDS} rounds; use --reasoner pellet")
     return None if _needs_pellet(store) else store.facts()
+
+
+@functools.lru_cache(maxsize=8)
+def _ontology_closure(schema: Schema) -> _Store:
+    """The ontology's own individuals closed under its axioms: the same for every situation."""
+    store = _Store(schema)
+    for name, classes in schema.individuals.types.items():
+        store.individual(name)
+        for cls in classes:
+            store.add_type(name, cls)
+    for name, values in schema.individuals.values.items():
+        for prop, vs in values.items():
+            for value in vs:
+                store.add_value(name, prop, value)
+    return store
 
 
 def _needs_pellet(store: _Store) -> bool:

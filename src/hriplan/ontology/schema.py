@@ -28,7 +28,7 @@ DATA_TYPES: dict[str, tuple[type, ...]] = {
 }  # fmt: skip
 
 
-@dataclass
+@dataclass(eq=False)  # compared (and cached on) by identity: one per ontology version
 class Schema:
     """The ontology's axioms by local name, and its individuals' told facts (not closed)."""
 
