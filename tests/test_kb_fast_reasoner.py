@@ -83,11 +83,8 @@ def test_in_process_and_pellet_conclude_the_same(label, situation):
 def test_the_corpus_makes_every_rule_fire():
     """Agreement means something only where rules fire: every packaged rule is in some provenance."""
     fired: set[str] = set()
-    for _, situation in CORPUS:
-        try:
-            derivation = derive(KnowledgeBase(situation, cache=ReasoningCache(None)))
-        except InconsistentSituation:
-            continue
+    for _, situation in (entry for entry in CORPUS if "inconsistent" not in entry[0]):
+        derivation = derive(KnowledgeBase(situation, cache=ReasoningCache(None)))
         fired |= {r for d in [*derivation.constraints, *derivation.velocity] for r in d.rules}
     packaged = {r.name for r in KnowledgeBase(example("pouring"), cache=ReasoningCache(None)).rules}
     # EmptyContainer is read by no rule (only the facts show it, and they are compared too)
