@@ -233,3 +233,34 @@ def test_a_new_relation_is_a_relation_kind_a_threshold_in_the_ontology_and_a_rul
     # without a rule reading it, the relation is not asserted: it cannot change the cache key
     unread = KnowledgeBase(hot, ontology=ontology, relations=kinds, cache=ReasoningCache(None))
     assert unread.key == KnowledgeBase(hot, ontology=ontology, cache=ReasoningCache(None)).key
+
+
+def test_user_rules_with_built_ins_over_coordinates_agree_both_ways(tmp_path):
+    """A user rule reading coordinates gets them asserted (and keyed); arithmetic and comparisons agree."""
+    rules = tmp_path / "high.rules"
+    rules.write_text("# Whatever is carried above 0.7 m is treated as hot (a test rule).\n"
+                     "[carried_high] carries(?a, ?o) ^ hasZ(?o, ?z) ^ swrlb:add(?z2, ?z, 0.5) ^ swrlb:greaterThan(?z2, 1.2)\n"
+                     "    -> isHot(?o, true)\n")  # fmt: skip
+    handover = example("handover_can")  # can1 is carried at z = 0.78 m, near bob and sue
+    kwargs = {"rule_files": [rules]}
+    fast = KnowledgeBase(handover, cache=ReasoningCache(None), reasoner="fast", **kwargs)
+    assert ("can1", "hasZ", 0.78) in fast.assertions
+    assert not [a for a in fast.assertions if a[1] in ("hasX", "hasY", "hasYaw")]  # only what a rule reads
+    pellet = KnowledgeBase(handover, cache=default_cache(), reasoner="pellet", **kwargs)
+    assert fast.facts == pellet.facts and derive(fast) == derive(pellet)
+    (slow,) = derive(fast).velocity
+    assert (slow.kind, slow.anchor) == ("ReducedVelocityHot", "can1") and "carried_high" in slow.rules
+    lowered = with_object(handover, "can1", pose=handover.object("can1").pose.model_copy(update={"xyz": (0.45, 0.85, 0.6)}))
+    assert derive(KnowledgeBase(lowered, cache=ReasoningCache(None), **kwargs)).velocity == []
+
+
+def test_a_user_rule_clashing_with_a_packaged_one_fails_alike_both_ways(tmp_path):
+    rules = tmp_path / "both.rules"
+    rules.write_text("# Contradicts the package rule on purpose.\n"
+                     "[also_partial] TransportingTask(?t) ^ movesObject(?t, ?o) ^ Can(?o) -> isConstrainedBy(?o, UprightPartial)\n")  # fmt: skip
+    messages = []
+    for reasoner, cache in (("fast", ReasoningCache(None)), ("pellet", default_cache())):
+        with pytest.raises(HriplanError) as info:
+            derive(KnowledgeBase(example("handover_can"), rule_files=[rules], cache=cache, reasoner=reasoner))
+        messages.append(str(info.value))
+    assert messages[0] == messages[1] and "UprightFull and UprightPartial both make constraint 'upright_can1'" in messages[0]
