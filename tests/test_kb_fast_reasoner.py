@@ -152,7 +152,7 @@ def test_nearness_along_a_path_is_the_closest_approach_and_names_it():
     derivation = derive(KnowledgeBase(with_object(hot, "cup1", path=path), cache=ReasoningCache(None)))
     (slow,) = derivation.velocity
     assert slow.kind == "ReducedVelocityHot" and "carried_object_near_human" in slow.rules
-    assert "cup1 comes within 0.50 m of col, below NearHuman 1.2 m" in slow.facts
+    assert "cup1 comes within 0.50 m of col along its path, below NearHuman 1.2 m" in slow.facts
 
 
 def test_the_threshold_is_read_from_the_ontology(tmp_path):

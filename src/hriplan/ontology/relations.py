@@ -93,7 +93,8 @@ def compute_relations(situation: Situation, ontology: Facts, kinds: Sequence[Rel
         threshold = ontology.number(kind.criterion, kind.threshold)
         for m in kind.measure(situation):
             if math.isfinite(m.value) and kind.holds(m.value, threshold):
-                how = f"comes within {m.value:.2f} {kind.unit} of" if m.along_path else f"is {m.value:.2f} {kind.unit} from"
-                words = f"{m.subject} {how} {m.other}, {kind.comparison} {kind.criterion} {threshold:g} {kind.unit}"
+                where = (f"comes within {m.value:.2f} {kind.unit} of {m.other} along its path" if m.along_path
+                         else f"is {m.value:.2f} {kind.unit} from {m.other}")  # fmt: skip
+                words = f"{m.subject} {where}, {kind.comparison} {kind.criterion} {threshold:g} {kind.unit}"
                 found.append(ComputedRelation((m.subject, kind.predicate, m.other), kind.name, words))
     return found
