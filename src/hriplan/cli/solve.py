@@ -18,7 +18,7 @@ def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_jso
     options = problem.options if seed is None else problem.options.model_copy(update={"seed": seed})
     result = session.plan(problem.start, problem.goal, options, problem.group)
     if not result.solved:
-        typer.echo(f"planning failed ({result.motion.status}): {result.message}", err=True)
+        typer.echo(f"planning failed ({result.status}): {result.message}", err=True)
         return 1
     trajectory = result.trajectory
     if output is not None:
