@@ -23,8 +23,9 @@ from hriplan.robots.spatial import Pose
 
 from .evaluator import ConstraintEvaluator
 from .keep_out import keep_out_obstacles
-from .ompl_backend import solve_with_ompl
-from .options import PlanOptions
+from .arm_shortcut import arm_subgroups, shortcut_arms
+from .ompl_backend import ompl_seed, solve_with_ompl
+from .options import PlanOptions, check_options
 from .projection import project
 from .resolve import BoundConstraint, bind, set_goal_positions
 from .spec import Axis, ConstraintSpec
@@ -59,6 +60,7 @@ class MotionResult(BaseModel):
     message: str = ""
     group: str
     joint_names: list[str]
+    start: dict[str, float] = Field(default_factory=dict)  # every joint of the robot where the path starts
     path: list[list[float]] = Field(default_factory=list)  # validated waypoints, group order
     validation: PathValidation | None = None
     planning_time: float = 0.0
@@ -140,14 +142,21 @@ def plan_motion(
     group = group or robot.default_group
     joint_names = robot.group_joints(group)
     q_start = robot.configuration(start) if isinstance(start, dict) else robot.configuration(start, group)
+    check_options(options)
     bound = bind(constraints, robot, checker)
     _check_group(robot, bound, group)
-    result = lambda status, message, **kw: MotionResult(status=status, message=message, group=group, joint_names=joint_names, **kw)  # noqa: E731
+    full_start = dict(zip(robot.joint_names, q_start.tolist()))
+    result = lambda status, message: MotionResult(status=status, message=message, group=group, joint_names=joint_names, start=full_start)  # noqa: E731
     with with_keep_out(checker, bound):
         problem = _Problem(robot, checker, bound, group, q_start)
         x_start = robot.group_values(q_start, group)
         if checker.in_collision(q_start):
             return result("invalid_start", f"start is in collision: {problem.describe_collisions(x_start)}")
+        # The goal first: it fixes p_goal, so the start is checked at its own dynamic tolerance.
+        goal_or_error = _resolve_goal(problem, goal, x_start)
+        if isinstance(goal_or_error, MotionResult):
+            return goal_or_error.model_copy(update={"group": group, "joint_names": joint_names, "start": full_start})
+        x_goal = goal_or_error
         moved = 0.0
         if problem.describe_violations(x_start):
             if not options.project_start:
@@ -156,12 +165,9 @@ def plan_motion(
             if projected is None or checker.in_collision(problem.evaluator.full(projected)):
                 return result("invalid_start", f"start violates {problem.describe_violations(x_start)} and cannot be projected onto the constraints")
             moved, x_start = float(np.abs(projected - x_start).max()), projected
-        goal_or_error = _resolve_goal(problem, goal, x_start)
-        if isinstance(goal_or_error, MotionResult):
-            return goal_or_error.model_copy(update={"group": group, "joint_names": joint_names})
-        x_goal = goal_or_error
         outcome = _search(problem, options, x_start, x_goal)
-        return outcome.model_copy(update={"group": group, "joint_names": joint_names, "start_moved": moved})
+        planned_start = dict(zip(robot.joint_names, problem.evaluator.full(x_start).tolist()))
+        return outcome.model_copy(update={"group": group, "joint_names": joint_names, "start_moved": moved, "start": planned_start})
 
 
 def _set_goal_positions(problem: _Problem, x_goal: np.ndarray) -> None:
@@ -225,7 +231,8 @@ def _onto_manifold(problem: _Problem, rows, x: np.ndarray, step: float) -> np.nd
 def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal: np.ndarray) -> MotionResult:
     rows = _rows(problem, options)
     hybrid = options.formulation == "hybrid" and options.space != "rejection"
-    is_valid = problem.validity(-PLANNING_MARGIN if hybrid else 0.0)
+    limit = -PLANNING_MARGIN if hybrid else 0.0
+    is_valid = problem.validity(limit)
     blank = {"group": problem.group, "joint_names": []}
     ends = [_onto_manifold(problem, rows, x, options.validation_step) for x in (x_start, x_goal)]
     if ends[0] is None:
@@ -246,8 +253,7 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
         remaining = options.time_limit - (time.perf_counter() - started)
         if remaining <= 0.0:
             break
-        seed = None if options.seed is None else options.seed + attempt
-        run = solve_with_ompl(options.model_copy(update={"time_limit": remaining, "seed": seed}), bounds, ends[0], ends[1], is_valid, rows)
+        run = solve_with_ompl(options.model_copy(update={"time_limit": remaining}), bounds, ends[0], ends[1], is_valid, rows, attempt)
         for key, value in vars(run.counters).items():
             calls[key] = calls.get(key, 0) + value
         attempt += 1
@@ -256,15 +262,35 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             if run.message.startswith("OMPL:"):
                 break
             continue
-        waypoints = _dedupe([x_start, *run.states, x_goal])
-        validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step)
-        if validation.valid:
-            return MotionResult(status="solved", group=problem.group, joint_names=[], path=[w.tolist() for w in waypoints],
-                                validation=validation, planning_time=time.perf_counter() - started, space=run.space, calls=calls)  # fmt: skip
-        last_message = f"planner path failed dense validation ({validation.message}); re-planning"
+        for states in [s for s in (run.states, run.unsimplified) if s]:  # if a shortcut cut a corner: the planner's own path
+            waypoints = _dedupe([x_start, *states, x_goal])
+            validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step)
+            if validation.valid:
+                waypoints, validation = _straighten_arms(problem, options, waypoints, validation, limit, started + options.time_limit, attempt)
+                return MotionResult(status="solved", group=problem.group, joint_names=[], path=[w.tolist() for w in waypoints],
+                                    validation=validation, planning_time=time.perf_counter() - started, space=run.space, calls=calls)  # fmt: skip
+            last_message = f"planner path failed dense validation ({validation.message}); re-planning"
     status = "planner_error" if last_message.startswith("OMPL:") else "invalid_path" if "dense validation" in last_message else "timeout"
     return MotionResult(status=status, message=last_message or "time limit reached", group=problem.group, joint_names=[],
                         planning_time=time.perf_counter() - started, calls=calls, space=options.space)  # fmt: skip
+
+
+def _straighten_arms(problem: _Problem, options: PlanOptions, waypoints: list[np.ndarray], validation: PathValidation,
+                     limit: float, deadline: float, attempt: int) -> tuple[list[np.ndarray], PathValidation]:  # fmt: skip
+    """Arm-wise shortcuts of a validated path (see arm_shortcut), each stretch kept only if it is
+    collision free with every margin <= `limit`, as planned states are; the path validated again."""
+    arms = arm_subgroups(problem.robot, problem.group)
+    if not arms or not options.simplify:
+        return waypoints, validation
+
+    def stretch_valid(stretch: list[np.ndarray]) -> bool:
+        check = validate_path(problem.evaluator, problem.checker, stretch, options.validation_step)
+        return check.collision is None and all(c.max_violation <= limit for c in check.constraints)
+
+    rng = np.random.default_rng(None if options.seed is None else ompl_seed(options.seed, attempt))
+    straightened = shortcut_arms(waypoints, arms, stretch_valid, deadline, rng)
+    again = validate_path(problem.evaluator, problem.checker, straightened, options.validation_step)
+    return (_dedupe(straightened), again) if again.valid else (waypoints, validation)
 
 
 def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:
