@@ -109,3 +109,20 @@ def test_an_arm_whose_goal_is_its_start_holds_its_pose():
         report = result.trajectory.report
         assert report.straight_length == pytest.approx(np.linalg.norm(positions[-1] - positions[0]), abs=1e-6)
         assert report.path_length < 8 * report.straight_length
+
+
+def test_hriplan_plan_reports_a_timing_failure_as_a_failed_step(monkeypatch, capsys, tmp_path):
+    import typer
+
+    from hriplan.cli.tasks import plan
+
+    def fail(*args, **kwargs):
+        raise HriplanError("TOPP-RA found no time parameterisation within the joint limits")
+
+    monkeypatch.setattr("hriplan.planner.session.time_parameterize", fail)
+    with pytest.raises(typer.Exit) as exit_:
+        plan(Path(__file__).parents[1] / "examples" / "handover_empty_can.yaml", output=tmp_path / "t.json", quiet=True)
+    assert exit_.value.exit_code == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("planning failed at step") and "(timing_failed): TOPP-RA found no time" in err and "\n" not in err
+    assert not list(tmp_path.iterdir())
