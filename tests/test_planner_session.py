@@ -126,3 +126,21 @@ def test_hriplan_plan_reports_a_timing_failure_as_a_failed_step(monkeypatch, cap
     err = capsys.readouterr().err.strip()
     assert err.startswith("planning failed at step") and "(timing_failed): TOPP-RA found no time" in err and "\n" not in err
     assert not list(tmp_path.iterdir())
+
+
+def test_a_path_that_cannot_be_timed_is_planned_again(handover, monkeypatch):
+    import hriplan.planner.session as session_module
+
+    problem, session = handover
+    calls = []
+    real = session_module.time_parameterize
+
+    def first_fails(*args, **kwargs):
+        calls.append(1)
+        if len(calls) <= len(session_module.TIMING_STEPS):  # every knot spacing of the first path
+            raise HriplanError("TOPP-RA found no time parameterisation within the joint limits")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(session_module, "time_parameterize", first_fails)
+    result = session.plan(problem.start, problem.goal, problem.options.model_copy(update={"seed": 1}), problem.group)
+    assert result.status == "solved" and len(calls) == len(session_module.TIMING_STEPS) + 1

@@ -1,26 +1,22 @@
-"""Arm-wise shortcuts: straighten one arm's joints over a stretch of the path, the others unchanged.
+"""Arm-wise shortcuts: straighten one arm's joints along the whole path, the other joints unchanged.
 
 OMPL's shortcuts move all joints at once or one joint at a time. When two arms are planned
 together, a random tree swings the arm that need not move (its goal is its start) by a radian
 and more, and no all-joint shortcut removes that while the other arm needs its detour. Here
-each arm group inside the planned group (from the robot's description) gets its joints replaced
-by the straight line between the ends of a stretch, first the whole path, then random stretches,
-kept only where the changed stretch stays densely valid.
+each arm group inside the planned group (from the robot's description) gets its joints put on
+the straight line from their start to their goal values, kept only if the path stays valid.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from hriplan.robots.model import Robot
 
-# Random stretches tried per arm after the whole path (each costs one dense validation).
-STRETCH_TRIES = 8
-
-Accept = Callable[[list[np.ndarray]], bool]
+# An arm whose travel is within this fraction of its straight line is left as it is.
+STRAIGHT_ENOUGH = 0.01
 
 
 def arm_subgroups(robot: Robot, group: str) -> list[np.ndarray]:
@@ -34,34 +30,30 @@ def arm_subgroups(robot: Robot, group: str) -> list[np.ndarray]:
     return out
 
 
-def _straightened(path: np.ndarray, arm: np.ndarray, i: int, j: int) -> np.ndarray | None:
-    """`path` with the `arm` joints of waypoints i..j on the line between their values at i and j,
-    advancing with the path's own progress (its joint-space arc length)."""
-    lengths = np.linalg.norm(np.diff(path[i : j + 1], axis=0), axis=1)
-    total = lengths.sum()
+def _travel(values: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(values, axis=0), axis=1).sum())
+
+
+def _straightened(path: np.ndarray, arm: np.ndarray) -> np.ndarray | None:
+    """`path` with the `arm` joints on the line between their first and last values, advancing
+    with the path's own progress (its joint-space arc length)."""
+    lengths = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    total = float(lengths.sum())
     if total <= 1e-12:
         return None
     fraction = np.concatenate([[0.0], np.cumsum(lengths) / total])
     out = path.copy()
-    out[i : j + 1, arm] = path[i, arm] + fraction[:, None] * (path[j, arm] - path[i, arm])
+    out[:, arm] = path[0, arm] + fraction[:, None] * (path[-1, arm] - path[0, arm])
     return out
 
 
-def shortcut_arms(
-    path: Sequence[np.ndarray], arms: list[np.ndarray], stretch_valid: Accept, deadline: float, rng: np.random.Generator
-) -> list[np.ndarray]:
-    """The path with arm-wise shortcuts applied wherever `stretch_valid` accepts the changed
-    stretch (a list of waypoints); stops at `deadline`."""
+def straighten_arms(path: Sequence[np.ndarray], arms: list[np.ndarray], path_valid: Callable[[list[np.ndarray]], bool]) -> list[np.ndarray]:
+    """The path with each arm straightened where `path_valid` accepts the result."""
     current = np.array(path, dtype=float)
-    m = len(current)
     for arm in arms:
-        stretches = [(0, m - 1)] + [tuple(sorted(rng.choice(m, 2, replace=False))) for _ in range(STRETCH_TRIES if m > 2 else 0)]
-        for i, j in stretches:
-            if time.perf_counter() > deadline:
-                return list(current)
-            candidate = _straightened(current, arm, i, j)
-            if candidate is None or np.abs(candidate[i : j + 1, arm] - current[i : j + 1, arm]).max() < 1e-9:
-                continue
-            if stretch_valid(list(candidate[i : j + 1])):
-                current = candidate
+        if _travel(current[:, arm]) <= (1.0 + STRAIGHT_ENOUGH) * np.linalg.norm(current[-1, arm] - current[0, arm]) + 1e-9:
+            continue  # already (nearly) straight: nothing to gain
+        candidate = _straightened(current, arm)
+        if candidate is not None and path_valid(list(candidate)):
+            current = candidate
     return list(current)

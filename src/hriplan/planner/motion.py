@@ -23,13 +23,13 @@ from hriplan.robots.spatial import Pose
 
 from .evaluator import ConstraintEvaluator
 from .keep_out import keep_out_obstacles
-from .arm_shortcut import arm_subgroups, shortcut_arms
-from .ompl_backend import ompl_seed, solve_with_ompl
+from .arm_shortcut import arm_subgroups, straighten_arms
+from .ompl_backend import solve_with_ompl
 from .options import PlanOptions, check_options
 from .projection import project
 from .resolve import BoundConstraint, bind, set_goal_positions
 from .spec import Axis, ConstraintSpec
-from .validate import VALIDATION_TOLERANCE, PathValidation, validate_path
+from .validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
 
 # Planning keeps this much inside every band so that chords between planned states stay valid.
 PLANNING_MARGIN = 2e-3
@@ -266,7 +266,7 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             waypoints = _dedupe([x_start, *states, x_goal])
             validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step)
             if validation.valid:
-                waypoints, validation = _straighten_arms(problem, options, waypoints, validation, limit, started + options.time_limit, attempt)
+                waypoints, validation = _straighten_arms(problem, options, waypoints, validation, limit)
                 return MotionResult(status="solved", group=problem.group, joint_names=[], path=[w.tolist() for w in waypoints],
                                     validation=validation, planning_time=time.perf_counter() - started, space=run.space, calls=calls)  # fmt: skip
             last_message = f"planner path failed dense validation ({validation.message}); re-planning"
@@ -276,21 +276,20 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
 
 
 def _straighten_arms(problem: _Problem, options: PlanOptions, waypoints: list[np.ndarray], validation: PathValidation,
-                     limit: float, deadline: float, attempt: int) -> tuple[list[np.ndarray], PathValidation]:  # fmt: skip
-    """Arm-wise shortcuts of a validated path (see arm_shortcut), each stretch kept only if it is
-    collision free with every margin <= `limit`, as planned states are; the path validated again."""
+                     limit: float) -> tuple[list[np.ndarray], PathValidation]:  # fmt: skip
+    """Arm-wise shortcuts of a validated path (see arm_shortcut): an arm is straightened only if
+    every dense state stays collision free with every margin <= `limit`, as planned states are."""
     arms = arm_subgroups(problem.robot, problem.group)
     if not arms or not options.simplify:
         return waypoints, validation
+    is_valid = problem.validity(limit)
 
-    def stretch_valid(stretch: list[np.ndarray]) -> bool:
-        check = validate_path(problem.evaluator, problem.checker, stretch, options.validation_step)
-        return check.collision is None and all(c.max_violation <= limit for c in check.constraints)
+    def path_valid(path: list[np.ndarray]) -> bool:  # stops at the first invalid state
+        return all(is_valid(x) for x in densify(path, options.validation_step))
 
-    rng = np.random.default_rng(None if options.seed is None else ompl_seed(options.seed, attempt))
-    straightened = shortcut_arms(waypoints, arms, stretch_valid, deadline, rng)
+    straightened = _dedupe(straighten_arms(waypoints, arms, path_valid))
     again = validate_path(problem.evaluator, problem.checker, straightened, options.validation_step)
-    return (_dedupe(straightened), again) if again.valid else (waypoints, validation)
+    return (straightened, again) if again.valid else (waypoints, validation)
 
 
 def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:

@@ -9,6 +9,7 @@ processes.
 
 from __future__ import annotations
 
+from time import perf_counter
 from collections.abc import Iterable
 
 from typing import Literal
@@ -25,6 +26,7 @@ from hriplan.robots.spatial import Pose
 
 from .evaluator import ConstraintEvaluator
 from .motion import Goal, MotionResult, Status, plan_motion, with_keep_out
+from .ompl_backend import ompl_seed
 from .options import PlanOptions
 from .resolve import bind, set_goal_positions
 from .spec import ConstraintSet, ConstraintSpec
@@ -34,6 +36,14 @@ from .validate import densify, validate_path
 
 # Knot spacing handed to the time parameteriser, then a denser retry if re-validation fails.
 TIMING_STEPS = (0.05, 0.01)
+# Re-plans (within the time limit) when a valid path cannot be timed: its shortcuts can graze an
+# obstacle so closely that the smooth timed motion, which rounds their corners, touches it.
+TIMING_RETRIES = 2
+
+
+def _retry_seed(seed: int | None, retry: int) -> int | None:
+    """A re-plan's seed: reproducible from the run's seed, and not another run's first seed."""
+    return None if seed is None else -ompl_seed(seed, retry) - 2**31
 
 
 PlanStatus = Literal[Status, "timing_failed"]
@@ -96,8 +106,17 @@ class PlanningSession:
     def plan(self, start: JointValues, goal: Goal, options: PlanOptions | None = None, group: str | None = None) -> PlanResult:
         """Plan, validate densely, time-parameterise and re-validate the timed path."""
         options = options or PlanOptions()
-        motion = plan_motion(self.robot, self.checker, list(self.constraints.values()), start, goal, options, group)
-        return self.time(motion, options)
+        started = perf_counter()
+        for retry in range(TIMING_RETRIES + 1):
+            remaining = options.time_limit - (perf_counter() - started)
+            if retry and remaining <= 0.0:
+                break
+            run = options if retry == 0 else options.model_copy(update={"time_limit": remaining, "seed": _retry_seed(options.seed, retry)})
+            motion = plan_motion(self.robot, self.checker, list(self.constraints.values()), start, goal, run, group)
+            result = self.time(motion, options)
+            if result.status != "timing_failed":
+                break
+        return result
 
     def time(self, motion: MotionResult, options: PlanOptions | None = None) -> PlanResult:
         """Time a planned motion and validate the timed samples against the session's constraints
