@@ -1,8 +1,10 @@
 """Plan one constrained motion: checks, goal resolution, OMPL, dense validation.
 
 The path from a start and a goal to a validated joint path:
-bind constraints -> check the start -> resolve the goal (joint values, or a tool pose by IK) ->
-choose rows and validity for the formulation -> OMPL -> validate densely -> result.
+bind constraints -> check the start for collision -> resolve the goal (joint values, or a tool
+pose by IK; this fixes the dynamic tolerances' goal positions) -> check the start against the
+constraints -> choose rows and validity for the formulation -> OMPL (and simplification) ->
+validate densely -> straighten arms that need not wander -> result.
 """
 
 from __future__ import annotations
@@ -21,9 +23,9 @@ from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import JointValues, Robot
 from hriplan.robots.spatial import Pose
 
+from .arm_shortcut import arm_subgroups, straighten_arms
 from .evaluator import ConstraintEvaluator
 from .keep_out import keep_out_obstacles
-from .arm_shortcut import arm_subgroups, straighten_arms
 from .ompl_backend import solve_with_ompl
 from .options import PlanOptions, check_options
 from .projection import project
@@ -33,6 +35,8 @@ from .validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_pa
 
 # Planning keeps this much inside every band so that chords between planned states stay valid.
 PLANNING_MARGIN = 2e-3
+# Straightening an arm is checked on every this-many-th dense state before all of them.
+SPARSE_FIRST = 16
 Status = Literal["solved", "invalid_start", "invalid_goal", "unreachable_goal", "timeout", "invalid_path", "planner_error"]
 
 
@@ -284,10 +288,14 @@ def _straighten_arms(problem: _Problem, options: PlanOptions, waypoints: list[np
         return waypoints, validation
     is_valid = problem.validity(limit)
 
-    def path_valid(path: list[np.ndarray]) -> bool:  # stops at the first invalid state
-        return all(is_valid(x) for x in densify(path, options.validation_step))
+    def path_valid(path: list[np.ndarray]) -> bool:  # a sparse pass first: most rejections cost a few states
+        dense = densify(path, options.validation_step)
+        return all(is_valid(x) for x in dense[::SPARSE_FIRST]) and all(is_valid(x) for x in dense)
 
-    straightened = _dedupe(straighten_arms(waypoints, arms, path_valid))
+    straightened = straighten_arms(waypoints, arms, path_valid)
+    if np.array_equal(straightened, waypoints):
+        return waypoints, validation
+    straightened = _dedupe(straightened)
     again = validate_path(problem.evaluator, problem.checker, straightened, options.validation_step)
     return (straightened, again) if again.valid else (waypoints, validation)
 

@@ -103,21 +103,22 @@ def _planner(name: str, info: ob.SpaceInformation, options: PlanOptions, plain: 
 
 
 def shorten(simplifier: og.PathSimplifier, path: og.PathGeometric, deadline: float, constrained: bool) -> None:
-    """Simplify in rounds until the path stops getting shorter or the deadline passes.
+    """Simplify until the path stops getting shorter or the deadline passes.
 
-    One OMPL pass tries only as many shortcuts as the path has states (a handful after
-    RRTConnect), so paths stayed several times longer than needed: rounds continue until one
-    gains less than SHRINK_TOLERANCE, STALE_ROUNDS times in a row. In the joint space a round is
-    many vertex-dropping and per-joint (partial) shortcuts; on a manifold, where a per-joint
-    shortcut leaves the manifold, it is OMPL's own simplification (shortcuts along the manifold)."""
+    On a manifold this is OMPL's own simplification, which already repeats its shortcuts along
+    the manifold until they stop paying (a per-joint shortcut would leave the manifold). In the
+    joint space one OMPL pass tries only as many shortcuts as the path has states (a handful after
+    RRTConnect), which left paths several times longer than needed: rounds of many vertex-dropping
+    and per-joint (partial) shortcuts continue until a round gains less than SHRINK_TOLERANCE,
+    STALE_ROUNDS times in a row."""
+    if constrained:
+        simplifier.simplify(path, max(0.0, deadline - time.perf_counter()))
+        return
     best, stale = path.length(), 0
-    while stale < STALE_ROUNDS and (remaining := deadline - time.perf_counter()) > 0.0:
-        if constrained:
-            simplifier.simplify(path, remaining)
-        else:
-            simplifier.reduceVertices(path, SHORTCUT_STEPS, SHORTCUT_EMPTY_STEPS)
-            simplifier.partialShortcutPath(path, SHORTCUT_STEPS, SHORTCUT_EMPTY_STEPS)
-            simplifier.collapseCloseVertices(path)
+    while stale < STALE_ROUNDS and time.perf_counter() < deadline:
+        simplifier.reduceVertices(path, SHORTCUT_STEPS, SHORTCUT_EMPTY_STEPS)
+        simplifier.partialShortcutPath(path, SHORTCUT_STEPS, SHORTCUT_EMPTY_STEPS)
+        simplifier.collapseCloseVertices(path)
         length = path.length()
         stale = stale + 1 if length > best * (1.0 - SHRINK_TOLERANCE) else 0
         best = min(best, length)
