@@ -10,12 +10,13 @@ from ompl import geometric as og
 from pydantic import ValidationError
 
 from hriplan import HriplanError
-from hriplan.planner.motion import plan_motion
+from hriplan.planner.motion import ToolGoal, plan_motion
 from hriplan.planner.ompl_backend import ompl_seed
 from hriplan.planner.options import PLANNERS, RANGED_PLANNERS, PlanOptions
 from hriplan.planner.problem import load_problem
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
+from hriplan.robots.spatial import Pose
 
 SCENARIOS = Path(__file__).parents[1] / "benchmarks" / "scenarios"
 
@@ -83,8 +84,10 @@ def test_unconstrained_ur5_paths_are_shortened_until_they_stop_shrinking(problem
     assert np.median(lengths) < 1.8 * straight, lengths
 
 
-def test_a_start_inside_its_dynamic_tolerance_is_planned(problem, tmp_path):
-    """Tilted 0.15 rad: outside the static 0.1 rad, inside 0.1 + 0.5 rad/m x its distance to the goal."""
+@pytest.mark.parametrize("goal_kind", ["joints", "tool_pose"])
+def test_a_start_inside_its_dynamic_tolerance_is_planned(problem, goal_kind):
+    """Tilted 0.15 rad: outside the static 0.1 rad, inside 0.1 + 0.5 rad/m x its distance to the
+    goal; for a tool-pose goal the goal comes from IK first."""
     constraints = [c.model_copy(update={"tolerance_gradient": 0.5}) if c.id == "upright" else c for c in problem.constraints.constraints]
     session = PlanningSession(problem.robot, problem.scene)
     session.set_constraints(constraints)
@@ -94,7 +97,8 @@ def test_a_start_inside_its_dynamic_tolerance_is_planned(problem, tmp_path):
     tilt = float(np.arccos(-tool_z(robot, q_start)[2]))
     distance = float(np.linalg.norm(robot.frame_pose("tool", q_start)[:3, 3] - robot.frame_pose("tool", q_goal)[:3, 3]))
     assert 0.1 < tilt < 0.1 + 0.5 * distance - 0.05
-    result = session.plan(start, problem.goal, PlanOptions(seed=1, time_limit=20.0))
+    goal = problem.goal if goal_kind == "joints" else ToolGoal(arm="arm", pose=Pose.from_matrix(robot.frame_pose("tool", q_goal)), free_axes=["z"])
+    result = session.plan(start, goal, PlanOptions(seed=1, time_limit=20.0))
     assert result.solved, result.message
     assert result.trajectory.start["wrist_2_joint"] == pytest.approx(start["wrist_2_joint"])
     # Independent check of the timed points: tilt within the dynamic bound at each point's distance.
