@@ -1,9 +1,12 @@
 """Planner benchmark: scenarios x constrained spaces x planners x seeds.
 
-Run: .venv/bin/python benchmarks/bench_planner.py [--seeds 50] [--quick] [--out results.json]
-Each run plans one scenario (benchmarks/scenarios/*.json) through a PlanningSession (dense
-validation included, time parameterisation excluded) in a worker process; a run counts as
-solved only if its path passed dense validation within the scenario's time limit.
+Run: .venv/bin/python benchmarks/bench_planner.py [--seeds 50] [--scenarios a,b] [--methods default] [--out results.json]
+Each run plans one scenario (benchmarks/scenarios/*.json, plus `a_ur5_unconstrained`: scenario
+a without its constraints) through a PlanningSession in a worker process and times it; a run
+counts as solved only if its path passed dense validation within the scenario's time limit AND
+its timed trajectory passed re-validation. Seconds are the wall time of `PlanningSession.plan`
+(planning, validation, timing, re-validation); path is the validated path's joint-space length
+against the straight joint line from start to goal.
 Prints a markdown table; REPORT-planner.md records a run and what it means.
 """
 
@@ -20,7 +23,10 @@ from pathlib import Path
 import numpy as np
 
 SCENARIOS = Path(__file__).parent / "scenarios"
-TIME_LIMITS = {"a_ur5_upright_box": 5.0, "b_madar_handover": 2.0, "c_madar_peg_in_hole": 5.0}
+TIME_LIMITS = {"a_ur5_upright_box": 5.0, "b_madar_handover": 2.0, "c_madar_peg_in_hole": 5.0, "g_madar_left_arm": 5.0,
+               "i_madar_one_arm_holds": 5.0, "a_ur5_unconstrained": 5.0}  # fmt: skip
+# Families that are another scenario with its constraints dropped.
+UNCONSTRAINED = {"a_ur5_unconstrained": "a_ur5_upright_box"}
 # (space, formulation): the hybrid on every space, the dead-zone rows on the projected space,
 # and the seed framework's rejection sampling as the baseline.
 METHODS = [("atlas", "hybrid"), ("tangent_bundle", "hybrid"), ("projected", "hybrid"), ("projected", "deadzone"), ("rejection", "hybrid")]
@@ -29,29 +35,31 @@ _sessions: dict = {}
 
 
 def _run(job: tuple[str, str, str, str, int]) -> dict:
-    from hriplan.planner.motion import plan_motion
     from hriplan.planner.problem import load_problem
     from hriplan.planner.session import PlanningSession
 
     scenario, space, formulation, planner, seed = job
     if scenario not in _sessions:
-        problem = load_problem(SCENARIOS / f"{scenario}.json")
+        problem = load_problem(SCENARIOS / f"{UNCONSTRAINED.get(scenario, scenario)}.json")
         session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
-        session.set_constraints(problem.constraints)
+        session.set_constraints([] if scenario in UNCONSTRAINED else problem.constraints)
         _sessions[scenario] = (problem, session)
     problem, session = _sessions[scenario]
     options = problem.options.model_copy(update={"space": space, "formulation": formulation, "planner": planner,
                                                  "seed": seed, "time_limit": TIME_LIMITS[scenario]})  # fmt: skip
     start = time.perf_counter()
-    result = plan_motion(session.robot, session.checker, list(session.constraints.values()), problem.start, problem.goal, options, problem.group)
-    return {"scenario": scenario, "space": space, "formulation": formulation, "planner": planner, "seed": seed,
-            "status": result.status, "seconds": time.perf_counter() - start, "calls": result.calls}  # fmt: skip
+    result = session.plan(problem.start, problem.goal, options, problem.group)
+    seconds = time.perf_counter() - start
+    path = np.array(result.motion.path) if result.motion.path else np.zeros((2, 1))
+    return {"scenario": scenario, "space": space, "formulation": formulation, "planner": planner, "seed": seed, "status": result.status,
+            "seconds": seconds, "calls": result.motion.calls, "path": float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()),
+            "straight": float(np.linalg.norm(path[-1] - path[0]))}  # fmt: skip
 
 
-def _jobs(seeds: int, baseline_seeds: int, planners: list[str]) -> list[tuple]:
+def _jobs(seeds: int, baseline_seeds: int, planners: list[str], scenarios: list[str], methods: list[tuple[str, str]]) -> list[tuple]:
     jobs = []
-    for scenario in TIME_LIMITS:
-        for space, formulation in METHODS:
+    for scenario in scenarios:
+        for space, formulation in methods:
             for planner in planners:
                 main = space in ("atlas", "tangent_bundle") and formulation == "hybrid"
                 if planner != "RRTConnect" and not main:
@@ -62,8 +70,8 @@ def _jobs(seeds: int, baseline_seeds: int, planners: list[str]) -> list[tuple]:
 
 
 def _table(rows: list[dict]) -> str:
-    lines = ["| scenario | space | formulation | planner | solved | median s | p95 s | median calls (f / J / valid) |",
-             "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    lines = ["| scenario | space | formulation | planner | solved | median s | p95 s | median path / straight rad | median calls (f / J / valid) |",
+             "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
     keys = sorted({(r["scenario"], r["space"], r["formulation"], r["planner"]) for r in rows}, key=lambda k: (k[0], METHODS.index(k[1:3]), k[3]))
     for key in keys:
         runs = [r for r in rows if (r["scenario"], r["space"], r["formulation"], r["planner"]) == key]
@@ -71,6 +79,10 @@ def _table(rows: list[dict]) -> str:
         times = [r["seconds"] for r in solved]
         med = lambda k: int(np.median([r["calls"].get(k, 0) for r in runs]))  # noqa: E731
         stats = f"{np.median(times):.3f} | {np.percentile(times, 95):.3f}" if times else "- | -"
+        if solved:
+            stats += f" | {np.median([r['path'] for r in solved]):.2f} / {np.median([r['straight'] for r in solved]):.2f}"
+        else:
+            stats += " | -"
         lines.append(f"| {key[0]} | {key[1]} | {key[2]} | {key[3]} | {len(solved)}/{len(runs)} | {stats} | "
                      f"{med('function')} / {med('jacobian')} / {med('validity')} |")  # fmt: skip
     return "\n".join(lines)
@@ -81,11 +93,15 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=50, help="seeds for the main spaces (atlas, tangent bundle)")
     parser.add_argument("--baseline-seeds", type=int, default=20, help="seeds for projected and rejection (slow when they fail)")
     parser.add_argument("--planners", default=",".join(PLANNERS))
+    parser.add_argument("--scenarios", default=",".join(TIME_LIMITS), help="comma-separated scenario names (prefixes work)")
+    parser.add_argument("--methods", choices=("all", "default"), default="all", help="default: atlas + hybrid only")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=None, help="write every run as JSON")
     args = parser.parse_args()
     os.environ["OPENBLAS_NUM_THREADS"] = "1"  # or the worker pool is slower than one process
-    jobs = _jobs(args.seeds, args.baseline_seeds, args.planners.split(","))
+    scenarios = [name for prefix in args.scenarios.split(",") for name in TIME_LIMITS if name.startswith(prefix)]
+    methods = METHODS if args.methods == "all" else METHODS[:1]
+    jobs = _jobs(args.seeds, args.baseline_seeds, args.planners.split(","), scenarios, methods)
     started = time.perf_counter()
     with ProcessPoolExecutor(args.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
         rows = list(pool.map(_run, jobs, chunksize=4))

@@ -118,9 +118,47 @@ def madar_peg_in_hole() -> PlanningProblem:
                            start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(robot.joint_names, goal))))  # fmt: skip
 
 
+def madar_left_arm() -> PlanningProblem:
+    """The left arm alone, the right arm folded at its side (not at zero, which is in the torso)."""
+    hands = {"left": "power"}
+    robot = load_robot("madar", hands)
+    scene = Scene(obstacles=[table(position=(-0.35, 0.8), size=(0.6, 0.5, 0.04), top=0.72),
+                             Obstacle(name="box", shape=Box(size=(0.08, 0.3, 0.16)), pose=Pose(xyz=(-0.35, 0.8, 0.82)))])  # fmt: skip
+    checker = CollisionChecker(robot, scene)
+    joints = robot.group_joints("left_arm")
+    constraints = [
+        OrientationConstraint(id="upright", joints=joints, target_link="left_tool", free_axes=["y"], target=MADAR_UPRIGHT, tolerance=0.1),
+        BoxConstraint(id="workspace", joints=joints, target_link="left_tool", size=(0.9, 0.8, 0.8), frame=FrameRef(offset=Pose(xyz=(-0.3, 0.7, 1.1)))),
+    ]  # fmt: skip
+    base = robot.configuration({"right_shoulder_lift_joint": -2.2, "right_elbow_joint": 1.2, "left_shoulder_lift_joint": -2.2, "left_elbow_joint": 1.2})
+    up = MADAR_UPRIGHT.rotation()
+    start = _ik(robot, checker, "left", _pose(up, (-0.15, 0.6, 1.0)), base)
+    goal = _ik(robot, checker, "left", _pose(up, (-0.55, 0.65, 1.0)), start)
+    return PlanningProblem(name="g_madar_left_arm", description="MADAR's left arm carries an upright can past a box; the right arm stays folded",
+                           robot="madar", hands=hands, scene=scene, constraints=ConstraintSet(constraints=constraints), group="left_arm",
+                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(joints, robot.group_values(goal, "left_arm")))))  # fmt: skip
+
+
+def madar_one_arm_holds() -> PlanningProblem:
+    """Both arms planned, the left arm's goal is its start: it must hold its pose, not wander."""
+    hands = {"right": "power", "left": "power"}
+    robot = load_robot("madar", hands)
+    scene = Scene(obstacles=[table(position=(0.0, 0.85), size=(1.0, 0.5, 0.04), top=0.72),
+                             Obstacle(name="divider", shape=Box(size=(0.04, 0.4, 0.3)), pose=Pose(xyz=(0.25, 0.75, 0.89)))])  # fmt: skip
+    checker = CollisionChecker(robot, scene)
+    up = MADAR_UPRIGHT.rotation()
+    start = _both_arms(robot, checker, _pose(up, (0.45, 0.65, 1.0)), _pose(up, (-0.3, 0.65, 0.95)), robot.configuration({}))
+    goal = _ik(robot, checker, "right", _pose(up, (0.1, 0.65, 0.95)), start, free=("y",))
+    return PlanningProblem(name="i_madar_one_arm_holds", description="Both arms planned: the right arm moves past a divider, the left arm holds its pose",
+                           robot="madar", hands=hands, scene=scene, group="both_arms",
+                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(robot.joint_names, goal))))  # fmt: skip
+
+
+SCENARIOS = (ur5_upright_box, madar_handover, madar_peg_in_hole, madar_left_arm, madar_one_arm_holds)
+
 if __name__ == "__main__":
     OUT.mkdir(exist_ok=True)
-    for make in (ur5_upright_box, madar_handover, madar_peg_in_hole):
+    for make in SCENARIOS:
         problem = make()
         (OUT / f"{problem.name}.json").write_text(problem.model_dump_json(indent=1, exclude_defaults=False))
         print("wrote", problem.name)

@@ -30,7 +30,7 @@ start = posture("madar", "ready")
 hand = session.checker.humans["bob"].frame("right_hand").translation
 goal = ToolGoal(arm="right", pose=Pose(xyz=tuple(hand + (0.0, -0.19, 0.0)), rpy=(np.pi / 2, 0.0, np.pi)), free_axes=["y"])
 result = session.plan(start, goal, PlanOptions(seed=1))
-print("first plan:", result.motion.status, f"{result.trajectory.report.planning_time:.3f} s,",
+print("first plan:", result.status, f"{result.trajectory.report.planning_time:.3f} s,",
       f"{len(result.trajectory.points)} points, worst margins {result.trajectory.report.max_violation}")
 
 # Perception: bob moved his hand a little; re-plan without rebuilding anything.
@@ -38,7 +38,7 @@ session.pose_human(person.model_copy(update={"reach": {"right": (0.07, 1.05, 1.0
 hand = session.checker.humans["bob"].frame("right_hand").translation
 goal = goal.model_copy(update={"pose": Pose(xyz=tuple(hand + (0.0, -0.19, 0.0)), rpy=(np.pi / 2, 0.0, np.pi))})
 again = session.plan(start, goal, PlanOptions(seed=1))
-print("after bob moved:", again.motion.status, f"{again.trajectory.report.planning_time:.3f} s")
+print("after bob moved:", again.status, f"{again.trajectory.report.planning_time:.3f} s")
 
 # A whole task on the same session: the rules derive the constraints of every step.
 outcome = run_task(load_task(EXAMPLES / "handover_full_can.yaml"), session)

@@ -143,10 +143,12 @@ def test_session_replans_after_perception_without_rebuilding(problem, session):
 
 @pytest.mark.parametrize("space, formulation", [("tangent_bundle", "hybrid"), ("projected", "deadzone"), ("rejection", "hybrid")])
 def test_other_spaces_solve_an_open_problem(problem, session, space, formulation):
-    """Without the block the problem is easy enough for every method, including the baseline."""
+    """Without the block the problem is easy enough for every method, including the baseline.
+    (Seed -2 is OMPL seed 4, the run this test has always used: projected + deadzone solves some
+    seeds only.)"""
     session.move_obstacle("block", Pose(xyz=(2.0, 2.0, 0.0)))
     try:
-        result = session.plan(problem.start, problem.goal, PlanOptions(space=space, formulation=formulation, seed=4, time_limit=30.0))
+        result = session.plan(problem.start, problem.goal, PlanOptions(space=space, formulation=formulation, seed=-2, time_limit=30.0))
     finally:
         session.move_obstacle("block", Pose(xyz=(0.45, 0.0, 0.125)))
     assert result.solved, result.message

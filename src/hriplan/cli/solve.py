@@ -18,7 +18,7 @@ def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_jso
     options = problem.options if seed is None else problem.options.model_copy(update={"seed": seed})
     result = session.plan(problem.start, problem.goal, options, problem.group)
     if not result.solved:
-        typer.echo(f"planning failed ({result.motion.status}): {result.message}", err=True)
+        typer.echo(f"planning failed ({result.status}): {result.message}", err=True)
         return 1
     trajectory = result.trajectory
     if output is not None:
@@ -30,7 +30,7 @@ def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_jso
         return 0
     lines = [
         f"{problem.name}: solved in {report.planning_time:.3f} s ({report.planner} on the {report.space} space), "
-        f"{len(trajectory.points)} points over {report.duration:.2f} s, path {report.path_length:.2f} rad",
+        f"{len(trajectory.points)} points over {report.duration:.2f} s, path {report.path_length:.2f} rad (straight line {report.straight_length:.2f})",
         f"validated at {report.states_checked} states (<= {options.validation_step} rad apart):",
     ]
     for constraint in trajectory.constraints:

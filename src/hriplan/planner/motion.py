@@ -1,8 +1,10 @@
 """Plan one constrained motion: checks, goal resolution, OMPL, dense validation.
 
 The path from a start and a goal to a validated joint path:
-bind constraints -> check the start -> resolve the goal (joint values, or a tool pose by IK) ->
-choose rows and validity for the formulation -> OMPL -> validate densely -> result.
+bind constraints -> check the start for collision -> resolve the goal (joint values, or a tool
+pose by IK; this fixes the dynamic tolerances' goal positions) -> check the start against the
+constraints -> choose rows and validity for the formulation -> OMPL (and simplification) ->
+validate densely -> straighten arms that need not wander -> result.
 """
 
 from __future__ import annotations
@@ -21,17 +23,20 @@ from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import JointValues, Robot
 from hriplan.robots.spatial import Pose
 
+from .arm_shortcut import arm_subgroups, straighten_arms
 from .evaluator import ConstraintEvaluator
 from .keep_out import keep_out_obstacles
 from .ompl_backend import solve_with_ompl
-from .options import PlanOptions
+from .options import PlanOptions, check_options
 from .projection import project
 from .resolve import BoundConstraint, bind, set_goal_positions
 from .spec import Axis, ConstraintSpec
-from .validate import VALIDATION_TOLERANCE, PathValidation, validate_path
+from .validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
 
 # Planning keeps this much inside every band so that chords between planned states stay valid.
 PLANNING_MARGIN = 2e-3
+# Straightening an arm is checked on every this-many-th dense state before all of them.
+SPARSE_FIRST = 16
 Status = Literal["solved", "invalid_start", "invalid_goal", "unreachable_goal", "timeout", "invalid_path", "planner_error"]
 
 
@@ -59,6 +64,7 @@ class MotionResult(BaseModel):
     message: str = ""
     group: str
     joint_names: list[str]
+    start: dict[str, float] = Field(default_factory=dict)  # every joint of the robot where the path starts
     path: list[list[float]] = Field(default_factory=list)  # validated waypoints, group order
     validation: PathValidation | None = None
     planning_time: float = 0.0
@@ -140,14 +146,21 @@ def plan_motion(
     group = group or robot.default_group
     joint_names = robot.group_joints(group)
     q_start = robot.configuration(start) if isinstance(start, dict) else robot.configuration(start, group)
+    check_options(options)
     bound = bind(constraints, robot, checker)
     _check_group(robot, bound, group)
-    result = lambda status, message, **kw: MotionResult(status=status, message=message, group=group, joint_names=joint_names, **kw)  # noqa: E731
+    full_start = dict(zip(robot.joint_names, q_start.tolist()))
+    result = lambda status, message: MotionResult(status=status, message=message, group=group, joint_names=joint_names, start=full_start)  # noqa: E731
     with with_keep_out(checker, bound):
         problem = _Problem(robot, checker, bound, group, q_start)
         x_start = robot.group_values(q_start, group)
         if checker.in_collision(q_start):
             return result("invalid_start", f"start is in collision: {problem.describe_collisions(x_start)}")
+        # The goal first: it fixes p_goal, so the start is checked at its own dynamic tolerance.
+        goal_or_error = _resolve_goal(problem, goal, x_start)
+        if isinstance(goal_or_error, MotionResult):
+            return goal_or_error.model_copy(update={"group": group, "joint_names": joint_names, "start": full_start})
+        x_goal = goal_or_error
         moved = 0.0
         if problem.describe_violations(x_start):
             if not options.project_start:
@@ -156,12 +169,9 @@ def plan_motion(
             if projected is None or checker.in_collision(problem.evaluator.full(projected)):
                 return result("invalid_start", f"start violates {problem.describe_violations(x_start)} and cannot be projected onto the constraints")
             moved, x_start = float(np.abs(projected - x_start).max()), projected
-        goal_or_error = _resolve_goal(problem, goal, x_start)
-        if isinstance(goal_or_error, MotionResult):
-            return goal_or_error.model_copy(update={"group": group, "joint_names": joint_names})
-        x_goal = goal_or_error
         outcome = _search(problem, options, x_start, x_goal)
-        return outcome.model_copy(update={"group": group, "joint_names": joint_names, "start_moved": moved})
+        planned_start = dict(zip(robot.joint_names, problem.evaluator.full(x_start).tolist()))
+        return outcome.model_copy(update={"group": group, "joint_names": joint_names, "start_moved": moved, "start": planned_start})
 
 
 def _set_goal_positions(problem: _Problem, x_goal: np.ndarray) -> None:
@@ -225,7 +235,8 @@ def _onto_manifold(problem: _Problem, rows, x: np.ndarray, step: float) -> np.nd
 def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal: np.ndarray) -> MotionResult:
     rows = _rows(problem, options)
     hybrid = options.formulation == "hybrid" and options.space != "rejection"
-    is_valid = problem.validity(-PLANNING_MARGIN if hybrid else 0.0)
+    limit = -PLANNING_MARGIN if hybrid else 0.0
+    is_valid = problem.validity(limit)
     blank = {"group": problem.group, "joint_names": []}
     ends = [_onto_manifold(problem, rows, x, options.validation_step) for x in (x_start, x_goal)]
     if ends[0] is None:
@@ -246,8 +257,7 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
         remaining = options.time_limit - (time.perf_counter() - started)
         if remaining <= 0.0:
             break
-        seed = None if options.seed is None else options.seed + attempt
-        run = solve_with_ompl(options.model_copy(update={"time_limit": remaining, "seed": seed}), bounds, ends[0], ends[1], is_valid, rows)
+        run = solve_with_ompl(options.model_copy(update={"time_limit": remaining}), bounds, ends[0], ends[1], is_valid, rows, attempt)
         for key, value in vars(run.counters).items():
             calls[key] = calls.get(key, 0) + value
         attempt += 1
@@ -256,15 +266,38 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             if run.message.startswith("OMPL:"):
                 break
             continue
-        waypoints = _dedupe([x_start, *run.states, x_goal])
-        validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step)
-        if validation.valid:
-            return MotionResult(status="solved", group=problem.group, joint_names=[], path=[w.tolist() for w in waypoints],
-                                validation=validation, planning_time=time.perf_counter() - started, space=run.space, calls=calls)  # fmt: skip
-        last_message = f"planner path failed dense validation ({validation.message}); re-planning"
+        for states in [s for s in (run.states, run.unsimplified) if s]:  # if a shortcut cut a corner: the planner's own path
+            waypoints = _dedupe([x_start, *states, x_goal])
+            validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step)
+            if validation.valid:
+                waypoints, validation = _straighten_arms(problem, options, waypoints, validation, limit)
+                return MotionResult(status="solved", group=problem.group, joint_names=[], path=[w.tolist() for w in waypoints],
+                                    validation=validation, planning_time=time.perf_counter() - started, space=run.space, calls=calls)  # fmt: skip
+            last_message = f"planner path failed dense validation ({validation.message}); re-planning"
     status = "planner_error" if last_message.startswith("OMPL:") else "invalid_path" if "dense validation" in last_message else "timeout"
     return MotionResult(status=status, message=last_message or "time limit reached", group=problem.group, joint_names=[],
                         planning_time=time.perf_counter() - started, calls=calls, space=options.space)  # fmt: skip
+
+
+def _straighten_arms(problem: _Problem, options: PlanOptions, waypoints: list[np.ndarray], validation: PathValidation,
+                     limit: float) -> tuple[list[np.ndarray], PathValidation]:  # fmt: skip
+    """Arm-wise shortcuts of a validated path (see arm_shortcut): an arm is straightened only if
+    every dense state stays collision free with every margin <= `limit`, as planned states are."""
+    arms = arm_subgroups(problem.robot, problem.group)
+    if not arms or not options.simplify:
+        return waypoints, validation
+    is_valid = problem.validity(limit)
+
+    def path_valid(path: list[np.ndarray]) -> bool:  # a sparse pass first: most rejections cost a few states
+        dense = densify(path, options.validation_step)
+        return all(is_valid(x) for x in dense[::SPARSE_FIRST]) and all(is_valid(x) for x in dense)
+
+    straightened = straighten_arms(waypoints, arms, path_valid)
+    if np.array_equal(straightened, waypoints):
+        return waypoints, validation
+    straightened = _dedupe(straightened)
+    again = validate_path(problem.evaluator, problem.checker, straightened, options.validation_step)
+    return (straightened, again) if again.valid else (waypoints, validation)
 
 
 def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:

@@ -9,10 +9,13 @@ processes.
 
 from __future__ import annotations
 
+from time import perf_counter
 from collections.abc import Iterable
 
+from typing import Literal
+
 import numpy as np
-from pydantic import BaseModel
+from pydantic import BaseModel, model_validator
 
 from hriplan import HriplanError
 from hriplan.robots.collision import CollisionChecker
@@ -22,7 +25,8 @@ from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
 from .evaluator import ConstraintEvaluator
-from .motion import Goal, MotionResult, plan_motion, with_keep_out
+from .motion import Goal, MotionResult, Status, plan_motion, with_keep_out
+from .ompl_backend import ompl_seed
 from .options import PlanOptions
 from .resolve import bind, set_goal_positions
 from .spec import ConstraintSet, ConstraintSpec
@@ -32,16 +36,36 @@ from .validate import densify, validate_path
 
 # Knot spacing handed to the time parameteriser, then a denser retry if re-validation fails.
 TIMING_STEPS = (0.05, 0.01)
+# Re-plans (within the time limit) when a valid path cannot be timed: its shortcuts can graze an
+# obstacle so closely that the smooth timed motion, which rounds their corners, touches it.
+TIMING_RETRIES = 2
+
+
+def _retry_seed(seed: int | None, retry: int) -> int | None:
+    """A re-plan's seed: reproducible from the run's seed, and not another run's first seed."""
+    return None if seed is None else -ompl_seed(seed, retry) - 2**31
+
+
+PlanStatus = Literal[Status, "timing_failed"]
 
 
 class PlanResult(BaseModel):
+    """A planned motion and, only when solved, its validated timed trajectory."""
+
+    status: PlanStatus
     motion: MotionResult
     trajectory: TrajectoryFile | None = None
     message: str = ""
 
+    @model_validator(mode="after")
+    def _solved_means_a_trajectory(self) -> PlanResult:
+        if (self.status == "solved") != (self.trajectory is not None):
+            raise ValueError("a plan result is solved exactly when it has a trajectory")
+        return self
+
     @property
     def solved(self) -> bool:
-        return self.trajectory is not None
+        return self.status == "solved"
 
 
 class PlanningSession:
@@ -82,24 +106,39 @@ class PlanningSession:
     def plan(self, start: JointValues, goal: Goal, options: PlanOptions | None = None, group: str | None = None) -> PlanResult:
         """Plan, validate densely, time-parameterise and re-validate the timed path."""
         options = options or PlanOptions()
-        specs = list(self.constraints.values())
-        motion = plan_motion(self.robot, self.checker, specs, start, goal, options, group)
-        if not motion.solved:
-            return PlanResult(motion=motion, message=motion.message)
-        return self._timed(motion, specs, options)
+        started = perf_counter()
+        for retry in range(TIMING_RETRIES + 1):
+            remaining = options.time_limit - (perf_counter() - started)
+            if retry and remaining <= 0.0:
+                break
+            run = options if retry == 0 else options.model_copy(update={"time_limit": remaining, "seed": _retry_seed(options.seed, retry)})
+            motion = plan_motion(self.robot, self.checker, list(self.constraints.values()), start, goal, run, group)
+            result = self.time(motion, options)
+            if result.status != "timing_failed":
+                break
+        return result
 
-    def _timed(self, motion: MotionResult, specs: list[ConstraintSpec], options: PlanOptions) -> PlanResult:
-        bound = bind(specs, self.robot, self.checker)
+    def time(self, motion: MotionResult, options: PlanOptions | None = None) -> PlanResult:
+        """Time a planned motion and validate the timed samples against the session's constraints
+        and scene, every joint outside the planned group at the motion's start."""
+        options = options or PlanOptions()
+        if not motion.solved:
+            return PlanResult(status=motion.status, motion=motion, message=motion.message)
+        missing = [j for j in self.robot.joint_names if j not in motion.start]
+        if missing:
+            raise HriplanError(f"the motion's start does not give every joint of {self.robot.name!r} (missing {missing[0]!r})")
+        bound = bind(list(self.constraints.values()), self.robot, self.checker)
         path = np.array(motion.path)
-        q0 = self.robot.configuration(dict(zip(motion.joint_names, path[0])))
+        q0 = self.robot.configuration(motion.start)
         evaluator = ConstraintEvaluator(self.robot, bound, motion.group, q0)
         set_goal_positions(self.robot, bound, evaluator.full(path[-1]))
         scene = self.checker.scene
         with with_keep_out(self.checker, bound):
             timed, check, message = self._time_and_check(path, evaluator, motion.group, options)
         if timed is None:
-            return PlanResult(motion=motion, message=message)
-        return PlanResult(motion=motion, trajectory=self._file(motion, bound, timed, check, options, scene, q0))
+            return PlanResult(status="timing_failed", motion=motion, message=message)
+        trajectory = self._file(motion, bound, timed, check, options, scene, evaluator.full(path[0]))
+        return PlanResult(status="solved", motion=motion, trajectory=trajectory)
 
     def _time_and_check(self, path: np.ndarray, evaluator: ConstraintEvaluator, group: str, options: PlanOptions):  # noqa: ANN202
         """TOPP-RA on the validated path, then dense validation of the timed samples."""
@@ -128,6 +167,7 @@ class PlanningSession:
             planning_time=motion.planning_time,
             duration=timed.times[-1],
             path_length=float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()),
+            straight_length=float(np.linalg.norm(path[-1] - path[0])),
             states_checked=check.states_checked,
             max_violation={c.id: c.max_violation for c in check.constraints},
             min_human_distance=check.min_human_distance,

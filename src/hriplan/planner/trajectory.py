@@ -45,6 +45,7 @@ class TrajectoryReport(BaseModel):
     planning_time: float
     duration: float
     path_length: float  # joint-space length of the validated path, rad
+    straight_length: float | None = None  # joint-space distance from start to goal, rad (the shortest path)
     states_checked: int
     max_violation: dict[str, float]  # worst margin per constraint over the timed path (<= 0: kept)
     min_human_distance: float | None = None
@@ -63,7 +64,7 @@ class TrajectoryFile(BaseModel):
     step: str = ""
     hands: dict[str, str] = Field(default_factory=dict)
     joint_names: list[str]
-    start: dict[str, float] = Field(default_factory=dict)  # every planning joint at the start
+    start: dict[str, float] = Field(default_factory=dict)  # every joint of the robot at the start
     scene: Scene = Field(default_factory=Scene)  # what the motion was checked against
     points: list[TrajectoryPoint]
     constraints: list[ResolvedConstraint]
