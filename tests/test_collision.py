@@ -42,7 +42,7 @@ def test_acm_disables_adjacent_and_keeps_arm_against_arm(madar):
     assert acm.get("right_shoulder_link|right_upper_arm_link") == "adjacent"
     assert "left_hand_palm_link|right_hand_palm_link" not in acm  # the hands can meet
     assert "right_fore_arm_link|left_fore_arm_link" not in acm and "left_fore_arm_link|right_fore_arm_link" not in acm
-    assert set(acm.values()) <= {"adjacent", "always", "never", "ur5-srdf"}
+    assert set(acm.values()) <= {"adjacent", "never", "mesh"}
 
 
 @pytest.fixture(scope="module")

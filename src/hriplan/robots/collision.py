@@ -15,10 +15,10 @@ import pinocchio as pin
 
 from hriplan import HriplanError
 
-from .acm import load_acm
+from .acm import MESH, load_acm
 from .human import Human, HumanSpec
 from .model import Robot
-from .robot_geometry import robot_parts
+from .robot_geometry import part_collision_shapes, robot_parts
 from .scene import Scene
 from .spatial import Pose
 
@@ -44,10 +44,16 @@ class CollisionChecker:
         """Replace the scene's contents (pairs are recomputed; the robot model is kept)."""
         self.scene = scene
         gm = pin.GeometryModel()
-        self.kind: list[str] = []  # per geometry: robot, attached:<arm>, obstacle, human
+        self.kind: list[str] = []  # per geometry: robot, mesh:<part>, attached:<arm>, obstacle, human
         for part in self.parts:
             gm.addGeometryObject(pin.GeometryObject(part.name, part.joint, part.placement, part.geometry))
             self.kind.append("robot")
+        meshed = {name for pair, reason in self.acm.items() if reason == MESH for name in pair.split("|")}
+        for part in self.parts:
+            if part.name in meshed:
+                for shape in part_collision_shapes(self.robot, part):
+                    gm.addGeometryObject(shape)
+                    self.kind.append(f"mesh:{part.name}")
         for obj in scene.attached:
             tool = self.robot.frame_id(self.robot.tool_frame(obj.arm))
             frame = self.robot.model.frames[tool]
@@ -100,6 +106,12 @@ class CollisionChecker:
             return False
         if ki == "robot" and kj == "robot":
             return f"{names[0]}|{names[1]}" not in self.acm and f"{names[1]}|{names[0]}" not in self.acm
+        if ki.startswith("mesh:") or kj.startswith("mesh:"):
+            # Meshes stand in for their part only against the parts the ACM names for them.
+            if not (ki.startswith("mesh:") and kj.startswith("mesh:")):
+                return False
+            a, b = ki.split(":", 1)[1], kj.split(":", 1)[1]
+            return MESH in (self.acm.get(f"{a}|{b}"), self.acm.get(f"{b}|{a}"))
         for k, other in ((ki, j), (kj, i)):
             if k.startswith("attached:") and self.kind[other] == "robot":
                 # A carried object touches its own hand and wrist by design.
