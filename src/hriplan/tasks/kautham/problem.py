@@ -185,7 +185,8 @@ def _obstacles(reader: Reader, root: ET.Element, folders: list[Path], world: pin
     return obstacles, frames
 
 
-def _kautham_ranges(reader: Reader, robot: Robot, robot_el: ET.Element, folders: list[Path]) -> tuple[dict[str, tuple[float, float]], set[str]]:
+def _kautham_ranges(reader: Reader, robot: Robot, robot_el: ET.Element, folders: list[Path],
+                    warn: Warn) -> tuple[dict[str, tuple[float, float]], set[str]]:  # fmt: skip
     """Joint ranges of Kautham's robot model (normalised controls span them) and its names."""
     by_name = _joint_by_name(robot)
     ranges = {joint: KAUTHAM_RANGE for joint in robot.joint_names}
@@ -194,14 +195,19 @@ def _kautham_ranges(reader: Reader, robot: Robot, robot_el: ET.Element, folders:
     if kautham_name is not None and kautham_name.get("name"):
         names.add(kautham_name.get("name"))
     found = find_file(robot_el.get("robot", ""), folders) if robot_el.get("robot") else None
-    if found is not None:
-        urdf = Reader(found).parse()
+    if found is None:
+        warn(f"{reader.path}: Kautham's robot file {robot_el.get('robot')!r} is not in {', '.join(map(str, folders))}: "
+             "controls are normalised over +-2 pi, the range of Kautham's UR5 and MADAR joints")  # fmt: skip
+    else:
+        robot_file = Reader(found)
+        urdf = robot_file.parse()
         names.add(urdf.get("name", robot.name))
         for joint in urdf.iter("joint"):
             child, limit = joint.find("child"), joint.find("limit")
-            if child is not None and limit is not None and robot.link_name(child.get("link", "")) in by_name:
-                where = f"{found}: joint {joint.get('name')!r}"
-                ranges[by_name[robot.link_name(child.get("link"))]] = (reader.number(limit, "lower", where), reader.number(limit, "upper", where))
+            link = robot.link_name(child.get("link", "")) if child is not None else ""
+            if limit is not None and link in by_name:
+                where = f"joint {joint.get('name')!r}"
+                ranges[by_name[link]] = (robot_file.number(limit, "lower", where), robot_file.number(limit, "upper", where))
     return ranges, names
 
 
@@ -301,7 +307,7 @@ def import_kautham(path: str | Path, rpy: Literal["kautham", "urdf"] = "kautham"
         check_groups([c for c in constraints if c.enabled])
     except HriplanError as exc:
         raise reader.fail(str(exc)) from None
-    ranges, robot_names = _kautham_ranges(reader, robot, robot_el, folders)
+    ranges, robot_names = _kautham_ranges(reader, robot, robot_el, folders, warn)
     controls = _controls(reader, root, folders, robot, robot_names)
     init_controls, goal_controls = _query_controls(reader, root, controls)
     start = _configuration(reader, robot, controls, init_controls, "init", ranges)
