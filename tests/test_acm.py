@@ -35,7 +35,7 @@ class UrdfMeshes:
         self.by_link: dict[str, list[int]] = {}
         for i, g in enumerate(self.geoms.geometryObjects):
             self.by_link.setdefault(self.model.frames[g.parentFrame].name, []).append(i)
-        self.pair_names: list[str] = []
+        self.pair_names: dict[tuple[int, int], set[str]] = {}  # shape pair -> the part pairs it stands for
 
     def links_of(self, part: str) -> list[str]:
         """The URDF links a part name stands for (fingers group four links; torso parts are on the base)."""
@@ -49,15 +49,21 @@ class UrdfMeshes:
             a, b = pair.split("|")
             for i in (i for link in self.links_of(a) for i in self.by_link[link]):
                 for j in (j for link in self.links_of(b) for j in self.by_link[link]):
-                    self.geoms.addCollisionPair(pin.CollisionPair(i, j))
-                    self.pair_names.append(pair)
+                    key = (min(i, j), max(i, j))
+                    if key not in self.pair_names:  # torso parts share the base link's shapes
+                        self.geoms.addCollisionPair(pin.CollisionPair(*key))
+                    self.pair_names.setdefault(key, set()).add(pair)
         self.geom_data = self.geoms.createData()
 
     def touching(self, q: np.ndarray) -> set[str]:
         """Watched part pairs whose meshes touch at planning configuration `q`."""
         full = self.robot.full_configuration(dict(zip(self.robot.joint_names, q)))
         pin.computeCollisions(self.model, self.data, self.geoms, self.geom_data, full, False)
-        return {name for name, r in zip(self.pair_names, self.geom_data.collisionResults) if r.isCollision()}
+        touching = set()
+        for cp, r in zip(self.geoms.collisionPairs, self.geom_data.collisionResults):
+            if r.isCollision():
+                touching |= self.pair_names[(cp.first, cp.second)]
+        return touching
 
 
 def _valid_states(checker: CollisionChecker, count: int, seed: int):
