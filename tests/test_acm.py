@@ -91,14 +91,16 @@ def test_no_unchecked_pair_touches_at_mesh_level(name, states):
     assert touched == {}, f"pairs the planner skips touch at mesh level: {touched}"
 
 
-def test_forearm_and_wrist_2_are_checked(ur5):
-    """Copied from the UR5 SRDF, this pair was skipped, yet here its meshes touch."""
+def test_forearm_and_wrist_2_are_checked_on_their_meshes(ur5):
+    """Copied from the UR5 SRDF, this pair was skipped, yet here its meshes touch; two links
+    apart, its capsules overlap around wrist 1 in 37 % of the samples, its meshes in 4 %."""
+    checker = CollisionChecker(ur5)
+    assert checker.acm["fore_arm_link|wrist_2_link"] == acm_module.MESH
     q = np.array([0.1, 4.67, -0.87, 1.23, -5.54, -1.41])
     meshes = UrdfMeshes(ur5)
     meshes.watch(["fore_arm_link|wrist_2_link"])
     assert meshes.touching(q) == {"fore_arm_link|wrist_2_link"}
-    checker = CollisionChecker(ur5)
-    assert [(c.a, c.b) for c in checker.contacts(q)] == [("fore_arm_link", "wrist_2_link")]
+    assert [(c.a, c.b) for c in checker.contacts(q)] == [("fore_arm_link (mesh)", "wrist_2_link (mesh)")]
 
 
 def test_base_and_upper_arm_are_checked_on_their_meshes(ur5):
