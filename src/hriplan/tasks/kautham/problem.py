@@ -15,8 +15,9 @@ shared/reference/kautham-constraints.md. Differences handled here:
 - The robot's `<Home>` places it in Kautham's world; the imported problem keeps the robot at
   the origin and expresses the world in that Home frame (obstacles and world-frame volumes
   move by the inverse of Home), so every relative pose is Kautham's.
-- Obstacles are URDF files from the models folders (obstacles.py); one that cannot be loaded is
-  skipped with a warning, and constraints referring to it keep its `<Home>` frame.
+- Obstacles are URDF files from the models folders (obstacles.py); one whose file is not found
+  is skipped with a warning, and constraints referring to it keep its `<Home>` frame; a
+  malformed one is an error.
 """
 
 from __future__ import annotations
