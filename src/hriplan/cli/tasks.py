@@ -173,16 +173,20 @@ def import_kautham(
     output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the hriplan problem here (JSON).")] = None,
     plan_it: Annotated[bool, typer.Option("--plan", help="Also plan it (as `hriplan solve`).")] = False,
     rpy: Annotated[Literal["kautham", "urdf"], typer.Option(help="How to read <Origin rpy>: Kautham's Rx Ry Rz, or URDF.")] = "kautham",
+    models: Annotated[list[Path] | None, typer.Option("--models", help="A folder with Kautham's robot, obstacle and controls files, like its demos/models (repeatable).")] = None,
 ) -> None:
-    """Convert a Kautham problem (constraints and query) to hriplan's problem format, and plan it."""
+    """Convert a Kautham problem (robot, obstacles, constraints, controls, query) to hriplan's problem format, and plan it."""
     from hriplan.cli.solve import solve_problem_file
     from hriplan.tasks.kautham import import_kautham as convert
 
-    converted = convert(problem, rpy)
+    converted = convert(problem, rpy, models or (), warn=lambda message: typer.echo(f"warning: {message}", err=True))
     target = output or Path("out") / f"{problem.stem}.problem.json"
     target.parent.mkdir(parents=True, exist_ok=True)
     target.write_text(converted.model_dump_json(indent=1))
-    typer.echo(f"{len(converted.constraints.constraints)} constraints, group {converted.group}: wrote {target}")
+    typer.echo(
+        f"{len(converted.constraints.constraints)} constraints, group {converted.group}, "
+        f"{len(converted.scene.obstacles)} obstacles: wrote {target}"
+    )
     if plan_it:
         raise typer.Exit(solve_problem_file(target, target.with_suffix(".trajectory.json"), None, False))
 

@@ -3,6 +3,10 @@
 One pinocchio GeometryModel holds the robot's parts, the carried objects, the obstacles and the
 people's capsules; the pairs to check are fixed when the scene's *contents* change. Moving an
 obstacle or re-posing a person only rewrites placements, so the robot is never rebuilt.
+
+A robot part that never moves (the base) against an obstacle gives the same answer in every
+state, so that pair is decided once, exactly, on the part's URDF collision shapes: a UR5 base
+standing on a table must not collide through its capsule, which reaches 8 cm below the base.
 """
 
 from __future__ import annotations
@@ -15,10 +19,10 @@ import pinocchio as pin
 
 from hriplan import HriplanError
 
-from .acm import load_acm
+from .acm import MESH, load_acm
 from .human import Human, HumanSpec
 from .model import Robot
-from .robot_geometry import robot_parts
+from .robot_geometry import part_collision_shapes, robot_parts
 from .scene import Scene
 from .spatial import Pose
 
@@ -44,10 +48,16 @@ class CollisionChecker:
         """Replace the scene's contents (pairs are recomputed; the robot model is kept)."""
         self.scene = scene
         gm = pin.GeometryModel()
-        self.kind: list[str] = []  # per geometry: robot, attached:<arm>, obstacle, human
+        self.kind: list[str] = []  # per geometry: robot, mesh:<part>, attached:<arm>, obstacle, human
         for part in self.parts:
             gm.addGeometryObject(pin.GeometryObject(part.name, part.joint, part.placement, part.geometry))
             self.kind.append("robot")
+        meshed = {name for pair, reason in self.acm.items() if reason == MESH for name in pair.split("|")}
+        for part in self.parts:
+            if part.name in meshed:
+                for shape in part_collision_shapes(self.robot, part):
+                    gm.addGeometryObject(shape)
+                    self.kind.append(f"mesh:{part.name}")
         for obj in scene.attached:
             tool = self.robot.frame_id(self.robot.tool_frame(obj.arm))
             frame = self.robot.model.frames[tool]
@@ -72,10 +82,7 @@ class CollisionChecker:
                 self.kind.append("human")
             self._human_slots[spec.name] = slots
         self.geom_model = gm
-        self._add_pairs()
-        self.geom_data = gm.createData()
-        # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
-        self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self.geom_data)
+        self._pair_up()
         self._index = {g.name: i for i, g in enumerate(gm.geometryObjects)}
         self._build_distance_model()
 
@@ -100,6 +107,15 @@ class CollisionChecker:
             return False
         if ki == "robot" and kj == "robot":
             return f"{names[0]}|{names[1]}" not in self.acm and f"{names[1]}|{names[0]}" not in self.acm
+        if ki.startswith("mesh:") or kj.startswith("mesh:"):
+            # Meshes stand in for their part only against the parts the ACM names for them.
+            if not (ki.startswith("mesh:") and kj.startswith("mesh:")):
+                return False
+            a, b = ki.split(":", 1)[1], kj.split(":", 1)[1]
+            return MESH in (self.acm.get(f"{a}|{b}"), self.acm.get(f"{b}|{a}"))
+        for (k, a), (other, b) in (((ki, i), (kj, j)), ((kj, j), (ki, i))):
+            if k == "robot" and other == "obstacle" and self.parts[a].joint == 0:
+                return self._fixed_part_touches(a, b)
         for k, other in ((ki, j), (kj, i)):
             if k.startswith("attached:") and self.kind[other] == "robot":
                 # A carried object touches its own hand and wrist by design.
@@ -112,19 +128,40 @@ class CollisionChecker:
     def _tool_joint(self, arm: str) -> int:
         return self.robot.model.frames[self.robot.frame_id(self.robot.tool_frame(arm))].parentJoint
 
-    def _add_pairs(self) -> None:
-        n = self.geom_model.ngeoms
-        for i in range(n):
-            for j in range(i + 1, n):
+    def _pair_up(self) -> None:
+        gm = self.geom_model
+        gm.removeAllCollisionPairs()
+        self._fixed_contacts: set[tuple[int, int]] = set()
+        for i in range(gm.ngeoms):
+            for j in range(i + 1, gm.ngeoms):
                 if self._checked(i, j):
-                    self.geom_model.addCollisionPair(pin.CollisionPair(i, j))
+                    gm.addCollisionPair(pin.CollisionPair(i, j))
+        self.geom_data = gm.createData()
+        # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
+        self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self.geom_data)
 
-    # -- updates (no rebuild) -------------------------------------------------------------
+    def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
+        """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
+        other = self.geom_model.geometryObjects[obstacle]
+        where = coal.Transform3s(other.placement.rotation, other.placement.translation)
+        for shape in part_collision_shapes(self.robot, self.parts[part]):
+            placement = coal.Transform3s(shape.placement.rotation, shape.placement.translation)
+            if coal.collide(shape.geometry, placement, other.geometry, where, coal.CollisionRequest(), coal.CollisionResult()):
+                self._fixed_contacts.add((part, obstacle))
+                return True
+        return False
+
+    # -- updates (no rebuild of the robot) -------------------------------------------------------------
     def move_obstacle(self, name: str, pose: Pose) -> None:
         i = self._index.get(name)
         if i is None or self.kind[i] != "obstacle":
             raise HriplanError(f"the scene has no obstacle {name!r}")
         self.geom_model.geometryObjects[i].placement = pose.se3()
+        fixed = [p for p, part in enumerate(self.parts) if part.joint == 0]
+        before = {p for p, o in self._fixed_contacts if o == i}
+        self._fixed_contacts -= {(p, i) for p in before}
+        if {p for p in fixed if self._fixed_part_touches(p, i)} != before:
+            self._pair_up()
 
     def pose_human(self, spec: HumanSpec) -> None:
         """Re-pose a person already in the scene: only capsule placements change."""

@@ -96,3 +96,10 @@ def ur5_urdf() -> str:
 
 
 DESCRIPTIONS = {"madar": madar_urdf, "ur5": ur5_urdf}
+# Other names of links, as other descriptions of the same robot spell them (same frame, checked
+# by forward kinematics in tests/test_kautham.py): Kautham's MADAR names the adapter and the
+# hand's base (the Allegro palm) differently; its UR5 uses hriplan's names.
+LINK_ALIASES: dict[str, dict[str, str]] = {
+    "madar": {"right_hand_adapter_link": "right_hand_adapter", "right_hand_base_link": "right_hand_palm_link"},
+    "ur5": {},
+}

@@ -6,7 +6,7 @@ import collections
 
 import numpy as np
 
-from .acm import load_acm
+from .acm import MESH, load_acm
 from .model import Robot
 from .robot_geometry import robot_parts
 
@@ -29,9 +29,10 @@ def describe(robot: Robot) -> str:
     kinds = collections.Counter(type(p.geometry).__name__ for p in parts)
     lines.append(f"collision parts: {len(parts)} ({', '.join(f'{n} {k}' for k, n in sorted(kinds.items()))})")
     acm = collections.Counter(load_acm(robot, parts).values())
+    meshes = acm.pop(MESH, 0)
     pairs = len(parts) * (len(parts) - 1) // 2
     lines.append(
-        f"self-collision pairs: {pairs - sum(acm.values())} checked of {pairs} "
-        f"(disabled: {', '.join(f'{n} {k}' for k, n in sorted(acm.items()))})"
+        f"self-collision pairs: {pairs - sum(acm.values()) - meshes} checked on parts and {meshes} on meshes of {pairs} "
+        f"(not checked: {', '.join(f'{n} {k}' for k, n in sorted(acm.items()))})"
     )
     return "\n".join(lines)

@@ -17,7 +17,7 @@ import pinocchio as pin
 from hriplan import HriplanError
 
 from .allegro import HAND_POSTURES, hand_joint_name, posture_values
-from .descriptions import DESCRIPTIONS
+from .descriptions import DESCRIPTIONS, LINK_ALIASES
 from .spatial import Pose
 from .ur5_description import joint_names
 
@@ -70,6 +70,7 @@ class Robot:
         self.joint_names = [self.model.names[j] for j in range(1, self.model.njoints)]
         self.groups = _groups(spec.name, self.joint_names)
         self.arms = arms_of(spec.name)
+        self.link_aliases = LINK_ALIASES.get(spec.name, {})
         self._index = {
             g: np.array([self.model.joints[self.model.getJointId(j)].idx_q for j in names])
             for g, names in self.groups.items()
@@ -164,6 +165,10 @@ class Robot:
         if not self.model.existFrame(name):
             raise HriplanError(f"robot {self.name!r} has no frame {name!r}")
         return self.model.getFrameId(name)
+
+    def link_name(self, name: str) -> str:
+        """The link `name` stands for: itself, or the link it is another description's alias of."""
+        return self.link_aliases.get(name, name)
 
     def frame_pose(self, name: str, values: JointValues, group: str | None = None) -> np.ndarray:
         """4x4 pose of frame `name` in the world for the given joint values."""

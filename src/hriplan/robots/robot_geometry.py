@@ -101,6 +101,18 @@ def robot_parts(robot: Robot, padding: float = 0.0) -> tuple[RobotPart, ...]:
     return _CACHE[key]
 
 
+def part_collision_shapes(robot: Robot, part: RobotPart) -> list[pin.GeometryObject]:
+    """The URDF collision shapes a part stands for (a structure primitive is its own shape):
+    for pairs whose fitted parts cannot tell contact apart (acm.MESH)."""
+    if _STRUCTURE.match(part.link):
+        return [pin.GeometryObject(f"{part.name} (mesh)", part.joint, part.placement, part.geometry)]
+    shapes = []
+    for geom in robot.collision_meshes.geometryObjects:
+        if _group(_link(robot.model, geom)) == part.name:
+            shapes.append(pin.GeometryObject(f"{part.name} (mesh)", geom.parentJoint, geom.placement, geom.geometry))
+    return shapes
+
+
 def parent_links(robot: Robot) -> dict[str, str]:
     """URDF link -> its parent link, from the full model's frame tree."""
     frames = robot.full_model.frames
