@@ -36,6 +36,7 @@ QueryFormat = Literal["table", "json", "csv", "turtle"]
 FORMATS: tuple[str, ...] = ("table", "json", "csv", "turtle")
 RESULT_SYNTAXES: tuple[str, ...] = ("json", "xml", "csv", "tsv")
 GRAPH_SYNTAXES: tuple[str, ...] = ("turtle", "json-ld", "nt")
+UPDATES_REFUSED = "updates are not supported: the knowledge base is read-only"
 QUERIES_DIR = Path(__file__).with_name("queries")
 
 
@@ -140,7 +141,7 @@ def prepare_query(text: str) -> Query:
         query = prepareQuery(text, initNs=PREFIXES)
     except pyparsing.ParseBaseException as exc:
         if _is_update(text):
-            raise HriplanError("updates are not supported: the knowledge base is read-only") from None
+            raise HriplanError(UPDATES_REFUSED) from None
         raise HriplanError(f"SPARQL syntax error at line {exc.lineno}, column {exc.col}: {exc.msg}") from None
     except Exception as exc:  # noqa: BLE001 - rdflib reports e.g. unknown prefixes with a bare Exception
         raise HriplanError(f"invalid SPARQL query: {exc}") from None
