@@ -53,10 +53,11 @@ class _Worker:
         self.process = SPAWN.Process(target=serve, args=(child,), daemon=True, name="hriplan-worker")
         self.process.start()
         child.close()
-        self.busy = False
+        self.busy = self.ready = False
 
     def wait_ready(self) -> None:
         self.conn.recv()
+        self.ready = True
 
     def call(self, job: tuple[str, dict[str, Any]]) -> tuple:
         self.conn.send(job)
@@ -95,7 +96,7 @@ class WorkerPool:
         asyncio.get_running_loop().create_task(self._add())
 
     def status(self) -> dict[str, Any]:
-        return {"workers": [{"pid": w.process.pid, "busy": w.busy} for w in self.workers], "waiting": self._waiting}
+        return {"workers": [{"pid": w.process.pid, "ready": w.ready, "busy": w.busy} for w in self.workers], "waiting": self._waiting}
 
     async def run(self, kind: str, payload: dict[str, Any], time_limit: float,
                   disconnected: Callable[[], Awaitable[bool]] | None = None) -> tuple:  # fmt: skip
