@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import os
 import socket
@@ -15,12 +16,10 @@ import httpx
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 
-
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
-
 
 @contextlib.contextmanager
 def running_server(*args: str, token: str | None = None, startup: float = 120.0) -> Iterator[str]:
@@ -52,11 +51,6 @@ def running_server(*args: str, token: str | None = None, startup: float = 120.0)
             process.kill()
             process.wait()
 
-
-def worker_pids(url: str, headers: dict[str, str] | None = None) -> list[int]:
-    return [w["pid"] for w in httpx.get(f"{url}/health", headers=headers or {}).json()["workers"]]
-
-
 def wait_for_workers(url: str, count: int, headers: dict[str, str] | None = None, timeout: float = 60.0) -> list[int]:
     """The worker pids once `count` are ready again (after a replacement)."""
     deadline = time.monotonic() + timeout
@@ -66,3 +60,14 @@ def wait_for_workers(url: str, count: int, headers: dict[str, str] | None = None
             return [w["pid"] for w in status["workers"]]
         time.sleep(0.2)
     raise AssertionError(f"the pool did not get back to {count} workers")
+
+_shared: dict[tuple[str, ...], str] = {}
+SHARED_ARGS = ("--workers", "2", "--queue", "2", "--query-time-limit", "1", "--row-limit", "500")
+
+def shared_server() -> str:
+    """One server for every test module that needs the default set-up (started once, stopped at exit)."""
+    if SHARED_ARGS not in _shared:
+        context = running_server(*SHARED_ARGS)
+        _shared[SHARED_ARGS] = context.__enter__()
+        atexit.register(context.__exit__, None, None, None)
+    return _shared[SHARED_ARGS]

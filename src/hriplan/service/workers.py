@@ -74,7 +74,7 @@ class WorkerPool:
         self.size, self.queue_limit = size, queue_limit
         self.workers: list[_Worker] = []
         self._idle: asyncio.Queue[_Worker] = asyncio.Queue()
-        self._waiting = 0
+        self._in_flight = 0  # running + waiting
         self._threads = ThreadPoolExecutor(max_workers=2 * size + 2, thread_name_prefix="hriplan-pipe")
 
     async def start(self) -> None:
@@ -96,24 +96,29 @@ class WorkerPool:
         asyncio.get_running_loop().create_task(self._add())
 
     def status(self) -> dict[str, Any]:
-        return {"workers": [{"pid": w.process.pid, "ready": w.ready, "busy": w.busy} for w in self.workers], "waiting": self._waiting}
+        return {"workers": [{"pid": w.process.pid, "ready": w.ready, "busy": w.busy} for w in self.workers], "in_flight": self._in_flight}
 
     async def run(self, kind: str, payload: dict[str, Any], time_limit: float,
                   disconnected: Callable[[], Awaitable[bool]] | None = None) -> tuple:  # fmt: skip
         """A worker's reply ("ok", body, media) or ("error", status, message); PoolError otherwise."""
+        if self._in_flight >= self.size + self.queue_limit:
+            raise Busy(f"all {self.size} workers are busy and {self.queue_limit} requests are waiting; retry shortly")
+        self._in_flight += 1
+        try:
+            return await self._run((kind, payload), time_limit, disconnected)
+        finally:
+            self._in_flight -= 1
+
+    async def _run(self, job: tuple[str, dict[str, Any]], time_limit: float,
+                   disconnected: Callable[[], Awaitable[bool]] | None) -> tuple:  # fmt: skip
         loop = asyncio.get_running_loop()
         deadline = loop.time() + time_limit
-        if self._waiting >= self.queue_limit:
-            raise Busy(f"all {self.size} workers are busy and {self._waiting} requests are waiting; retry shortly")
-        self._waiting += 1
         try:
             worker = await asyncio.wait_for(self._idle.get(), time_limit)
         except asyncio.TimeoutError:
             raise TimedOut(f"no worker became free within the request time limit of {time_limit:g} s") from None
-        finally:
-            self._waiting -= 1
         worker.busy = True
-        call = loop.run_in_executor(self._threads, worker.call, (kind, payload))
+        call = loop.run_in_executor(self._threads, worker.call, job)
         watch = asyncio.ensure_future(_until_disconnected(disconnected))
         try:
             done, _ = await asyncio.wait({call, watch}, timeout=max(deadline - loop.time(), 0.0), return_when=asyncio.FIRST_COMPLETED)
