@@ -12,6 +12,7 @@ import httpx
 import pytest
 import yaml
 from service_server import SRC, running_server, wait_for_workers
+from starlette.testclient import TestClient
 
 from hriplan.service.app import create_app
 from hriplan.service.config import ServiceConfig
@@ -120,8 +121,7 @@ def test_cors_is_off_unless_origins_are_given():
     origin = {"Origin": "https://dashboard.example", "Access-Control-Request-Method": "POST"}
 
     def preflight(config: ServiceConfig) -> httpx.Response:
-        with httpx.Client(transport=httpx.ASGITransport(app=create_app(config)), base_url="http://127.0.0.1") as c:
-            return c.options("/plan", headers=origin)
+        return TestClient(create_app(config)).options("/plan", headers=origin)  # no `with`: no lifespan, no workers
 
     closed = preflight(ServiceConfig())
     assert "access-control-allow-origin" not in closed.headers
