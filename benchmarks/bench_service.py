@@ -70,18 +70,21 @@ def engines(reps: int) -> list[str]:
         store.bulk_load(graph.serialize(format="nt").encode(), pyoxigraph.RdfFormat.N_TRIPLES)
         prefixes = {k: str(v) for k, v in PREFIXES.items()}
     lines = [f"graph: the handover task's first step, {len(graph)} triples; median of {reps} runs, ms",
-             "| query | hriplan (rdflib + guards) | rdflib plain | pyoxigraph |", "|---|---|---|---|"]  # fmt: skip
+             "| query | rows (each engine) | hriplan (rdflib + guards) | rdflib plain | pyoxigraph |", "|---|---|---|---|---|"]  # fmt: skip
     limits = QueryLimits(time_limit=60, row_limit=10**7)
     for name, text in QUERIES.items():
         guarded = median_ms(lambda t=text: run_query(graph, t, limits), reps)
         plain = median_ms(lambda t=text: list(graph.query(prepare_query(t))), reps)
         oxi = median_ms(lambda t=text: list(store.query(t, prefixes=prefixes)), reps) if pyoxigraph else float("nan")
-        lines.append(f"| {name} | {guarded:.2f} | {plain:.2f} | {oxi:.2f} |")
+        rows = [len(run_query(graph, text, limits).rows), len(list(graph.query(prepare_query(text))))]
+        rows += [len(list(store.query(text, prefixes=prefixes)))] if pyoxigraph else []
+        counts = [str(r[0]) for r in run_query(graph, text, limits).rows] if "COUNT" in text else []
+        lines.append(f"| {name} | {'/'.join(map(str, rows))}{' (count ' + counts[0] + ')' if counts else ''} | {guarded:.2f} | {plain:.2f} | {oxi:.2f} |")
     began = time.perf_counter()
     try:
         run_query(graph, CROSS_JOIN, QueryLimits(time_limit=1.0))
     except Exception as exc:  # noqa: BLE001 - the point is that it stops
-        lines.append(f"| 4-way cross join, limit 1 s | stopped after {time.perf_counter() - began:.2f} s: {str(exc)[:40]}... | runs until killed | runs until killed (no time limit in the API) |")
+        lines.append(f"| 4-way cross join, limit 1 s | - | stopped after {time.perf_counter() - began:.2f} s: {str(exc)[:40]}... | | runs until killed | runs until killed (no time limit in the API) |")
     return lines
 
 

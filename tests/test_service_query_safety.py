@@ -2,6 +2,8 @@
 the rules `hriplan query` and the HTTP endpoint share (ontology/sparql.py)."""
 
 import csv
+import subprocess
+import sys
 import http.server
 import io
 import json
@@ -113,3 +115,14 @@ def test_protocol_syntaxes_carry_the_same_rows(graph):
     assert as_json == as_xml == as_csv == kinds == [line.split("\t")[0].strip("<>") for line in tsv[1:]]
     with pytest.raises(HriplanError, match="a SELECT result is served as json, xml, csv, tsv, not turtle"):
         result.serialize("turtle")
+
+
+def test_the_command_line_follows_the_same_rules():
+    def query(text: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "hriplan.cli", "query", text], capture_output=True, text=True, timeout=120)
+
+    update = query("INSERT DATA { hp:a hp:b hp:c }")
+    assert update.returncode == 2 and update.stderr == "error: updates are not supported: the knowledge base is read-only\n"
+    service = query("SELECT * WHERE { SERVICE <http://127.0.0.1:9/s> { ?s ?p ?o } }")
+    assert service.returncode == 2 and service.stderr.startswith("error: SERVICE is not supported")
+    assert query("ASK { hp:UprightFull hp:hasTolerance ?t }").stdout.strip() == "true"

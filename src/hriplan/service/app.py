@@ -197,24 +197,23 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         del sessions[session_id]
         return Response(status_code=204)
 
+    def put_in_scene(session_id: str, collection: str, name: str, item: HumanSpec | Obstacle) -> SessionState:
+        state = session(session_id)
+        refuse_server_files(item)
+        if item.name != name:
+            raise HriplanError(f"the body names {item.name!r}, the path {name!r}")
+        items = [i.model_dump() for i in getattr(state.scene, collection) if i.name != name] + [item.model_dump()]
+        return update(state, scene={**state.scene.model_dump(), collection: items})
+
     @app.put("/sessions/{session_id}/humans/{name}", response_model=SessionState, tags=["sessions"])
     async def put_human(session_id: str, name: str, human: HumanSpec) -> SessionState:
         """Add or move a person (as perception sees them)."""
-        state = session(session_id)
-        if human.name != name:
-            raise HriplanError(f"the body names person {human.name!r}, the path {name!r}")
-        humans = [h for h in state.scene.humans if h.name != name] + [human]
-        return update(state, scene={**state.scene.model_dump(), "humans": [h.model_dump() for h in humans]})
+        return put_in_scene(session_id, "humans", name, human)
 
     @app.put("/sessions/{session_id}/obstacles/{name}", response_model=SessionState, tags=["sessions"])
     async def put_obstacle(session_id: str, name: str, obstacle: Obstacle) -> SessionState:
         """Add or move an obstacle."""
-        state = session(session_id)
-        refuse_server_files(obstacle)
-        if obstacle.name != name:
-            raise HriplanError(f"the body names obstacle {obstacle.name!r}, the path {name!r}")
-        obstacles = [o for o in state.scene.obstacles if o.name != name] + [obstacle]
-        return update(state, scene={**state.scene.model_dump(), "obstacles": [o.model_dump() for o in obstacles]})
+        return put_in_scene(session_id, "obstacles", name, obstacle)
 
     @app.delete("/sessions/{session_id}/{collection}/{name}", response_model=SessionState, tags=["sessions"])
     async def remove_from_scene(session_id: str, collection: str, name: str) -> SessionState:
