@@ -84,7 +84,7 @@ def engines(reps: int) -> list[str]:
     try:
         run_query(graph, CROSS_JOIN, QueryLimits(time_limit=1.0))
     except Exception as exc:  # noqa: BLE001 - the point is that it stops
-        lines.append(f"| 4-way cross join, limit 1 s | - | stopped after {time.perf_counter() - began:.2f} s: {str(exc)[:40]}... | | runs until killed | runs until killed (no time limit in the API) |")
+        lines.append(f"| 4-way cross join, limit 1 s | - | stopped after {time.perf_counter() - began:.2f} s: {str(exc)[:40]}... | runs until killed | runs until killed (no time limit in the API) |")
     return lines
 
 
