@@ -142,9 +142,11 @@ def test_errors_are_one_json_line_with_the_right_status(client, path, body, stat
     assert "\n" not in response.json()["error"] and "Traceback" not in response.text
 
 
-def test_bad_yaml_is_a_400_naming_the_line(client):
+def test_bad_yaml_or_json_is_a_400_saying_so(client):
     response = client.post("/constraints", content="name: t\nsteps:\n  - goal: [a\n", headers=YAML)
     assert response.status_code == 400 and response.json()["error"].startswith("body: line 4: not valid YAML")
+    response = client.post("/solve", content="{bad json", headers={"content-type": "application/json"})
+    assert response.status_code == 400 and response.json()["error"].startswith("body: not valid JSON (")
 
 
 def test_a_worker_killed_mid_plan_fails_only_its_request_and_is_replaced(server, client):

@@ -12,7 +12,7 @@ from hriplan import HriplanError
 
 def serve(
     host: Annotated[str, typer.Option(help="Address to listen on; off loopback a token is required.")] = "127.0.0.1",
-    port: Annotated[int, typer.Option(help="Port (0: any free port, printed at start).")] = 8000,
+    port: Annotated[int, typer.Option(help="Port to listen on.")] = 8000,
     workers: Annotated[int, typer.Option(help="Planning worker processes (requests planned at once).")] = 2,
     token: Annotated[str | None, typer.Option(envvar="HRIPLAN_TOKEN", help="Bearer token every request must carry (16+ characters).")] = None,
     queue: Annotated[int, typer.Option(help="Requests that may wait for a worker; more get 503 + Retry-After.")] = 32,

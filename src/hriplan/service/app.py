@@ -94,6 +94,8 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
     @app.exception_handler(RequestValidationError)
     async def invalid(_: Request, exc: RequestValidationError) -> Response:
         first = exc.errors()[0]
+        if first["type"] == "json_invalid":
+            return error_response(400, f"body: not valid JSON ({first.get('ctx', {}).get('error', first['msg'])})")
         loc = [str(p) for p in first["loc"]]
         field = ".".join(loc[1:] if loc[:1] == ["body"] else loc) or "(top level)"
         return error_response(422, f"{field}: {first['msg']}", field)

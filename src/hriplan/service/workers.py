@@ -75,6 +75,7 @@ class WorkerPool:
         self.workers: list[_Worker] = []
         self._idle: asyncio.Queue[_Worker] = asyncio.Queue()
         self._in_flight = 0  # running + waiting
+        self._starting: set[asyncio.Task] = set()  # replacements being started (kept referenced)
         self._threads = ThreadPoolExecutor(max_workers=2 * size + 2, thread_name_prefix="hriplan-pipe")
 
     async def start(self) -> None:
@@ -93,7 +94,9 @@ class WorkerPool:
     def _replace(self, worker: _Worker) -> None:
         worker.kill()
         self.workers.remove(worker)
-        asyncio.get_running_loop().create_task(self._add())
+        task = asyncio.get_running_loop().create_task(self._add())
+        self._starting.add(task)
+        task.add_done_callback(self._starting.discard)
 
     def status(self) -> dict[str, Any]:
         return {"workers": [{"pid": w.process.pid, "ready": w.ready, "busy": w.busy} for w in self.workers], "in_flight": self._in_flight}
@@ -144,6 +147,8 @@ class WorkerPool:
         raise TimedOut(f"the request ran past its time limit of {time_limit:g} s and was stopped")
 
     async def close(self) -> None:
+        for task in list(self._starting):
+            task.cancel()
         for worker in list(self.workers):
             worker.kill()
         self.workers.clear()
