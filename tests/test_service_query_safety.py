@@ -84,7 +84,7 @@ def test_a_cross_join_stops_at_the_time_limit_with_a_clear_error(graph):
     began = time.monotonic()
     with pytest.raises(QueryTimeout, match=r"^the query ran past its time limit of 0.5 s"):
         run_query(graph, CROSS_JOIN, QueryLimits(time_limit=0.5))
-    assert time.monotonic() - began < 1.5
+    assert time.monotonic() - began < 5.0  # unlimited, it runs for hours; the slack is for a loaded machine
 
 
 def test_a_large_answer_stops_at_the_row_limit(graph):
