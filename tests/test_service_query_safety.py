@@ -125,4 +125,3 @@ def test_the_command_line_follows_the_same_rules():
     assert update.returncode == 2 and update.stderr == "error: updates are not supported: the knowledge base is read-only\n"
     service = query("SELECT * WHERE { SERVICE <http://127.0.0.1:9/s> { ?s ?p ?o } }")
     assert service.returncode == 2 and service.stderr.startswith("error: SERVICE is not supported")
-    assert query("ASK { hp:UprightFull hp:hasTolerance ?t }").stdout.strip() == "true"
