@@ -22,7 +22,7 @@ def wait_for_workers(url: str, count: int, headers: dict[str, str] | None = None
 
 
 _shared: dict[tuple[str, ...], str] = {}
-SHARED_ARGS = ("--workers", "2", "--queue", "2", "--query-time-limit", "1", "--row-limit", "500")
+SHARED_ARGS = ("--workers", "2", "--queue", "2", "--query-time-limit", "1", "--row-limit", "100")
 
 
 def shared_server() -> str:

@@ -34,7 +34,7 @@ def slow_problem(seconds: float) -> dict:
 
 @pytest.fixture(scope="module")
 def server():
-    return shared_server()  # --workers 2 --queue 2 --query-time-limit 1 --row-limit 500
+    return shared_server()  # --workers 2 --queue 2 --query-time-limit 1 --row-limit 100
 
 
 @pytest.fixture(scope="module")

@@ -28,7 +28,7 @@ CROSS_JOIN = "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i . ?
 
 @pytest.fixture(scope="module")
 def server():
-    return shared_server()  # --workers 2 --queue 2 --query-time-limit 1 --row-limit 500
+    return shared_server()  # --workers 2 --queue 2 --query-time-limit 1 --row-limit 100
 
 
 @pytest.fixture(scope="module")
@@ -133,8 +133,8 @@ def test_limits_give_clear_errors(server):
     timed_out = httpx.get(f"{server}/sparql", params={"query": CROSS_JOIN})
     assert timed_out.status_code == 504 and timed_out.json()["error"].startswith("the query ran past its time limit of 1 s")
     too_many = httpx.get(f"{server}/sparql", params={"query": "SELECT * WHERE { ?s ?p ?o }"})  # ~1000 triples
-    assert too_many.status_code == 400 and "more than 500 rows (the row limit)" in too_many.json()["error"]
-    assert len(httpx.get(f"{server}/sparql", params={"query": "SELECT * WHERE { ?s ?p ?o } LIMIT 500"}).json()["results"]["bindings"]) == 500
+    assert too_many.status_code == 400 and "more than 100 rows (the row limit)" in too_many.json()["error"]
+    assert len(httpx.get(f"{server}/sparql", params={"query": "SELECT * WHERE { ?s ?p ?o } LIMIT 100"}).json()["results"]["bindings"]) == 100
 
 
 def test_a_sparql_bomb_does_not_hold_up_planning_beyond_its_time_limit(server):
