@@ -6,8 +6,6 @@ import io
 import json
 import threading
 import time
-import urllib.error
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import httpx
