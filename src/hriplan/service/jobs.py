@@ -60,7 +60,8 @@ def plan_task(payload: dict[str, Any]) -> Reply:
 
 
 def _plan_response(result: PlanResult, ros: bool) -> Reply:
-    status = result.motion.status if result.trajectory is None else "solved"
+    # A motion that planned but could not be timed has no trajectory: "timing_failed", as PlanResult.status says on main.
+    status = "solved" if result.solved else result.motion.status if result.motion.status != "solved" else "timing_failed"
     message = "" if result.solved else f"planning failed ({status}): {result.message}"
     response = PlanResponse(solved=result.solved, status=status, message=message, trajectory=result.trajectory,
                             joint_trajectory=joint_trajectory(result.trajectory) if ros and result.trajectory else None)  # fmt: skip
