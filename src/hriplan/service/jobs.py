@@ -60,7 +60,7 @@ def plan_task(payload: dict[str, Any]) -> Reply:
 
 
 def _plan_response(result: PlanResult, ros: bool) -> Reply:
-    # A motion that planned but could not be timed has no trajectory: "timing_failed", as PlanResult.status says on main.
+    # A motion that was planned but could not be timed and re-validated: "timing_failed", the planner's name for it.
     status = "solved" if result.solved else result.motion.status if result.motion.status != "solved" else "timing_failed"
     message = "" if result.solved else f"planning failed ({status}): {result.message}"
     response = PlanResponse(solved=result.solved, status=status, message=message, trajectory=result.trajectory,
