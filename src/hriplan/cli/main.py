@@ -11,6 +11,7 @@ import typer
 from hriplan import HriplanError, __version__
 from hriplan.cli.errors import clear_errors
 from hriplan.cli.tasks import TASK_COMMANDS
+from hriplan.cli.serve import serve
 from hriplan.cli.view import plot, view
 
 app = typer.Typer(help="Safe human-robot collaboration planning.", no_args_is_help=True, add_completion=False)
@@ -79,5 +80,5 @@ def solve(
     raise typer.Exit(code)
 
 
-for _name, _command in {"view": view, "plot": plot, **TASK_COMMANDS}.items():
+for _name, _command in {"view": view, "plot": plot, "serve": serve, **TASK_COMMANDS}.items():
     app.command(_name)(clear_errors(_command))

@@ -1,0 +1,40 @@
+"""How a server runs: where it listens, its workers, limits, token and rule folder."""
+
+from __future__ import annotations
+
+import ipaddress
+from pathlib import Path
+
+from pydantic import BaseModel, Field
+
+from hriplan import HriplanError
+from hriplan.ontology.sparql import QueryLimits
+
+
+class ServiceConfig(BaseModel):
+    host: str = "127.0.0.1"
+    port: int = Field(default=8000, ge=0, le=65535)
+    workers: int = Field(default=2, ge=1, le=64)
+    queue_limit: int = Field(default=32, ge=0, description="Requests that may wait for a worker; more get 503.")
+    request_time_limit: float = Field(default=120.0, gt=0.0, description="Seconds a request may take, waiting included.")
+    body_limit: int = Field(default=1 << 20, gt=0, description="Bytes a request body may have.")
+    token: str | None = Field(default=None, min_length=16, description="Bearer token every request must carry.")
+    cors_origins: list[str] = Field(default_factory=list, description="Origins allowed by CORS (none: CORS off).")
+    rules_dir: Path | None = Field(default=None, description="The only folder `rule_files` of a task may name files in.")
+    query: QueryLimits = Field(default_factory=QueryLimits)
+    max_sessions: int = Field(default=64, ge=1)
+    max_tasks: int = Field(default=64, ge=1)
+
+    def check_binding(self) -> None:
+        """Off loopback, a token is required: nothing else stands between the network and the planner."""
+        if not is_loopback(self.host) and self.token is None:
+            raise HriplanError(f"binding to {self.host} (not loopback) needs a bearer token: --token or HRIPLAN_TOKEN")
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False

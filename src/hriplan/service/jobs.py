@@ -1,0 +1,130 @@
+"""What a worker process does with one request: derive, explain, plan, solve, query.
+
+Every job takes plain data (the validated request as JSON-able dicts) and returns the response
+body as JSON text, so nothing but strings crosses the process boundary. Sessions are rebuilt
+from the state the server sends with each request; a worker keeps one PlanningSession per
+robot and hand postures and only re-applies the scene and constraints when they changed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections import OrderedDict
+from pathlib import Path
+from typing import Any
+
+from hriplan.ontology.knowledge_base import KnowledgeBase
+from hriplan.ontology.sparql import QueryLimits, prepare_query, run_query
+from hriplan.planner.problem import PlanningProblem
+from hriplan.planner.session import PlanningSession, PlanResult
+from hriplan.rules.explain import explain
+from hriplan.tasks.knowledge import _ontology_graph
+from hriplan.tasks.model import TaskFile
+from hriplan.tasks.pipeline import TaskRunner
+
+from .errors import RequestError
+from .negotiation import choose
+from .ros import joint_trajectory
+from .schemas import ExplainResponse, PlanResponse, SessionPlanRequest, SessionState, StepExplanation, TaskPlanResponse
+
+
+Reply = tuple[str, str]  # (body, media type)
+JSON = "application/json"
+
+_sessions: dict[str, PlanningSession] = {}  # per robot + hands
+_applied: dict[str, tuple[str, int]] = {}  # which session state (id, version) each one holds
+_task_bases: OrderedDict[str, dict[str, KnowledgeBase]] = OrderedDict()  # recent tasks' knowledge bases
+
+
+def _runner(payload: dict[str, Any]) -> TaskRunner:
+    rules_dir = payload.get("rules_dir")
+    return TaskRunner(TaskFile.model_validate(payload["task"]), Path(rules_dir) if rules_dir else Path("."))
+
+
+def derive(payload: dict[str, Any]) -> Reply:
+    return _runner(payload).run(plan=False).model_dump_json(), JSON
+
+
+def explain_task(payload: dict[str, Any]) -> Reply:
+    outcome = _runner(payload).run(plan=False)
+    steps = [StepExplanation(name=s.name, kind=s.kind, arms=s.arms, explanation=explain(s.derivation)) for s in outcome.steps]
+    return ExplainResponse(task=outcome.task, steps=steps).model_dump_json(), JSON
+
+
+def plan_task(payload: dict[str, Any]) -> Reply:
+    outcome = _runner(payload).run(plan=True)
+    ros = {s.name: joint_trajectory(s.trajectory) for s in outcome.steps if s.trajectory is not None} if payload.get("ros") else {}
+    response = TaskPlanResponse(task=outcome.task, steps=outcome.steps, solved=outcome.solved, joint_trajectories=ros)
+    return response.model_dump_json(by_alias=True), JSON
+
+
+def _plan_response(result: PlanResult, ros: bool) -> Reply:
+    # A motion that was planned but could not be timed and re-validated: "timing_failed", the planner's name for it.
+    status = "solved" if result.solved else result.motion.status if result.motion.status != "solved" else "timing_failed"
+    message = "" if result.solved else f"planning failed ({status}): {result.message}"
+    response = PlanResponse(solved=result.solved, status=status, message=message, trajectory=result.trajectory,
+                            joint_trajectory=joint_trajectory(result.trajectory) if ros and result.trajectory else None)  # fmt: skip
+    return response.model_dump_json(by_alias=True), JSON
+
+
+def solve(payload: dict[str, Any]) -> Reply:
+    problem = PlanningProblem.model_validate(payload["problem"])
+    session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+    session.set_constraints(problem.constraints)
+    return _plan_response(session.plan(problem.start, problem.goal, problem.options, problem.group), bool(payload.get("ros")))
+
+
+def _session(state: SessionState) -> PlanningSession:
+    """A planning session holding `state`: built once per robot and hands, then updated in place."""
+    key = json.dumps([state.robot, sorted(state.hands.items())])
+    if key not in _sessions:
+        _sessions[key] = PlanningSession(state.robot, state.scene, state.hands or None)
+    session = _sessions[key]
+    if _applied.get(key) != (state.id, state.version):
+        _applied.pop(key, None)  # a failed update must not look applied
+        session.set_scene(state.scene)
+        session.set_constraints(state.constraints)
+        _applied[key] = (state.id, state.version)
+    return session
+
+
+def check_session(payload: dict[str, Any]) -> Reply:
+    _session(SessionState.model_validate(payload["state"]))
+    return "{}", JSON
+
+
+def plan_in_session(payload: dict[str, Any]) -> Reply:
+    session = _session(SessionState.model_validate(payload["state"]))
+    request = SessionPlanRequest.model_validate(payload["request"])
+    return _plan_response(session.plan(request.start, request.goal, request.options, request.group), bool(payload.get("ros")))
+
+
+def _task_graph(payload: dict[str, Any]):  # noqa: ANN202 - an rdflib graph
+    key = hashlib.sha256(json.dumps([payload["task"], payload.get("rules_dir")], sort_keys=True).encode()).hexdigest()
+    if key not in _task_bases:
+        runner = _runner(payload)
+        runner.run(plan=False)
+        _task_bases[key] = dict(runner.knowledge_bases)
+        while len(_task_bases) > 8:
+            _task_bases.popitem(last=False)
+    _task_bases.move_to_end(key)
+    bases, step = _task_bases[key], payload.get("step")
+    if step is None:
+        return next(iter(bases.values())).graph
+    if step not in bases:
+        raise RequestError(404, f"the task has no step {step!r}; steps: {', '.join(bases)}")
+    return bases[step].graph
+
+
+def sparql(payload: dict[str, Any]) -> Reply:
+    """A SPARQL query over the ontology alone or a task step's reasoned graph, negotiated."""
+    prepare_query(payload["query"])  # refusals and syntax errors before any reasoning
+    graph = _ontology_graph() if payload.get("task") is None else _task_graph(payload)
+    result = run_query(graph, payload["query"], QueryLimits.model_validate(payload["limits"]))
+    syntax, media = choose(result.graph is not None, payload.get("accept"), payload.get("format"))
+    return result.serialize(syntax), media
+
+
+JOBS = {"constraints": derive, "explain": explain_task, "plan": plan_task, "solve": solve, "session_check": check_session,
+        "session_plan": plan_in_session, "sparql": sparql}  # fmt: skip

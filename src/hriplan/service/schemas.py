@@ -1,0 +1,91 @@
+"""Request and response bodies: the project's file formats (task files, planning problems,
+trajectory files, derivations) wrapped as little as possible, so /docs shows the formats."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from hriplan.planner.motion import Goal
+from hriplan.planner.options import PlanOptions
+from hriplan.planner.spec import ConstraintSet
+from hriplan.planner.trajectory import TrajectoryFile
+from hriplan.robots.scene import Scene
+from hriplan.tasks.pipeline import StepOutcome
+
+from .ros import JointTrajectory
+
+SessionId = str
+
+
+class ErrorBody(BaseModel):
+    """Every error: the one-line message the CLI would print, and the field at fault (422)."""
+
+    error: str
+    field: str | None = None
+
+
+class PlanResponse(BaseModel):
+    """One motion: the trajectory file if solved, else the status and the one-line reason."""
+
+    solved: bool
+    status: str
+    message: str = ""
+    trajectory: TrajectoryFile | None = None
+    joint_trajectory: JointTrajectory | None = Field(default=None, description="With ?ros=true: the trajectory as a ROS JointTrajectory.")
+
+
+class TaskPlanResponse(BaseModel):
+    """A task's outcome (every step's derivation, scene and trajectory) and whether all solved."""
+
+    task: str
+    steps: list[StepOutcome]
+    solved: bool
+    joint_trajectories: dict[str, JointTrajectory] = Field(default_factory=dict, description="With ?ros=true: per solved step.")
+
+
+class StepExplanation(BaseModel):
+    name: str
+    kind: str
+    arms: list[str]
+    explanation: str  # what `hriplan explain` prints for the step
+
+
+class ExplainResponse(BaseModel):
+    task: str
+    steps: list[StepExplanation]
+
+
+class SessionCreate(BaseModel):
+    """A running cell: the robot and hands once, then people, obstacles and constraints change."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    id: SessionId | None = Field(default=None, pattern=r"^[A-Za-z0-9_.-]{1,64}$", description="Chosen by the client, else generated.")
+    robot: str = "madar"
+    hands: dict[str, str] = Field(default_factory=dict)
+    scene: Scene = Field(default_factory=Scene)
+    constraints: ConstraintSet = Field(default_factory=ConstraintSet)
+
+
+class SessionState(SessionCreate):
+    """What the server keeps of a session; `version` counts its updates."""
+
+    id: SessionId
+    version: int = 0
+
+
+class SessionPlanRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    start: dict[str, float]
+    goal: Goal
+    options: PlanOptions = Field(default_factory=PlanOptions)
+    group: str | None = None
+
+
+class StoredTask(BaseModel):
+    """A task kept for SPARQL: /tasks/{id}/sparql and /tasks/{id}/steps/{step}/sparql."""
+
+    id: str
+    task: str
+    steps: list[str]
