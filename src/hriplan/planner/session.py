@@ -21,12 +21,15 @@ from hriplan.robots.model import JointValues, Robot, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
+from .approach import ApproachMonitor
 from .evaluator import ConstraintEvaluator
 from .motion import Goal, MotionResult, plan_motion, with_keep_out
 from .options import PlanOptions
 from .resolve import bind, set_goal_positions
+from .separation import SeparationPolicy
 from .spec import ConstraintSet, ConstraintSpec
 from .timing import time_parameterize
+from .separation_report import separation_report
 from .trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
 from .validate import densify, validate_path
 
@@ -79,37 +82,49 @@ class PlanningSession:
         self.constraints[constraint_id] = type(spec).model_validate({**spec.model_dump(), **changes})
 
     # -- planning ------------------------------------------------------------------------
-    def plan(self, start: JointValues, goal: Goal, options: PlanOptions | None = None, group: str | None = None) -> PlanResult:
-        """Plan, validate densely, time-parameterise and re-validate the timed path."""
+    def plan(self, start: JointValues, goal: Goal, options: PlanOptions | None = None, group: str | None = None,
+             safety: SeparationPolicy | None = None) -> PlanResult:  # fmt: skip
+        """Plan, validate densely, time-parameterise and re-validate the timed path.
+
+        With `safety`, the motion is timed to keep ISO/TS 15066 speed and separation from the
+        scene's people (and fails, with the reason, where it cannot)."""
         options = options or PlanOptions()
         specs = list(self.constraints.values())
         motion = plan_motion(self.robot, self.checker, specs, start, goal, options, group)
         if not motion.solved:
             return PlanResult(motion=motion, message=motion.message)
-        return self._timed(motion, specs, options)
+        return self._timed(motion, specs, options, safety)
 
-    def _timed(self, motion: MotionResult, specs: list[ConstraintSpec], options: PlanOptions) -> PlanResult:
+    def _timed(self, motion: MotionResult, specs: list[ConstraintSpec], options: PlanOptions,
+               safety: SeparationPolicy | None = None) -> PlanResult:  # fmt: skip
         bound = bind(specs, self.robot, self.checker)
         path = np.array(motion.path)
         q0 = self.robot.configuration(dict(zip(motion.joint_names, path[0])))
         evaluator = ConstraintEvaluator(self.robot, bound, motion.group, q0)
         set_goal_positions(self.robot, bound, evaluator.full(path[-1]))
         scene = self.checker.scene
+        monitor = None if safety is None or not scene.humans else ApproachMonitor(self.robot, self.checker, safety, motion.group, q0)
         with with_keep_out(self.checker, bound):
-            timed, check, message = self._time_and_check(path, evaluator, motion.group, options)
+            timed, check, message = self._time_and_check(path, evaluator, motion.group, options, monitor)
         if timed is None:
             return PlanResult(motion=motion, message=message)
-        return PlanResult(motion=motion, trajectory=self._file(motion, bound, timed, check, options, scene, q0))
+        trajectory = self._file(motion, bound, timed, check, options, scene, q0)
+        if monitor is not None:
+            report = trajectory.report.model_copy(update={"separation": separation_report(monitor, timed)})
+            trajectory = trajectory.model_copy(update={"report": report})
+        return PlanResult(motion=motion, trajectory=trajectory)
 
-    def _time_and_check(self, path: np.ndarray, evaluator: ConstraintEvaluator, group: str, options: PlanOptions):  # noqa: ANN202
-        """TOPP-RA on the validated path, then dense validation of the timed samples."""
+    def _time_and_check(self, path: np.ndarray, evaluator: ConstraintEvaluator, group: str, options: PlanOptions,
+                        monitor: ApproachMonitor | None = None):  # noqa: ANN202 fmt: skip
+        """TOPP-RA on the validated path (slowed near people by `monitor`), then dense validation."""
         velocity = self.robot.velocity_limit(group)
         acceleration = np.full(len(velocity), options.acceleration_limit)
         message = ""
         for step in TIMING_STEPS:
             knots = densify(list(path), step)
             try:
-                timed = time_parameterize(knots, velocity, acceleration, velocity_scale=options.velocity_scale)
+                timed = time_parameterize(knots, velocity, acceleration, velocity_scale=options.velocity_scale,
+                                          speed_scale=None if monitor is None else monitor.speed_scale)  # fmt: skip
             except HriplanError as exc:
                 message = str(exc)
                 continue
