@@ -31,6 +31,7 @@ class PersonSample:
     """One person at one configuration: the binding part-capsule pair and its numbers."""
 
     separation: float  # the closest moved part to the person (m)
+    body_separation: float  # the same, outside the person's contact regions (what S_0 applies to)
     allowed: float  # allowed speed towards the person of the binding pair (m/s)
     approach: float  # speed of the binding pair towards the person for the given joint velocity (m/s)
     scale: float  # largest factor on the joint velocity keeping every pair within its limit (inf: none)
@@ -69,7 +70,7 @@ class ApproachMonitor:
         out = []
         for person in self.people:
             best: tuple[float, float, float, str, str] | None = None  # margin, allowed, approach, part, capsule
-            separation, scale = np.inf, np.inf
+            separation, body, scale = np.inf, np.inf, np.inf
             for pair in self.checker.person_pairs(q, person.name):
                 if pair.joint not in self._moved:
                     continue
@@ -79,7 +80,8 @@ class ApproachMonitor:
                 linear, angular, origin = point_velocity[pair.joint]
                 v = linear + np.cross(angular, pair.robot_point - origin)
                 gap = pair.person_point - pair.robot_point
-                whole = pair.distance <= _TOUCHING or person.contact_region(pair.capsule) is not None
+                contact = person.contact_region(pair.capsule) is not None
+                whole = contact or pair.distance <= _TOUCHING
                 approach = float(np.linalg.norm(v)) if whole else float(v @ gap) / pair.distance
                 allowed = allowed_speed(self.policy.robot, person, pair.distance, pair.capsule)
                 if allowed <= 0.0:
@@ -89,14 +91,16 @@ class ApproachMonitor:
                         f"(the robot would have to stand still there)"
                     )
                 separation = min(separation, pair.distance)
+                if not contact:
+                    body = min(body, pair.distance)
                 if approach > 0.0:
                     scale = min(scale, allowed / approach)
                 if best is None or allowed - approach < best[0]:
                     best = (allowed - approach, allowed, approach, pair.part, pair.capsule)
             if best is None:
-                out.append(PersonSample(np.inf, np.inf, 0.0, np.inf, "", ""))
+                out.append(PersonSample(np.inf, np.inf, np.inf, 0.0, np.inf, "", ""))
             else:
-                out.append(PersonSample(separation, best[1], best[2], scale, best[3], best[4]))
+                out.append(PersonSample(separation, body, best[1], best[2], scale, best[3], best[4]))
         return out
 
     def speed_scale(self, xs: np.ndarray, dxs: np.ndarray) -> np.ndarray:

@@ -31,6 +31,7 @@ def separation_report(monitor: ApproachMonitor, timed: TimedPath) -> list[Separa
             worst_margin=_finite(min((s.allowed - s.approach for s in samples if math.isfinite(s.allowed)), default=math.inf)),
             slowest_allowed=None if slowest is None else slowest.allowed,
             slowest_separation=None if slowest is None else slowest.separation,
-            separation=[_finite(s.separation) for s in samples], allowed_speed=[_finite(s.allowed) for s in samples],
+            separation=[_finite(s.separation) for s in samples], body_separation=[_finite(s.body_separation) for s in samples],
+            allowed_speed=[_finite(s.allowed) for s in samples],
             approach_speed=[_finite(s.approach) if math.isfinite(s.allowed) else None for s in samples]))  # fmt: skip
     return traces

@@ -41,7 +41,8 @@ class ResolvedConstraint(BaseModel):
 class SeparationTrace(BaseModel):
     """One person along the timed motion (ISO/TS 15066 speed and separation, see separation.py).
 
-    Per trajectory point: the closest moving robot part's separation, and for the binding
+    Per trajectory point: the closest moving robot part's separation (to the whole person, and to
+    the body outside its contact regions, where S_0 applies), and for the binding
     part-capsule pair (least margin) the allowed speed towards the person and the actual one
     (negative: moving away). None: no moving part faces the person (no limit)."""
 
@@ -54,6 +55,7 @@ class SeparationTrace(BaseModel):
     slowest_allowed: float | None = None  # smallest allowed speed where the robot approached (m/s)
     slowest_separation: float | None = None  # the separation there (m)
     separation: list[float | None] = Field(default_factory=list)
+    body_separation: list[float | None] = Field(default_factory=list)  # outside the contact regions
     allowed_speed: list[float | None] = Field(default_factory=list)
     approach_speed: list[float | None] = Field(default_factory=list)
 

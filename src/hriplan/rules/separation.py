@@ -3,20 +3,21 @@
 The robot's stopping data sit on the robot individual, each person's approach parameters on the
 `SeparationParameters` individual of their role, the power-and-force-limiting values on the
 `BodyRegion`s that role offers for contact (on the person's handing side). A derived step reads
-them from its reasoned facts; a bare planning problem (no roles) reads the same ontology
-without reasoning and treats every person as a bystander.
+them from its reasoned facts; a bare planning problem reads the same ontology without
+reasoning, with the roles the problem names (a person without one is a bystander).
 """
 
 from __future__ import annotations
 
 import functools
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from hriplan import HriplanError
 from hriplan.ontology.facts import Facts
 from hriplan.ontology.situation import Situation
 from hriplan.ontology.vocabulary import NAMESPACE, ontology_source
+from hriplan.robots.human import HumanSpec
 from hriplan.planner.separation import ContactRegion, PersonSeparation, RobotStopping, SeparationPolicy
 
 PARAMETERS = "SeparationParameters"
@@ -62,10 +63,18 @@ def _region(facts: Facts, region: str, side: str) -> ContactRegion:
     )
 
 
-def default_policy(robot: str, people: Iterable[str], ontology: str | Path | None = None) -> SeparationPolicy:
-    """The policy of a bare planning problem: the ontology's values, every person a bystander."""
+def default_policy(robot: str, people: Iterable[HumanSpec], roles: Mapping[str, str] | None = None,
+                   ontology: str | Path | None = None) -> SeparationPolicy:  # fmt: skip
+    """The policy of a bare planning problem from the ontology's values: each person by their
+    role in `roles` (else a bystander), handing with the hand they reach out (else the right)."""
+    roles = dict(roles or {})
+    people = list(people)
+    unknown = sorted(set(roles) - {p.name for p in people})
+    if unknown:
+        raise HriplanError(f"roles name {', '.join(unknown)}, who is not in the scene")
     source = ontology_source(ontology)
-    return separation_policy(_asserted_facts(source.path, source.digest), robot, [(p, DEFAULT_ROLE, "right") for p in people])
+    handing = [(p.name, roles.get(p.name, DEFAULT_ROLE), next(iter(p.reach), "right") if len(p.reach) == 1 else "right") for p in people]
+    return separation_policy(_asserted_facts(source.path, source.digest), robot, handing)
 
 
 @functools.lru_cache(maxsize=4)
