@@ -15,6 +15,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
+from PIL import Image
 
 from hriplan.planner.approach import ApproachMonitor
 from hriplan.planner.motion import JointGoal
@@ -39,6 +40,8 @@ from hriplan.robots.scene import Scene
 from hriplan.rules.separation import default_policy
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
+from hriplan.tasks.summary import separation_phrase
+from hriplan.viewer.plots import write_plots
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 ROBOT = RobotStopping(reaction_time=0.1, stopping_time=0.2, position_uncertainty=0.02, moving_mass=10.0)
@@ -168,9 +171,19 @@ def test_the_demo_keeps_the_speed_limit_near_the_giver_at_every_sample(demo):
         assert trace.person == "alice" and trace.worst_margin == pytest.approx(worst_speed, abs=0.02)
         assert len(trace.allowed_speed) == len(points)
         slowed.append(max(a / b for a, b in zip(trace.approach_speed, trace.allowed_speed) if a is not None and b))
-    # Leaving the giver's hand is held to the contact cap (1.239 - 0.5 m/s at her lower arm).
+    # Leaving the giver's hand is held to the contact cap (1.239 - 0.5 m/s at her lower arm) ...
     assert slowed[1] == pytest.approx(1.0, abs=0.02)
     assert demo.steps[1].trajectory.report.separation[0].slowest_allowed == pytest.approx(0.7394, abs=1e-3)
+    # ... and `hriplan plan` says so; taking the can never came near a limit.
+    assert separation_phrase(demo.steps[1].trajectory.report.separation[0]).startswith("slowed to 0.74 m/s within 0.")
+    assert separation_phrase(demo.steps[0].trajectory.report.separation[0]).startswith("not slowed near alice")
+
+
+def test_the_separation_figure_is_drawn_per_person(demo, tmp_path):
+    paths = write_plots(demo.steps[1].trajectory, tmp_path)
+    figure = next(p for p in paths if p.name == "separation.png")
+    pixels = np.asarray(Image.open(figure).convert("RGB"))
+    assert min(pixels.shape[:2]) > 300 and len(np.unique(pixels.reshape(-1, 3), axis=0)) > 20
 
 
 @pytest.mark.parametrize("example", ["handover_full_can_receiver", "handover_scissors", "transport_cup_bystander", "peg_in_hole_supervised"])
