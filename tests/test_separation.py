@@ -9,6 +9,8 @@ speed from the formulas written out here.
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import coal
@@ -249,3 +251,18 @@ def test_a_start_inside_the_minimum_separation_fails_with_the_reason():
     result = session.plan(start, goal, group="right_arm", safety=default_policy("madar", [bystander]))
     assert not result.solved
     assert "from dana/" in result.message and "inside the minimum protective separation 0.550 m" in result.message
+
+
+def test_a_task_passing_too_close_to_a_collaborator_fails_in_one_line(tmp_path):
+    text = (EXAMPLES / "transport_cup_bystander.yaml").read_text()
+    near = "{name: dana, role: Collaborator, position: [0.95, 0.8], yaw: 3.1416}"
+    task = tmp_path / "close.yaml"
+    task.write_text(text.replace("{name: dana, role: Bystander, position: [1.5, 0.4], yaw: 3.1416}", near))
+    assert near in task.read_text()
+    result = subprocess.run([sys.executable, "-m", "hriplan.cli", "plan", str(task), "-o", str(tmp_path / "t.json")],
+                            capture_output=True, text=True, cwd=tmp_path)  # fmt: skip
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    failure = result.stderr.strip().splitlines()[-1]
+    assert failure.startswith("planning failed at step carry (untimed): ") and "from dana/" in failure
+    assert "inside the minimum protective separation 0.310 m of ISO/TS 15066" in failure
+    assert not list(tmp_path.glob("t*.json"))

@@ -21,8 +21,7 @@ def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_jso
     safety = default_policy(problem.robot, problem.scene.humans, problem.roles)  # ISO/TS 15066
     result = session.plan(problem.start, problem.goal, options, problem.group, safety=safety)
     if not result.solved:
-        status = "timing" if result.motion.solved else result.motion.status  # a path, but it cannot be timed
-        typer.echo(f"planning failed ({status}): {result.message}", err=True)
+        typer.echo(f"planning failed ({result.status}): {result.message}", err=True)
         return 1
     trajectory = result.trajectory
     if output is not None:

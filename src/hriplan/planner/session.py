@@ -46,6 +46,11 @@ class PlanResult(BaseModel):
     def solved(self) -> bool:
         return self.trajectory is not None
 
+    @property
+    def status(self) -> str:
+        """The motion's status, or `untimed` for a path that could not be timed (e.g. too near a person)."""
+        return "solved" if self.solved else "untimed" if self.motion.solved else self.motion.status
+
 
 class PlanningSession:
     """A robot in a scene, ready to plan constrained motions again and again."""

@@ -165,7 +165,7 @@ class TaskRunner:
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
         result = session.plan(start, goal, options, group, safety=derivation.separation)
         if not result.solved:
-            return outcome.model_copy(update={"status": result.motion.status, "message": result.message}), start
+            return outcome.model_copy(update={"status": result.status, "message": result.message}), start
         trajectory = _with_reasons(result.trajectory, derivation).model_copy(update={"task": self.task.name, "step": outcome.name})
         end = dict(start) | dict(zip(trajectory.joint_names, trajectory.points[-1].positions))
         return outcome.model_copy(update={"status": "solved", "trajectory": trajectory}), end
