@@ -27,9 +27,9 @@ from .motion import Goal, MotionResult, plan_motion, with_keep_out
 from .options import PlanOptions
 from .resolve import bind, set_goal_positions
 from .separation import SeparationPolicy
+from .separation_report import separation_report
 from .spec import ConstraintSet, ConstraintSpec
 from .timing import time_parameterize
-from .separation_report import separation_report
 from .trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
 from .validate import densify, validate_path
 
