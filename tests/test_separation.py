@@ -91,11 +91,11 @@ def test_parameters_come_from_the_ontology_per_role():
 def test_person_distances_are_to_the_bare_body_and_follow_the_person():
     session = PlanningSession("madar", Scene(humans=[HumanSpec(name="kim", position=(1.2, 0.6), margin=0.2)]), hands={"right": "open"})
     q = session.robot.configuration(posture("madar", "ready"))
-    near = min(p.distance for p in session.checker.person_pairs(q, "kim"))
+    near = session.checker.person_pairs(q, "kim").distance.min()
     # The collision distance is to the capsules grown by the 0.2 m margin; separation is to the body.
     assert near == pytest.approx(session.checker.human_distance(q)[0] + 0.2, abs=1e-6)
     session.pose_human(HumanSpec(name="kim", position=(2.2, 0.6), margin=0.2))
-    far = min(p.distance for p in session.checker.person_pairs(q, "kim"))
+    far = session.checker.person_pairs(q, "kim").distance.min()
     assert 0.9 < far - near < 1.0 + 1e-6
 
 

@@ -20,7 +20,7 @@ from hriplan import HriplanError
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
 
-from .separation import PersonSeparation, SeparationPolicy, allowed_speed, minimum_separation
+from .separation import PersonSeparation, SeparationPolicy, allowed_speeds, minimum_separation
 
 # Below this separation (m) the direction to the person is undefined: the part's whole speed counts.
 _TOUCHING = 1e-6
@@ -66,42 +66,39 @@ class ApproachMonitor:
         velocity = np.zeros(model.nv)
         velocity[self._iv] = dx
         pin.computeJointJacobians(model, data, q)
-        point_velocity: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        out = []
-        for person in self.people:
-            best: tuple[float, float, float, str, str] | None = None  # margin, allowed, approach, part, capsule
-            separation, body, scale = np.inf, np.inf, np.inf
-            for pair in self.checker.person_pairs(q, person.name):
-                if pair.joint not in self._moved:
-                    continue
-                if pair.joint not in point_velocity:
-                    jac = pin.getJointJacobian(model, data, pair.joint, pin.LOCAL_WORLD_ALIGNED) @ velocity
-                    point_velocity[pair.joint] = (jac[:3], jac[3:], data.oMi[pair.joint].translation.copy())
-                linear, angular, origin = point_velocity[pair.joint]
-                v = linear + np.cross(angular, pair.robot_point - origin)
-                gap = pair.person_point - pair.robot_point
-                contact = person.contact_region(pair.capsule) is not None
-                whole = contact or pair.distance <= _TOUCHING
-                approach = float(np.linalg.norm(v)) if whole else float(v @ gap) / pair.distance
-                allowed = allowed_speed(self.policy.robot, person, pair.distance, pair.capsule)
-                if allowed <= 0.0:
-                    raise HriplanError(
-                        f"{pair.part} passes {pair.distance:.3f} m from {person.name}/{pair.capsule}, inside the minimum "
-                        f"protective separation {minimum_separation(self.policy.robot, person):.3f} m of ISO/TS 15066 "
-                        f"(the robot would have to stand still there)"
-                    )
-                separation = min(separation, pair.distance)
-                if not contact:
-                    body = min(body, pair.distance)
-                if approach > 0.0:
-                    scale = min(scale, allowed / approach)
-                if best is None or allowed - approach < best[0]:
-                    best = (allowed - approach, allowed, approach, pair.part, pair.capsule)
-            if best is None:
-                out.append(PersonSample(np.inf, np.inf, np.inf, 0.0, np.inf, "", ""))
-            else:
-                out.append(PersonSample(separation, body, best[1], best[2], scale, best[3], best[4]))
-        return out
+        twists = {j: pin.getJointJacobian(model, data, j, pin.LOCAL_WORLD_ALIGNED) @ velocity for j in self._moved}
+        return [self._person(q, person, twists) for person in self.people]
+
+    def _person(self, q: np.ndarray, person: PersonSeparation, twists: dict[int, np.ndarray]) -> PersonSample:
+        pairs = self.checker.person_pairs(q, person.name)
+        rows = np.flatnonzero([j in self._moved for j in pairs.joints])
+        if rows.size == 0:
+            return PersonSample(np.inf, np.inf, np.inf, 0.0, np.inf, "", "")
+        joints, distance = pairs.joints[rows], pairs.distance[rows]
+        robot_point, person_point = pairs.robot_point[rows], pairs.person_point[rows]
+        capsules = [pairs.capsules[k] for k in rows]
+        twist = np.array([twists[j] for j in joints])
+        origin = np.array([self.robot.data.oMi[int(j)].translation for j in joints])
+        v = twist[:, :3] + np.cross(twist[:, 3:], robot_point - origin)
+        contact = np.array([person.contact_region(c) is not None for c in capsules])
+        whole = contact | (distance <= _TOUCHING)
+        towards = np.einsum("ij,ij->i", v, person_point - robot_point) / np.maximum(distance, _TOUCHING)
+        approach = np.where(whole, np.linalg.norm(v, axis=1), towards)
+        allowed = allowed_speeds(self.policy.robot, person, distance, capsules)
+        stopped = np.flatnonzero(allowed <= 0.0)
+        if stopped.size:
+            k = stopped[np.argmin(distance[stopped])]
+            raise HriplanError(
+                f"{pairs.parts[rows[k]]} passes {distance[k]:.3f} m from {person.name}/{capsules[k]}, inside the minimum "
+                f"protective separation {minimum_separation(self.policy.robot, person):.3f} m of ISO/TS 15066 "
+                f"(the robot would have to stand still there)"
+            )
+        binding = int(np.argmin(allowed - approach))
+        closing = approach > 0.0
+        scale = float(np.min(allowed[closing] / approach[closing])) if closing.any() else np.inf
+        body = float(np.min(distance[~contact])) if (~contact).any() else np.inf
+        return PersonSample(float(distance.min()), body, float(allowed[binding]), float(approach[binding]), scale,
+                            pairs.parts[rows[binding]], capsules[binding])  # fmt: skip
 
     def speed_scale(self, xs: np.ndarray, dxs: np.ndarray) -> np.ndarray:
         """Per row: the largest factor on `dxs` that keeps every person's limit (inf: unbounded)."""

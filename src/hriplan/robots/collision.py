@@ -30,15 +30,16 @@ class Contact:
 
 
 @dataclass(frozen=True)
-class PersonPair:
-    """The closest points of a robot part (or carried object) and one of a person's capsules."""
+class PersonPairs:
+    """Every robot part (and carried object) against every capsule of one person: row k is one
+    pair, with its closest points."""
 
-    part: str
-    joint: int  # the robot joint that carries the part
-    capsule: str  # the person's body-model segment, e.g. right_hand
-    distance: float  # between the bare capsule (no safety margin) and the part, m
-    robot_point: np.ndarray  # world
-    person_point: np.ndarray  # world
+    parts: list[str]
+    joints: np.ndarray  # the robot joint that carries each part
+    capsules: list[str]  # the person's body-model segment, e.g. right_hand
+    distance: np.ndarray  # between the bare capsule (no safety margin) and the part, m
+    robot_point: np.ndarray  # (k, 3) world
+    person_point: np.ndarray  # (k, 3) world
 
 
 class CollisionChecker:
@@ -109,7 +110,7 @@ class CollisionChecker:
         """Per person: robot parts and carried objects against the person's bare capsules (no
         margin: separation is measured to the body), for speed and separation monitoring."""
         movers = [i for i, k in enumerate(self.kind) if k == "robot" or k.startswith("attached:")]
-        self._person_models: dict[str, tuple[pin.GeometryModel, pin.GeometryData]] = {}
+        self._person_models: dict[str, tuple[pin.GeometryModel, pin.GeometryData, list[str], np.ndarray, list[str]]] = {}
         for name, human in self.humans.items():
             pm = pin.GeometryModel()
             for i in movers:
@@ -118,7 +119,9 @@ class CollisionChecker:
                 k = pm.addGeometryObject(pin.GeometryObject(capsule.name, 0, placement, coal.Capsule(capsule.radius, capsule.length)))
                 for a in range(len(movers)):
                     pm.addCollisionPair(pin.CollisionPair(a, k))
-            self._person_models[name] = (pm, pm.createData())
+            objects, pairs = pm.geometryObjects, pm.collisionPairs
+            self._person_models[name] = (pm, pm.createData(), [objects[p.first].name for p in pairs],
+                                         np.array([objects[p.first].parentJoint for p in pairs]), [objects[p.second].name for p in pairs])  # fmt: skip
 
     def _checked(self, i: int, j: int) -> bool:
         ki, kj = self.kind[i], self.kind[j]
@@ -194,15 +197,18 @@ class CollisionChecker:
         pair = dm.collisionPairs[k]
         return float(distances[k]), dm.geometryObjects[pair.first].name, dm.geometryObjects[pair.second].name
 
-    def person_pairs(self, q: np.ndarray, person: str) -> list[PersonPair]:
+    def person_pairs(self, q: np.ndarray, person: str) -> PersonPairs:
         """Every robot part and carried object against every capsule of `person`, at `q`."""
         if person not in self._person_models:
             raise HriplanError(f"the scene has no person {person!r}")
-        model, data = self._person_models[person]
+        model, data, parts, joints, capsules = self._person_models[person]
         pin.computeDistances(self.robot.model, self.robot.data, model, data, q)
-        objects = model.geometryObjects
-        return [
-            PersonPair(objects[p.first].name, objects[p.first].parentJoint, objects[p.second].name, r.min_distance,
-                       r.getNearestPoint1().copy(), r.getNearestPoint2().copy())  # fmt: skip
-            for p, r in zip(model.collisionPairs, data.distanceResults)
-        ]
+        results = data.distanceResults
+        return PersonPairs(
+            parts=parts,
+            joints=joints,
+            capsules=capsules,
+            distance=np.array([r.min_distance for r in results]),
+            robot_point=np.array([r.getNearestPoint1() for r in results]).reshape(-1, 3),
+            person_point=np.array([r.getNearestPoint2() for r in results]).reshape(-1, 3),
+        )
