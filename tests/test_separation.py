@@ -43,7 +43,10 @@ from hriplan.rules.separation import default_policy
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
 from hriplan.tasks.summary import separation_phrase
+from hriplan.planner.replay import PlannedWorld
 from hriplan.viewer.plots import write_plots
+from hriplan.viewer.scene import build_drawing
+from meshcat.commands import SetObject
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 ROBOT = RobotStopping(reaction_time=0.1, stopping_time=0.2, position_uncertainty=0.02, moving_mass=10.0)
@@ -190,6 +193,14 @@ def test_the_demo_keeps_the_speed_limit_near_the_giver_at_every_sample(demo):
     # ... and `hriplan plan` says so; taking the can never came near a limit.
     assert separation_phrase(demo.steps[1].trajectory.report.separation[0]).startswith("slowed to 0.74 m/s within 0.")
     assert separation_phrase(demo.steps[0].trajectory.report.separation[0]).startswith("not slowed near alice")
+
+
+def test_the_viewer_marks_where_the_limit_held_the_robot(demo):
+    def slowed_paths(trajectory):
+        drawing = build_drawing(PlannedWorld.load(trajectory))
+        return [c.path.lower() for c in drawing.commands if isinstance(c, SetObject) and "slowed_near_people" in c.path.lower()]
+
+    assert slowed_paths(demo.steps[1].trajectory) and not slowed_paths(demo.steps[0].trajectory)
 
 
 def test_the_separation_figure_is_drawn_per_person(demo, tmp_path):
