@@ -19,6 +19,7 @@ import pinocchio as pin
 import pytest
 from PIL import Image
 
+from hriplan import HriplanError
 from hriplan.planner.approach import ApproachMonitor
 from hriplan.planner.motion import JointGoal
 from hriplan.planner.separation import (
@@ -100,6 +101,13 @@ def test_person_distances_are_to_the_bare_body_and_follow_the_person():
     session.pose_human(HumanSpec(name="kim", position=(2.2, 0.6), margin=0.2))
     far = session.checker.person_pairs(q, "kim").distance.min()
     assert 0.9 < far - near < 1.0 + 1e-6
+
+
+def test_bad_roles_are_clear_errors():
+    with pytest.raises(HriplanError, match="roles name zoe, who is not in the scene"):
+        default_policy("madar", [HumanSpec(name="ann")], {"zoe": "Giver"})
+    with pytest.raises(HriplanError, match="no SeparationParameters for role 'Pilot' \\(person ann\\)"):
+        default_policy("madar", [HumanSpec(name="ann")], {"ann": "Pilot"})
 
 
 # -- an independent check of timed motions ---------------------------------------------------

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Iterable, Mapping
+from decimal import Decimal
 from pathlib import Path
 
 from hriplan import HriplanError
@@ -48,9 +49,15 @@ def separation_policy(facts: Facts, robot: str, people: Iterable[tuple[str, str,
 
 def situation_policy(facts: Facts, situation: Situation) -> SeparationPolicy:
     """The policy for a reasoned situation: its robot, every person by their role and hand."""
-    robot = next((i for i, types in facts.types.items() if "Robot" in types
-                  and situation.robot in map(str, facts.get(i, "hasUrdfName"))), situation.robot)  # fmt: skip
-    return separation_policy(facts, robot, [(h.name, h.role, h.hand) for h in situation.humans])
+    return separation_policy(facts, _robot_individual(facts, situation.robot), [(h.name, h.role, h.hand) for h in situation.humans])
+
+
+def _robot_individual(facts: Facts, urdf_name: str) -> str:
+    """The ontology's individual for a robot (by its URDF name)."""
+    robots = [i for i, types in facts.types.items() if "Robot" in types and urdf_name in map(str, facts.get(i, "hasUrdfName"))]
+    if not robots:
+        raise HriplanError(f"the ontology describes no robot {urdf_name!r} (no Robot with hasUrdfName {urdf_name!r})")
+    return robots[0]
 
 
 def _region(facts: Facts, region: str, side: str) -> ContactRegion:
@@ -74,7 +81,8 @@ def default_policy(robot: str, people: Iterable[HumanSpec], roles: Mapping[str, 
         raise HriplanError(f"roles name {', '.join(unknown)}, who is not in the scene")
     source = ontology_source(ontology)
     handing = [(p.name, roles.get(p.name, DEFAULT_ROLE), next(iter(p.reach), "right") if len(p.reach) == 1 else "right") for p in people]
-    return separation_policy(_asserted_facts(source.path, source.digest), robot, handing)
+    facts = _asserted_facts(source.path, source.digest)
+    return separation_policy(facts, _robot_individual(facts, robot), handing)
 
 
 @functools.lru_cache(maxsize=4)
@@ -94,6 +102,6 @@ def _asserted_facts(path: Path, digest: str) -> Facts:
         elif str(predicate).startswith(NAMESPACE):
             local = value.toPython() if isinstance(value, rdflib.Literal) else str(value).rsplit("#", 1)[-1]
             facts.values.setdefault(name, {}).setdefault(str(predicate)[len(NAMESPACE) :], []).append(
-                float(local) if hasattr(local, "as_tuple") else local  # xsd:decimal -> float
+                float(local) if isinstance(local, Decimal) else local
             )
     return facts
