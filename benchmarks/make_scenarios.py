@@ -64,7 +64,8 @@ def ur5_upright_box() -> PlanningProblem:
     goal = _ik(robot, checker, "arm", _pose(down.rotation(), (0.45, 0.3, 0.12)), start)
     return PlanningProblem(name="a_ur5_upright_box", description="UR5 carries an upright cup over a block, inside a workspace box",
                            robot="ur5", scene=scene, constraints=ConstraintSet(constraints=constraints),
-                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(joints, robot.group_values(goal))))) # fmt: skip
+                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(joints, robot.group_values(goal)))),
+                           roles={"human": "Collaborator"})  # fmt: skip
 
 
 def madar_handover() -> PlanningProblem:
@@ -90,7 +91,8 @@ def madar_handover() -> PlanningProblem:
     start = _ik(robot, checker, "right", _pose(up, (0.25, 0.6, 1.0)), goal)
     return PlanningProblem(name="b_madar_handover", description="MADAR's right arm brings a full can to a receiver's hand",
                            robot="madar", hands=hands, scene=scene, constraints=ConstraintSet(constraints=constraints), group="right_arm",
-                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(joints, robot.group_values(goal, "right_arm")))))  # fmt: skip
+                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(joints, robot.group_values(goal, "right_arm")))),
+                           roles={"receiver": "Receiver"})  # fmt: skip
 
 
 def madar_peg_in_hole() -> PlanningProblem:
@@ -115,7 +117,8 @@ def madar_peg_in_hole() -> PlanningProblem:
     goal = _both_arms(robot, checker, _pose(down, (0.06, 0.85, 0.98)), _pose(down, (-0.06, 0.85, 0.98)), start)
     return PlanningProblem(name="c_madar_peg_in_hole", description="MADAR brings two pegs above holes beside a supervising person",
                            robot="madar", hands=hands, scene=scene, constraints=ConstraintSet(constraints=constraints), group="both_arms",
-                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(robot.joint_names, goal))))  # fmt: skip
+                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(robot.joint_names, goal))),
+                           roles={"supervisor": "Supervisor"})  # fmt: skip
 
 
 def madar_left_arm() -> PlanningProblem:

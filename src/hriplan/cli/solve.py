@@ -8,6 +8,8 @@ import typer
 
 from hriplan.planner.problem import load_problem
 from hriplan.planner.session import PlanningSession
+from hriplan.rules.separation import default_policy
+from hriplan.tasks.summary import separation_phrase
 
 
 def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_json: bool) -> int:
@@ -16,7 +18,8 @@ def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_jso
     session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
     session.set_constraints(problem.constraints)
     options = problem.options if seed is None else problem.options.model_copy(update={"seed": seed})
-    result = session.plan(problem.start, problem.goal, options, problem.group)
+    safety = default_policy(problem.robot, problem.scene.humans, problem.roles)  # ISO/TS 15066
+    result = session.plan(problem.start, problem.goal, options, problem.group, safety=safety)
     if not result.solved:
         typer.echo(f"planning failed ({result.status}): {result.message}", err=True)
         return 1
@@ -38,6 +41,7 @@ def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_jso
         lines.append(f"  {spec.id:28s} {spec.type:12s} worst margin {report.max_violation[spec.id]:+.4f} (<= 0 kept)")
     if report.min_human_distance is not None:
         lines.append(f"closest approach to a person: {report.min_human_distance:.3f} m ({' - '.join(report.closest_pair)})")
+    lines += [f"speed and separation: {separation_phrase(trace)}" for trace in report.separation]
     if output is not None:
         lines.append(f"trajectory written to {output}")
     typer.echo("\n".join(lines))

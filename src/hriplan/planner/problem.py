@@ -31,6 +31,9 @@ class PlanningProblem(BaseModel):
     start: dict[str, float]
     goal: Goal
     options: PlanOptions = Field(default_factory=PlanOptions)
+    # Speed and separation: each person's role (ontology: Receiver, Giver, Supervisor, ...), which
+    # sets their ISO/TS 15066 parameters; people not named are bystanders.
+    roles: dict[str, str] = Field(default_factory=dict)
 
 
 def load_problem(path: str | Path) -> PlanningProblem:

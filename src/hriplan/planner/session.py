@@ -9,9 +9,8 @@ processes.
 
 from __future__ import annotations
 
-from time import perf_counter
 from collections.abc import Iterable
-
+from time import perf_counter
 from typing import Literal
 
 import numpy as np
@@ -24,11 +23,14 @@ from hriplan.robots.model import JointValues, Robot, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
+from .approach import ApproachMonitor
 from .evaluator import ConstraintEvaluator
 from .motion import Goal, MotionResult, Status, plan_motion, with_keep_out
 from .ompl_backend import ompl_seed
 from .options import PlanOptions
 from .resolve import bind, set_goal_positions
+from .separation import SeparationPolicy
+from .separation_report import separation_report
 from .spec import ConstraintSet, ConstraintSpec
 from .timing import time_parameterize
 from .trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
@@ -103,8 +105,12 @@ class PlanningSession:
         self.constraints[constraint_id] = type(spec).model_validate({**spec.model_dump(), **changes})
 
     # -- planning ------------------------------------------------------------------------
-    def plan(self, start: JointValues, goal: Goal, options: PlanOptions | None = None, group: str | None = None) -> PlanResult:
-        """Plan, validate densely, time-parameterise and re-validate the timed path."""
+    def plan(self, start: JointValues, goal: Goal, options: PlanOptions | None = None, group: str | None = None,
+             safety: SeparationPolicy | None = None) -> PlanResult:  # fmt: skip
+        """Plan, validate densely, time-parameterise and re-validate the timed path.
+
+        With `safety`, the motion is timed to keep ISO/TS 15066 speed and separation from the
+        scene's people (and fails, with the reason, where it cannot)."""
         options = options or PlanOptions()
         started = perf_counter()
         for retry in range(TIMING_RETRIES + 1):
@@ -113,14 +119,15 @@ class PlanningSession:
                 break
             run = options if retry == 0 else options.model_copy(update={"time_limit": remaining, "seed": _retry_seed(options.seed, retry)})
             motion = plan_motion(self.robot, self.checker, list(self.constraints.values()), start, goal, run, group)
-            result = self.time(motion, options)
+            result = self.time(motion, options, safety)
             if result.status != "timing_failed":
                 break
         return result
 
-    def time(self, motion: MotionResult, options: PlanOptions | None = None) -> PlanResult:
+    def time(self, motion: MotionResult, options: PlanOptions | None = None, safety: SeparationPolicy | None = None) -> PlanResult:
         """Time a planned motion and validate the timed samples against the session's constraints
-        and scene, every joint outside the planned group at the motion's start."""
+        and scene, every joint outside the planned group at the motion's start. With `safety`,
+        the timing keeps ISO/TS 15066 speed and separation from the scene's people."""
         options = options or PlanOptions()
         if not motion.solved:
             return PlanResult(status=motion.status, motion=motion, message=motion.message)
@@ -133,22 +140,28 @@ class PlanningSession:
         evaluator = ConstraintEvaluator(self.robot, bound, motion.group, q0)
         set_goal_positions(self.robot, bound, evaluator.full(path[-1]))
         scene = self.checker.scene
+        monitor = None if safety is None or not scene.humans else ApproachMonitor(self.robot, self.checker, safety, motion.group, q0)
         with with_keep_out(self.checker, bound):
-            timed, check, message = self._time_and_check(path, evaluator, motion.group, options)
+            timed, check, message = self._time_and_check(path, evaluator, motion.group, options, monitor)
         if timed is None:
             return PlanResult(status="timing_failed", motion=motion, message=message)
         trajectory = self._file(motion, bound, timed, check, options, scene, evaluator.full(path[0]))
+        if monitor is not None:
+            report = trajectory.report.model_copy(update={"separation": separation_report(monitor, timed)})
+            trajectory = trajectory.model_copy(update={"report": report})
         return PlanResult(status="solved", motion=motion, trajectory=trajectory)
 
-    def _time_and_check(self, path: np.ndarray, evaluator: ConstraintEvaluator, group: str, options: PlanOptions):  # noqa: ANN202
-        """TOPP-RA on the validated path, then dense validation of the timed samples."""
+    def _time_and_check(self, path: np.ndarray, evaluator: ConstraintEvaluator, group: str, options: PlanOptions,
+                        monitor: ApproachMonitor | None = None):  # noqa: ANN202 fmt: skip
+        """TOPP-RA on the validated path (slowed near people by `monitor`), then dense validation."""
         velocity = self.robot.velocity_limit(group)
         acceleration = np.full(len(velocity), options.acceleration_limit)
         message = ""
         for step in TIMING_STEPS:
             knots = densify(list(path), step)
             try:
-                timed = time_parameterize(knots, velocity, acceleration, velocity_scale=options.velocity_scale)
+                timed = time_parameterize(knots, velocity, acceleration, velocity_scale=options.velocity_scale,
+                                          speed_scale=None if monitor is None else monitor.speed_scale)  # fmt: skip
             except HriplanError as exc:
                 message = str(exc)
                 continue

@@ -11,6 +11,7 @@ validated polyline is measured, reported and optionally bounded.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 
 import numpy as np
 import toppra
@@ -45,6 +46,16 @@ _REFINEMENTS = 3
 # Relative overshoot of the limits allowed in the returned samples (see `time_parameterize`).
 _VELOCITY_SLACK = 1e-3
 _ACCELERATION_SLACK = 5e-2
+# A path-speed limit (people nearby) is sampled this densely along the path (arc length, rad);
+# each gridpoint takes the smallest value within one grid spacing of it. Samples exceeding it
+# by more than the slack make the limit tighter by the overshoot, at most this often.
+_SPEED_LIMIT_SPACING = 0.02
+_SPEED_LIMIT_SLACK = 1e-2
+_SPEED_LIMIT_RETRIES = 3
+
+SpeedScale = Callable[[np.ndarray, np.ndarray], np.ndarray]
+"""(positions k x n, joint velocities k x n) -> per row the largest factor on those velocities
+that keeps a limit (inf: none); on path derivatives q'(s) that is the largest path speed."""
 
 
 class TimedPath(BaseModel):
@@ -68,6 +79,7 @@ def time_parameterize(
     velocity_scale: float = 1.0,
     sample_dt: float = 0.01,
     max_deviation: float | None = None,
+    speed_scale: SpeedScale | None = None,
 ) -> TimedPath:
     """Retime the piecewise-linear path `waypoints` (m x n) time-optimally, at rest at both ends.
 
@@ -78,6 +90,10 @@ def time_parameterize(
     _REFINEMENTS times) until between gridpoints too velocity exceeds the scaled limit by at most
     0.05% and acceleration by at most 0.5%; the returned samples must then stay within the scaled
     limits +0.1% (velocity) and +5% (acceleration), else HriplanError.
+
+    `speed_scale` (speed and separation near people) adds a path-speed limit that varies along
+    the path, given to TOPP-RA as varying joint velocity limits; the returned samples keep it
+    within 1%, else HriplanError. It may raise HriplanError itself (the path cannot be timed).
     """
     q, vmax, amax = _validated(
         waypoints, velocity_limits, acceleration_limits, velocity_scale, sample_dt, max_deviation
@@ -93,12 +109,59 @@ def time_parameterize(
             f"{max_deviation:.4g}); pass denser or smoother waypoints"
         )
 
+    limit = None if speed_scale is None else _path_speed_limit(path, s, speed_scale)
+    factor = 1.0
+    for _ in range(_SPEED_LIMIT_RETRIES + 1):
+        trajectory = _retimed(path, s, vmax, amax, None if limit is None else (limit, factor))
+        duration = float(trajectory.path_interval[1])
+        # Samples on the sample_dt grid strictly before the end, then the end itself; a grid time
+        # within a millionth of a period of the end counts as the end, so the last step is not ~0.
+        count = int(np.ceil(duration / sample_dt - 1e-6))
+        times = np.append(sample_dt * np.arange(count), duration)
+        positions, velocities = trajectory(times, 0), trajectory(times, 1)
+        if speed_scale is None:
+            break
+        worst = float(np.min(speed_scale(positions, velocities)))
+        if worst >= 1.0 - _SPEED_LIMIT_SLACK:
+            break
+        factor *= 0.99 * worst
+    else:
+        raise HriplanError(f"the timed motion exceeds the speed allowed near people by {100 * (1 / worst - 1):.1f}%")
+    accelerations = trajectory(times, 2)
+    _check_limits(velocities, vmax, 1.0 + _VELOCITY_SLACK, "velocity")
+    _check_limits(accelerations, amax, 1.0 + _ACCELERATION_SLACK, "acceleration")
+    return TimedPath(
+        times=times.tolist(),
+        positions=positions.tolist(),
+        velocities=velocities.tolist(),
+        accelerations=accelerations.tolist(),
+        path_deviation=deviation,
+    )
+
+
+def _path_speed_limit(path: toppra.SplineInterpolator, s: np.ndarray, speed_scale: SpeedScale) -> tuple[np.ndarray, np.ndarray]:
+    """(arc lengths, path-speed limit there), sampled every _SPEED_LIMIT_SPACING along the path."""
+    at = np.linspace(s[0], s[-1], int(np.ceil((s[-1] - s[0]) / _SPEED_LIMIT_SPACING)) + 1)
+    return at, np.asarray(speed_scale(path(at), path(at, 1)), dtype=float)
+
+
+def _retimed(
+    path: toppra.SplineInterpolator,
+    s: np.ndarray,
+    vmax: np.ndarray,
+    amax: np.ndarray,
+    limit: tuple[tuple[np.ndarray, np.ndarray], float] | None,
+):  # noqa: ANN202 - toppra's trajectory type is not public
+    """TOPP-RA under the joint limits (and a path-speed limit times a factor), grid refined."""
     constraints = [
         toppra.constraint.JointVelocityConstraint(vmax),
         toppra.constraint.JointAccelerationConstraint(
             amax, discretization_scheme=toppra.constraint.DiscretizationType.Interpolation
         ),
     ]
+    if limit is not None:
+        (at, sd_max), factor = limit
+        constraints.append(toppra.constraint.JointVelocityConstraintVarying(_varying_limits(path, vmax, at, factor * sd_max)))
     grid = _gridpoints(path, s, vmax, amax)
     for refinement in range(_REFINEMENTS + 1):
         algorithm = toppra.algorithm.TOPPRA(
@@ -118,23 +181,21 @@ def time_parameterize(
         if not overshooting.any() or refinement == _REFINEMENTS or len(grid) > _MAX_GRIDPOINTS:
             break
         grid = _subdivided(grid, np.where(overshooting, 4, 1))
+    return trajectory
 
-    duration = float(trajectory.path_interval[1])
-    # Samples on the sample_dt grid strictly before the end, then the end itself; a grid time
-    # within a millionth of a period of the end counts as the end, so the last step is not ~0.
-    count = int(np.ceil(duration / sample_dt - 1e-6))
-    times = np.append(sample_dt * np.arange(count), duration)
-    velocities = trajectory(times, 1)
-    accelerations = trajectory(times, 2)
-    _check_limits(velocities, vmax, 1.0 + _VELOCITY_SLACK, "velocity")
-    _check_limits(accelerations, amax, 1.0 + _ACCELERATION_SLACK, "acceleration")
-    return TimedPath(
-        times=times.tolist(),
-        positions=trajectory(times, 0).tolist(),
-        velocities=velocities.tolist(),
-        accelerations=accelerations.tolist(),
-        path_deviation=deviation,
-    )
+
+def _varying_limits(path: toppra.SplineInterpolator, vmax: np.ndarray, at: np.ndarray, sd_max: np.ndarray):  # noqa: ANN202
+    """TOPP-RA's vlim(s): joint j within |q'_j(s)| times the smallest path-speed limit within a
+    grid spacing of s (so the limit holds between gridpoints too), and within vmax_j. The 1e-9
+    keeps joints with q'_j ~ 0 feasible; the joint with the largest |q'_j| binds the path speed."""
+
+    def vlim(x: float) -> np.ndarray:
+        window = (at >= x - _MAX_GRID_SPACING) & (at <= x + _MAX_GRID_SPACING)
+        cap = float(np.min(sd_max[window])) if window.any() else float(np.interp(x, at, sd_max))
+        upper = np.minimum(vmax, np.abs(path(x, 1)) * min(cap, 1e6) + 1e-9)  # 1e6: no limit (inf)
+        return np.stack([-upper, upper], axis=1)
+
+    return vlim
 
 
 def _validated(

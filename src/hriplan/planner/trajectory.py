@@ -38,6 +38,28 @@ class ResolvedConstraint(BaseModel):
     reason: str = ""  # one line: why this constraint is there (from the rules, when they made it)
 
 
+class SeparationTrace(BaseModel):
+    """One person along the timed motion (ISO/TS 15066 speed and separation, see separation.py).
+
+    Per trajectory point: the closest moving robot part's separation (to the whole person, and to
+    the body outside its contact regions, where S_0 applies), and for the binding
+    part-capsule pair (least margin) the allowed speed towards the person and the actual one
+    (negative: moving away). None: no moving part faces the person (no limit)."""
+
+    person: str
+    role: str = ""
+    minimum_separation: float  # S_0: where the allowed speed falls to 0 (m)
+    contact_speed: float | None = None  # PFL cap near the person's contact region (m/s), if any
+    min_separation: float | None  # closest approach of a moving part along the motion (m)
+    worst_margin: float | None  # smallest allowed - actual speed towards the person (m/s; >= 0 kept)
+    slowest_allowed: float | None = None  # smallest allowed speed where the robot approached (m/s)
+    slowest_separation: float | None = None  # the separation there (m)
+    separation: list[float | None] = Field(default_factory=list)
+    body_separation: list[float | None] = Field(default_factory=list)  # outside the contact regions
+    allowed_speed: list[float | None] = Field(default_factory=list)
+    approach_speed: list[float | None] = Field(default_factory=list)
+
+
 class TrajectoryReport(BaseModel):
     status: str
     planner: str
@@ -52,6 +74,7 @@ class TrajectoryReport(BaseModel):
     closest_pair: tuple[str, str] | None = None
     velocity_scale: float = 1.0
     calls: dict[str, int] = Field(default_factory=dict)
+    separation: list[SeparationTrace] = Field(default_factory=list)  # per person, when timed for people
 
 
 class TrajectoryFile(BaseModel):

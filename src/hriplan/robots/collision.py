@@ -33,6 +33,19 @@ class Contact:
     b: str
 
 
+@dataclass(frozen=True)
+class PersonPairs:
+    """Every robot part (and carried object) against every capsule of one person: row k is one
+    pair, with its closest points."""
+
+    parts: list[str]
+    joints: np.ndarray  # the robot joint that carries each part
+    capsules: list[str]  # the person's body-model segment, e.g. right_hand
+    distance: np.ndarray  # between the bare capsule (no safety margin) and the part, m
+    robot_point: np.ndarray  # (k, 3) world
+    person_point: np.ndarray  # (k, 3) world
+
+
 class CollisionChecker:
     """Robot vs scene, robot vs people, robot self-collision and carried objects vs the rest."""
 
@@ -98,6 +111,24 @@ class CollisionChecker:
                 dm.addCollisionPair(pin.CollisionPair(a, b))
         self._distance_model, self._distance_data = dm, dm.createData()
         self._distance_slots = {i: k for k, i in enumerate(robot_ids + human_ids)}
+        self._build_person_models()
+
+    def _build_person_models(self) -> None:
+        """Per person: robot parts and carried objects against the person's bare capsules (no
+        margin: separation is measured to the body), for speed and separation monitoring."""
+        movers = [i for i, k in enumerate(self.kind) if k == "robot" or k.startswith("attached:")]
+        self._person_models: dict[str, tuple[pin.GeometryModel, pin.GeometryData, list[str], np.ndarray, list[str]]] = {}
+        for name, human in self.humans.items():
+            pm = pin.GeometryModel()
+            for i in movers:
+                pm.addGeometryObject(pin.GeometryObject(self.geom_model.geometryObjects[i]))
+            for capsule, placement in zip(human.capsules, human.capsule_placements()):
+                k = pm.addGeometryObject(pin.GeometryObject(capsule.name, 0, placement, coal.Capsule(capsule.radius, capsule.length)))
+                for a in range(len(movers)):
+                    pm.addCollisionPair(pin.CollisionPair(a, k))
+            objects, pairs = pm.geometryObjects, pm.collisionPairs
+            self._person_models[name] = (pm, pm.createData(), [objects[p.first].name for p in pairs],
+                                         np.array([objects[p.first].parentJoint for p in pairs]), [objects[p.second].name for p in pairs])  # fmt: skip
 
     def _checked(self, i: int, j: int) -> bool:
         ki, kj = self.kind[i], self.kind[j]
@@ -172,6 +203,10 @@ class CollisionChecker:
         for slot, placement in zip(self._human_slots[spec.name], human.capsule_placements()):
             self.geom_model.geometryObjects[slot].placement = placement
             self._distance_model.geometryObjects[self._distance_slots[slot]].placement = placement
+        person_model = self._person_models[spec.name][0]
+        first = person_model.ngeoms - len(human.capsules)
+        for k, placement in enumerate(human.capsule_placements()):
+            person_model.geometryObjects[first + k].placement = placement
 
     # -- queries --------------------------------------------------------------------------
     def in_collision(self, q: np.ndarray) -> bool:
@@ -198,3 +233,19 @@ class CollisionChecker:
         k = int(np.argmin(distances))
         pair = dm.collisionPairs[k]
         return float(distances[k]), dm.geometryObjects[pair.first].name, dm.geometryObjects[pair.second].name
+
+    def person_pairs(self, q: np.ndarray, person: str) -> PersonPairs:
+        """Every robot part and carried object against every capsule of `person`, at `q`."""
+        if person not in self._person_models:
+            raise HriplanError(f"the scene has no person {person!r}")
+        model, data, parts, joints, capsules = self._person_models[person]
+        pin.computeDistances(self.robot.model, self.robot.data, model, data, q)
+        results = data.distanceResults
+        return PersonPairs(
+            parts=parts,
+            joints=joints,
+            capsules=capsules,
+            distance=np.array([r.min_distance for r in results]),
+            robot_point=np.array([r.getNearestPoint1() for r in results]).reshape(-1, 3),
+            person_point=np.array([r.getNearestPoint2() for r in results]).reshape(-1, 3),
+        )

@@ -17,10 +17,12 @@ from hriplan import HriplanError
 from hriplan.ontology.cache import ReasoningCache
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation
+from hriplan.planner.separation import SeparationPolicy
 from hriplan.planner.spec import ConstraintSet, ConstraintSpec
 
 from .instantiate import Arm, Context, Form, anchored_arms, form_of
 from .provenance import Provenance
+from .separation import situation_policy
 
 CONSTRAINED_BY = "isConstrainedBy"
 
@@ -49,6 +51,7 @@ class Derivation(BaseModel):
 
     constraints: list[DerivedConstraint] = Field(default_factory=list)
     velocity: list[DerivedVelocityScale] = Field(default_factory=list)
+    separation: SeparationPolicy | None = None  # ISO/TS 15066 speed and separation near people
 
     @property
     def velocity_scale(self) -> float:
@@ -65,7 +68,7 @@ def derive(kb: KnowledgeBase) -> Derivation:
     provenance = Provenance(kb.rules, kb.facts, kb.assertions, kb.relations)
     rationale = {r.name: r.rationale for r in kb.rules}
     several_arms = len(kb.situation.task.arms) > 1
-    derivation = Derivation()
+    derivation = Derivation(separation=situation_policy(kb.facts, kb.situation))
     owners: dict[str, str] = {}
     for anchor, kind in _requirements(kb):
         support = provenance.why(anchor, CONSTRAINED_BY, kind)

@@ -163,7 +163,7 @@ class TaskRunner:
                               seed=self.task.planning.seed, velocity_scale=derivation.velocity_scale)  # fmt: skip
         goal = resolved[0].goal if len(resolved) == 1 else self._joint_goal(resolved, start)
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
-        result = session.plan(start, goal, options, group)
+        result = session.plan(start, goal, options, group, safety=derivation.separation)
         if not result.solved:
             return outcome.model_copy(update={"status": result.status, "message": result.message}), start
         trajectory = _with_reasons(result.trajectory, derivation).model_copy(update={"task": self.task.name, "step": outcome.name})

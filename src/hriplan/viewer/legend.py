@@ -7,7 +7,7 @@ from html import escape
 from hriplan.planner.trajectory import TrajectoryFile
 
 from .describe import describe, kind
-from .scene import PERSON, TOOL_PATH
+from .scene import PERSON, SLOWED, TOOL_PATH
 from .volumes import INSIDE, KEEP_OUT, LINK_AXIS, ORIENTATION, OUTSIDE, colors
 
 KEY = (
@@ -17,6 +17,7 @@ KEY = (
     (ORIENTATION, "target axis and tolerance cone"),
     (LINK_AXIS, "the link's axis"),
     (TOOL_PATH, "tool path (beads at equal time steps)"),
+    (SLOWED, "tool path held to a speed limit near a person (ISO/TS 15066)"),
     (PERSON, "person"),
 )
 

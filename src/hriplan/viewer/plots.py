@@ -1,4 +1,5 @@
-"""Figures of a plan (PNG): constraint margins, joint positions and velocities, distance to people.
+"""Figures of a plan (PNG): constraint margins, joint positions and velocities, distance to people,
+and per person the ISO/TS 15066 separation and speed towards them (from the trajectory report).
 
 Margins are the validator's own (`ConstraintEvaluator.margins`), so a curve touching 0 is a
 constraint on its boundary, exactly as the planner judged it. Figures are drawn on matplotlib
@@ -36,6 +37,8 @@ def write_plots(trajectory: TrajectoryFile, out_dir: str | Path) -> list[Path]:
         figures["margins"] = _margins(world)
     if trajectory.scene.humans:
         figures["human_distance"] = _human_distance(world)
+    if trajectory.report.separation:
+        figures["separation"] = _separation(world)
     paths = []
     for name, figure in figures.items():
         path = out / f"{name}.png"
@@ -97,16 +100,13 @@ def _joints(world: PlannedWorld, velocities: bool) -> Figure:
 
 
 def _human_distance(world: PlannedWorld) -> Figure:
-    """Distance from the robot to the closest person's body capsules, against each person's
-    configured separation (the margin their capsules are grown by when the planner checks)."""
-    margins = {h.name: h.margin for h in world.trajectory.scene.humans}
+    """Distance from the robot to the closest person's body capsules (grown by their margin, as
+    the planner checks them)."""
     closest = world.human_distances()
-    distance = np.array([d + margins[person.split("/")[0]] for d, _, person in closest])
+    distance = np.array([d for d, _, _ in closest])
     figure = Figure(figsize=(9, 3.6), layout="constrained")
     ax: Axes = figure.subplots()
     ax.plot(world.times, distance, color="C0", label="closest robot part to a person")
-    for name, margin in margins.items():
-        ax.axhline(margin, color=LIMIT, ls="--", lw=1, label=f"required separation from {name}: {margin:.2f} m")
     worst = int(np.argmin(distance))
     _, part, person = closest[worst]
     ax.plot(world.times[worst], distance[worst], "o", color="C0")
@@ -120,4 +120,42 @@ def _human_distance(world: PlannedWorld) -> Figure:
     ax.set_ylim(bottom=min(0.0, float(distance.min())))
     ax.legend(fontsize=9, loc="upper right")
     figure.suptitle(_title(world, "Distance to the people"), fontsize=11)
+    return figure
+
+
+def _series(values: list[float | None]) -> np.ndarray:
+    return np.array([np.nan if v is None else v for v in values], dtype=float)
+
+
+def _separation(world: PlannedWorld) -> Figure:
+    """Per person: separation of the moving parts against the minimum separation S_0, and the
+    speed towards them against the speed ISO/TS 15066 allows there (from the trajectory report)."""
+    traces = world.trajectory.report.separation
+    figure = Figure(figsize=(9, 0.8 + 4.4 * len(traces)), layout="constrained")
+    axes = figure.subplots(2 * len(traces), 1, sharex=True, squeeze=False)[:, 0]
+    for k, trace in enumerate(traces):
+        top, bottom = axes[2 * k], axes[2 * k + 1]
+        top.plot(world.times, _series(trace.body_separation), color="C0", label="separation of the moving parts from the body")
+        if trace.contact_speed is not None:
+            top.plot(world.times, _series(trace.separation), color="C1", ls=":", label="... from the whole person (hand included)")
+        top.axhline(trace.minimum_separation, color=LIMIT, ls="--", lw=1,
+                    label=f"minimum separation S_0 = {trace.minimum_separation:.2f} m (speed 0)")  # fmt: skip
+        top.set_ylabel("separation (m)")
+        top.set_ylim(bottom=0.0)
+        top.set_title(f"{trace.person} ({trace.role or 'no role'})", fontsize=9, loc="left")
+        top.legend(fontsize=8, loc="upper right")
+        allowed, actual = _series(trace.allowed_speed), _series(trace.approach_speed)
+        bottom.plot(world.times, allowed, color=LIMIT, lw=1, label="allowed speed towards the person")
+        bottom.plot(world.times, actual, color="C0", label="actual speed towards the person")
+        bottom.fill_between(world.times, actual, allowed, where=actual <= allowed, color=KEPT, alpha=0.1, lw=0)
+        if trace.contact_speed is not None:
+            bottom.axhline(trace.contact_speed, color="C1", ls=":", lw=1, label=f"contact cap (PFL) {trace.contact_speed:.2f} m/s")
+        margin = "" if trace.worst_margin is None else f", worst margin {trace.worst_margin:+.3f} m/s"
+        bottom.set_title(f"speed towards {trace.person}{margin}", fontsize=9, loc="left")
+        bottom.set_ylabel("speed (m/s)")
+        finite = allowed[np.isfinite(allowed)]
+        bottom.set_ylim(min(0.0, float(np.nanmin(actual))) - 0.05, 1.2 * max(float(finite.max()) if finite.size else 1.0, float(np.nanmax(actual))))
+        bottom.legend(fontsize=8, loc="upper right")
+    axes[-1].set_xlabel("time (s)")
+    figure.suptitle(_title(world, "Speed and separation (ISO/TS 15066)"), fontsize=11)
     return figure

@@ -28,6 +28,9 @@ MAX_FPS = 25.0
 MAX_FRAMES = 600
 CAMERA_FOV = 45.0  # deg, vertical
 PERSON, PERSON_CAPSULES, OBSTACLE, CARRIED, TOOL_PATH = 0xE0B48F, 0x9467BD, 0xB5916B, 0x1F77B4, 0x7B2CBF
+SLOWED = 0xFF7F0E  # tool path where the speed limit near a person held the robot (ISO/TS 15066)
+# A point whose speed towards a person is this close to the allowed one was held by the limit.
+HELD = 0.98
 
 
 def frame_times(duration: float) -> np.ndarray:
@@ -157,12 +160,33 @@ def _tool_paths(
     """A tube through the link's position at every timed point, beads at the animation frames
     (their spacing shows the speed)."""
     at_points = _link_poses(world, [world.full_q(row) for row in world.positions], links)
+    held = _held(world)
     for link in links:
-        line = tube(np.array([p.translation for p in at_points[link]]), 0.003)
+        points = np.array([p.translation for p in at_points[link]])
+        line = tube(points, 0.003)
         if line is not None:
             drawing.draw(f"tool_paths/{link}/path", [Part(line, np.eye(4))], material(TOOL_PATH))
+        for k, (first, last) in enumerate(_runs(held)):
+            slowed = tube(points[first : last + 1], 0.0045)
+            if slowed is not None:
+                drawing.draw(f"tool_paths/{link}/slowed_near_people/{k}", [Part(slowed, np.eye(4))], material(SLOWED))
         steps = beads(np.array([p.translation for p in link_poses[link]]), 0.007)
         drawing.draw(f"tool_paths/{link}/time_steps", [Part(steps, np.eye(4))], material(TOOL_PATH))
+
+
+def _held(world: PlannedWorld) -> np.ndarray:
+    """Per timed point: was the robot held to a person's speed limit there (trajectory report)?"""
+    held = np.zeros(len(world.trajectory.points), dtype=bool)
+    for trace in world.trajectory.report.separation:
+        for i, (allowed, actual) in enumerate(zip(trace.allowed_speed, trace.approach_speed)):
+            held[i] |= allowed is not None and actual is not None and actual > 0.0 and actual >= HELD * allowed
+    return held
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index of every run of True in `mask`."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(int), [0]])))
+    return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2])]
 
 
 def _camera(drawing: Drawing, world: PlannedWorld, robot_points: np.ndarray) -> None:
