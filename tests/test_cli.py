@@ -24,7 +24,10 @@ def test_robot_urdf_loads_back_in_pinocchio(madar):
     data = model.createData()
     pin.framesForwardKinematics(model, data, pin.neutral(model))
     assert np.allclose(data.oMf[model.getFrameId("right_wrist_3_link")].translation, (-0.3247, 0.1914, 0.8139), atol=1e-4)
-    geoms = pin.buildGeomFromUrdfString(model, out.stdout, pin.COLLISION)
+    assert "/site-packages/" not in out.stdout and "package://example-robot-data/robots/" in out.stdout
+    from hriplan.cli.urdf_export import package_root
+
+    geoms = pin.buildGeomFromUrdfString(model, out.stdout, pin.COLLISION, package_dirs=[str(package_root())])
     assert geoms.ngeoms > 30
 
 

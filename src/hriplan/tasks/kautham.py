@@ -25,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan import HriplanError
+from hriplan.files import read_text
 from hriplan.planner.motion import JointGoal
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.problem import PlanningProblem
@@ -216,10 +217,9 @@ def import_kautham(path: str | Path, rpy: Literal["kautham", "urdf"] = "kautham"
     """A hriplan planning problem from a Kautham problem file (robot madar or ur5)."""
     path = Path(path)
     reader = _Reader(path)
+    text = read_text(path, "Kautham problem file (XML)")
     try:
-        root = ET.parse(path).getroot()
-    except FileNotFoundError:
-        raise HriplanError(f"{path}: no such file") from None
+        root = ET.fromstring(text)
     except ET.ParseError as exc:
         raise reader.fail(f"not valid XML ({exc})") from None
     robot_el = root if root.tag == "Robot" else root.find(".//Robot")

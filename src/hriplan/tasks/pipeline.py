@@ -30,7 +30,7 @@ from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
 
 from .goals import ResolvedGoal, after_step, resolve_goal, task_kind
-from .model import Step, TaskFile
+from .model import Step, TaskFile, step_name
 from .world import TaskState, object_in_tool
 
 Progress = Callable[[str], None]
@@ -54,10 +54,6 @@ class TaskOutcome(BaseModel):
     @property
     def solved(self) -> bool:
         return all(s.status == "solved" for s in self.steps)
-
-
-def step_name(step: Step, index: int) -> str:
-    return step.name or f"step{index + 1}"
 
 
 def step_arms(task: TaskFile, step: Step, state: TaskState) -> list[str]:
@@ -160,7 +156,7 @@ class TaskRunner:
         session.set_constraints(derivation.constraint_set())
         group = robot.arm_group(arms[0]) if len(arms) == 1 else robot.default_group
         options = PlanOptions(planner=self.task.planning.planner, space=self.task.planning.space, time_limit=self.task.planning.time_limit,
-                              seed=self.task.planning.seed, velocity_scale=derivation.velocity_scale)  # fmt: skip
+                              seed=self.task.planning.seed, project_start=self.task.planning.project_start, velocity_scale=derivation.velocity_scale)  # fmt: skip
         goal = resolved[0].goal if len(resolved) == 1 else self._joint_goal(resolved, start)
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
         result = session.plan(start, goal, options, group)

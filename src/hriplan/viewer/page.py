@@ -119,6 +119,11 @@ def render_page(drawing: Drawing, duration: float, title: str, legend: str) -> s
                        client=CLIENT.read_text(encoding="utf-8"), script=SCRIPT)  # fmt: skip
 
 
+def write_task_viewer(trajectories: list[TrajectoryFile], path: str | Path) -> Path:
+    """PLACEHOLDER"""
+    return write_viewer(trajectories[0], path)
+
+
 def write_viewer(trajectory: TrajectoryFile, path: str | Path) -> Path:
     """Write an offline 3D viewer of the plan to `path` (HTML; opens in any browser, no network)."""
     world = PlannedWorld.load(trajectory)

@@ -1,0 +1,66 @@
+"""Outputs are checked before the work starts, and never left half written.
+
+A command names its outputs first (`file_output`, `directory_output`): a path under a file, a
+directory where a file goes (or the reverse) or an unwritable folder is a one-line error before
+any reasoning or planning. Files are written through a temporary `NAME.tmp` and renamed; an
+interrupted command removes the temporary files of the outputs it named.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from hriplan import HriplanError
+
+_NAMED: list[Path] = []  # outputs of the running command, whose NAME.tmp an interrupt removes
+
+
+def _writable_folder(path: Path, option: str) -> None:
+    """The nearest existing folder of `path` is a folder we may write into."""
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise HriplanError(f"{option} {path}: {parent} is a file, not a directory")
+            if not os.access(parent, os.W_OK | os.X_OK):
+                raise HriplanError(f"{option} {path}: cannot write into {parent}")
+            return
+
+
+def file_output(path: Path, option: str = "--output") -> Path:
+    """A file the command will write (its folders are made when it is written)."""
+    if path.is_dir():
+        raise HriplanError(f"{option} {path}: is a directory; give a file name")
+    _writable_folder(path, option)
+    _NAMED.append(path)
+    return path
+
+
+def directory_output(path: Path, option: str = "--output") -> Path:
+    """A directory the command will write files into."""
+    if path.exists() and not path.is_dir():
+        raise HriplanError(f"{option} {path}: is a file; give a directory")
+    _writable_folder(path / "-", option)
+    _NAMED.append(path)
+    return path
+
+
+def temporary(path: Path) -> Path:
+    """Where `path` is written before it is renamed into place."""
+    return path.with_name(path.name + ".tmp")
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """Write `text` to `path` through a temporary file, so a reader never sees half of it."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = temporary(path)
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)
+
+
+def remove_partial_outputs() -> None:
+    """Remove the temporary files of the named outputs (and their directories' temporaries)."""
+    for path in _NAMED:
+        candidates = [temporary(path)] + (list(path.glob("*.tmp")) if path.is_dir() else [])
+        for tmp in candidates:
+            tmp.unlink(missing_ok=True)
