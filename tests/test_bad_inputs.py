@@ -15,6 +15,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -458,23 +459,24 @@ def test_bad_input_as_a_real_process(case: Case, tmp_path: Path, trajectory_text
 
 
 def test_ctrl_c_stops_planning_within_a_second(tmp_path: Path) -> None:
-    """A plan that cannot finish soon (a tight time budget it will use up) stops on SIGINT: exit 130, no files."""
+    """An optimising planner uses its whole minute; SIGINT while it runs (inside OMPL's C++ solve)
+    stops the command within a second: exit 130, one line, no output file."""
     task_file = tmp_path / "t.yaml"
-    task_file.write_text(task(**{GOAL: {"joints": {"elbow_joint": 1.0, "shoulder_lift_joint": -3.0}}}, planning={"time_limit": 60, "seed": 1}))
+    task_file.write_text(task(planning={"time_limit": 60, "seed": 1, "planner": "RRTstar"}))
     process = _cli("plan", str(task_file), "-o", str(tmp_path / "out" / "t.json"), cwd=tmp_path)
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(process.stderr), daemon=True)
+    reader.start()
     deadline = time.monotonic() + 90
-    stderr_seen = ""
-    os.set_blocking(process.stderr.fileno(), False)
-    while time.monotonic() < deadline and "planning" not in stderr_seen:
-        time.sleep(0.2)
-        stderr_seen += process.stderr.read() or ""
-        assert process.poll() is None, stderr_seen
-    time.sleep(1.0)
+    while not any("planning" in line for line in lines):
+        assert process.poll() is None and time.monotonic() < deadline, lines
+        time.sleep(0.1)
+    time.sleep(1.0)  # well inside OMPL's solve
     sent = time.monotonic()
     process.send_signal(signal.SIGINT)
     process.wait(timeout=10)
-    assert time.monotonic() - sent < 1.5
+    assert time.monotonic() - sent < 1.0
+    reader.join(timeout=5)
     assert process.returncode == 130
-    rest = stderr_seen + (process.stderr.read() or "")
-    assert "Traceback" not in rest and "interrupted" in rest
-    assert not (tmp_path / "out").exists()
+    assert [line for line in lines if not line.startswith("... ")] == ["interrupted\n"]
+    assert not (tmp_path / "out").exists() and not list(tmp_path.rglob("*.tmp"))
