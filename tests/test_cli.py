@@ -74,3 +74,25 @@ def test_solve_failures_have_exit_codes(tmp_path):
     broken.write_text(json.dumps(problem))
     bad = run("solve", str(broken))
     assert bad.returncode == 2 and bad.stderr.startswith(f"error: {broken}: constraints.constraints.0.orientation.tolerance")
+
+
+HEAVY = ("ompl", "toppra", "scipy", "matplotlib", "meshcat", "hriplan.planner.session", "hriplan.planner.ompl_backend",
+         "hriplan.planner.timing")  # fmt: skip
+
+
+def test_constraints_and_help_do_not_import_the_planner():
+    """Latency: `constraints` reasons only; OMPL, TOPP-RA, scipy and matplotlib load when a motion is planned."""
+    probe = (
+        "import sys\n"
+        "from hriplan.cli.main import app\n"
+        "for argv in (['--help'], ['constraints', sys.argv[1], '-q']):\n"
+        "    try:\n"
+        "        app(argv, prog_name='hriplan')\n"
+        "    except SystemExit as exit:\n"
+        "        assert exit.code == 0, exit.code\n"
+        f"    print('loaded', sorted(m for m in {HEAVY!r} if m in sys.modules))\n"
+    )
+    example = __import__("pathlib").Path(__file__).parents[1] / "examples" / "handover_full_can.yaml"
+    out = subprocess.run([sys.executable, "-c", probe, str(example)], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert [line for line in out.stdout.splitlines() if line.startswith("loaded")] == ["loaded []", "loaded []"], out.stdout

@@ -23,7 +23,6 @@ from hriplan.robots.spatial import Pose
 
 from .evaluator import ConstraintEvaluator
 from .keep_out import keep_out_obstacles
-from .ompl_backend import solve_with_ompl
 from .options import PlanOptions
 from .projection import project
 from .resolve import BoundConstraint, bind, set_goal_positions
@@ -238,6 +237,8 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             reason = problem.describe_violations(x) or problem.describe_collisions(x) or f"within {PLANNING_MARGIN} of a constraint boundary"
             return MotionResult(status=status, message=f"{name} is not valid for planning: {reason}", **blank)
     bounds = problem.robot.limits(problem.group)
+    from .ompl_backend import solve_with_ompl  # OMPL loads only when a motion is planned
+
     started = time.perf_counter()
     last_message = ""
     calls: dict[str, int] = {}

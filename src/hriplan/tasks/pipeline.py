@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -19,7 +20,6 @@ from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation, SituationHuman, SituationObject, SituationTask
 from hriplan.planner.motion import JointGoal, ToolGoal
 from hriplan.planner.options import PlanOptions
-from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
 from hriplan.robots.ik import solve_two_arms
 from hriplan.robots.model import arms_of
@@ -32,6 +32,9 @@ from hriplan.rules.instantiate import Context
 from .goals import ResolvedGoal, after_step, resolve_goal, task_kind
 from .model import Step, TaskFile, step_name
 from .world import TaskState, object_in_tool
+
+if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is planned
+    from hriplan.planner.session import PlanningSession
 
 Progress = Callable[[str], None]
 
@@ -144,6 +147,8 @@ class TaskRunner:
 
     def _session(self) -> PlanningSession:
         if self.session is None:
+            from hriplan.planner.session import PlanningSession
+
             self.progress("loading the robot and its collision model")
             self.session = PlanningSession(self.task.robot, hands=self.task.hands or None)
         return self.session
