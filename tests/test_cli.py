@@ -96,3 +96,29 @@ def test_constraints_and_help_do_not_import_the_planner():
     out = subprocess.run([sys.executable, "-c", probe, str(example)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert [line for line in out.stdout.splitlines() if line.startswith("loaded")] == ["loaded []", "loaded []"], out.stdout
+
+
+COMMANDS = ["solve", "view", "plot", "plan", "constraints", "explain", "query", "validate", "import-kautham", "schema",
+            "robot info", "robot urdf"]  # fmt: skip
+
+
+def test_help_has_examples_exit_codes_and_every_option_explained():
+    from typer.testing import CliRunner
+
+    from hriplan.cli.main import app
+
+    from typer.main import get_command
+
+    top = CliRunner().invoke(app, ["--help"]).stdout
+    assert "Examples:" in top and "Exit codes:" in top and "130" in top
+    root = get_command(app)
+    for command in COMMANDS:
+        text = CliRunner().invoke(app, [*command.split(), "--help"]).stdout
+        assert "<bool>" not in text, command
+        cmd = root
+        for part in command.split():
+            cmd = cmd.commands[part]
+        unexplained = [p.name for p in cmd.params if not getattr(p, "help", "x")]
+        assert not unexplained, (command, unexplained)
+    plan_help = CliRunner().invoke(app, ["plan", "--help"]).stdout
+    assert "--seed" in plan_help and "--project-start" in plan_help

@@ -28,7 +28,26 @@ def _version(value: bool) -> None:
 def main(
     version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")] = False,
 ) -> None:
-    """Safe human-robot collaboration planning."""
+    """Safe human-robot collaboration planning: constraints derived from an ontology and rules,
+    planned on a constrained OMPL planner, validated and timed.
+
+    \b
+    Examples:
+      hriplan constraints examples/handover_full_can.yaml      what each step must respect, and why
+      hriplan explain examples/handover_full_can.yaml          the rules and facts behind each one
+      hriplan plan examples/handover_full_can.yaml -o out/can.json --html out/can.html --plots out/plots
+      hriplan validate out/can.take_can.json                   re-check a trajectory densely
+      hriplan query --task examples/handover_full_can.yaml "SELECT ?c WHERE { ?h hp:isConstrainedBy ?c }"
+      hriplan import-kautham problem.xml --plan                a Kautham problem, converted and planned
+      hriplan robot info madar                                 joints, groups, limits, tool frames
+
+    \b
+    Exit codes:
+      0    success
+      1    planning or validation failed (one line on stderr says why)
+      2    bad input: a file, a field or an option (one line on stderr names it)
+      130  interrupted (Ctrl-C); nothing is left half written
+    """
 
 
 def _postures(items: list[str]) -> dict[str, str]:

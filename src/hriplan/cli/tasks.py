@@ -69,7 +69,7 @@ def plan(
     html: Annotated[Path | None, typer.Option("--html", help="Also write the 3D viewer of the whole task (one page, a step selector).")] = None,
     plots: Annotated[Path | None, typer.Option("--plots", help="Also write figures into this directory.")] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Planner seed (overrides the task's planning.seed).")] = None,
-    project_start: Annotated[bool | None, typer.Option("--project-start/--no-project-start", help="Move a start that violates a constraint onto it (overrides planning.project_start).", show_default=False)] = None,
+    project_start: Annotated[bool, typer.Option("--project-start", help="Move a start that violates a constraint onto it first (as planning.project_start).")] = False,
     quiet: Quiet = False,
     verbose: Verbose = False,
 ) -> None:
@@ -77,7 +77,7 @@ def plan(
     from hriplan.tasks.model import step_name
     from hriplan.tasks.summary import summarize
 
-    loaded = load_checked_task(task, seed, project_start)
+    loaded = load_checked_task(task, seed, project_start or None)
     output = file_output(output or Path("out") / f"{loaded.name}.json")
     several = len(loaded.steps) > 1
     paths = {step_name(s, k): file_output(_step_path(output, step_name(s, k), several)) for k, s in enumerate(loaded.steps)}
