@@ -136,7 +136,8 @@ def plan_motion(
 ) -> MotionResult:
     """Plan a constrained, collision-free motion of `group` from `start` to `goal`."""
     options = options or PlanOptions()
-    group = group or robot.default_group
+    # No group: a tool goal moves its own arm only, a joint goal the whole robot.
+    group = group or (robot.arm_group(goal.arm) if isinstance(goal, ToolGoal) else robot.default_group)
     joint_names = robot.group_joints(group)
     q_start = robot.configuration(start) if isinstance(start, dict) else robot.configuration(start, group)
     bound = bind(constraints, robot, checker)
