@@ -1,8 +1,8 @@
 """Command-line latency: what a user waits for, in fresh processes (imports included).
 
-Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_cli.py [--reps 5] [--src OTHER/src]
-(`--src` measures another checkout's code the same way, e.g. the code before a change, so the
-two can be compared under the same load.)
+Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_cli.py [--reps 5] [--src OTHER/src ...]
+(`--src` measures other checkouts' code too, e.g. the code before a change, each command for
+each checkout in turn, so that they are compared under the same load.)
 - help: `hriplan --help` (target <= 0.3 s).
 - constraints: warm `hriplan constraints examples/handover_full_can.yaml -q` (reasoning cached on
   disk by an untimed first run; target <= 1 s), and the same process's import time alone.
@@ -61,31 +61,33 @@ def imported(args: list[str], src: Path) -> tuple[float, list[str]]:
     return total, sorted(heavy)
 
 
-def row(name: str, times: list[float], target: float | None) -> str:
-    best, median = min(times), statistics.median(times)
-    verdict = "" if target is None else ("met" if median <= target else "missed")
-    return f"| {name} | {median:.2f} | {best:.2f} | {'' if target is None else f'<= {target}'} {verdict} |"
+def row(name: str, runs: list[list[float]], target: float | None) -> str:
+    cells = " | ".join(f"{statistics.median(times):.2f} (best {min(times):.2f})" for times in runs)
+    verdict = "" if target is None else f"<= {target}: {'met' if statistics.median(runs[0]) <= target else 'missed'}"
+    return f"| {name} | {cells} | {verdict} |"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reps", type=int, default=5)
-    parser.add_argument("--src", type=Path, default=SRC, help="the hriplan sources to measure")
+    parser.add_argument("--src", type=Path, nargs="*", default=[], help="other hriplan sources to measure alongside")
     args = parser.parse_args()
-    src, reps = args.src.resolve(), args.reps
+    sources, reps = [SRC, *(p.resolve() for p in args.src)], args.reps
     out = Path(tempfile.mkdtemp(prefix="hriplan-bench-cli-"))
-    print(f"sources: {src}; load average before: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores); {args.reps} runs each\n")
-    print("| command | median s | best s | target |\n|---|---|---|---|")
-    print(row("hriplan --help", timed(["--help"], reps, src), 0.3))
-    print(row("hriplan constraints (warm)", timed(["constraints", str(EXAMPLE), "-q"], reps, src), 1.0))
+    print(f"load average before: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores); {reps} runs each, fresh processes\n")
+    print("| command | " + " | ".join(f"{s.parent.name}/src: median s" for s in sources) + " | target |")
+    print("|---|" + "---|" * len(sources) + "---|")
     plan = ["plan", str(EXAMPLE), "-q", "-o", str(out / "can.json")]
-    print(row("hriplan plan, the demo's plan step (warm)", timed(plan, reps, src), 2.0))
     demo = [*plan, "--html", str(out / "can.html"), "--plots", str(out / "plots")]
-    print(row("make demo's whole command (warm)", timed(demo, max(1, reps // 2), src), None))
+    measured = (("hriplan --help", ["--help"], reps, 0.3), ("hriplan constraints (warm)", ["constraints", str(EXAMPLE), "-q"], reps, 1.0),
+                ("hriplan plan, the demo's plan step (warm)", plan, reps, 2.0), ("make demo's whole command (warm)", demo, max(1, reps // 2), None))  # fmt: skip
+    for name, command, n, target in measured:
+        print(row(name, [timed(command, n, src) for src in sources], target), flush=True)
     print(f"\nload average after: {os.getloadavg()[0]:.2f}\n")
-    for name, command in (("--help", ["--help"]), ("constraints", ["constraints", str(EXAMPLE), "-q"]), ("plan", plan)):
-        seconds, heavy = imported(command, src)
-        print(f"- {name}: imports {seconds:.2f} s; heavy modules loaded: {', '.join(heavy) or 'none'}")
+    for src in sources:
+        for name, command in (("--help", ["--help"]), ("constraints", ["constraints", str(EXAMPLE), "-q"]), ("plan", plan)):
+            seconds, heavy = imported(command, src)
+            print(f"- {src.parent.name}/src {name}: imports {seconds:.2f} s; heavy modules loaded: {', '.join(heavy) or 'none'}")
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ interrupted command removes the temporary files of the outputs it named.
 
 from __future__ import annotations
 
-import os
+import tempfile
 from pathlib import Path
 
 from hriplan import HriplanError
@@ -22,8 +22,11 @@ def _writable_folder(path: Path, option: str) -> None:
         if parent.exists():
             if not parent.is_dir():
                 raise HriplanError(f"{option} {path}: {parent} is a file, not a directory")
-            if not os.access(parent, os.W_OK | os.X_OK):
-                raise HriplanError(f"{option} {path}: cannot write into {parent}")
+            try:  # permissions alone do not tell (a read-only mount, /proc): try it
+                with tempfile.TemporaryFile(dir=parent):
+                    pass
+            except OSError as exc:
+                raise HriplanError(f"cannot write {path}: {exc.strerror or exc} ({parent})") from None
             return
 
 

@@ -11,6 +11,7 @@ import typer
 
 from hriplan import HriplanError
 from hriplan.cli.outputs import directory_output, file_output
+from hriplan.cli.progress import progress
 from hriplan.cli.tasks import Quiet, TaskOption, load_for_task
 
 TrajectoryArgument = Annotated[Path, typer.Argument(help="A trajectory file written by `hriplan plan` or `solve -o`.", show_default=False)]
@@ -27,7 +28,8 @@ def view(
 
     file_output(output)
     plan = load_for_task(trajectory, task, quiet)
-    with _writing(output):
+    with _writing(output), progress(quiet) as report:
+        report("drawing the robot, the people and the constraints")
         path = write_viewer(plan, output)
     typer.echo(f"viewer written to {path} ({path.stat().st_size / 1e6:.1f} MB); open it in a browser")
 
@@ -43,7 +45,8 @@ def plot(
 
     directory_output(output)
     plan = load_for_task(trajectory, task, quiet)
-    with _writing(output):
+    with _writing(output), progress(quiet) as report:
+        report("replaying the motion and drawing the figures")
         paths = write_plots(plan, output)
     typer.echo("\n".join(f"figure written to {p}" for p in paths))
 

@@ -41,7 +41,9 @@ def write_plots(trajectory: TrajectoryFile, out_dir: str | Path) -> list[Path]:
     paths = []
     for name, figure in figures.items():
         path = out / f"{name}.png"
-        figure.savefig(path, dpi=DPI)
+        tmp = path.with_name(path.name + ".tmp")  # a figure is whole or absent, even on Ctrl-C
+        figure.savefig(tmp, dpi=DPI, format="png")
+        tmp.replace(path)
         paths.append(path)
     return paths
 
