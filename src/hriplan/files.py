@@ -1,4 +1,5 @@
-"""Reading user files (task, problem, trajectory, query, rule, Kautham files) with one-line errors.
+"""Reading user files (task, problem, trajectory, query, rule, Kautham files) with one-line errors,
+and writing outputs whole or not at all.
 
 Every problem a file can have - missing, a directory, binary, not UTF-8, bad syntax, a key given
 twice, the wrong structure - becomes one `HriplanError` naming the file (and line or field).
@@ -76,6 +77,21 @@ def read_data(path: str | Path) -> Any:
     if not isinstance(data, dict):
         raise HriplanError(f"{path}: expected a mapping of fields at the top level, got {type(data).__name__}")
     return data
+
+
+def temporary_path(path: Path) -> Path:
+    """Where `path` is written before it is renamed into place (an interrupted command removes it)."""
+    return path.with_name(path.name + ".tmp")
+
+
+def write_atomically(path: str | Path, text: str) -> Path:
+    """Write `text` to `path` through a temporary file, so that a reader never sees half of it."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = temporary_path(path)
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)
+    return path
 
 
 def load_model(path: str | Path, model: type[M]) -> M:

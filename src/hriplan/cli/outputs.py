@@ -12,6 +12,7 @@ import tempfile
 from pathlib import Path
 
 from hriplan import HriplanError
+from hriplan.files import temporary_path
 
 _NAMED: list[Path] = []  # outputs of the running command, whose NAME.tmp an interrupt removes
 
@@ -48,22 +49,9 @@ def directory_output(path: Path, option: str = "--output") -> Path:
     return path
 
 
-def temporary(path: Path) -> Path:
-    """Where `path` is written before it is renamed into place."""
-    return path.with_name(path.name + ".tmp")
-
-
-def write_atomically(path: Path, text: str) -> None:
-    """Write `text` to `path` through a temporary file, so a reader never sees half of it."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = temporary(path)
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
-
-
 def remove_partial_outputs() -> None:
     """Remove the temporary files of the named outputs (and their directories' temporaries)."""
     for path in _NAMED:
-        candidates = [temporary(path)] + (list(path.glob("*.tmp")) if path.is_dir() else [])
+        candidates = [temporary_path(path)] + (list(path.glob("*.tmp")) if path.is_dir() else [])
         for tmp in candidates:
             tmp.unlink(missing_ok=True)

@@ -13,7 +13,7 @@ from typing import Annotated, Literal
 import typer
 
 from hriplan import HriplanError
-from hriplan.cli.outputs import directory_output, file_output, write_atomically
+from hriplan.cli.outputs import directory_output, file_output
 from hriplan.cli.progress import progress
 
 TaskArgument = Annotated[Path, typer.Argument(help="A task file (YAML or JSON).", show_default=False)]
@@ -214,6 +214,8 @@ def import_kautham(
     target = file_output(output or Path("out") / f"{problem.stem}.problem.json")
     if plan_it:
         file_output(target.with_suffix(".trajectory.json"))
+    from hriplan.files import write_atomically
+
     converted = convert(problem, rpy)
     write_atomically(target, converted.model_dump_json(indent=1))
     typer.echo(f"{len(converted.constraints.constraints)} constraints, group {converted.group}: wrote {target}")

@@ -24,6 +24,7 @@ from pathlib import Path
 import meshcat
 
 from hriplan import HriplanError
+from hriplan.files import write_atomically
 from hriplan.planner.trajectory import TrajectoryFile
 
 from .drawing import Drawing
@@ -151,12 +152,7 @@ def write_task_viewer(trajectories: list[TrajectoryFile], path: str | Path) -> P
         steps.append((trajectory.step or f"step{k + 1}", build_drawing(world), world.duration, legend_html(trajectory)))
     first = trajectories[0]
     title = f"hriplan: {first.task + ', ' if first.task else ''}{first.robot} plan"
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(render_page(steps, title), encoding="utf-8")
-    tmp.replace(path)
-    return path
+    return write_atomically(path, render_page(steps, title))
 
 
 def write_viewer(trajectory: TrajectoryFile, path: str | Path) -> Path:

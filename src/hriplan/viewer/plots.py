@@ -17,6 +17,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from hriplan.files import temporary_path
 from hriplan.planner.spec import OrientationConstraint
 from hriplan.planner.trajectory import TrajectoryFile
 
@@ -41,7 +42,7 @@ def write_plots(trajectory: TrajectoryFile, out_dir: str | Path) -> list[Path]:
     paths = []
     for name, figure in figures.items():
         path = out / f"{name}.png"
-        tmp = path.with_name(path.name + ".tmp")  # a figure is whole or absent, even on Ctrl-C
+        tmp = temporary_path(path)  # a figure is whole or absent, even on Ctrl-C
         figure.savefig(tmp, dpi=DPI, format="png")
         tmp.replace(path)
         paths.append(path)
