@@ -378,9 +378,11 @@ for _name, (_mutate, _says) in TRAJECTORY_MUTATIONS.items():
 
 @pytest.fixture(scope="session")
 def trajectory_text(tmp_path_factory) -> str:
-    """A real trajectory file (UR5, solved once), as text."""
-    out = tmp_path_factory.mktemp("traj") / "traj.json"
-    result = CliRunner().invoke(app, ["solve", str(SCENARIO), "--seed", "1", "-o", str(out)])
+    """A real trajectory file (UR5, solved once, with time to spare on a loaded machine), as text."""
+    where = tmp_path_factory.mktemp("traj")
+    (where / "p.json").write_text(problem(options__time_limit=60.0))
+    out = where / "traj.json"
+    result = CliRunner().invoke(app, ["solve", str(where / "p.json"), "--seed", "1", "-o", str(out)])
     assert result.exit_code == 0, result.output
     return out.read_text()
 
