@@ -12,7 +12,6 @@ import tempfile
 from pathlib import Path
 
 from hriplan import HriplanError
-from hriplan.files import temporary_path
 
 _NAMED: list[Path] = []  # outputs of the running command, whose NAME.tmp an interrupt removes
 
@@ -51,6 +50,8 @@ def directory_output(path: Path, option: str = "--output") -> Path:
 
 def remove_partial_outputs() -> None:
     """Remove the temporary files of the named outputs (and their directories' temporaries)."""
+    from hriplan.files import temporary_path  # (loads pydantic and yaml: not for `--help`)
+
     for path in _NAMED:
         candidates = [temporary_path(path)] + (list(path.glob("*.tmp")) if path.is_dir() else [])
         for tmp in candidates:
