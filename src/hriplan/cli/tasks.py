@@ -1,6 +1,7 @@
 """Task commands: plan, constraints, explain, query, validate, import-kautham, schema.
 
-Exit codes: 0 success, 1 planning (or validation) failed with the reason, 2 bad input.
+Exit codes: 0 success, 1 planning (or validation) failed with the reason, 2 bad input, 130
+interrupted. Outputs are checked before the work starts (`cli/outputs.py`).
 """
 
 from __future__ import annotations
@@ -43,9 +44,8 @@ def _runner(task_path: Path, report: Callable[[str], None], task=None):  # noqa:
 def load_for_task(trajectory: Path, task: Path | None, quiet: bool = True):  # noqa: ANN201
     """A trajectory file, with its step's constraints and scene taken from `task` if given."""
     from hriplan.planner.trajectory import load_trajectory
-    from hriplan.tasks.pipeline import against_task
-
     from hriplan.tasks.joints import check_joint_values
+    from hriplan.tasks.pipeline import against_task
 
     plan_file = load_trajectory(trajectory)
     check_joint_values(dict(zip(plan_file.joint_names, plan_file.points[0].positions)), plan_file.robot, f"{trajectory}: joint_names")
