@@ -8,8 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from hriplan.api import (ConeConstraint, FrameRef, HumanSpec, OrientationConstraint, PlanningSession, PlanOptions,
-                         Pose, Scene, ToolGoal, load_task, run_task, table)  # fmt: skip
-from hriplan.robots.postures import posture
+                         Pose, Scene, ToolGoal, load_task, posture, run_task, table)  # fmt: skip
 
 EXAMPLES = Path(__file__).parent
 
@@ -40,7 +39,8 @@ goal = goal.model_copy(update={"pose": Pose(xyz=tuple(hand + (0.0, -0.19, 0.0)),
 again = session.plan(start, goal, PlanOptions(seed=1))
 print("after bob moved:", again.status, f"{again.trajectory.report.planning_time:.3f} s")
 
-# A whole task on the same session: the rules derive the constraints of every step.
+# A whole task on the same session: the rules derive the constraints of every step (in the
+# task's world; the session's own scene and constraints are put back afterwards).
 outcome = run_task(load_task(EXAMPLES / "handover_full_can.yaml"), session)
 for step in outcome.steps:
     print(f"task step {step.name}: {step.status}, constraints: {[c.spec.id for c in step.derivation.constraints]}")

@@ -24,7 +24,10 @@ def test_robot_urdf_loads_back_in_pinocchio(madar):
     data = model.createData()
     pin.framesForwardKinematics(model, data, pin.neutral(model))
     assert np.allclose(data.oMf[model.getFrameId("right_wrist_3_link")].translation, (-0.3247, 0.1914, 0.8139), atol=1e-4)
-    geoms = pin.buildGeomFromUrdfString(model, out.stdout, pin.COLLISION)
+    assert "/site-packages/" not in out.stdout and "package://example-robot-data/robots/" in out.stdout
+    from hriplan.cli.urdf_export import package_root
+
+    geoms = pin.buildGeomFromUrdfString(model, out.stdout, pin.COLLISION, package_dirs=[str(package_root())])
     assert geoms.ngeoms > 30
 
 
@@ -71,3 +74,51 @@ def test_solve_failures_have_exit_codes(tmp_path):
     broken.write_text(json.dumps(problem))
     bad = run("solve", str(broken))
     assert bad.returncode == 2 and bad.stderr.startswith(f"error: {broken}: constraints.constraints.0.orientation.tolerance")
+
+
+HEAVY = ("ompl", "toppra", "scipy", "matplotlib", "meshcat", "hriplan.planner.session", "hriplan.planner.ompl_backend",
+         "hriplan.planner.timing")  # fmt: skip
+
+
+def test_constraints_and_help_do_not_import_the_planner():
+    """Latency: `constraints` reasons only; OMPL, TOPP-RA, scipy and matplotlib load when a motion is planned."""
+    probe = (
+        "import sys\n"
+        "from hriplan.cli.main import app\n"
+        "for argv in (['--help'], ['constraints', sys.argv[1], '-q']):\n"
+        "    try:\n"
+        "        app(argv, prog_name='hriplan')\n"
+        "    except SystemExit as exit:\n"
+        "        assert exit.code == 0, exit.code\n"
+        f"    print('loaded', sorted(m for m in {HEAVY!r} if m in sys.modules))\n"
+    )
+    example = __import__("pathlib").Path(__file__).parents[1] / "examples" / "handover_full_can.yaml"
+    out = subprocess.run([sys.executable, "-c", probe, str(example)], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert [line for line in out.stdout.splitlines() if line.startswith("loaded")] == ["loaded []", "loaded []"], out.stdout
+
+
+COMMANDS = ["solve", "view", "plot", "plan", "constraints", "explain", "query", "validate", "import-kautham", "schema",
+            "robot info", "robot urdf"]  # fmt: skip
+
+
+def test_help_has_examples_exit_codes_and_every_option_explained():
+    from typer.testing import CliRunner
+
+    from hriplan.cli.main import app
+
+    from typer.main import get_command
+
+    top = CliRunner().invoke(app, ["--help"]).stdout
+    assert "Examples:" in top and "Exit codes:" in top and "130" in top
+    root = get_command(app)
+    for command in COMMANDS:
+        text = CliRunner().invoke(app, [*command.split(), "--help"]).stdout
+        assert "<bool>" not in text, command
+        cmd = root
+        for part in command.split():
+            cmd = cmd.commands[part]
+        unexplained = [p.name for p in cmd.params if not getattr(p, "help", "x")]
+        assert not unexplained, (command, unexplained)
+    plan_help = CliRunner().invoke(app, ["plan", "--help"]).stdout
+    assert "--seed" in plan_help and "--project-start" in plan_help

@@ -92,3 +92,86 @@ def test_view_and_plot_take_reasons_from_the_task(planned, tmp_path):
     assert "A full open container spills" in html.read_text()
     plotted = run("plot", out / "handover.json", "--task", HANDOVER, "-o", tmp_path / "figs")
     assert plotted.returncode == 0 and (tmp_path / "figs" / "margins.png").stat().st_size > 10_000
+
+
+TWO_STEPS = ROOT / "examples" / "handover_full_can.yaml"
+
+
+def test_query_with_a_task_answers_for_every_step():
+    text = "SELECT ?kind WHERE { ?task hp:requiresConstraint ?kind } ORDER BY ?kind"
+    table = run("query", text, "--task", TWO_STEPS, "--format", "csv", "-q")
+    assert table.returncode == 0, table.stderr
+    rows = [line.split(",") for line in table.stdout.strip().splitlines()]
+    assert rows[0] == ["step", "kind"]
+    steps = {row[0] for row in rows[1:]}
+    assert steps == {"take_can", "place_can"}
+    take = {row[1].rsplit("#", 1)[-1] for row in rows[1:] if row[0] == "take_can"}
+    assert "ApproachCone" in take
+    one = run("query", text, "--task", TWO_STEPS, "--step", "place_can", "--format", "csv", "-q")
+    assert one.returncode == 0 and "step" not in one.stdout.splitlines()[0]
+
+
+def test_plan_of_a_task_writes_one_viewer_page_for_all_its_steps(tmp_path):
+    result = run("plan", TWO_STEPS, "-o", tmp_path / "can.json", "--html", tmp_path / "can.html", "--seed", "1", "-q")
+    assert result.returncode == 0, result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["can.html", "can.place_can.json", "can.take_can.json"]
+    html = (tmp_path / "can.html").read_text()
+    assert "step 1: take_can" in html and "step 2: place_can" in html and 'id="hriplan-commands-1"' in html
+
+
+def test_seed_and_project_start_reach_the_planner_from_the_file_and_the_command_line(tmp_path, monkeypatch):
+    from hriplan.cli.tasks import load_checked_task
+    from hriplan.planner.session import PlanningSession
+    from hriplan.tasks.pipeline import TaskRunner
+
+    task_file = tmp_path / "t.yaml"
+    task_file.write_text("robot: ur5\nsteps: [{goal: {joints: {elbow_joint: 1.0}}}]\nplanning: {seed: 3, project_start: true}\n")
+    from_file = load_checked_task(task_file)
+    assert (from_file.planning.seed, from_file.planning.project_start) == (3, True)
+    overridden = load_checked_task(task_file, seed=9)
+    assert (overridden.planning.seed, overridden.planning.project_start) == (9, True)
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def spy(self, start, goal, options=None, group=None, **kwargs):  # noqa: ANN001
+        seen.append(options)
+        raise Stop
+
+    monkeypatch.setattr(PlanningSession, "plan", spy)
+    with pytest.raises(Stop):
+        TaskRunner(overridden).run(plan=True)
+    assert (seen[0].seed, seen[0].project_start) == (9, True)
+
+
+def test_progress_plain_when_piped_live_on_a_terminal_silent_when_quiet():
+    piped = run("constraints", TWO_STEPS)
+    assert piped.returncode == 0
+    assert "... take_can: reasoning about the situation" in piped.stderr.splitlines()
+    quiet = run("constraints", TWO_STEPS, "-q")
+    assert quiet.returncode == 0 and quiet.stderr == ""
+
+    import os
+    import pty
+
+    master, slave = pty.openpty()
+    process = subprocess.Popen([sys.executable, "-m", "hriplan.cli", "constraints", str(TWO_STEPS)],
+                               stdout=subprocess.DEVNULL, stderr=slave, stdin=subprocess.DEVNULL)  # fmt: skip
+    os.close(slave)
+    seen = b""
+    while True:
+        try:
+            chunk = os.read(master, 4096)
+        except OSError:  # the terminal closed: the command is done
+            break
+        if not chunk:
+            break
+        seen += chunk
+    assert process.wait(timeout=300) == 0
+    text = seen.decode(errors="replace")
+    assert "take_can: reasoning about the situation" in text and "\x1b[" in text  # drawn live, with the elapsed time
+    import re
+
+    assert re.search(r"\d+\.\d s", text), text

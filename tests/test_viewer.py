@@ -24,7 +24,7 @@ from PIL import Image
 from hriplan.planner.problem import load_problem
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import TrajectoryFile
-from hriplan.viewer import write_plots, write_viewer
+from hriplan.viewer import write_plots, write_task_viewer, write_viewer
 from hriplan.viewer.scene import build_drawing
 from hriplan.planner.replay import PlannedWorld
 
@@ -253,6 +253,7 @@ def test_plots_one_real_figure_each(trajectory, tmp_path):
     paths = write_plots(trajectory, tmp_path / "figures")
     assert sorted(p.name for p in paths) == [
         "human_distance.png",
+        "joint_accelerations.png",
         "joint_positions.png",
         "joint_velocities.png",
         "margins.png",
@@ -265,6 +266,7 @@ def test_plots_one_real_figure_each(trajectory, tmp_path):
     assert [p.name for p in write_plots(alone, tmp_path / "alone")] == [
         "joint_positions.png",
         "joint_velocities.png",
+        "joint_accelerations.png",
         "margins.png",
     ]
 
@@ -286,7 +288,7 @@ def test_commands_write_files_and_reject_bad_input_in_one_line(trajectory, tmp_p
     trajectory.save(saved)
     made = run("plot", str(saved), "-o", str(tmp_path / "figures"))
     assert made.returncode == 0, made.stderr
-    assert made.stdout.count("figure written to") == 4
+    assert made.stdout.count("figure written to") == 5
     missing = run("view", str(tmp_path / "nope.json"), "-o", str(tmp_path / "plan.html"))
     assert missing.returncode == 2 and missing.stderr == f"error: {tmp_path / 'nope.json'}: no such file\n"
     wrong = run("view", str(SCENARIO), "-o", str(tmp_path / "plan.html"))  # a planning problem, not a trajectory
@@ -294,3 +296,74 @@ def test_commands_write_files_and_reject_bad_input_in_one_line(trajectory, tmp_p
     unwritable = run("view", str(saved), "-o", "/proc/plan.html")
     assert unwritable.returncode == 2 and unwritable.stderr.startswith("error: cannot write /proc/plan.html")
     assert not (tmp_path / "plan.html").exists()
+
+
+def test_joint_plots_are_scaled_to_each_joints_motion(trajectory):
+    """A joint that moves 0.1 rad gets axes about that tall, not its whole +-2 pi range."""
+    from hriplan.viewer.plots import _joints
+
+    world = PlannedWorld.load(trajectory)
+    for field in ("positions", "velocities", "accelerations"):
+        figure = _joints(world, field)
+        values = np.array([getattr(p, field) for p in trajectory.points])
+        for ax, column in zip(figure.axes, values.T):
+            low, high = ax.get_ylim()
+            span = column.max() - column.min()
+            assert low <= column.min() and high >= column.max()
+            assert high - low <= max(3.0 * span, 0.2) + 0.5, (field, ax.get_title(), low, high, span)
+
+
+def test_one_volume_per_place_however_many_constraints_share_it(trajectory):
+    """A keep-out bound for each arm is the same volume: drawn once, listed twice."""
+    keep_out = next(c for c in trajectory.constraints if c.spec.type != "orientation")
+    twin = keep_out.model_copy(update={"spec": keep_out.spec.model_copy(update={"id": "twin", "target_link": "right_wrist_3_link"})})
+    doubled = trajectory.model_copy(update={"constraints": [*trajectory.constraints, twin]})
+    drawing = build_drawing(PlannedWorld.load(doubled))
+    drawn = {c.path.lower().split("/")[2] for c in drawing.commands if isinstance(c, SetObject) and "/constraints/" in c.path.lower()}
+    assert keep_out.spec.id.lower() in drawn and "twin" not in drawn
+
+
+def _two_steps(trajectory: TrajectoryFile) -> list[TrajectoryFile]:
+    return [trajectory.model_copy(update={"task": "demo", "step": name}) for name in ("reach", "back")]
+
+
+def test_a_task_is_one_page_with_a_step_selector(browser, trajectory, tmp_path):
+    page = write_task_viewer(_two_steps(trajectory), tmp_path / "task.html")
+    html = page.read_text()
+    assert [p.name for p in tmp_path.iterdir()] == ["task.html"]
+    assert '<option value="0">step 1: reach</option><option value="1">step 2: back</option>' in html
+    assert "worst margin" in html and " m</span>" in html and "0 or below (negative) means kept" in html
+    url = page.resolve().as_uri()
+    browser.page("Page.navigate", url=f"{url}#step=1&t=0")
+    browser.wait_for("document.body && document.body.dataset.shownTime === '0'")
+    shown = browser.evaluate("[document.getElementById('hriplan-step').value, "
+                             "[...document.querySelectorAll('.hriplan-step-legend')].map(l => l.hidden)]")  # fmt: skip
+    assert shown == ["1", [True, False]]
+    assert browser.problems() == []
+
+
+PROJECT_ROBOT = """(() => {  // screen positions of every robot part and scene object, and the legend's box
+  const T = MeshCat.THREE;
+  const project = o => { const p = o.getWorldPosition(new T.Vector3()).project(viewer.camera);
+                         return [(p.x + 1) / 2 * innerWidth, (1 - p.y) / 2 * innerHeight]; };
+  const under = name => Object.values(viewer.scene_tree.find([name]).children).map(c => project(c.object));
+  const box = document.querySelector('.hriplan-step-legend:not([hidden]) details').getBoundingClientRect();
+  return {robot: under("robot"), scene: under("scene"), legend: [box.left, box.top, box.right, box.bottom]};
+})()"""
+
+
+def test_at_1024x700_the_legend_leaves_the_robot_and_the_objects_in_view(trajectory, tmp_path):
+    if CHROMIUM is None:
+        pytest.skip("chromium is not installed")
+    page = write_viewer(trajectory, tmp_path / "plan.html")
+    small = Browser(1024, 700)
+    try:
+        small.page("Page.navigate", url=f"{page.resolve().as_uri()}#t=0")
+        small.wait_for("document.body && document.body.dataset.shownTime === '0'")
+        seen = small.evaluate(PROJECT_ROBOT)
+    finally:
+        small.close()
+    left, top, right, bottom = seen["legend"]
+    covered = [p for p in seen["robot"] if left <= p[0] <= right and top <= p[1] <= bottom]
+    assert not covered, f"{len(covered)} of {len(seen['robot'])} robot parts under the legend"
+    assert all(0 <= x <= 1024 and 0 <= y <= 700 for x, y in seen["robot"] + seen["scene"])

@@ -9,6 +9,11 @@
 
     outcome = run_task(load_task("examples/handover_full_can.yaml"), session)  # rules decide
 
+A `ToolGoal(arm="right")` planned without a `group` moves that arm only; a `JointGoal` without
+one moves the whole robot. Named start postures: `posture("madar", "ready")` (`POSTURES` lists
+them); frames a constraint can be anchored at on a person: `FrameRef(entity="bob/right_hand")`,
+with `PERSON_FRAMES` the frame names every person has.
+
 Threads: a session is not thread-safe, and neither are two sessions of the same robot in two
 threads (robots are shared per description, OMPL's seed is global). Plan from one thread, or
 use one process per planner (OMPL's solve holds the GIL, so threads would not run in parallel
@@ -25,8 +30,9 @@ from hriplan.planner.session import PlanningSession, PlanResult
 from hriplan.planner.spec import (BoxConstraint, ConeConstraint, ConstraintSet, CylinderConstraint, FrameRef,
                                   OrientationConstraint, SphereConstraint)  # fmt: skip
 from hriplan.planner.trajectory import TrajectoryFile, load_trajectory
-from hriplan.robots.human import HumanSpec
+from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
+from hriplan.robots.postures import POSTURES, posture
 from hriplan.robots.scene import AttachedObject, Box, Capsule, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.load import load_task
@@ -34,15 +40,32 @@ from hriplan.tasks.model import TaskFile
 from hriplan.tasks.pipeline import TaskOutcome, TaskRunner
 
 
-def run_task(task: TaskFile, session: PlanningSession | None = None, base_dir: str | Path = ".") -> TaskOutcome:
-    """Derive every step's constraints with the rules and plan it, on `session` if given."""
-    return TaskRunner(task, Path(base_dir), session=session).run(plan=True)
+PERSON_FRAMES: tuple[str, ...] = Human.FRAMES
+
+
+def run_task(task: TaskFile, session: PlanningSession | None = None, base_dir: str | Path = ".", *,
+             keep_task_world: bool = False) -> TaskOutcome:  # fmt: skip
+    """Derive every step's constraints with the rules and plan it, on `session` if given.
+
+    Planning a task plans it in the task's world: for each step the session's scene (people,
+    objects, tables) and constraints are those of the task. Afterwards the session's own scene
+    and constraints are put back, unless `keep_task_world` is True (then the last step's stay).
+    """
+    if session is None:
+        return TaskRunner(task, Path(base_dir)).run(plan=True)
+    scene, constraints = session.checker.scene, list(session.constraints.values())
+    try:
+        return TaskRunner(task, Path(base_dir), session=session).run(plan=True)
+    finally:
+        if not keep_task_world:
+            session.set_scene(scene)
+            session.set_constraints(constraints)
 
 
 __all__ = [
     "AttachedObject", "Box", "BoxConstraint", "Capsule", "ConeConstraint", "ConstraintSet", "Cylinder",
     "CylinderConstraint", "FrameRef", "HumanSpec", "JointGoal", "MotionResult", "Obstacle", "OrientationConstraint",
-    "PlanOptions", "PlanResult", "PlanningSession", "Pose", "Scene", "Sphere", "SphereConstraint", "TaskFile",
+    "PERSON_FRAMES", "POSTURES", "PlanOptions", "PlanResult", "PlanningSession", "Pose", "Scene", "Sphere", "SphereConstraint", "TaskFile",
     "TaskOutcome", "TaskRunner", "ToolGoal", "TrajectoryFile", "load_robot", "load_task", "load_trajectory",
-    "run_task", "table",
+    "posture", "run_task", "table",
 ]  # fmt: skip

@@ -1,4 +1,9 @@
-"""Reading pydantic-validated files with errors that name the file and the field."""
+"""Reading user files (task, problem, trajectory, query, rule, Kautham files) with one-line errors,
+and writing outputs whole or not at all.
+
+Every problem a file can have - missing, a directory, binary, not UTF-8, bad syntax, a key given
+twice, the wrong structure - becomes one `HriplanError` naming the file (and line or field).
+"""
 
 from __future__ import annotations
 
@@ -14,20 +19,79 @@ from hriplan import HriplanError
 M = TypeVar("M", bound=BaseModel)
 
 
-def read_data(path: str | Path) -> Any:
-    """The content of a JSON file (`.json`) or a YAML file (anything else)."""
+def read_text(path: str | Path, what: str = "file") -> str:
+    """The UTF-8 text of a file; a missing file, a directory or binary content is a user error."""
     path = Path(path)
     try:
-        text = path.read_text()
-    except (FileNotFoundError, IsADirectoryError):
+        data = path.read_bytes()
+    except FileNotFoundError:
         raise HriplanError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise HriplanError(f"{path}: is a directory, not a {what}") from None
+    except OSError as exc:
+        raise HriplanError(f"{path}: cannot read it ({exc.strerror or exc})") from None
+    if b"\x00" in data:
+        raise HriplanError(f"{path}: not a text file (binary content), expected a {what}")
     try:
-        return json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise HriplanError(f"{path}: line {line}: not valid UTF-8 text (byte {data[exc.start]:#04x})") from None
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """YAML's safe loader, refusing a key given twice in one mapping (YAML would keep the last)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
+        seen: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            line = key_node.start_mark.line + 1
+            if key in seen:
+                raise HriplanError(f"line {line}: key {key!r} is given twice (first at line {seen[key]})")
+            seen[key] = line
+        return super().construct_mapping(node, deep)
+
+
+def _reject_constant(name: str) -> float:
+    raise ValueError(f"{name} is not a number JSON allows")
+
+
+def read_data(path: str | Path) -> Any:
+    """The content of a JSON file (`.json`) or a YAML file (anything else), which must be a mapping."""
+    path = Path(path)
+    text = read_text(path, "JSON file" if path.suffix == ".json" else "YAML file")
+    if not text.strip():
+        raise HriplanError(f"{path}: the file is empty")
+    try:
+        data = json.loads(text, parse_constant=_reject_constant) if path.suffix == ".json" else yaml.load(text, _UniqueKeyLoader)  # noqa: S506 - a safe loader
+    except HriplanError as exc:  # a key given twice
+        raise HriplanError(f"{path}: {exc}") from None
     except json.JSONDecodeError as exc:
         raise HriplanError(f"{path}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
+    except ValueError as exc:  # a NaN or Infinity constant in JSON
+        raise HriplanError(f"{path}: not valid JSON ({exc})") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         raise HriplanError(f"{path}: line {mark.line + 1 if mark else '?'}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+    if not isinstance(data, dict):
+        raise HriplanError(f"{path}: expected a mapping of fields at the top level, got {type(data).__name__}")
+    return data
+
+
+def temporary_path(path: Path) -> Path:
+    """Where `path` is written before it is renamed into place (an interrupted command removes it)."""
+    return path.with_name(path.name + ".tmp")
+
+
+def write_atomically(path: str | Path, text: str) -> Path:
+    """Write `text` to `path` through a temporary file, so that a reader never sees half of it."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = temporary_path(path)
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)
+    return path
 
 
 def load_model(path: str | Path, model: type[M]) -> M:
@@ -37,5 +101,14 @@ def load_model(path: str | Path, model: type[M]) -> M:
         return model.model_validate(data)
     except ValidationError as exc:
         first = exc.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "(top level)"
-        raise HriplanError(f"{path}: {where}: {first['msg']}") from None
+        raise HriplanError(f"{path}: {error_location(first['loc'])}: {first['msg'].removeprefix('Value error, ')}") from None
+
+
+def error_location(loc: tuple[int | str, ...]) -> str:
+    """`steps.0.goal.joints` for a pydantic error location: a goal's union tag, which repeats the
+    goal's key (`goal.joints.joints`), is dropped."""
+    def is_tag(k: int) -> bool:
+        after_goal = loc[k - 1] == "goal" or (k > 1 and loc[k - 2] == "goals")
+        return 0 < k < len(loc) - 1 and loc[k + 1] == loc[k] and after_goal
+
+    return ".".join(str(p) for k, p in enumerate(loc) if not is_tag(k)) or "(top level)"

@@ -1,16 +1,29 @@
-"""One rule for every command: bad input is one line on stderr and exit code 2."""
+"""One rule for every command: bad input is one line on stderr and exit code 2; Ctrl-C exit 130.
+
+`clear_errors` maps a `HriplanError` to `error: ...`; `OneLineErrors` does the same for the
+command line itself (a missing argument, an unknown option) and makes Ctrl-C stop at once, even
+inside OMPL's solve, which never returns to Python's own KeyboardInterrupt handling.
+"""
 
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
-from typing import TypeVar
+import os
+import signal
+import sys
+import threading
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
 
 import typer
+from typer._click import exceptions as click_errors  # typer vendors click: its exceptions live here
+from typer.core import TyperGroup
 
 from hriplan import HriplanError
+from hriplan.cli.outputs import remove_partial_outputs
 
 F = TypeVar("F", bound=Callable)
+INTERRUPTED = 130  # 128 + SIGINT, what a shell reports for Ctrl-C
 
 
 def clear_errors(func: F) -> F:
@@ -25,3 +38,38 @@ def clear_errors(func: F) -> F:
             raise typer.Exit(2) from None
 
     return wrapper  # type: ignore[return-value]
+
+
+def _interrupted(signum: int, frame: object) -> None:  # noqa: ARG001 - a signal handler's signature
+    """Ctrl-C: drop what is half written and leave now (long C++ stages would not see an exception)."""
+    remove_partial_outputs()
+    sys.stderr.write("interrupted\n")
+    sys.stderr.flush()
+    os._exit(INTERRUPTED)
+
+
+class OneLineErrors(TyperGroup):
+    """The root command: usage errors as one line, Ctrl-C as exit 130 with nothing half written."""
+
+    def main(self, args: Sequence[str] | None = None, prog_name: str | None = None, complete_var: str | None = None,
+             standalone_mode: bool = True, **extra: Any) -> Any:  # noqa: ANN401 - click's signature
+        on_main_thread = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGINT, _interrupted) if on_main_thread else None
+        try:
+            code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click_errors.NoArgsIsHelpError as exc:
+            exc.show()
+            code = exc.exit_code
+        except click_errors.ClickException as exc:
+            where = f" (see '{exc.ctx.command_path} --help')" if getattr(exc, "ctx", None) else ""
+            typer.echo(f"error: {exc.format_message()}{where}", err=True)
+            code = exc.exit_code
+        except click_errors.Abort:
+            typer.echo("interrupted", err=True)
+            code = INTERRUPTED
+        finally:
+            if on_main_thread:
+                signal.signal(signal.SIGINT, previous)
+        if not standalone_mode:
+            return code
+        sys.exit(code if isinstance(code, int) else 0)

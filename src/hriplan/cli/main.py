@@ -9,13 +9,14 @@ from typing import Annotated
 import typer
 
 from hriplan import HriplanError, __version__
-from hriplan.cli.errors import clear_errors
+from hriplan.cli.errors import OneLineErrors, clear_errors
 from hriplan.cli.tasks import TASK_COMMANDS
 from hriplan.cli.serve import serve
 from hriplan.cli.view import plot, view
 
-app = typer.Typer(help="Safe human-robot collaboration planning.", no_args_is_help=True, add_completion=False)
-robot_app = typer.Typer(help="Inspect the robot models.", no_args_is_help=True)
+app = typer.Typer(cls=OneLineErrors, no_args_is_help=True, add_completion=False, rich_markup_mode=None,
+                  pretty_exceptions_enable=False)
+robot_app = typer.Typer(help="Inspect the robot models.", no_args_is_help=True, rich_markup_mode=None)
 app.add_typer(robot_app, name="robot")
 
 def _version(value: bool) -> None:
@@ -28,7 +29,26 @@ def _version(value: bool) -> None:
 def main(
     version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")] = False,
 ) -> None:
-    """Safe human-robot collaboration planning."""
+    """Safe human-robot collaboration planning: constraints derived from an ontology and rules,
+    planned on a constrained OMPL planner, validated and timed.
+
+    \b
+    Examples:
+      hriplan constraints examples/handover_full_can.yaml      what each step must respect, and why
+      hriplan explain examples/handover_full_can.yaml          the rules and facts behind each one
+      hriplan plan examples/handover_full_can.yaml -o out/can.json --html out/can.html --plots out/plots
+      hriplan validate out/can.take_can.json                   re-check a trajectory densely
+      hriplan query --task examples/handover_full_can.yaml "SELECT ?c WHERE { ?h hp:isConstrainedBy ?c }"
+      hriplan import-kautham problem.xml --plan                a Kautham problem, converted and planned
+      hriplan robot info madar                                 joints, groups, limits, tool frames
+
+    \b
+    Exit codes:
+      0    success
+      1    planning or validation failed (one line on stderr says why)
+      2    bad input: a file, a field or an option (one line on stderr names it)
+      130  interrupted (Ctrl-C); nothing is left half written
+    """
 
 
 def _postures(items: list[str]) -> dict[str, str]:
@@ -44,10 +64,18 @@ def _postures(items: list[str]) -> dict[str, str]:
 HandOption = Annotated[list[str], typer.Option("--hand", help="Hand posture, SIDE=open|power|pinch (repeatable).")]
 
 
+RobotName = Annotated[str | None, typer.Argument(help="madar or ur5 (none: list the robots).", show_default=False)]
+
+
 @robot_app.command("info")
 @clear_errors
-def robot_info(name: str, hand: HandOption = []) -> None:  # noqa: B006 - typer needs a literal default
-    """Joints, groups, limits, tool frames and collision parts of a robot."""
+def robot_info(name: RobotName = None, hand: HandOption = []) -> None:  # noqa: B006 - typer needs a literal default
+    """Joints, groups, limits, tool frames and collision parts of a robot (no name: the robots)."""
+    from hriplan.robots.descriptions import DESCRIPTIONS
+
+    if name is None:
+        typer.echo("robots: " + ", ".join(DESCRIPTIONS) + " (hriplan robot info NAME for one)")
+        return
     from hriplan.robots.info import describe
     from hriplan.robots.model import load_robot
 
@@ -56,13 +84,21 @@ def robot_info(name: str, hand: HandOption = []) -> None:  # noqa: B006 - typer 
 
 @robot_app.command("urdf")
 @clear_errors
-def robot_urdf(name: str) -> None:
-    """Print the assembled robot as URDF (pinocchio loads it back)."""
+def robot_urdf(
+    name: Annotated[str, typer.Argument(help="madar or ur5.", show_default=False)],
+    mesh_dir: Annotated[Path | None, typer.Option("--mesh-dir", help="Write mesh paths into this copy of example-robot-data's robots/ folder.")] = None,
+) -> None:
+    """Print the assembled robot as URDF, meshes as package://example-robot-data/robots/... URIs.
+
+    The package root (for ROS_PACKAGE_PATH, or pinocchio's package_dirs) is the folder that holds
+    example-robot-data/: `python -c "from hriplan.cli.urdf_export import package_root; print(package_root())"`.
+    """
+    from hriplan.cli.urdf_export import portable_urdf
     from hriplan.robots.descriptions import DESCRIPTIONS
 
     if name not in DESCRIPTIONS:
         raise HriplanError(f"unknown robot {name!r}; known robots: {', '.join(DESCRIPTIONS)}")
-    sys.stdout.write(DESCRIPTIONS[name]() + "\n")
+    sys.stdout.write(portable_urdf(DESCRIPTIONS[name](), mesh_dir) + "\n")
 
 
 @app.command()

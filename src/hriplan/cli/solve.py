@@ -6,15 +6,23 @@ from pathlib import Path
 
 import typer
 
+from hriplan.cli.outputs import file_output
+from hriplan.planner.motion import JointGoal
 from hriplan.planner.problem import load_problem
 from hriplan.planner.session import PlanningSession
 from hriplan.rules.separation import default_policy
+from hriplan.tasks.joints import check_joint_values
 from hriplan.tasks.summary import separation_phrase
 
 
 def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_json: bool) -> int:
     """Exit code: 0 solved, 1 planning failed (with the reason)."""
+    if output is not None:
+        file_output(output)
     problem = load_problem(path)
+    check_joint_values(problem.start, problem.robot, f"{path}: start")
+    if isinstance(problem.goal, JointGoal) and isinstance(problem.goal.values, dict):
+        check_joint_values(problem.goal.values, problem.robot, f"{path}: goal")
     session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
     session.set_constraints(problem.constraints)
     options = problem.options if seed is None else problem.options.model_copy(update={"seed": seed})

@@ -10,35 +10,43 @@ from typing import Annotated
 import typer
 
 from hriplan import HriplanError
-from hriplan.cli.tasks import TaskOption, load_for_task
+from hriplan.cli.outputs import directory_output, file_output
+from hriplan.cli.progress import progress
+from hriplan.cli.tasks import Quiet, TaskOption, load_for_task
 
-TrajectoryArgument = Annotated[Path, typer.Argument(help="A trajectory file written by `hriplan solve -o`.")]
+TrajectoryArgument = Annotated[Path, typer.Argument(help="A trajectory file written by `hriplan plan` or `solve -o`.", show_default=False)]
 
 
 def view(
     trajectory: TrajectoryArgument,
-    output: Annotated[Path, typer.Option("-o", "--output", help="The HTML file to write.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="The HTML file to write.", show_default=False)],
     task: TaskOption = None,
+    quiet: Quiet = False,
 ) -> None:
     """Write an offline 3D viewer of a plan: robot, people, scene, constraints, path, animation."""
     from hriplan.viewer import write_viewer
 
-    plan = load_for_task(trajectory, task, quiet=True)
-    with _writing(output):
+    file_output(output)
+    plan = load_for_task(trajectory, task, quiet)
+    with _writing(output), progress(quiet) as report:
+        report("drawing the robot, the people and the constraints")
         path = write_viewer(plan, output)
     typer.echo(f"viewer written to {path} ({path.stat().st_size / 1e6:.1f} MB); open it in a browser")
 
 
 def plot(
     trajectory: TrajectoryArgument,
-    output: Annotated[Path, typer.Option("-o", "--output", help="The directory for the figures.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="The directory for the figures.", show_default=False)],
     task: TaskOption = None,
+    quiet: Quiet = False,
 ) -> None:
-    """Write figures of a plan: constraint margins, joint positions and velocities, distance to people."""
+    """Write figures of a plan: constraint margins, joint positions, velocities, accelerations, distance to people."""
     from hriplan.viewer import write_plots
 
-    plan = load_for_task(trajectory, task, quiet=True)
-    with _writing(output):
+    directory_output(output)
+    plan = load_for_task(trajectory, task, quiet)
+    with _writing(output), progress(quiet) as report:
+        report("replaying the motion and drawing the figures")
         paths = write_plots(plan, output)
     typer.echo("\n".join(f"figure written to {p}" for p in paths))
 

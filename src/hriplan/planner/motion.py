@@ -26,7 +26,6 @@ from hriplan.robots.spatial import Pose
 from .arm_shortcut import arm_subgroups, straighten_arms
 from .evaluator import ConstraintEvaluator
 from .keep_out import keep_out_obstacles
-from .ompl_backend import solve_with_ompl
 from .options import PlanOptions, check_options
 from .projection import project
 from .resolve import BoundConstraint, bind, set_goal_positions
@@ -143,7 +142,8 @@ def plan_motion(
 ) -> MotionResult:
     """Plan a constrained, collision-free motion of `group` from `start` to `goal`."""
     options = options or PlanOptions()
-    group = group or robot.default_group
+    # No group: a tool goal moves its own arm only, a joint goal the whole robot.
+    group = group or (robot.arm_group(goal.arm) if isinstance(goal, ToolGoal) else robot.default_group)
     joint_names = robot.group_joints(group)
     q_start = robot.configuration(start) if isinstance(start, dict) else robot.configuration(start, group)
     check_options(options)
@@ -249,6 +249,8 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             reason = problem.describe_violations(x) or problem.describe_collisions(x) or f"within {PLANNING_MARGIN} of a constraint boundary"
             return MotionResult(status=status, message=f"{name} is not valid for planning: {reason}", **blank)
     bounds = problem.robot.limits(problem.group)
+    from .ompl_backend import solve_with_ompl  # OMPL loads only when a motion is planned
+
     started = time.perf_counter()
     last_message = ""
     calls: dict[str, int] = {}

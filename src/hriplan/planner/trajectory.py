@@ -8,9 +8,9 @@ robot-human distance. The schema is versioned.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hriplan.files import load_model
 from hriplan.robots.scene import Scene
@@ -22,11 +22,14 @@ SCHEMA = "hriplan.trajectory"
 SCHEMA_VERSION = 1
 
 
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+
+
 class TrajectoryPoint(BaseModel):
-    time_from_start: float
-    positions: list[float]
-    velocities: list[float]
-    accelerations: list[float]
+    time_from_start: Finite
+    positions: list[Finite]
+    velocities: list[Finite]
+    accelerations: list[Finite]
 
 
 class ResolvedConstraint(BaseModel):
@@ -92,6 +95,23 @@ class TrajectoryFile(BaseModel):
     points: list[TrajectoryPoint]
     constraints: list[ResolvedConstraint]
     report: TrajectoryReport
+
+    @model_validator(mode="after")
+    def _a_motion(self) -> "TrajectoryFile":
+        """At least two points, one value per joint each, times from 0 strictly increasing."""
+        if len(self.points) < 2:
+            raise ValueError(f"a trajectory needs at least 2 points, got {len(self.points)}")
+        n = len(self.joint_names)
+        for k, p in enumerate(self.points):
+            if not len(p.positions) == len(p.velocities) == len(p.accelerations) == n:
+                raise ValueError(f"points.{k}: positions, velocities and accelerations need one value per joint ({n})")
+        if self.points[0].time_from_start != 0.0:
+            raise ValueError(f"points.0: time_from_start is {self.points[0].time_from_start}, a trajectory starts at 0")
+        for k in range(1, len(self.points)):
+            if self.points[k].time_from_start <= self.points[k - 1].time_from_start:
+                raise ValueError(f"points.{k}: time_from_start {self.points[k].time_from_start} does not come after "
+                                 f"{self.points[k - 1].time_from_start} (times must increase)")  # fmt: skip
+        return self
 
     def save(self, path: str | Path) -> None:
         """Write atomically: a partly written trajectory never replaces a good one."""

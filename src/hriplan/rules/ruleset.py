@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hriplan import HriplanError
+from hriplan.files import read_text
 
 RULES_DIR = Path(__file__).parent
 BUILTIN_PREFIX = "swrlb:"
@@ -109,10 +110,7 @@ def load_rules(extra_files: Sequence[str | Path] = ()) -> tuple[Rule, ...]:
     rules: list[Rule] = []
     seen: dict[str, str] = {}
     for path in files:
-        try:
-            text = path.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise HriplanError(f"cannot read rule file {path}: {exc.strerror or exc}") from None
+        text = read_text(path, "rule file")
         for rule in _parsed(text, str(path)):
             if rule.name in seen:
                 raise HriplanError(f"{rule.source}: rule name {rule.name!r} is already used at {seen[rule.name]}")
@@ -163,8 +161,18 @@ def _entry(entry: tuple[int, list[str]], comments: list[str], filename: str) -> 
     if not _NAME.match(name):
         raise HriplanError(f"{source}: rule name {name!r} must be letters, digits and '_'")
     rationale = " ".join(c for c in comments if c)
+    missing = f"rule {name!r} needs a '#' comment line just above it giving its rationale"
+    try:
+        rule = _rule(name, rationale, text, source)
+    except HriplanError as exc:
+        raise HriplanError(f"{exc}; also, {missing}" if not rationale else str(exc)) from None
     if not rationale:
-        raise HriplanError(f"{source}: rule {name!r} needs a '#' comment line just above it giving its rationale")
+        raise HriplanError(f"{source}: {missing}")
+    return rule
+
+
+def _rule(name: str, rationale: str, text: str, source: str) -> Rule:
+    """The rule an entry's text states; a syntax error names the rule and its line."""
     where = f"{source}: rule {name!r}"
     if text.count("->") != 1:
         raise HriplanError(f"{where}: write exactly one '->' between body and head")

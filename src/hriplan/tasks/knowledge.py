@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 
 import rdflib
+from rdflib.query import Result
 
 from hriplan import HriplanError
 from hriplan.ontology.knowledge_base import KnowledgeBase
@@ -23,6 +24,24 @@ def knowledge_base_for(runner: TaskRunner, step: str | None) -> KnowledgeBase:
     if step not in bases:
         raise HriplanError(f"the task has no step {step!r}; steps: {', '.join(bases)}")
     return bases[step]
+
+
+def query_every_step(runner: TaskRunner, text: str) -> QueryResult:
+    """A SELECT query answered at every step of the task, its rows led by a `step` column
+    (other query forms: the first step's answer)."""
+    runner.run(plan=False)
+    answers = {step: kb.query(text) for step, kb in runner.knowledge_bases.items()}
+    first = next(iter(answers.values()))
+    if first.form != "SELECT":
+        return first
+    combined = Result("SELECT")
+    combined.vars = [rdflib.Variable("step"), *(rdflib.Variable(v) for v in first.variables)]
+    combined.bindings = [
+        {rdflib.Variable("step"): rdflib.Literal(step)}
+        | {rdflib.Variable(v): term for v, term in zip(answer.variables, row) if term is not None}
+        for step, answer in answers.items() for row in answer.rows
+    ]  # fmt: skip
+    return QueryResult(combined, next(iter(runner.knowledge_bases.values())).graph.namespace_manager)
 
 
 @functools.cache

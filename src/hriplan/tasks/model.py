@@ -11,20 +11,22 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationError, model_validator
 
+from hriplan.files import error_location
 from hriplan.ontology.situation import FillLevel, Name, Role
-from hriplan.planner.options import PLANNERS, Space
+from hriplan.planner.options import PLANNERS, PlanOptions, Space
 from hriplan.planner.spec import Axis
 from hriplan.robots.human import HumanSpec, Side
 from hriplan.robots.scene import Obstacle, Shape
 from hriplan.robots.spatial import Pose
 
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+Finite = Annotated[float, Field(allow_inf_nan=False)]
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class TaskObject(_Strict):
@@ -52,6 +54,8 @@ class TaskObject(_Strict):
 class TaskHuman(HumanSpec):
     """A person (HumanSpec: posture, position, yaw, height, reach, margin) and their role."""
 
+    model_config = ConfigDict(allow_inf_nan=False)
+
     name: Name
     role: Role
     hand: Side = "right"
@@ -73,11 +77,11 @@ class Start(_Strict):
     """Named posture, then joint values on top of it."""
 
     posture: Literal["home", "ready"] = "ready"
-    joints: dict[str, float] = Field(default_factory=dict)
+    joints: dict[str, Finite] = Field(default_factory=dict)
 
 
 class JointsGoal(_Strict):
-    joints: dict[str, float]
+    joints: dict[str, Finite]
 
 
 class ToolPoseGoal(_Strict):
@@ -110,7 +114,27 @@ class InsertGoal(_Strict):
     into: Name
 
 
-Goal = JointsGoal | ToolPoseGoal | GraspGoal | HandOverGoal | TakeGoal | PlaceGoal | InsertGoal
+GOAL_KINDS = {"joints": JointsGoal, "tool_pose": ToolPoseGoal, "grasp": GraspGoal, "hand_over": HandOverGoal,
+              "take": TakeGoal, "place": PlaceGoal, "insert": InsertGoal}  # fmt: skip
+
+
+def _goal_kind(value: object) -> str | None:
+    """Which goal a mapping means, by its key (`joints`, `grasp`, ...), so errors are that goal's."""
+    if isinstance(value, BaseModel):
+        return next(k for k, cls in GOAL_KINDS.items() if isinstance(value, cls))
+    if not isinstance(value, dict):
+        return None
+    kinds = [k for k in GOAL_KINDS if k in value]
+    return kinds[0] if len(kinds) == 1 else None
+
+
+Goal = Annotated[
+    Annotated[JointsGoal, Tag("joints")] | Annotated[ToolPoseGoal, Tag("tool_pose")] | Annotated[GraspGoal, Tag("grasp")]
+    | Annotated[HandOverGoal, Tag("hand_over")] | Annotated[TakeGoal, Tag("take")] | Annotated[PlaceGoal, Tag("place")]
+    | Annotated[InsertGoal, Tag("insert")],
+    Discriminator(_goal_kind, custom_error_type="goal_kind",
+                  custom_error_message=f"a goal is a mapping with exactly one of the keys {', '.join(GOAL_KINDS)}"),
+]  # fmt: skip
 
 
 class Step(_Strict):
@@ -121,6 +145,16 @@ class Step(_Strict):
     arms: list[str] = Field(default_factory=list, description="With `goals`: the arm of each goal.")
     kind: Name | None = Field(default=None, description="Ontology task class; default from the goal (hand over -> RobotToHumanHandover...).")
 
+    @model_validator(mode="before")
+    @classmethod
+    def _goal_kinds(cls, data: object) -> object:
+        """Name the keys of a goal that is none (or several) of the goal kinds."""
+        if isinstance(data, dict):
+            goals = [data.get("goal"), *(data.get("goals") or [])]
+            for goal in [g for g in goals if isinstance(g, dict) and _goal_kind(g) is None]:
+                raise ValueError(f"goal {{{', '.join(map(str, goal))}}} needs exactly one of the keys {', '.join(GOAL_KINDS)}")
+        return data
+
     @model_validator(mode="after")
     def _goal_or_goals(self) -> "Step":
         if (self.goal is None) == (not self.goals):
@@ -130,11 +164,28 @@ class Step(_Strict):
         return self
 
 
+def step_name(step: Step, index: int) -> str:
+    """A step's name: given, else `step1`, `step2`, ... by position."""
+    return step.name or f"step{index + 1}"
+
+
 class Planning(_Strict):
+    """How to plan the steps: the planner options a task may set (checked by PlanOptions' limits)."""
+
     planner: Literal[PLANNERS] = "RRTConnect"  # type: ignore[valid-type]
     space: Space = "atlas"
     time_limit: Positive = 10.0
     seed: int | None = None
+    project_start: bool = Field(default=False, description="Move a start that violates a constraint onto it first.")
+
+    @model_validator(mode="after")
+    def _within_planner_limits(self) -> "Planning":
+        try:
+            PlanOptions(**self.model_dump())
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            raise ValueError(f"{error_location(first['loc'])}: {first['msg']}") from None
+        return self
 
 
 class TaskFile(_Strict):
@@ -158,6 +209,10 @@ class TaskFile(_Strict):
         repeated = sorted({n for n in names if names.count(n) > 1})
         if repeated:
             raise ValueError(f"names must be unique; repeated: {', '.join(repeated)}")
+        steps = [step_name(step, k) for k, step in enumerate(self.steps)]
+        repeated = sorted({n for n in steps if steps.count(n) > 1})
+        if repeated:
+            raise ValueError(f"step names must be unique (each names its trajectory); repeated: {', '.join(repeated)}")
         for obj in self.objects:
             if obj.in_hand_of and obj.in_hand_of not in humans:
                 raise ValueError(f"object {obj.name!r} is in the hand of {obj.in_hand_of!r}, who is not among the humans")

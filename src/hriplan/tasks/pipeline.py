@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -19,7 +20,6 @@ from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation, SituationHuman, SituationObject, SituationTask
 from hriplan.planner.motion import JointGoal, ToolGoal
 from hriplan.planner.options import PlanOptions
-from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
 from hriplan.robots.ik import solve_two_arms
 from hriplan.robots.model import arms_of
@@ -30,8 +30,11 @@ from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
 
 from .goals import ResolvedGoal, after_step, resolve_goal, task_kind
-from .model import Step, TaskFile
+from .model import Step, TaskFile, step_name
 from .world import TaskState, object_in_tool
+
+if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is planned
+    from hriplan.planner.session import PlanningSession
 
 Progress = Callable[[str], None]
 
@@ -54,10 +57,6 @@ class TaskOutcome(BaseModel):
     @property
     def solved(self) -> bool:
         return all(s.status == "solved" for s in self.steps)
-
-
-def step_name(step: Step, index: int) -> str:
-    return step.name or f"step{index + 1}"
 
 
 def step_arms(task: TaskFile, step: Step, state: TaskState) -> list[str]:
@@ -148,6 +147,8 @@ class TaskRunner:
 
     def _session(self) -> PlanningSession:
         if self.session is None:
+            from hriplan.planner.session import PlanningSession
+
             self.progress("loading the robot and its collision model")
             self.session = PlanningSession(self.task.robot, hands=self.task.hands or None)
         return self.session
@@ -160,7 +161,7 @@ class TaskRunner:
         session.set_constraints(derivation.constraint_set())
         group = robot.arm_group(arms[0]) if len(arms) == 1 else robot.default_group
         options = PlanOptions(planner=self.task.planning.planner, space=self.task.planning.space, time_limit=self.task.planning.time_limit,
-                              seed=self.task.planning.seed, velocity_scale=derivation.velocity_scale)  # fmt: skip
+                              seed=self.task.planning.seed, project_start=self.task.planning.project_start, velocity_scale=derivation.velocity_scale)  # fmt: skip
         goal = resolved[0].goal if len(resolved) == 1 else self._joint_goal(resolved, start)
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
         result = session.plan(start, goal, options, group, safety=derivation.separation)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from html import escape
 
+from hriplan.planner.spec import OrientationConstraint
 from hriplan.planner.trajectory import TrajectoryFile
 
 from .describe import describe, kind
@@ -35,7 +36,8 @@ def legend_html(trajectory: TrajectoryFile) -> str:
     shades = colors(trajectory.constraints)
     for c in trajectory.constraints:
         worst = report.max_violation.get(c.spec.id)
-        margin = "" if worst is None else f' <span class="margin">worst margin {worst:+.3f}</span>'
+        unit = "rad" if isinstance(c.spec, OrientationConstraint) else "m"
+        margin = "" if worst is None else f' <span class="margin">worst margin {worst:+.3f} {unit}</span>'
         rows.append(
             f"<li>{_swatch(shades[c.spec.id])}<b>{escape(c.spec.id)}</b> <i>{escape(kind(c.spec))}</i>{margin}"
             f'<br><span class="reason">{escape(describe(c))}</span></li>'
@@ -43,7 +45,10 @@ def legend_html(trajectory: TrajectoryFile) -> str:
     key = "".join(f'<span class="key">{_swatch(rgb)}{escape(text)}</span>' for rgb, text in KEY)
     return (
         f'<details id="hriplan-legend" open><summary>{escape(summary)}</summary>'
-        f'<ul>{"".join(rows) or "<li>no constraints</li>"}</ul><div class="keys">{key}</div>'
+        f'<ul>{"".join(rows) or "<li>no constraints</li>"}</ul>'
+        '<div class="hint">worst margin: the largest signed distance past the constraint\'s boundary over the motion, '
+        "in m (volumes) or rad (orientations); 0 or below (negative) means kept, above 0 violated by that much.</div>"
+        f'<div class="keys">{key}</div>'
         '<div class="hint">Controls (top right): Animations to play, pause and pick a time; Scene to show or hide '
         "parts (people/…/checked_capsules: what the planner checks). Add #t=SECONDS to the address to show one instant."
         "</div></details>"
@@ -51,7 +56,8 @@ def legend_html(trajectory: TrajectoryFile) -> str:
 
 
 LEGEND_CSS = """
-#hriplan-legend { position: absolute; left: 8px; bottom: 8px; max-width: min(480px, 50vw); max-height: 40vh;
+#hriplan-step { position: absolute; left: 8px; top: 8px; font: 14px system-ui, sans-serif; padding: 2px 4px; }
+#hriplan-legend { position: absolute; left: 8px; bottom: 8px; max-width: min(420px, 38vw); max-height: 32vh;
   overflow: auto; background: rgba(255, 255, 255, 0.88); border-radius: 6px; padding: 8px 10px;
   font: 13px/1.35 system-ui, sans-serif; color: #222; }
 #hriplan-legend summary { font-weight: 600; margin-bottom: 4px; cursor: pointer; }

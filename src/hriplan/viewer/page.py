@@ -6,6 +6,10 @@ smaller) that the page decodes, unzips with the browser's DecompressionStream an
 `viewer.handle_command_bytearray`, so opening the file makes no request at all. The page
 reads `#t=SECONDS` from its address (and on every change of it) to pause the animation at that
 instant: a link to a moment of the plan, and what the browser test uses.
+
+A task's page holds every step (`write_task_viewer`): a selector at the top picks the step,
+`#step=K` in the address says which one is shown (the page reloads with that step's drawing,
+legend and animation).
 """
 
 from __future__ import annotations
@@ -19,6 +23,8 @@ from pathlib import Path
 
 import meshcat
 
+from hriplan import HriplanError
+from hriplan.files import write_atomically
 from hriplan.planner.trajectory import TrajectoryFile
 
 from .drawing import Drawing
@@ -30,10 +36,18 @@ CLIENT = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
 
 SCRIPT = """
 (async function () {
-  const plan = JSON.parse(document.getElementById("hriplan-plan").textContent);
+  const steps = JSON.parse(document.getElementById("hriplan-plan").textContent).steps;
+  const asked = /[#&]step=([0-9]+)/.exec(location.hash);
+  const index = asked ? Math.min(parseInt(asked[1]), steps.length - 1) : 0;
+  const plan = steps[index];
+  const selector = document.getElementById("hriplan-step");
+  selector.value = String(index);
+  selector.addEventListener("change", () => { location.hash = "step=" + selector.value; location.reload(); });
+  document.querySelectorAll(".hriplan-step-legend").forEach(
+    legend => { legend.hidden = legend.dataset.step !== String(index); });
   const viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
   window.viewer = viewer;
-  const text = atob(document.getElementById("hriplan-commands").textContent.trim());
+  const text = atob(document.getElementById("hriplan-commands-" + index).textContent.trim());
   const packed = Uint8Array.from(text, c => c.charCodeAt(0));
   const unzipped = new Blob([packed]).stream().pipeThrough(new DecompressionStream("gzip"));
   const bytes = new Uint8Array(await new Response(unzipped).arrayBuffer());
@@ -99,9 +113,10 @@ body {{ margin: 0; }}
 </head>
 <body>
 <div id="meshcat-pane"></div>
-{legend}
+<select id="hriplan-step" title="the step shown"{selector_hidden}>{options}</select>
+{legends}
 <script type="application/json" id="hriplan-plan">{plan}</script>
-<script type="application/octet-stream" id="hriplan-commands">{commands}</script>
+{commands}
 <script>{client}</script>
 <script>{script}</script>
 </body>
@@ -109,25 +124,37 @@ body {{ margin: 0; }}
 """
 
 
-def render_page(drawing: Drawing, duration: float, title: str, legend: str) -> str:
-    """The HTML text of a viewer for `drawing` (an animation of `duration` seconds)."""
-    blobs = drawing.packed()
-    framed = b"".join(struct.pack("<I", len(b)) + b for b in blobs)
-    commands = base64.b64encode(gzip.compress(framed, mtime=0)).decode("ascii")
-    plan = json.dumps({"duration": duration, "clones": drawing.clones, "camera": drawing.camera}).replace("</", "<\\/")
-    return PAGE.format(title=escape(title), css=LEGEND_CSS, legend=legend, plan=plan, commands=commands,
-                       client=CLIENT.read_text(encoding="utf-8"), script=SCRIPT)  # fmt: skip
+def _commands(drawing: Drawing) -> str:
+    """The drawing's msgpack commands, length-framed, gzipped and base64-encoded."""
+    framed = b"".join(struct.pack("<I", len(b)) + b for b in drawing.packed())
+    return base64.b64encode(gzip.compress(framed, mtime=0)).decode("ascii")
+
+
+def render_page(steps: list[tuple[str, Drawing, float, str]], title: str) -> str:
+    """The HTML text of a viewer for (name, drawing, duration in s, legend HTML) per step."""
+    plan = json.dumps({"steps": [{"name": name, "duration": duration, "clones": drawing.clones, "camera": drawing.camera}
+                                 for name, drawing, duration, _ in steps]}).replace("</", "<\\/")  # fmt: skip
+    options = "".join(f'<option value="{k}">step {k + 1}: {escape(name)}</option>' for k, (name, *_) in enumerate(steps))
+    legends = "".join(f'<div class="hriplan-step-legend" data-step="{k}">{legend}</div>' for k, (*_, legend) in enumerate(steps))
+    commands = "\n".join(f'<script type="application/octet-stream" id="hriplan-commands-{k}">{_commands(drawing)}</script>'
+                         for k, (_, drawing, *_) in enumerate(steps))  # fmt: skip
+    return PAGE.format(title=escape(title), css=LEGEND_CSS, options=options, selector_hidden="" if len(steps) > 1 else " hidden",
+                       legends=legends, plan=plan, commands=commands, client=CLIENT.read_text(encoding="utf-8"), script=SCRIPT)  # fmt: skip
+
+
+def write_task_viewer(trajectories: list[TrajectoryFile], path: str | Path) -> Path:
+    """Write one offline 3D viewer for the steps of a task (HTML; opens in any browser, no network)."""
+    if not trajectories:
+        raise HriplanError("a viewer needs at least one trajectory")
+    steps = []
+    for k, trajectory in enumerate(trajectories):
+        world = PlannedWorld.load(trajectory)
+        steps.append((trajectory.step or f"step{k + 1}", build_drawing(world), world.duration, legend_html(trajectory)))
+    first = trajectories[0]
+    title = f"hriplan: {first.task + ', ' if first.task else ''}{first.robot} plan"
+    return write_atomically(path, render_page(steps, title))
 
 
 def write_viewer(trajectory: TrajectoryFile, path: str | Path) -> Path:
-    """Write an offline 3D viewer of the plan to `path` (HTML; opens in any browser, no network)."""
-    world = PlannedWorld.load(trajectory)
-    page = render_page(
-        build_drawing(world), world.duration, f"hriplan: {trajectory.robot} plan", legend_html(trajectory)
-    )
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(page, encoding="utf-8")
-    tmp.replace(path)
-    return path
+    """Write an offline 3D viewer of one plan to `path`."""
+    return write_task_viewer([trajectory], path)

@@ -1,5 +1,7 @@
-"""Figures of a plan (PNG): constraint margins, joint positions and velocities, distance to people,
-and per person the ISO/TS 15066 separation and speed towards them (from the trajectory report).
+"""Figures of a plan (PNG): constraint margins, joint positions, velocities and accelerations,
+distance to people, and per person the ISO/TS 15066 separation and speed towards them (from the
+trajectory report). Each joint's axes are scaled to its own motion (a limit far outside it is
+named in the panel's title instead of squashing the curve).
 
 Margins are the validator's own (`ConstraintEvaluator.margins`), so a curve touching 0 is a
 constraint on its boundary, exactly as the planner judged it. Figures are drawn on matplotlib
@@ -16,6 +18,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from hriplan.files import temporary_path
 from hriplan.planner.spec import OrientationConstraint
 from hriplan.planner.trajectory import TrajectoryFile
 
@@ -32,7 +35,7 @@ def write_plots(trajectory: TrajectoryFile, out_dir: str | Path) -> list[Path]:
     world = PlannedWorld.load(trajectory)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    figures = {"joint_positions": _joints(world, velocities=False), "joint_velocities": _joints(world, velocities=True)}
+    figures = {f"joint_{field}": _joints(world, field) for field in JOINT_FIELDS}
     if world.constraints:
         figures["margins"] = _margins(world)
     if trajectory.scene.humans:
@@ -42,7 +45,9 @@ def write_plots(trajectory: TrajectoryFile, out_dir: str | Path) -> list[Path]:
     paths = []
     for name, figure in figures.items():
         path = out / f"{name}.png"
-        figure.savefig(path, dpi=DPI)
+        tmp = temporary_path(path)  # a figure is whole or absent, even on Ctrl-C
+        figure.savefig(tmp, dpi=DPI, format="png")
+        tmp.replace(path)
         paths.append(path)
     return paths
 
@@ -70,32 +75,51 @@ def _margins(world: PlannedWorld) -> Figure:
     return figure
 
 
-def _joints(world: PlannedWorld, velocities: bool) -> Figure:
-    names = world.trajectory.joint_names
-    points = world.trajectory.points
-    values = np.array([p.velocities if velocities else p.positions for p in points])
+JOINT_FIELDS = {"positions": ("rad", "Joint positions"), "velocities": ("rad/s", "Joint velocities"),
+                "accelerations": ("rad/s²", "Joint accelerations")}  # fmt: skip
+
+
+def _joint_bounds(world: PlannedWorld, name: str, field: str) -> tuple[float, float] | None:
+    """A joint's limits for a field (the robot model has no acceleration limits)."""
     model = world.robot.model
+    joint = model.joints[model.getJointId(name)]
+    if field == "positions":
+        return model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
+    if field == "velocities":
+        return -model.velocityLimit[joint.idx_v], model.velocityLimit[joint.idx_v]
+    return None
+
+
+def _joints(world: PlannedWorld, field: str) -> Figure:
+    names = world.trajectory.joint_names
+    unit, what = JOINT_FIELDS[field]
+    values = np.array([getattr(p, field) for p in world.trajectory.points])
     columns = 3 if len(names) > 4 else len(names)
     rows = math.ceil(len(names) / columns)
     figure = Figure(figsize=(3.6 * columns, 0.8 + 2.2 * rows), layout="constrained")
     axes = figure.subplots(rows, columns, sharex=True, squeeze=False).ravel()
     for ax, name, column in zip(axes, names, values.T):
-        joint = model.joints[model.getJointId(name)]
-        if velocities:
-            bounds = (-model.velocityLimit[joint.idx_v], model.velocityLimit[joint.idx_v])
-        else:
-            bounds = (model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q])
         ax.plot(world.times, column, color="C0")
-        for bound in bounds:
-            ax.axhline(bound, color=LIMIT, ls="--", lw=1)
-        ax.set_title(name, fontsize=9)
-        ax.set_ylabel("rad/s" if velocities else "rad")
+        low, high = float(column.min()), float(column.max())
+        pad = max(0.1 * (high - low), 0.02)
+        view = (low - pad, high + pad)
+        title = name
+        bounds = _joint_bounds(world, name, field)
+        for bound in bounds or ():
+            if view[0] - 2 * pad <= bound <= view[1] + 2 * pad:  # near the motion: draw it
+                ax.axhline(bound, color=LIMIT, ls="--", lw=1)
+                view = (min(view[0], bound - pad), max(view[1], bound + pad))
+        if bounds is not None and not all(view[0] <= b <= view[1] for b in bounds):
+            title += f" (limits {bounds[0]:.2f} … {bounds[1]:.2f})"
+        ax.set_ylim(*view)
+        ax.set_title(title, fontsize=9)
+        ax.set_ylabel(unit)
     for ax in axes[len(names) :]:
         ax.set_visible(False)
     for ax in axes[-columns:]:
         ax.set_xlabel("time (s)")
-    what = "Joint velocities (limits dashed)" if velocities else "Joint positions (limits dashed)"
-    figure.suptitle(_title(world, what), fontsize=11)
+    suffix = " (limits dashed where the motion comes near them)" if field != "accelerations" else ""
+    figure.suptitle(_title(world, what + suffix), fontsize=11)
     return figure
 
 

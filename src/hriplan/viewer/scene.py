@@ -8,6 +8,7 @@ their display meshes, with the capsules the planner checks as a hidden layer to 
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Sequence
 
@@ -16,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.planner.spec import OrientationConstraint
+from hriplan.planner.trajectory import ResolvedConstraint
 from hriplan.robots.human import display_meshes
 from hriplan.robots.scene import Mesh
 
@@ -54,7 +56,8 @@ def build_drawing(world: PlannedWorld) -> Drawing:
     _people(drawing, world)
     _constraints(drawing, world, link_poses)
     _tool_paths(drawing, world, traced, link_poses)
-    _camera(drawing, world, robot_points)
+    work = [p.translation for link in traced for p in link_poses[link]]
+    _camera(drawing, world, robot_points, np.array(work + [np.array(o.pose.xyz) for o in world.trajectory.scene.obstacles]))
     if len(times) > 1:
         drawing.finish_animation(fps=(len(times) - 1) / world.duration)
     return drawing
@@ -140,11 +143,15 @@ def _people(drawing: Drawing, world: PlannedWorld) -> None:
 def _constraints(drawing: Drawing, world: PlannedWorld, link_poses: dict[str, list[pin.SE3]]) -> None:
     bound = {c.id: c for c in world.constraints}
     shades = colors(world.trajectory.constraints)
+    drawn: set[str] = set()
     for constraint in world.trajectory.constraints:
         spec = constraint.spec
         path = f"constraints/{spec.id}"
         if not isinstance(spec, OrientationConstraint):
-            draw_volume(drawing, path, constraint, shades[spec.id])
+            volume = _same_volume(constraint)
+            if volume not in drawn:  # one arm's keep-out is the other's: one volume in the picture
+                draw_volume(drawing, path, constraint, shades[spec.id])
+                drawn.add(volume)
             continue
         poses = link_poses[spec.target_link]
         goal = bound[spec.id].p_goal
@@ -152,6 +159,12 @@ def _constraints(drawing: Drawing, world: PlannedWorld, link_poses: dict[str, li
         tolerances = [spec.tolerance + spec.tolerance_gradient * d for d in distances]
         draw_orientation(drawing, f"{path}/target", constraint, poses, tolerances)
         link_axes(drawing, f"{path}/link_axes", spec, poses)
+
+
+def _same_volume(constraint: ResolvedConstraint) -> str:
+    """What a volume looks like: its shape, size, side and place (not which link or arm it binds)."""
+    shape = constraint.spec.model_dump(mode="json", exclude={"id", "joints", "target_link", "enabled"})
+    return json.dumps([shape, constraint.frame_in_world.model_dump(mode="json")], sort_keys=True)
 
 
 def _tool_paths(
@@ -189,23 +202,39 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return [(int(a), int(b) - 1) for a, b in zip(edges[::2], edges[1::2])]
 
 
-def _camera(drawing: Drawing, world: PlannedWorld, robot_points: np.ndarray) -> None:
-    """Frame the robot (at every frame), the people and the obstacles; look across the line from
-    the robot to the people so that nobody hides the arm, and leave the lower left to the legend."""
+def _view_azimuth(work: np.ndarray, people: np.ndarray) -> np.ndarray:
+    """The horizontal direction from the scene to the eye: on the side where the work happens (the
+    tools' paths, the objects), turned away from the people so that nobody stands between the
+    camera and the arms, and a little to one side so that depth shows."""
+    angles = np.linspace(0.0, 2.0 * math.pi, 72, endpoint=False)
+    candidates = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    score = candidates @ work + 0.3 * np.abs(candidates @ np.array([-work[1], work[0]]))
+    if np.linalg.norm(people) > 0.0:
+        score -= 1.2 * np.maximum(candidates @ people, 0.0) ** 2
+    return candidates[int(np.argmax(score))]
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    norm = float(np.linalg.norm(v))
+    return v / norm if norm > 1e-9 else np.zeros_like(v)
+
+
+def _camera(drawing: Drawing, world: PlannedWorld, robot_points: np.ndarray, work_points: np.ndarray) -> None:
+    """Frame the robot (at every frame), the people, the objects and the tools' paths, seen from
+    the side where the work happens, and leave the lower left to the legend."""
     people = [np.array(h.spec.position) for h in world.checker.humans.values()]
-    interest = list(robot_points)
+    interest = [*robot_points, *work_points]
     interest += [np.array([*xy, z]) for xy in people for z in (0.0, 1.8)]
-    interest += [np.array(o.pose.xyz) for o in world.trajectory.scene.obstacles]
     low, high = np.min(interest, axis=0), np.max(interest, axis=0)
     radius = float(np.linalg.norm(high - low)) / 2
-    towards = np.mean(people, axis=0) if people else np.array([0.0, 1.0])
-    towards = towards / (np.linalg.norm(towards) or 1.0)
-    across = np.array([towards[1], -towards[0]])  # the people on the right, the robot on the left
-    direction = np.array([*(across - 0.35 * towards), 0.55])
+    base = np.mean(robot_points[:, :2], axis=0)
+    work = _unit(np.mean(work_points[:, :2], axis=0) - base) if len(work_points) else np.array([0.0, 1.0])
+    towards_people = _unit(np.mean(people, axis=0) - base) if people else np.zeros(2)
+    direction = np.array([*_view_azimuth(work, towards_people), 0.55])
     direction /= np.linalg.norm(direction)
     right = np.cross(-direction, [0.0, 0.0, 1.0])
     right /= np.linalg.norm(right)
     up = np.cross(right, -direction)
-    target = (low + high) / 2 - radius * (0.2 * right + 0.2 * up)  # the scene sits up and right
-    eye = target + max(2.0, 1.2 * radius / math.sin(math.radians(CAMERA_FOV / 2))) * direction
+    target = (low + high) / 2 - radius * (0.2 * right + 0.33 * up)  # the scene sits up, clear of the legend
+    eye = target + max(2.0, 1.25 * radius / math.sin(math.radians(CAMERA_FOV / 2))) * direction
     drawing.look(eye, target, CAMERA_FOV)

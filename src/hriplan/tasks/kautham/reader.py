@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from hriplan import HriplanError
+from hriplan.files import read_text
 from hriplan.robots.spatial import Pose
 
 
@@ -23,10 +24,9 @@ class Reader:
         return HriplanError(f"{self.path}: {message}")
 
     def parse(self) -> ET.Element:
+        text = read_text(self.path, "Kautham XML file")  # missing, a folder, binary: one line
         try:
-            return ET.parse(self.path).getroot()
-        except FileNotFoundError:
-            raise HriplanError(f"{self.path}: no such file") from None
+            return ET.fromstring(text)
         except ET.ParseError as exc:
             raise self.fail(f"not valid XML ({exc})") from None
 
