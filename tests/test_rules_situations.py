@@ -165,7 +165,7 @@ def test_a_peg_follows_the_holes_axis_with_a_tolerance_growing_from_the_goal(der
     assert (spec.tolerance, spec.tolerance_gradient) == (0.02, 0.3)
     hole_axis = situation("insertion_ur5").object("hole1").pose.rotation()[:, 2]  # tilted by 0.2 rad
     np.testing.assert_allclose(spec.target.rotation()[:, 2], -hole_axis, atol=1e-12)  # UR5: object z = tool -z
-    assert alignment.rules == ["insertion_alignment"] and "insertion has target object hole1" in alignment.facts
+    assert alignment.rules == ["insertion_alignment"] and "peg1 goes into hole1" in alignment.facts
 
 
 def test_no_alignment_outside_insertions(derived):

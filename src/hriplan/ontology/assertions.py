@@ -71,6 +71,7 @@ def _task(situation: Situation) -> list[Assertion]:
     facts += [(task.name, "hasOtherHuman", h.name) for h in situation.humans if h.name != task.human]
     if task.target is not None:
         facts.append((task.name, "hasTargetObject", task.target))
+    facts += [(obj, "goesInto", target) for obj, target in task.goal_targets().items()]
     return facts
 
 

@@ -109,7 +109,7 @@ def _upright(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> Constr
 
 
 def _alignment(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
-    hole = ctx.situation.object(str(ctx.facts.one(ctx.task, "hasTargetObject")))
+    hole = ctx.situation.object(str(ctx.facts.one(anchor, "goesInto")))
     return _orientation(ctx, kind, ctx.situation.object(anchor), arm, cid, hole.pose.rotation()[:, 2], FrameRef())
 
 

@@ -78,7 +78,8 @@ def situation_for(task: TaskFile, step: Step, index: int, state: TaskState) -> S
     arms = step_arms(task, step, state)
     goals = step.goals or [step.goal]
     human = next((getattr(g, a) for g in goals for a in ("to", "from_") if getattr(g, a, None)), None)
-    target = next((g.into for g in goals if getattr(g, "into", None)), None)
+    targets = {g.insert: g.into for g in goals if getattr(g, "into", None)}
+    target = next(iter(targets.values())) if len(set(targets.values())) == 1 else None
     carries = {obj: arm for obj, arm in state.held_by_arm.items() if arm in arms}
     # An object this step grasps or takes is moved by it too: the hand arrives as it will hold it.
     for goal, arm in zip(goals, arms):
@@ -93,7 +94,8 @@ def situation_for(task: TaskFile, step: Step, index: int, state: TaskState) -> S
     humans = [SituationHuman(**h.model_dump()) for h in task.humans]
     kind = step.kind or task_kind(goals[0])
     return Situation(robot=task.robot, objects=objects, humans=humans,
-                     task=SituationTask(name=step_name(step, index), kind=kind, arms=arms, carries=carries, human=human, target=target))  # fmt: skip
+                     task=SituationTask(name=step_name(step, index), kind=kind, arms=arms, carries=carries, human=human,
+                                           target=target, targets=targets))  # fmt: skip
 
 
 def object_axes(kb: KnowledgeBase, arms: list[str]) -> dict[str, str]:
