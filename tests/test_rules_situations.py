@@ -96,7 +96,9 @@ def test_a_handover_approaches_the_receivers_hand_inside_a_cone_opening_towards_
     spec = cone.spec
     assert isinstance(spec, ConeConstraint) and spec.region == "inside"
     assert spec.frame.entity == "bob/right_hand"
-    np.testing.assert_allclose(spec.frame.offset.rpy, (0.0, math.pi / 2, 0.0), atol=1e-9)  # bob faces the robot
+    # bob faces the robot: the cone's axis (its frame's z) is the hand frame's x, apex at the palm
+    np.testing.assert_allclose(spec.frame.offset.rotation()[:, 2], (1.0, 0.0, 0.0), atol=1e-9)
+    np.testing.assert_allclose(spec.frame.offset.xyz, (0.0, 0.0, 0.0), atol=1e-9)
     assert (spec.radius, spec.height) == (0.3, 0.55)
     assert cone.rules == ["handover_approach_cone", "define_receiver"]
     assert cone.facts == ["handover is a RobotToHumanHandover", "handover has target human bob", "bob is a Human",

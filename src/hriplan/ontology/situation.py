@@ -28,6 +28,7 @@ EXAMPLES_DIR = Path(__file__).with_name("situations")
 # Names become IRI local names and planner frame prefixes (PERSON/head), hence the pattern.
 Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+Finite = Annotated[float, Field(allow_inf_nan=False)]
 SignedAxis = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
 FillLevel = Literal["Full", "Partial", "Empty"]
 Role = Literal["Receiver", "Giver", "Supervisor", "Collaborator", "Bystander"]
@@ -51,6 +52,9 @@ class SituationObject(BaseModel):
     size: tuple[Positive, Positive, Positive] | None = None  # bounding box (m), for the planning scene
     # Tool-frame axis along the object's z axis while held; None: the arm's usual grasp (ontology).
     grasp_axis: SignedAxis | None = None
+    # World positions (m) the object passes through while carried, e.g. from a planned motion:
+    # relations such as "near a person" then hold over the whole path (closest approach).
+    path: list[tuple[Finite, Finite, Finite]] = Field(default_factory=list)
 
 
 class SituationHuman(HumanSpec):
@@ -90,6 +94,9 @@ class Situation(BaseModel):
     task: SituationTask
     objects: list[SituationObject] = Field(default_factory=list)
     humans: list[SituationHuman] = Field(default_factory=list)
+    # World pose of each arm's tool frame when the task starts (a held object's centre is there);
+    # constraints that guide an approach start from it (the approach cone aims at it).
+    tool_poses: dict[str, Pose] = Field(default_factory=dict)
     # Extra assertions (subject, ontology property, object or value), e.g. ["cup1", "isHot", true].
     facts: list[tuple[Name, Name, Value]] = Field(default_factory=list)
 
