@@ -37,7 +37,8 @@ from .goals import ResolvedGoal, after_step, resolve_goal, task_kind
 from .model import Step, TaskFile
 from .nearness import near_along_path
 from .prepare import preparatory_goal
-from .world import TaskState, object_in_tool
+from .grasps import Grasp, allowed_grasps
+from .world import TaskState
 
 Progress = Callable[[str], None]
 # Spacing of the joint-space samples at which a carried object's path is recorded (rad).
@@ -99,7 +100,8 @@ def situation_for(task: TaskFile, step: Step, index: int, state: TaskState,
             carries[taken] = arm
     objects = [
         SituationObject(name=o.name, kind=o.kind, fill_level=o.fill_level, open=o.open, sharp=o.sharp, fragile=o.fragile,
-                        hot=o.hot, pose=state.pose(o.name), path=paths.get(o.name, []))  # fmt: skip
+                        hot=o.hot, pose=state.pose(o.name), path=paths.get(o.name, []),
+                        grasp_axis=state.grasps[o.name].axis if o.name in state.grasps else None)  # fmt: skip
         for o in task.objects
     ]
     humans = [SituationHuman(**h.model_dump()) for h in task.humans]
@@ -141,34 +143,67 @@ class TaskRunner:
 
     def run(self, plan: bool = True) -> TaskOutcome:
         """Derive (and plan, unless `plan` is False) every step. Without planning, a step starts
-        where the previous one's goal puts the tools."""
+        where the previous one's goal puts the tools. An object the step moves for the first
+        time is tried in each grasp the rules allow, most preferred first, until the step plans."""
         task, state, robot = self.task, TaskState.initial(self.task), self._robot()
         start = posture(task.robot, task.start.posture) | task.start.joints
         state.tools = tool_poses(robot, start)
         outcomes = []
         for index, step in enumerate(task.steps):
-            kb, derivation = self.derive_step(step, index, state)
-            arms = kb.situation.task.arms
-            axes = object_axes(kb, list(arms_of(task.robot)))
-            goals = step.goals or [step.goal]
-            touched = {obj: arm for g, arm in zip(goals, arms) if (obj := getattr(g, "take", None) or getattr(g, "grasp", None))}
-            scene = state.scene(axes, touched)
-            held = self._held_axes(start, state, axes, derivation, scene) if plan else {}
-            resolved = [resolve_goal(g, arm, state, axes[arm], held.get(arm)) for g, arm in zip(goals, arms)]
-            outcome = StepOutcome(name=kb.situation.task.name, kind=kb.situation.task.kind, arms=arms, status="derived",
-                                  derivation=derivation, scene=scene)  # fmt: skip
-            if plan:
-                planned, start = self._plan_step(step, index, state, resolved, start, outcome)
-                state.tools = tool_poses(robot, start)
-            else:
-                planned = [outcome]
-                state.tools |= {r.goal.arm: r.goal.pose for r in resolved if isinstance(r.goal, ToolGoal)}
+            choices = self._grasp_choices(step, index, state)
+            for grasps in choices if plan else choices[:1]:
+                state.grasps |= grasps
+                planned, end, resolved = self._step(step, index, state, start, plan)
+                if planned[-1].status in ("solved", "derived"):
+                    break
             outcomes += planned
             if planned[-1].status not in ("solved", "derived"):
                 break
+            goals, arms = step.goals or [step.goal], planned[-1].arms
             for g, arm, r in zip(goals, arms, resolved):
                 after_step(g, r, arm, state)
+            state.grasps = {o: g for o, g in state.grasps.items() if o in state.held_by_arm}
+            if plan:
+                start, state.tools = end, tool_poses(robot, end)
+            else:
+                state.tools |= {r.goal.arm: r.goal.pose for r in resolved if isinstance(r.goal, ToolGoal)}
         return TaskOutcome(task=task.name, steps=outcomes)
+
+    def _grasp_choices(self, step: Step, index: int, state: TaskState) -> list[dict[str, Grasp]]:
+        """The grasps to try for the objects the step is the first to hold (held from the start,
+        grasped or taken now): each allowed grasp of the first such object, in order of
+        preference, the others in their preferred one. [{}] when every grasp is already fixed."""
+        kb, _ = self.derive_step(step, index, state)
+        robot, arms = kb.situation.robot, kb.situation.task
+        usual = object_axes(kb, list(arms_of(self.task.robot)))
+        holders = dict(state.held_by_arm) | dict(kb.situation.task.carries)
+        options = {obj: allowed_grasps(kb.facts, obj, arm_individual(robot, arm), usual[arm])
+                   for obj, arm in holders.items() if obj not in state.grasps}  # fmt: skip
+        if not options:
+            return [{}]
+        first, *others = options
+        rest = {obj: options[obj][0] for obj in others}
+        return [{first: g, **rest} for g in options[first]]
+
+    def _step(self, step: Step, index: int, state: TaskState, start: dict[str, float],
+              plan: bool) -> tuple[list[StepOutcome], dict[str, float], list[ResolvedGoal]]:  # fmt: skip
+        """Derive, resolve the goals and (if `plan`) plan one step with the grasps in `state`."""
+        kb, derivation = self.derive_step(step, index, state)
+        arms = kb.situation.task.arms
+        goals = step.goals or [step.goal]
+        touched = {obj: arm for g, arm in zip(goals, arms) if (obj := getattr(g, "take", None) or getattr(g, "grasp", None))}
+        scene = state.scene(touched)
+        held = self._held_axes(start, state, derivation, scene) if plan else {}
+        resolved = [resolve_goal(g, arm, state, held.get(arm)) for g, arm in zip(goals, arms)]
+        outcome = StepOutcome(name=kb.situation.task.name, kind=kb.situation.task.kind, arms=arms, status="derived",
+                              derivation=derivation, scene=scene)  # fmt: skip
+        if not plan:
+            return [outcome], start, resolved
+        grasps = ", ".join(f"{o} by {g.name}" for o, g in state.grasps.items() if o in kb.situation.task.carries)
+        planned, end = self._plan_step(step, index, state, resolved, start, outcome)
+        if grasps and planned[-1].status != "solved":
+            planned[-1] = planned[-1].model_copy(update={"message": f"{planned[-1].message} (holding {grasps})"})
+        return planned, end, resolved
 
     def _robot(self) -> Robot:
         return self.session.robot if self.session is not None else load_robot(self.task.robot, _hands(self.task) or None)
@@ -231,8 +266,7 @@ class TaskRunner:
         end = dict(start) | dict(zip(trajectory.joint_names, trajectory.points[-1].positions))
         return outcome.model_copy(update={"status": "solved", "trajectory": trajectory}), end
 
-    def _held_axes(self, start: dict[str, float], state: TaskState, axes: dict[str, str], derivation: Derivation,
-                   scene: Scene) -> dict[str, np.ndarray]:  # fmt: skip
+    def _held_axes(self, start: dict[str, float], state: TaskState, derivation: Derivation, scene: Scene) -> dict[str, np.ndarray]:
         """Per arm holding something: the world direction the held object's axis should keep:
         the target of an orientation constraint on that arm (a blade pointing away), else its
         direction at `start`."""
@@ -241,13 +275,13 @@ class TaskRunner:
         session.set_scene(scene)
         q = robot.configuration(start)
         held = {}
-        for arm in set(state.held_by_arm.values()):
+        for obj, arm in state.held_by_arm.items():
             tool = pin.SE3(robot.frame_pose(robot.tool_frame(arm), q))
-            held[arm] = (tool * object_in_tool(axes[arm])).rotation[:, 2].copy()
+            held[arm] = (tool * state.in_tool(obj)).rotation[:, 2].copy()
             for c in derivation.constraints:
                 if c.arm == arm and isinstance(c.spec, OrientationConstraint):
                     target = resolve_frame(c.spec.frame, robot, session.checker).rotation @ c.spec.target.rotation()
-                    held[arm] = (target @ object_in_tool(axes[arm]).rotation)[:, 2].copy()
+                    held[arm] = (target @ state.in_tool(obj).rotation)[:, 2].copy()
         return held
 
     def _joint_goal(self, resolved: list[ResolvedGoal], start: dict[str, float]) -> JointGoal:
