@@ -14,6 +14,7 @@ import pytest
 import yaml
 
 from hriplan.planner.replay import PlannedWorld
+from hriplan.robots.spatial import Pose
 from hriplan.planner.spec import BoxConstraint, ConeConstraint, CylinderConstraint, OrientationConstraint, SphereConstraint
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
@@ -108,3 +109,14 @@ def test_each_situation_plans_and_every_trajectory_holds_its_constraints(name):
         check_independently(runner.session.robot, step.trajectory)
     if "planned_velocity_scale" in expected:
         assert outcome.steps[-1].trajectory.report.velocity_scale == expected["planned_velocity_scale"]
+
+
+def test_the_independent_check_sees_a_broken_keep_out_and_a_tilted_cup():
+    keep_out = CylinderConstraint(id="k", joints=["j"], target_link="right_tool", region="outside", keep_out_all_links=True, radius=0.5, height=2.0)
+    inside, outside = np.array([[0.3, 0.0, 1.0]]), np.array([[0.6, 0.0, 1.0]])
+    assert violation(keep_out, np.eye(4), inside, None, np.zeros(3), None) == pytest.approx(0.2)
+    assert violation(keep_out, np.eye(4), outside, None, np.zeros(3), None) < 0.0
+    upright = OrientationConstraint(id="u", joints=["j"], target_link="right_tool", target={"rpy": (-np.pi / 2, 0.0, 0.0)}, tolerance=0.05, free_axes=["y"])
+    tilted = Pose(rpy=(-np.pi / 2 + 0.2, 0.0, 0.0)).rotation()
+    # the target puts the grasp axis (tool +y) up; tilted by 0.2 rad it is 0.15 beyond the tolerance
+    assert violation(upright, np.eye(4), inside, tilted, np.array([0.0, 1.0, 0.0]), None) == pytest.approx(0.15, abs=1e-6)
