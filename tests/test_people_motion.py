@@ -5,7 +5,6 @@ Checks read the written trajectories with their own geometry, not the planner's 
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from hriplan.planner.spec import ConeConstraint
 from hriplan.robots.collision import CollisionChecker

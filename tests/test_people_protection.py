@@ -1,6 +1,5 @@
 """Every person is protected in every step, whatever their role (issue 10)."""
 
-import numpy as np
 import pytest
 
 from hriplan.ontology.cache import ReasoningCache

@@ -174,7 +174,7 @@ class TaskRunner:
         grasped or taken now): each allowed grasp of the first such object, in order of
         preference, the others in their preferred one. [{}] when every grasp is already fixed."""
         kb, _ = self.derive_step(step, index, state)
-        robot, arms = kb.situation.robot, kb.situation.task
+        robot = kb.situation.robot
         usual = object_axes(kb, list(arms_of(self.task.robot)))
         holders = dict(state.held_by_arm) | dict(kb.situation.task.carries)
         options = {obj: allowed_grasps(kb.facts, obj, arm_individual(robot, arm), usual[arm])
