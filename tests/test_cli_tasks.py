@@ -81,7 +81,7 @@ def test_plugin_api_example_runs():
     result = subprocess.run([sys.executable, str(ROOT / "examples" / "plugin_api.py")], capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr
     assert "first plan: solved" in result.stdout and "after bob moved: solved" in result.stdout
-    assert "task step place_can: solved, constraints: ['upright_coke_can']" in result.stdout
+    assert "task step place_can: solved, constraints: ['keep_out_alice', 'upright_coke_can']" in result.stdout
 
 
 def test_view_and_plot_take_reasons_from_the_task(planned, tmp_path):

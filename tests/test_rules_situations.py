@@ -96,7 +96,9 @@ def test_a_handover_approaches_the_receivers_hand_inside_a_cone_opening_towards_
     spec = cone.spec
     assert isinstance(spec, ConeConstraint) and spec.region == "inside"
     assert spec.frame.entity == "bob/right_hand"
-    np.testing.assert_allclose(spec.frame.offset.rpy, (0.0, math.pi / 2, 0.0), atol=1e-9)  # bob faces the robot
+    # bob faces the robot: the cone's axis (its frame's z) is the hand frame's x, apex at the palm
+    np.testing.assert_allclose(spec.frame.offset.rotation()[:, 2], (1.0, 0.0, 0.0), atol=1e-9)
+    np.testing.assert_allclose(spec.frame.offset.xyz, (0.0, 0.0, 0.0), atol=1e-9)
     assert (spec.radius, spec.height) == (0.3, 0.55)
     assert cone.rules == ["handover_approach_cone", "define_receiver"]
     assert cone.facts == ["handover is a RobotToHumanHandover", "handover has target human bob", "bob is a Human",
@@ -165,7 +167,7 @@ def test_a_peg_follows_the_holes_axis_with_a_tolerance_growing_from_the_goal(der
     assert (spec.tolerance, spec.tolerance_gradient) == (0.02, 0.3)
     hole_axis = situation("insertion_ur5").object("hole1").pose.rotation()[:, 2]  # tilted by 0.2 rad
     np.testing.assert_allclose(spec.target.rotation()[:, 2], -hole_axis, atol=1e-12)  # UR5: object z = tool -z
-    assert alignment.rules == ["insertion_alignment"] and "insertion has target object hole1" in alignment.facts
+    assert alignment.rules == ["insertion_alignment"] and "peg1 goes into hole1" in alignment.facts
 
 
 def test_no_alignment_outside_insertions(derived):

@@ -27,7 +27,8 @@ def test_rules_decide_differently_per_example():
     bystander = derived("transport_cup_bystander")["carry"]["keep_out_dana"].spec
     assert bystander.region == "outside" and bystander.keep_out_all_links and bystander.frame.entity == "dana/base"
     scissors = derived("handover_scissors")
-    assert "sharp_end_away_scissors" in scissors["hand_over"] and not scissors["turn_blades"]
+    assert "sharp_end_away_scissors" in scissors["hand_over"]
+    assert list(scissors["turn_blades"]) == ["keep_out_bob"]  # bob waits for the handover: kept out meanwhile
     pegs = derived("peg_in_hole_supervised")["bring_pegs"]
     for side in ("right", "left"):
         alignment = pegs[f"{side}_alignment_peg_{side}"].spec
@@ -53,7 +54,9 @@ def test_handover_task_plans_both_steps_and_every_trajectory_validates():
     assert outcome.solved and [s.name for s in outcome.steps] == ["take_can", "place_can"]
     take, place = outcome.steps
     assert take.trajectory.scene.attached == [] and [a.name for a in place.trajectory.scene.attached] == ["coke_can"]
-    assert place.trajectory.constraints[0].reason.startswith("A full open container")
+    reasons = {c.spec.id: c.reason for c in place.trajectory.constraints}
+    assert reasons["upright_coke_can"].startswith("A full open container")
+    assert reasons["keep_out_alice"].startswith("A giver whose object was taken")  # alice is protected once she gave
     # the second step starts where the first ended
     assert np.allclose(place.trajectory.points[0].positions, take.trajectory.points[-1].positions, atol=1e-9)
     for step in outcome.steps:

@@ -75,8 +75,11 @@ def _task(situation: Situation) -> list[Assertion]:
     facts += [(task.name, "involves", name) for name in situation.object_names() | {h.name for h in situation.humans}]
     if task.human is not None:
         facts.append((task.name, "hasTargetHuman", task.human))
+    # Everyone else, by name, so rules can protect them (SWRL has no negation).
+    facts += [(task.name, "hasOtherHuman", h.name) for h in situation.humans if h.name != task.human]
     if task.target is not None:
         facts.append((task.name, "hasTargetObject", task.target))
+    facts += [(obj, "goesInto", target) for obj, target in task.goal_targets().items()]
     return facts
 
 

@@ -74,6 +74,14 @@ class SituationTask(BaseModel):
     carries: dict[str, str] = Field(default_factory=dict)  # object name -> arm holding it
     human: str | None = None  # the person handed to or taken from
     target: str | None = None  # the object acted on without carrying it (the hole of an insertion)
+    # Per carried object, the object it goes into (each peg its own hole); default: `target`.
+    targets: dict[str, str] = Field(default_factory=dict)
+
+    def goal_targets(self) -> dict[str, str]:
+        """Where each carried object goes: `targets`, else the task's one `target` for all of them."""
+        if self.targets or self.target is None:
+            return dict(self.targets)
+        return {obj: self.target for obj in self.carries}
 
 
 class Situation(BaseModel):
@@ -86,6 +94,9 @@ class Situation(BaseModel):
     task: SituationTask
     objects: list[SituationObject] = Field(default_factory=list)
     humans: list[SituationHuman] = Field(default_factory=list)
+    # World pose of each arm's tool frame when the task starts (a held object's centre is there);
+    # constraints that guide an approach start from it (the approach cone aims at it).
+    tool_poses: dict[str, Pose] = Field(default_factory=dict)
     # Extra assertions (subject, ontology property, object or value), e.g. ["cup1", "isHot", true].
     facts: list[tuple[Name, Name, Value]] = Field(default_factory=list)
 
@@ -107,6 +118,9 @@ class Situation(BaseModel):
             raise ValueError(f"task human {task.human!r} is not among the humans")
         if task.target is not None and task.target not in objects:
             raise ValueError(f"task target {task.target!r} is not among the objects")
+        for obj, target in task.targets.items():
+            if obj not in task.carries or target not in objects:
+                raise ValueError(f"task targets: {obj!r} -> {target!r} needs a carried object and an object of the situation")
         return self
 
     def object_names(self) -> set[str]:

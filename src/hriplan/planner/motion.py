@@ -201,8 +201,13 @@ def _resolve_goal(problem: _Problem, goal: Goal, x_start: np.ndarray) -> np.ndar
         _set_goal_positions(problem, x)
         return not problem.checker.in_collision(q) and not problem.describe_violations(x)
 
+    def why_invalid(q: np.ndarray) -> list[str]:
+        x = robot.group_values(q, group)
+        return [f"collides: {c.a} - {c.b}" for c in problem.checker.contacts(q)] + \
+            [f"violates {v.split(' by ')[0]}" for v in problem.describe_violations(x).split(", ") if v]
+
     ik = solve_ik(robot, goal.arm, goal.pose.matrix(), free_axes=goal.free_axes, base_q=base,
-                  reference=robot.group_values(base, arm_group), is_valid=valid)  # fmt: skip
+                  reference=robot.group_values(base, arm_group), is_valid=valid, why_invalid=why_invalid)  # fmt: skip
     if not ik.success:
         return MotionResult(status="unreachable_goal", message=f"no valid IK solution for the goal pose: {ik.message}", **blank)
     x_goal = robot.group_values(robot.configuration(ik.q, arm_group, base=base), group)

@@ -78,6 +78,7 @@ class CollisionChecker:
                 pin.GeometryObject(obj.name, frame.parentJoint, frame.placement * obj.grasp.se3(), obj.shape.geometry())
             )
             self.kind.append(f"attached:{obj.arm}")
+        self._touched_by = {o.name: o.touched_by for o in scene.obstacles if o.touched_by is not None}
         for obstacle in scene.obstacles:
             gm.addGeometryObject(pin.GeometryObject(obstacle.name, 0, obstacle.pose.se3(), obstacle.shape.geometry()))
             self.kind.append("obstacle")
@@ -147,14 +148,19 @@ class CollisionChecker:
         for (k, a), (other, b) in (((ki, i), (kj, j)), ((kj, j), (ki, i))):
             if k == "robot" and other == "obstacle" and self.parts[a].joint == 0:
                 return self._fixed_part_touches(a, b)
-        for k, other in ((ki, j), (kj, i)):
-            if k.startswith("attached:") and self.kind[other] == "robot":
-                # A carried object touches its own hand and wrist by design.
-                arm = k.split(":", 1)[1]
-                prefix = self.robot.arms[arm][0]
-                part = self.geom_model.geometryObjects[other]
-                return not (part.parentJoint == self._tool_joint(arm) and part.name.startswith(prefix))
+        for k, this, other in ((ki, i, j), (kj, j, i)):
+            if self.kind[other] != "robot":
+                continue
+            # A carried object touches its own hand and wrist by design, and so does an object
+            # the hand is closing on.
+            arm = k.split(":", 1)[1] if k.startswith("attached:") else self._touched_by.get(self.geom_model.geometryObjects[this].name)
+            if arm is not None:
+                return not self._on_hand(other, arm)
         return True
+
+    def _on_hand(self, part_index: int, arm: str) -> bool:
+        part = self.geom_model.geometryObjects[part_index]
+        return part.parentJoint == self._tool_joint(arm) and part.name.startswith(self.robot.arms[arm][0])
 
     def _tool_joint(self, arm: str) -> int:
         return self.robot.model.frames[self.robot.frame_id(self.robot.tool_frame(arm))].parentJoint

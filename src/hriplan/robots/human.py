@@ -34,6 +34,11 @@ POSTURE_JOINTS = {
     "seated": {"left_hip_Z": np.pi / 2, "right_hip_Z": np.pi / 2, "left_knee_Z": np.pi / 2, "right_knee_Z": np.pi / 2},
 }
 DEFAULT_WEIGHT = 75.0
+# Where a person holds an object given to or taken from the robot: its centre this far in front
+# of the palm centre, along the way they face. Larger than a real grip: the robot's finger
+# capsules (r 3.5 cm) and the person's hand capsule (r 5.3 cm) must stay apart, since hriplan
+# never lets the robot touch a person.
+HELD_OBJECT_OFFSET = 0.19
 
 
 class HumanSpec(BaseModel):

@@ -10,6 +10,7 @@ So a tool target only has to be moved into the arm base frame and back from tool
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -192,6 +193,7 @@ def solve_ik(
     reference: np.ndarray | None = None,
     base_q: np.ndarray | None = None,
     is_valid: Callable[[np.ndarray], bool] | None = None,
+    why_invalid: Callable[[np.ndarray], list[str]] | None = None,
     samples_per_free_axis: int = 36,
     tolerance: float = 1e-6,
 ) -> IKResult:
@@ -199,7 +201,8 @@ def solve_ik(
 
     Rotation about the tool axes in `free_axes` is left free (at most one axis). Candidates are
     tried nearest-first, so `is_valid` (given the full configuration, e.g. a collision check)
-    runs only until one passes."""
+    runs only until one passes. `why_invalid` names what is wrong with a rejected configuration
+    ("collides: a - b", "violates c"), so that a failure says what collides and what would help."""
     target = _check_target(target)
     axis = _free_axis(free_axes)
     if not tolerance > 0:
@@ -215,7 +218,7 @@ def solve_ik(
     if len(candidates) == 0:
         return IKResult(success=False, message=f"no solution within joint limits ({n_analytic} analytic solutions)")
     lower, upper = robot.limits(info.group)
-    n_accurate = 0
+    n_accurate, reasons = 0, Counter()
     for values, pose in zip(candidates, poses):
         q = _polish(robot, info, robot.configuration(values, info.group, base=info.base_q), pose, tolerance)
         polished = robot.group_values(q, info.group)
@@ -232,9 +235,24 @@ def solve_ik(
                 orientation_error=orientation,
                 message=f"nearest valid of {len(candidates)} solutions within joint limits",
             )
+        if why_invalid is not None:
+            reasons.update(why_invalid(q))
     if n_accurate == 0:
         return IKResult(success=False, message=f"no solution reached the tolerance of {tolerance:g} (singular target?)")
-    return IKResult(success=False, message=f"all {n_accurate} solutions are in collision (rejected by is_valid)")
+    return IKResult(success=False, message=rejection_message(n_accurate, reasons))
+
+
+def rejection_message(n: int, reasons: Counter) -> str:
+    """Why all `n` IK solutions were rejected (the most frequent reasons), and what would help."""
+    if not reasons:
+        return f"all {n} solutions are rejected by is_valid"
+    top = ", ".join(f"{reason} ({count} of {n})" for reason, count in reasons.most_common(3))
+    hints = []
+    if any(r.startswith("collides") for r in reasons):
+        hints.append("move the goal away from what collides (e.g. higher above a table) or hold the object another way")
+    if any(r.startswith("violates") for r in reasons):
+        hints.append("choose a goal orientation the violated constraint allows")
+    return f"all {n} solutions are rejected: {top}; would help: {'; '.join(hints)}"
 
 
 ArmTarget = tuple[str, np.ndarray, Sequence[str]]  # arm, 4x4 tool target, free axes

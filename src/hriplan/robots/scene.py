@@ -96,6 +96,9 @@ class Obstacle(BaseModel):
     name: str
     shape: Shape
     pose: Pose = Pose()
+    # The arm whose hand closes on this object in the motion planned now (a grasp, a take): that
+    # hand may touch it, every other part of the robot may not.
+    touched_by: str | None = None
 
 
 class AttachedObject(BaseModel):

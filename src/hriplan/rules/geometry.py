@@ -34,6 +34,12 @@ def rotation_with_axis(signed_axis: str, direction: np.ndarray) -> np.ndarray:
     return rotation
 
 
+def angle_between(a: np.ndarray, b: np.ndarray) -> float:
+    """The angle between two non-zero vectors (rad)."""
+    cos = float(np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
+    return math.acos(max(-1.0, min(1.0, cos)))
+
+
 def rotation_pose(rotation: np.ndarray) -> Pose:
     matrix = np.eye(4)
     matrix[:3, :3] = rotation

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import pinocchio as pin
 
 from hriplan import HriplanError
 from hriplan.ontology.facts import Facts
@@ -28,11 +29,14 @@ from hriplan.planner.spec import (
     OrientationConstraint,
     SphereConstraint,
 )
+from hriplan.robots.human import HELD_OBJECT_OFFSET, Human, HumanSpec
 from hriplan.robots.spatial import Pose
 
-from .geometry import bearing, box_between, rotation_pose, rotation_with_axis
+from .geometry import angle_between, bearing, box_between, rotation_pose, rotation_with_axis
 
 SIGNED_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+# A cone reaching back to the tool's start is this much longer than the distance to it.
+CONE_START_MARGIN = 0.05
 VELOCITY_KIND = "VelocityScalingKind"
 
 
@@ -104,12 +108,11 @@ def anchored_arms(ctx: Context, form: Form, kind: str, anchor: str) -> list[Arm]
 
 
 def _upright(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
-    obj = ctx.situation.object(anchor)
-    return _orientation(ctx, kind, obj, arm, cid, obj.pose.rotation()[:, 2], FrameRef())
+    return _orientation(ctx, kind, ctx.situation.object(anchor), arm, cid, np.array([0.0, 0.0, 1.0]), FrameRef())
 
 
 def _alignment(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
-    hole = ctx.situation.object(str(ctx.facts.one(ctx.task, "hasTargetObject")))
+    hole = ctx.situation.object(str(ctx.facts.one(anchor, "goesInto")))
     return _orientation(ctx, kind, ctx.situation.object(anchor), arm, cid, hole.pose.rotation()[:, 2], FrameRef())
 
 
@@ -132,11 +135,31 @@ def _orientation(ctx: Context, kind: str, obj: SituationObject, arm: Arm, cid: s
 
 
 def _approach_cone(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    """A cone opening from the person's hand towards the robot, through the meeting point in
+    front of the palm. With the tool's start known the cone is aimed from the meeting point at
+    it, as the seed framework aligns its cone with the end effector, and reaches past it (same
+    opening angle), so the whole approach lies inside; unless that axis turns further than the
+    ontology allows from the line towards the robot (an approach the person would not see)."""
     human = ctx.situation.human(anchor)
     hand = str(ctx.facts.one(str(ctx.facts.one(anchor, "hasActiveHand")), "hasFrameName"))
-    opening = Pose(rpy=(0.0, math.pi / 2, ctx.robot_bearing(human)))  # cone axis z -> towards the robot
+    b = ctx.robot_bearing(human)
+    radius, height = ctx.param(kind, "hasRadius"), ctx.param(kind, "hasHeight")
+    # In the hand's frame (oriented like the person, x forward): apex at the palm, axis to the robot.
+    apex, axis = np.zeros(3), np.array([math.cos(b), math.sin(b), 0.0])
+    start = ctx.situation.tool_poses.get(arm.name)
+    if start is not None:
+        palm = Human(HumanSpec(**human.model_dump(include=set(HumanSpec.model_fields)))).frame(hand.split("/", 1)[1])
+        meeting = np.array([HELD_OBJECT_OFFSET, 0.0, 0.0])
+        towards = palm.rotation.T @ (np.array(start.xyz) - palm.translation) - meeting
+        distance = float(np.linalg.norm(towards))
+        if distance > 1e-6 and angle_between(towards, axis) <= ctx.param(kind, "hasMaxAxisDeviation"):
+            axis = towards / distance
+            apex = meeting - axis * HELD_OBJECT_OFFSET  # the meeting point stays as deep in the cone
+            stretch = max(1.0, (HELD_OBJECT_OFFSET + distance) * (1.0 + CONE_START_MARGIN) / height)
+            radius, height = radius * stretch, height * stretch
+    opening = Pose.from_se3(pin.SE3(rotation_with_axis("+z", axis), apex))
     return ConeConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=FrameRef(entity=hand, offset=opening),
-                          region="inside", radius=ctx.param(kind, "hasRadius"), height=ctx.param(kind, "hasHeight"))  # fmt: skip
+                          region="inside", radius=radius, height=height)  # fmt: skip
 
 
 def _workspace_box(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:

@@ -16,12 +16,12 @@ from hriplan import HriplanError
 from hriplan.planner.motion import Goal as MotionGoal
 from hriplan.planner.motion import JointGoal, ToolGoal
 from hriplan.robots.bounding import frame_with_z
-from hriplan.robots.scene import Box, Cone, Cylinder, Sphere
 from hriplan.robots.spatial import Pose
 
 from .model import GraspGoal, HandOverGoal, InsertGoal, JointsGoal, PlaceGoal, TakeGoal, ToolPoseGoal
 from .model import Goal as TaskGoal
-from .world import TaskState, in_hand_pose, object_in_tool
+from .grasps import object_length
+from .world import TaskState, handover_point
 
 # The planned motion stops short of contact; the last centimetres (setting an object down, pushing
 # a peg in) are a guarded move for the controller. The finger capsules are conservative, so a
@@ -50,52 +50,49 @@ def task_kind(goal: TaskGoal) -> str:
 
 
 def _half_length(state: TaskState, name: str) -> float:
-    shape = state.object(name).shape
-    if isinstance(shape, (Cylinder, Cone)):
-        return shape.height / 2.0
-    if isinstance(shape, Box):
-        return shape.size[2] / 2.0
-    if isinstance(shape, Sphere):
-        return shape.radius
-    raise HriplanError(f"object {name!r} needs a shape to be inserted (its length sets where the peg stops)")
+    length = object_length(state.object(name).shape)
+    if length <= 0.0:
+        raise HriplanError(f"object {name!r} needs a shape to be inserted (its length sets where the peg stops)")
+    return length / 2.0
 
 
-def _to_object(arm: str, name: str, object_pose: pin.SE3, object_axis: str) -> ResolvedGoal:
-    """The tool goal that brings the held (or grasped) object `name` to `object_pose`."""
-    tool = object_pose * object_in_tool(object_axis).inverse()
-    goal = ToolGoal(arm=arm, pose=Pose.from_se3(tool), free_axes=[object_axis[1]])
+def _to_object(arm: str, name: str, object_pose: pin.SE3, state: TaskState) -> ResolvedGoal:
+    """The tool goal that brings the held (or grasped) object `name` to `object_pose`, by its
+    grasp (state.grasps), the spin about the grasp axis free."""
+    tool = object_pose * state.in_tool(name).inverse()
+    goal = ToolGoal(arm=arm, pose=Pose.from_se3(tool), free_axes=[state.grasps[name].axis[1]])
     return ResolvedGoal(goal, name, Pose.from_se3(object_pose))
 
 
-def resolve_goal(goal: TaskGoal, arm: str, state: TaskState, object_axis: str, held_axis: np.ndarray | None = None) -> ResolvedGoal:
+def resolve_goal(goal: TaskGoal, arm: str, state: TaskState, held_axis: np.ndarray | None = None) -> ResolvedGoal:
     """The motion goal of a step's goal for `arm`, and what it is about.
 
-    `held_axis`: the world direction of the held object's axis now; a handed-over object keeps
-    it (scissors stay pointed away from the receiver), else it arrives upright."""
+    `held_axis`: the world direction the held object's axis should have at the goal (kept from
+    now, or turned onto an orientation constraint: scissors pointed away from the receiver),
+    else it arrives upright."""
     if isinstance(goal, JointsGoal):
         return ResolvedGoal(JointGoal(values=goal.joints), None)
     if isinstance(goal, ToolPoseGoal):
         return ResolvedGoal(ToolGoal(arm=arm, pose=goal.tool_pose, free_axes=goal.free_axes), None)
     if isinstance(goal, GraspGoal):
-        return _to_object(arm, goal.grasp, state.pose(goal.grasp).se3(), object_axis)
+        return _to_object(arm, goal.grasp, state.pose(goal.grasp).se3(), state)
     if isinstance(goal, TakeGoal):
         if state.held_by_person.get(goal.take) != goal.from_:
             raise HriplanError(f"{goal.from_!r} does not hold {goal.take!r} at this step")
-        return _to_object(arm, goal.take, state.pose(goal.take).se3(), object_axis)
+        return _to_object(arm, goal.take, state.pose(goal.take).se3(), state)
     if isinstance(goal, HandOverGoal):
         _require_held(state, goal.hand_over, arm)
-        target = in_hand_pose(state.person(goal.to)).se3()
-        if held_axis is not None:
-            target = pin.SE3(frame_with_z(held_axis), target.translation)
-        return _to_object(arm, goal.hand_over, target, object_axis)
+        rotation = np.eye(3) if held_axis is None else frame_with_z(held_axis)
+        target = handover_point(state.person(goal.to), state.object(goal.hand_over).shape, rotation)
+        return _to_object(arm, goal.hand_over, target, state)
     if isinstance(goal, PlaceGoal):
         _require_held(state, goal.place, arm)
         release = pin.SE3(np.eye(3), np.array([0.0, 0.0, PLACE_CLEARANCE])) * goal.at.se3()
-        return ResolvedGoal(_to_object(arm, goal.place, release, object_axis).goal, goal.place, goal.at)
+        return ResolvedGoal(_to_object(arm, goal.place, release, state).goal, goal.place, goal.at)
     _require_held(state, goal.insert, arm)
     hole = state.pose(goal.into).se3()
     lift = _half_length(state, goal.insert) + _half_length(state, goal.into) + INSERTION_CLEARANCE
-    return _to_object(arm, goal.insert, hole * pin.SE3(np.eye(3), np.array([0.0, 0.0, lift])), object_axis)
+    return _to_object(arm, goal.insert, hole * pin.SE3(np.eye(3), np.array([0.0, 0.0, lift])), state)
 
 
 def _require_held(state: TaskState, name: str, arm: str) -> None:

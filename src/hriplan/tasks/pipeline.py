@@ -18,11 +18,14 @@ from hriplan import HriplanError
 from hriplan.ontology.assertions import arm_individual
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation, SituationHuman, SituationObject, SituationTask
-from hriplan.planner.motion import JointGoal, ToolGoal
+from hriplan.planner.motion import Goal as MotionGoal
+from hriplan.planner.motion import JointGoal, MotionResult, ToolGoal, plan_motion
 from hriplan.planner.options import PlanOptions
+from hriplan.planner.resolve import resolve_frame
+from hriplan.planner.spec import OrientationConstraint
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
 from hriplan.robots.ik import solve_two_arms
-from hriplan.robots.model import arms_of
+from hriplan.robots.model import Robot, arms_of, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.robots.postures import posture
@@ -30,13 +33,17 @@ from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
 
 from .goals import ResolvedGoal, after_step, resolve_goal, task_kind
+from .grasps import Grasp, allowed_grasps
 from .model import Step, TaskFile, step_name
-from .world import TaskState, object_in_tool
+from .prepare import preparatory_goal
+from .world import TaskState
 
 if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is planned
     from hriplan.planner.session import PlanningSession
 
 Progress = Callable[[str], None]
+# Spacing of the joint-space samples at which a carried object's path is recorded (rad).
+PATH_STEP = 0.05
 
 
 class StepOutcome(BaseModel):
@@ -72,12 +79,16 @@ def step_arms(task: TaskFile, step: Step, state: TaskState) -> list[str]:
     return ["right"] if task.robot == "madar" else ["arm"]
 
 
-def situation_for(task: TaskFile, step: Step, index: int, state: TaskState) -> Situation:
-    """The facts of one step: the task kind, who is involved, what is carried, where things are."""
+def situation_for(task: TaskFile, step: Step, index: int, state: TaskState,
+                  paths: dict[str, list[tuple[float, float, float]]] | None = None) -> Situation:  # fmt: skip
+    """The facts of one step: the task kind, who is involved, what is carried, where things are
+    (held objects where the hand is) and, once a motion is planned, the carried objects' `paths`."""
+    paths = paths or {}
     arms = step_arms(task, step, state)
     goals = step.goals or [step.goal]
     human = next((getattr(g, a) for g in goals for a in ("to", "from_") if getattr(g, a, None)), None)
-    target = next((g.into for g in goals if getattr(g, "into", None)), None)
+    targets = {g.insert: g.into for g in goals if getattr(g, "into", None)}
+    target = next(iter(targets.values())) if len(set(targets.values())) == 1 else None
     carries = {obj: arm for obj, arm in state.held_by_arm.items() if arm in arms}
     # An object this step grasps or takes is moved by it too: the hand arrives as it will hold it.
     for goal, arm in zip(goals, arms):
@@ -86,13 +97,15 @@ def situation_for(task: TaskFile, step: Step, index: int, state: TaskState) -> S
             carries[taken] = arm
     objects = [
         SituationObject(name=o.name, kind=o.kind, fill_level=o.fill_level, open=o.open, sharp=o.sharp, fragile=o.fragile,
-                        hot=o.hot, pose=state.pose(o.name))  # fmt: skip
+                        hot=o.hot, pose=state.pose(o.name), path=paths.get(o.name, []),
+                        grasp_axis=state.grasps[o.name].axis if o.name in state.grasps else None)  # fmt: skip
         for o in task.objects
     ]
     humans = [SituationHuman(**h.model_dump()) for h in task.humans]
     kind = step.kind or task_kind(goals[0])
-    return Situation(robot=task.robot, objects=objects, humans=humans,
-                     task=SituationTask(name=step_name(step, index), kind=kind, arms=arms, carries=carries, human=human, target=target))  # fmt: skip
+    return Situation(robot=task.robot, objects=objects, humans=humans, tool_poses=dict(state.tools),
+                     task=SituationTask(name=step_name(step, index), kind=kind, arms=arms, carries=carries, human=human,
+                                           target=target, targets=targets))  # fmt: skip
 
 
 def object_axes(kb: KnowledgeBase, arms: list[str]) -> dict[str, str]:
@@ -114,36 +127,80 @@ class TaskRunner:
         self.session = session
         self.knowledge_bases: dict[str, KnowledgeBase] = {}  # per step, from the last run
 
-    def derive_step(self, step: Step, index: int, state: TaskState) -> tuple[KnowledgeBase, Derivation]:
-        situation = situation_for(self.task, step, index, state)
+    def derive_step(self, step: Step, index: int, state: TaskState,
+                    paths: dict[str, list[tuple[float, float, float]]] | None = None) -> tuple[KnowledgeBase, Derivation]:  # fmt: skip
+        situation = situation_for(self.task, step, index, state, paths)  # nearness along `paths`: ontology/relations.py
         self.progress(f"{situation.task.name}: reasoning about the situation")
         kb = KnowledgeBase(situation, rule_files=self.rule_files)
+        self.knowledge_bases[situation.task.name] = kb
         return kb, derive(kb)
 
     def run(self, plan: bool = True) -> TaskOutcome:
-        """Derive (and plan, unless `plan` is False) every step."""
-        task, state = self.task, TaskState.initial(self.task)
+        """Derive (and plan, unless `plan` is False) every step. Without planning, a step starts
+        where the previous one's goal puts the tools. An object the step moves for the first
+        time is tried in each grasp the rules allow, most preferred first, until the step plans."""
+        task, state, robot = self.task, TaskState.initial(self.task), self._robot()
         start = posture(task.robot, task.start.posture) | task.start.joints
+        state.tools = tool_poses(robot, start)
         outcomes = []
         for index, step in enumerate(task.steps):
-            kb, derivation = self.derive_step(step, index, state)
-            self.knowledge_bases[kb.situation.task.name] = kb
-            arms = kb.situation.task.arms
-            axes = object_axes(kb, list(arms_of(task.robot)))
-            goals = step.goals or [step.goal]
-            held = self._held_axes(start, state, axes) if plan else {}
-            resolved = [resolve_goal(g, arm, state, axes[arm], held.get(arm)) for g, arm in zip(goals, arms)]
-            grasped = {r.moved_object for r in resolved if r.moved_object and r.moved_object not in state.held_by_arm}
-            outcome = StepOutcome(name=kb.situation.task.name, kind=kb.situation.task.kind, arms=arms, status="derived",
-                                  derivation=derivation, scene=state.scene(axes, leave_out=grasped))  # fmt: skip
-            if plan:
-                outcome, start = self._plan_step(derivation, resolved, start, outcome)
-            outcomes.append(outcome)
-            if outcome.status not in ("solved", "derived"):
+            choices = self._grasp_choices(step, index, state)
+            for grasps in choices if plan else choices[:1]:
+                state.grasps |= grasps
+                planned, end, resolved = self._step(step, index, state, start, plan)
+                if planned[-1].status in ("solved", "derived"):
+                    break
+            outcomes += planned
+            if planned[-1].status not in ("solved", "derived"):
                 break
+            goals, arms = step.goals or [step.goal], planned[-1].arms
             for g, arm, r in zip(goals, arms, resolved):
                 after_step(g, r, arm, state)
+            state.grasps = {o: g for o, g in state.grasps.items() if o in state.held_by_arm}
+            if plan:
+                start, state.tools = end, tool_poses(robot, end)
+            else:
+                state.tools |= {r.goal.arm: r.goal.pose for r in resolved if isinstance(r.goal, ToolGoal)}
         return TaskOutcome(task=task.name, steps=outcomes)
+
+    def _grasp_choices(self, step: Step, index: int, state: TaskState) -> list[dict[str, Grasp]]:
+        """The grasps to try for the objects the step is the first to hold (held from the start,
+        grasped or taken now): each allowed grasp of the first such object, in order of
+        preference, the others in their preferred one. [{}] when every grasp is already fixed."""
+        kb, _ = self.derive_step(step, index, state)
+        robot = kb.situation.robot
+        usual = object_axes(kb, list(arms_of(self.task.robot)))
+        holders = dict(state.held_by_arm) | dict(kb.situation.task.carries)
+        options = {obj: allowed_grasps(kb.facts, obj, arm_individual(robot, arm), usual[arm])
+                   for obj, arm in holders.items() if obj not in state.grasps}  # fmt: skip
+        if not options:
+            return [{}]
+        first, *others = options
+        rest = {obj: options[obj][0] for obj in others}
+        return [{first: g, **rest} for g in options[first]]
+
+    def _step(self, step: Step, index: int, state: TaskState, start: dict[str, float],
+              plan: bool) -> tuple[list[StepOutcome], dict[str, float], list[ResolvedGoal]]:  # fmt: skip
+        """Derive, resolve the goals and (if `plan`) plan one step with the grasps in `state`."""
+        kb, derivation = self.derive_step(step, index, state)
+        arms = kb.situation.task.arms
+        goals = step.goals or [step.goal]
+        touched = {obj: arm for g, arm in zip(goals, arms) if (obj := getattr(g, "take", None) or getattr(g, "grasp", None))}
+        scene = state.scene(touched)
+        held = self._held_axes(start, state, derivation, scene) if plan else {}
+        resolved = [resolve_goal(g, arm, state, held.get(arm)) for g, arm in zip(goals, arms)]
+        outcome = StepOutcome(name=kb.situation.task.name, kind=kb.situation.task.kind, arms=arms, status="derived",
+                              derivation=derivation, scene=scene)  # fmt: skip
+        if not plan:
+            return [outcome], start, resolved
+        grasps = ", ".join(f"{o} by {g.name}" for o, g in state.grasps.items() if o in kb.situation.task.carries)
+        planned, end = self._plan_step(step, index, state, resolved, start, outcome)
+        if grasps and planned[-1].status != "solved":
+            planned[-1] = planned[-1].model_copy(update={"message": f"{planned[-1].message} (holding {grasps})"})
+        return planned, end, resolved
+
+    def _robot(self) -> Robot:
+        return self.session.robot if self.session is not None else load_robot(self.task.robot, _hands(self.task) or None)
 
     def _session(self) -> PlanningSession:
         if self.session is None:
@@ -153,32 +210,73 @@ class TaskRunner:
             self.session = PlanningSession(self.task.robot, hands=self.task.hands or None)
         return self.session
 
-    def _plan_step(self, derivation: Derivation, resolved: list[ResolvedGoal], start: dict[str, float],
-                   outcome: StepOutcome) -> tuple[StepOutcome, dict[str, float]]:  # fmt: skip
-        session, robot = self._session(), self._session().robot
-        arms = outcome.arms
+    def _plan_step(self, step: Step, index: int, state: TaskState, resolved: list[ResolvedGoal], start: dict[str, float],
+                   outcome: StepOutcome) -> tuple[list[StepOutcome], dict[str, float]]:  # fmt: skip
+        """Plan the step, after a preparatory turn in place if its start violates one of its
+        orientation constraints (tasks/prepare.py)."""
+        session = self._session()
         session.set_scene(outcome.scene)
+        goal = resolved[0].goal if len(resolved) == 1 else self._joint_goal(resolved, start)
+        prepared = preparatory_goal(session.robot, session.checker, outcome.derivation.constraints, start) if len(outcome.arms) == 1 else None
+        outcomes = []
+        if prepared is not None:
+            turn, violated = prepared
+            kept = [c for c in outcome.derivation.constraints if c.spec.id != violated.spec.id]
+            prep = outcome.model_copy(update={"name": f"{outcome.name}_prepare", "kind": "Transport",
+                                              "derivation": outcome.derivation.model_copy(update={"constraints": kept})})  # fmt: skip
+            self.progress(f"{outcome.name}: the start violates {violated.spec.id}; turning in place first")
+            prep, start = self._motion(step, index, state, turn, start, prep, rederive=False)
+            prep = prep.model_copy(update={"message": f"turns the held object onto {violated.spec.id} before {outcome.name}"
+                                           if prep.status == "solved" else f"preparatory turn onto {violated.spec.id}: {prep.message}"})  # fmt: skip
+            outcomes.append(prep)
+            if prep.status != "solved":
+                return outcomes, start
+        final, end = self._motion(step, index, state, goal, start, outcome)
+        return [*outcomes, final], end
+
+    def _motion(self, step: Step, index: int, state: TaskState, goal: MotionGoal, start: dict[str, float],
+                outcome: StepOutcome, rederive: bool = True) -> tuple[StepOutcome, dict[str, float]]:  # fmt: skip
+        """Plan the path, re-derive with where it carries each object (nearness along the motion
+        decides the velocity rules), then time it under the derived velocity scale."""
+        session, robot = self._session(), self._session().robot
+        derivation, arms = outcome.derivation, outcome.arms
         session.set_constraints(derivation.constraint_set())
         group = robot.arm_group(arms[0]) if len(arms) == 1 else robot.default_group
         options = PlanOptions(planner=self.task.planning.planner, space=self.task.planning.space, time_limit=self.task.planning.time_limit,
-                              seed=self.task.planning.seed, project_start=self.task.planning.project_start, velocity_scale=derivation.velocity_scale)  # fmt: skip
-        goal = resolved[0].goal if len(resolved) == 1 else self._joint_goal(resolved, start)
+                              seed=self.task.planning.seed, project_start=self.task.planning.project_start)  # fmt: skip
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
-        result = session.plan(start, goal, options, group, safety=derivation.separation)
+        motion = plan_motion(robot, session.checker, list(session.constraints.values()), start, goal, options, group)
+        if motion.solved and rederive:
+            _, derivation = self.derive_step(step, index, state, carried_paths(robot, start, motion, outcome.name, self.knowledge_bases))
+            if derivation.constraint_set() != outcome.derivation.constraint_set():  # user rules may depend on the path
+                session.set_constraints(derivation.constraint_set())
+                motion = plan_motion(robot, session.checker, list(session.constraints.values()), start, goal, options, group)
+        outcome = outcome.model_copy(update={"derivation": derivation})
+        if not motion.solved:
+            return outcome.model_copy(update={"status": motion.status, "message": motion.message}), start
+        result = session.time(motion, options.model_copy(update={"velocity_scale": derivation.velocity_scale}), safety=derivation.separation)
         if not result.solved:
             return outcome.model_copy(update={"status": result.status, "message": result.message}), start
         trajectory = _with_reasons(result.trajectory, derivation).model_copy(update={"task": self.task.name, "step": outcome.name})
         end = dict(start) | dict(zip(trajectory.joint_names, trajectory.points[-1].positions))
         return outcome.model_copy(update={"status": "solved", "trajectory": trajectory}), end
 
-    def _held_axes(self, start: dict[str, float], state: TaskState, axes: dict[str, str]) -> dict[str, np.ndarray]:
-        """Per arm holding something: the world direction of the held object's axis at `start`."""
-        robot = self._session().robot
+    def _held_axes(self, start: dict[str, float], state: TaskState, derivation: Derivation, scene: Scene) -> dict[str, np.ndarray]:
+        """Per arm holding something: the world direction the held object's axis should keep:
+        the target of an orientation constraint on that arm (a blade pointing away), else its
+        direction at `start`."""
+        session = self._session()
+        robot = session.robot
+        session.set_scene(scene)
         q = robot.configuration(start)
         held = {}
-        for arm in set(state.held_by_arm.values()):
+        for obj, arm in state.held_by_arm.items():
             tool = pin.SE3(robot.frame_pose(robot.tool_frame(arm), q))
-            held[arm] = (tool * object_in_tool(axes[arm])).rotation[:, 2].copy()
+            held[arm] = (tool * state.in_tool(obj)).rotation[:, 2].copy()
+            for c in derivation.constraints:
+                if c.arm == arm and isinstance(c.spec, OrientationConstraint):
+                    target = resolve_frame(c.spec.frame, robot, session.checker).rotation @ c.spec.target.rotation()
+                    held[arm] = (target @ state.in_tool(obj).rotation)[:, 2].copy()
         return held
 
     def _joint_goal(self, resolved: list[ResolvedGoal], start: dict[str, float]) -> JointGoal:
@@ -194,6 +292,28 @@ class TaskRunner:
         if q is None:
             raise HriplanError("no collision-free configuration puts both arms at their goals")
         return JointGoal(values=dict(zip(robot.joint_names, q.tolist())))
+
+
+def tool_poses(robot: Robot, joints: dict[str, float]) -> dict[str, Pose]:
+    """World pose of every arm's tool frame at the given joint values."""
+    q = robot.configuration(joints)
+    return {arm: Pose.from_matrix(robot.frame_pose(robot.tool_frame(arm), q)) for arm in robot.arms}
+
+
+def carried_paths(robot: Robot, start: dict[str, float], motion: MotionResult, step: str,
+                  knowledge_bases: dict[str, KnowledgeBase]) -> dict[str, list[tuple[float, float, float]]]:  # fmt: skip
+    """Where each object the step carries passes (its centre at its arm's tool frame), every
+    PATH_STEP rad of joint motion along the planned path."""
+    carries = knowledge_bases[step].situation.task.carries
+    from hriplan.planner.validate import densify
+
+    states = densify(list(np.array(motion.path)), PATH_STEP)
+    paths: dict[str, list[tuple[float, float, float]]] = {obj: [] for obj in carries}
+    for x in states:
+        q = robot.configuration(dict(start) | dict(zip(motion.joint_names, x)))
+        for obj, arm in carries.items():
+            paths[obj].append(tuple(float(v) for v in robot.frame_pose(robot.tool_frame(arm), q)[:3, 3]))
+    return paths
 
 
 def _hands(task: TaskFile) -> dict[str, str]:

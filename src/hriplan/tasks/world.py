@@ -11,18 +11,17 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from hriplan.robots.bounding import frame_with_z
-from hriplan.robots.human import Human, HumanSpec
-from hriplan.robots.scene import AttachedObject, Obstacle, Scene, table
+from hriplan.robots.human import HELD_OBJECT_OFFSET, Human, HumanSpec
+from hriplan.robots.scene import AttachedObject, Box, Cone, Cylinder, Obstacle, Scene, Shape, Sphere, table
 from hriplan.robots.spatial import Pose
 
+from .grasps import Grasp, object_length
 from .model import TaskFile, TaskHuman, TaskObject
 
-# The object's centre in front of the holder's palm centre, along the person's facing
-# direction. Larger than a real grip: the robot's finger capsules (r 3.5 cm) and the person's
-# hand capsule (r 5.3 cm) must stay apart, since hriplan never lets the robot touch a person.
-IN_HAND_OFFSET = 0.19
-AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
+# A handed object's face nearest the person stays this far in front of their palm centre: an
+# upright can (r 3.3 cm) held HELD_OBJECT_OFFSET in front of it.
+NEAR_FACE_CLEARANCE = HELD_OBJECT_OFFSET - 0.033
+
 
 
 def human_spec(person: TaskHuman) -> HumanSpec:
@@ -32,25 +31,43 @@ def human_spec(person: TaskHuman) -> HumanSpec:
 def in_hand_pose(person: TaskHuman) -> Pose:
     """Upright object held in front of the person's active hand (person frames face forward)."""
     frame = Human(human_spec(person)).frame(f"{person.hand}_hand")
-    centre = frame.translation + frame.rotation[:, 0] * IN_HAND_OFFSET
+    centre = frame.translation + frame.rotation[:, 0] * HELD_OBJECT_OFFSET
     return Pose(xyz=tuple(float(v) for v in centre))
 
 
-def object_in_tool(object_axis: str) -> pin.SE3:
-    """Pose of a held object in the tool frame: its z axis along the arm's signed object axis."""
-    axis = np.zeros(3)
-    axis[AXIS_INDEX[object_axis[1]]] = -1.0 if object_axis[0] == "-" else 1.0
-    return pin.SE3(frame_with_z(axis), np.zeros(3))
+def handover_point(person: TaskHuman, shape: Shape | None, rotation: np.ndarray) -> pin.SE3:
+    """Where an object turned by `rotation` is handed to a person: in front of their active hand,
+    its face nearest them as far from the palm as an upright can's (a long knife lying along the
+    way they face goes further out, so it does not reach into their hand)."""
+    frame = Human(human_spec(person)).frame(f"{person.hand}_hand")
+    forward = frame.rotation[:, 0]
+    offset = max(HELD_OBJECT_OFFSET, NEAR_FACE_CLEARANCE + extent_along(shape, rotation, forward))
+    return pin.SE3(rotation, frame.translation + forward * offset)
+
+
+def extent_along(shape: Shape | None, rotation: np.ndarray, direction: np.ndarray) -> float:
+    """How far a centred shape turned by `rotation` reaches from its centre along `direction`."""
+    c = np.abs(rotation.T @ direction)  # direction in the shape's frame, by magnitude
+    if isinstance(shape, (Cylinder, Cone)):
+        return float(c[2] * shape.height / 2.0 + np.sqrt(max(0.0, 1.0 - c[2] ** 2)) * shape.radius)
+    if isinstance(shape, Box):
+        return float(c @ np.array(shape.size) / 2.0)
+    if isinstance(shape, Sphere):
+        return shape.radius
+    return 0.0
 
 
 @dataclass
 class TaskState:
-    """Per object: held by a robot arm, by a person, or standing at a pose."""
+    """Per object: held by a robot arm, by a person, or standing at a pose; per arm, where its
+    tool frame is (held objects move with it)."""
 
     task: TaskFile
     held_by_arm: dict[str, str] = field(default_factory=dict)
     held_by_person: dict[str, str] = field(default_factory=dict)
     poses: dict[str, Pose] = field(default_factory=dict)
+    tools: dict[str, Pose] = field(default_factory=dict)  # world pose of each arm's tool frame now
+    grasps: dict[str, Grasp] = field(default_factory=dict)  # how each held object is held
 
     @classmethod
     def initial(cls, task: TaskFile) -> "TaskState":
@@ -70,23 +87,33 @@ class TaskState:
         return next(h for h in self.task.humans if h.name == name)
 
     def pose(self, name: str) -> Pose:
-        """Where the object is now (in a person's hand: in front of it)."""
+        """Where the object is now: in a person's hand, in front of it; in a robot's hand, its
+        centre at the tool frame (a position: the grasp says how it is turned); else its pose."""
         if name in self.held_by_person:
             return in_hand_pose(self.person(self.held_by_person[name]))
+        arm = self.held_by_arm.get(name)
+        if arm is not None and arm in self.tools and name in self.grasps:
+            return Pose.from_se3(self.tools[arm].se3() * self.in_tool(name))
         return self.poses[name]
 
-    def scene(self, object_axes: dict[str, str], leave_out: set[str] = frozenset()) -> Scene:
-        """The planning scene now. `leave_out`: objects about to be grasped (the hand closes on them)."""
+    def in_tool(self, name: str) -> pin.SE3:
+        """Pose of a held (or about to be held) object in its arm's tool frame, by its grasp."""
+        return self.grasps[name].object_in_tool(object_length(self.object(name).shape))
+
+    def scene(self, touched: dict[str, str] | None = None) -> Scene:
+        """The planning scene now: every object wherever it is (on a table, in a person's hand, in
+        the robot's hand). `touched`: object -> the arm whose hand closes on it in this step,
+        which alone may touch it."""
+        touched = touched or {}
         obstacles = [table(t.name, t.size, t.top, t.position) for t in self.task.scene.tables]
         obstacles += list(self.task.scene.obstacles)
         attached = []
         for obj in self.task.objects:
-            if obj.shape is None or obj.name in leave_out:
+            if obj.shape is None:
                 continue
             if obj.name in self.held_by_arm:
                 arm = self.held_by_arm[obj.name]
-                grasp = Pose.from_se3(object_in_tool(object_axes[arm]))
-                attached.append(AttachedObject(name=obj.name, shape=obj.shape, arm=arm, grasp=grasp))
+                attached.append(AttachedObject(name=obj.name, shape=obj.shape, arm=arm, grasp=Pose.from_se3(self.in_tool(obj.name))))
             else:
-                obstacles.append(Obstacle(name=obj.name, shape=obj.shape, pose=self.pose(obj.name)))
+                obstacles.append(Obstacle(name=obj.name, shape=obj.shape, pose=self.pose(obj.name), touched_by=touched.get(obj.name)))
         return Scene(obstacles=obstacles, attached=attached, humans=[human_spec(h) for h in self.task.humans])

@@ -1,0 +1,60 @@
+"""Grasps a person would use, from the ontology: which ones an object allows, in order.
+
+An object kind affords grasps (side, top, handle; `affordsGrasp` on its class), rules may
+require some (`requiresGrasp`: a full open cup from the side, a knife by its handle), and each
+grasp says which tool axis lies along the object's axis and where along the object the hand
+closes. An arm without a robot hand (a bare UR5 flange) holds objects along its usual axis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from hriplan import HriplanError
+from hriplan.ontology.facts import Facts
+from hriplan.robots.bounding import frame_with_z
+from hriplan.robots.scene import Box, Cone, Cylinder, Shape, Sphere
+
+AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
+
+
+@dataclass(frozen=True)
+class Grasp:
+    name: str
+    axis: str  # signed tool axis along the held object's z axis
+    offset: float = 0.0  # where the hand closes: from the centre along the object's z, per length
+
+    def object_in_tool(self, length: float) -> pin.SE3:
+        """Pose of the held object in the tool frame: its z along `axis`, the grasp point at the tool."""
+        z = np.zeros(3)
+        z[AXIS_INDEX[self.axis[1]]] = -1.0 if self.axis[0] == "-" else 1.0
+        return pin.SE3(frame_with_z(z), -self.offset * length * z)
+
+
+def object_length(shape: Shape | None) -> float:
+    """Length of an object along its z axis (0 without a shape: the grasp point is its centre)."""
+    if isinstance(shape, (Cylinder, Cone)):
+        return shape.height
+    if isinstance(shape, Box):
+        return shape.size[2]
+    if isinstance(shape, Sphere):
+        return 2.0 * shape.radius
+    return 0.0
+
+
+def allowed_grasps(facts: Facts, obj: str, arm_individual: str, usual_axis: str) -> list[Grasp]:
+    """The grasps the rules allow for `obj` in an arm, most preferred first."""
+    if not facts.get(arm_individual, "hasRobotHand"):
+        return [Grasp("usual", usual_axis)]
+    names = facts.get(obj, "requiresGrasp") or facts.get(obj, "affordsGrasp")
+    if not names:
+        return [Grasp("usual", usual_axis)]
+    grasps = sorted((str(n) for n in names), key=lambda n: (facts.number(n, "hasPreference"), n))
+    found = [Grasp(n, str(facts.one(n, "hasGraspAxis")), facts.number(n, "hasGraspOffset")) for n in grasps]
+    for g in found:
+        if g.axis not in ("+x", "-x", "+y", "-y", "+z", "-z"):
+            raise HriplanError(f"grasp {g.name} has axis {g.axis!r} in the ontology; use one of +x, -x, +y, -y, +z, -z")
+    return found
