@@ -91,6 +91,8 @@ class ConstraintEvaluator:
         self.n_equality = sum(equality_row_count(c) for c in self.constraints)
         self._terms = [_Term.of(c) for c in self.constraints]
         self._orientations = [t for t in self._terms if t.target is not None]
+        self._key: bytes | None = None  # the configuration self.data holds kinematics for
+        self._has_jacobians = False
 
     # -- kinematics ------------------------------------------------------------------------
     def full(self, x: Sequence[float]) -> np.ndarray:
@@ -100,12 +102,18 @@ class ConstraintEvaluator:
         return q
 
     def _update(self, q: np.ndarray, jacobians: bool) -> None:
+        """Kinematics at q, computed once per configuration: OMPL asks for the rows, the
+        Jacobian and the validity of the same state in turn, and each needs the same FK."""
+        key = q.tobytes()
+        if key == self._key and (self._has_jacobians or not jacobians):
+            return
         if jacobians:
             pin.computeJointJacobians(self.model, self.data, q)
         else:
             pin.forwardKinematics(self.model, self.data, q)
         for link in self.links:
             pin.updateFramePlacement(self.model, self.data, link)
+        self._key, self._has_jacobians = key, jacobians
 
     def _jac(self, link: int) -> np.ndarray:
         return pin.getFrameJacobian(self.model, self.data, link, LWA)[:, self.vidx]
@@ -147,6 +155,11 @@ class ConstraintEvaluator:
         """Per constraint: > 0 means violated by that much (m or rad), <= 0 satisfied."""
         self._update(q, jacobians=False)
         return np.array([self._margin(t, False)[0] for t in self._terms])
+
+    def gradients(self, x: Sequence[float]) -> np.ndarray:
+        """Per constraint, the gradient of its margin w.r.t. the planned joints."""
+        self._update(self.full(x), jacobians=True)
+        return np.array([self._margin(t, True)[1] for t in self._terms])
 
     def deadzone(self, x: Sequence[float], offset: float = 0.0) -> np.ndarray:
         """One row per constraint: max(margin + offset, 0)."""

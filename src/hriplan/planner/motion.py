@@ -21,6 +21,7 @@ from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import JointValues, Robot
 from hriplan.robots.spatial import Pose
 
+from .bands import BandProblem, plan_in_bands
 from .evaluator import ConstraintEvaluator
 from .keep_out import keep_out_obstacles
 from .ompl_backend import solve_with_ompl
@@ -32,6 +33,8 @@ from .validate import VALIDATION_TOLERANCE, PathValidation, validate_path
 
 # Planning keeps this much inside every band so that chords between planned states stay valid.
 PLANNING_MARGIN = 2e-3
+# Dead-zone rows project this far inside a band, so a projected state is valid for planning.
+BAND_OFFSET = 2 * PLANNING_MARGIN
 Status = Literal["solved", "invalid_start", "invalid_goal", "unreachable_goal", "timeout", "invalid_path", "planner_error"]
 
 
@@ -206,7 +209,7 @@ def _rows(problem: _Problem, options: PlanOptions):  # noqa: ANN202
     if options.space == "rejection" or not evaluator.constraints:
         return None
     if options.formulation == "deadzone":
-        return (lambda x: evaluator.deadzone(x, PLANNING_MARGIN), lambda x: evaluator.deadzone_jacobian(x, PLANNING_MARGIN), len(evaluator.constraints))
+        return (lambda x: evaluator.deadzone(x, BAND_OFFSET), lambda x: evaluator.deadzone_jacobian(x, BAND_OFFSET), len(evaluator.constraints))
     if evaluator.n_equality == 0:
         return None
     return evaluator.equality, evaluator.equality_jacobian, evaluator.n_equality
@@ -225,7 +228,7 @@ def _onto_manifold(problem: _Problem, rows, x: np.ndarray, step: float) -> np.nd
 def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal: np.ndarray) -> MotionResult:
     rows = _rows(problem, options)
     hybrid = options.formulation == "hybrid" and options.space != "rejection"
-    is_valid = problem.validity(-PLANNING_MARGIN if hybrid else 0.0)
+    is_valid = problem.validity(-PLANNING_MARGIN if hybrid or options.planner == "CBiRRT" else 0.0)
     blank = {"group": problem.group, "joint_names": []}
     ends = [_onto_manifold(problem, rows, x, options.validation_step) for x in (x_start, x_goal)]
     if ends[0] is None:
@@ -247,7 +250,10 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
         if remaining <= 0.0:
             break
         seed = None if options.seed is None else options.seed + attempt
-        run = solve_with_ompl(options.model_copy(update={"time_limit": remaining, "seed": seed}), bounds, ends[0], ends[1], is_valid, rows)
+        if options.planner == "CBiRRT":
+            run = plan_in_bands(_band_problem(problem, options, is_valid), ends[0], ends[1], remaining, seed)
+        else:
+            run = solve_with_ompl(options.model_copy(update={"time_limit": remaining, "seed": seed}), bounds, ends[0], ends[1], is_valid, rows)
         for key, value in vars(run.counters).items():
             calls[key] = calls.get(key, 0) + value
         attempt += 1
@@ -265,6 +271,15 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
     status = "planner_error" if last_message.startswith("OMPL:") else "invalid_path" if "dense validation" in last_message else "timeout"
     return MotionResult(status=status, message=last_message or "time limit reached", group=problem.group, joint_names=[],
                         planning_time=time.perf_counter() - started, calls=calls, space=options.space)  # fmt: skip
+
+
+def _band_problem(problem: _Problem, options: PlanOptions, is_valid) -> BandProblem:  # noqa: ANN001
+    evaluator = problem.evaluator
+    if evaluator.constraints:
+        margins, gradients = lambda x: evaluator.margins(evaluator.full(x)), evaluator.gradients
+    else:
+        margins, gradients = (lambda x: np.zeros(0)), (lambda x: np.zeros((0, evaluator.n)))
+    return BandProblem(margins, gradients, is_valid, problem.robot.limits(problem.group), BAND_OFFSET, PLANNING_MARGIN, options.delta)
 
 
 def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:

@@ -7,7 +7,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 PLANNERS = (
-    "RRTConnect", "RRT", "BKPIECE1", "KPIECE1", "LBKPIECE1", "PRM", "PRMstar", "RRTstar",
+    "CBiRRT", "RRTConnect", "RRT", "BKPIECE1", "KPIECE1", "LBKPIECE1", "PRM", "PRMstar", "RRTstar",
     "BITstar", "AORRTC", "FMT", "BFMT", "InformedRRTstar", "SORRTstar",
 )  # fmt: skip
 Space = Literal["atlas", "tangent_bundle", "projected", "rejection"]

@@ -1,0 +1,177 @@
+"""Plan inside tolerance bands and volumes: CBiRRT (Berenson et al. 2009), hriplan's own loop.
+
+Two trees grow from the start and the goal. Each extension steps `delta` towards a target and,
+only when the step leaves a band (a margin above -offset), projects it back by minimum-norm
+Newton steps on the dead-zone rows max(margin + offset, 0). Inside a band nothing is projected,
+so the tool may tilt within its tolerance and the link may move anywhere in its volume; states
+are never rejected for leaving a band, they are moved back into it. OMPL's ProjectedStateSpace
+does the same projection but samples and walks to far-away random states (see
+benchmarks/REPORT-planner.md); this loop takes bounded steps and stops at the first blocked one.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .ompl_backend import Counters, OmplResult
+
+Margins = Callable[[np.ndarray], np.ndarray]
+Gradients = Callable[[np.ndarray], np.ndarray]  # x -> one gradient row per margin
+NEWTON_ITERATIONS = 12
+
+
+@dataclass
+class BandProblem:
+    """What one CBiRRT search needs: the margins with gradients, validity and joint bounds."""
+
+    margins: Margins
+    gradients: Gradients
+    is_valid: Callable[[np.ndarray], bool]  # collision free and every margin <= -accept
+    bounds: tuple[np.ndarray, np.ndarray]
+    offset: float  # project to margin <= -offset ...
+    accept: float  # ... and accept a projected state once margin <= -accept (< offset)
+    delta: float
+
+
+class _Tree:
+    """Nodes in a growing array (nearest neighbour by one numpy pass) with parent links."""
+
+    def __init__(self, root: np.ndarray, capacity: int = 4096) -> None:
+        self.nodes = np.empty((capacity, len(root)))
+        self.nodes[0] = root
+        self.parents = [-1]
+
+    def __len__(self) -> int:
+        return len(self.parents)
+
+    def nearest(self, x: np.ndarray) -> int:
+        diff = self.nodes[: len(self)] - x
+        return int(np.argmin(np.einsum("ij,ij->i", diff, diff)))
+
+    def add(self, x: np.ndarray, parent: int) -> int:
+        if len(self) == len(self.nodes):
+            self.nodes = np.concatenate([self.nodes, np.empty_like(self.nodes)])
+        self.nodes[len(self)] = x
+        self.parents.append(parent)
+        return len(self) - 1
+
+    def branch(self, index: int) -> list[np.ndarray]:
+        """States from the root to node `index`."""
+        out = []
+        while index >= 0:
+            out.append(self.nodes[index].copy())
+            index = self.parents[index]
+        return out[::-1]
+
+
+class _Search:
+    def __init__(self, problem: BandProblem, counters: Counters) -> None:
+        self.p, self.counters = problem, counters
+        self.low, self.high = problem.bounds
+
+    def project(self, x: np.ndarray) -> np.ndarray | None:
+        """x moved into every band (margin <= -accept), or None if Newton does not get there."""
+        p = self.p
+        for _ in range(NEWTON_ITERATIONS):
+            margins = p.margins(x)
+            self.counters.function += 1
+            outside = margins > -p.accept
+            if not outside.any():
+                return x
+            self.counters.jacobian += 1
+            rows = margins[outside] + p.offset
+            jac = p.gradients(x)[outside]
+            gram = jac @ jac.T + 1e-9 * np.eye(len(rows))
+            x = x - jac.T @ np.linalg.solve(gram, rows)
+            if not (np.all(x >= self.low) and np.all(x <= self.high)):
+                return None
+        return None
+
+    def valid(self, x: np.ndarray) -> bool:
+        self.counters.validity += 1
+        return self.p.is_valid(x)
+
+    def extend(self, tree: _Tree, index: int, target: np.ndarray, max_steps: int) -> tuple[int, bool]:
+        """Constrained extension from node `index` towards `target`: (last node, reached)."""
+        x = tree.nodes[index].copy()
+        delta = self.p.delta
+        distance = float(np.linalg.norm(target - x))
+        for _ in range(max_steps):
+            if distance <= 1e-9:
+                return index, True
+            step = target if distance <= delta else x + (target - x) * (delta / distance)
+            moved = self.project(step)
+            if moved is None:
+                return index, False
+            new_distance = float(np.linalg.norm(target - moved))
+            # No progress, or projection threw the state far from the step: blocked.
+            if new_distance >= distance - 1e-6 or float(np.linalg.norm(moved - x)) > 2.0 * delta:
+                return index, False
+            if not self.valid(moved):
+                return index, False
+            index = tree.add(moved, index)
+            x, distance = moved, new_distance
+            if distance <= 1e-6:
+                return index, True
+        return index, False
+
+
+def plan_in_bands(
+    problem: BandProblem, start: np.ndarray, goal: np.ndarray, time_limit: float, seed: int | None, max_steps: int = 50
+) -> OmplResult:
+    """Bidirectional constrained search; the path's consecutive states are <= ~delta apart."""
+    rng = np.random.default_rng(seed)
+    counters = Counters()
+    search = _Search(problem, counters)
+    started = time.perf_counter()
+    trees = (_Tree(np.asarray(start, dtype=float)), _Tree(np.asarray(goal, dtype=float)))
+    low, high = problem.bounds
+    a, b = trees
+    # Try the direct connection first: many band problems are a short slide along the band.
+    target = b.nodes[0]
+    while time.perf_counter() - started < time_limit:
+        size = len(a)
+        reached_a, _ = search.extend(a, a.nearest(target), target, max_steps)
+        target = rng.uniform(low, high)
+        if len(a) == size:
+            a, b = b, a
+            continue
+        joint = a.nodes[reached_a]
+        reached_b, connected = search.extend(b, b.nearest(joint), joint, 10 * max_steps)
+        if connected:
+            path_a, path_b = a.branch(reached_a), b.branch(reached_b)
+            path = path_a + path_b[::-1][1:] if a is trees[0] else path_b + path_a[::-1][1:]
+            # Shorten for as long as the search took (at least 0.1 s): a bounded share of the plan.
+            searched = time.perf_counter() - started
+            path = shortcut(search, path, rng, deadline=min(started + time_limit, time.perf_counter() + max(0.1, searched)))
+            return OmplResult(True, path, time.perf_counter() - started, "projected", "", counters)
+        a, b = b, a
+    return OmplResult(False, [], time.perf_counter() - started, "projected", "no exact solution within the time limit", counters)
+
+
+def shortcut(search: _Search, path: list[np.ndarray], rng: np.random.Generator, deadline: float, attempts: int = 60) -> list[np.ndarray]:
+    """Replace random sub-paths by constrained extensions between their ends while they shorten
+    the path (each replacement is a chain of projected, valid states like the trees' edges).
+    A sub-path already within 2 % of the straight line between its ends is not tried: no
+    replacement can gain more, and trying costs a projected walk."""
+    for _ in range(attempts):
+        if len(path) < 3 or time.perf_counter() > deadline:
+            break
+        i, j = sorted(rng.choice(len(path), size=2, replace=False))
+        old = sum(float(np.linalg.norm(path[k + 1] - path[k])) for k in range(i, j))
+        if j - i < 2 or old <= 1.02 * float(np.linalg.norm(path[j] - path[i])) + 1e-3:
+            continue
+        tree = _Tree(path[i])
+        end, reached = search.extend(tree, 0, path[j], max_steps=int(math.ceil(old / search.p.delta)) + 2)
+        if not reached:
+            continue
+        middle = tree.branch(end)
+        new = sum(float(np.linalg.norm(middle[k + 1] - middle[k])) for k in range(len(middle) - 1))
+        if new < old - 1e-6:
+            path = path[:i] + middle[:-1] + path[j:]
+    return path
