@@ -21,21 +21,29 @@ import numpy as np
 from .ompl_backend import Counters, OmplResult
 
 Margins = Callable[[np.ndarray], np.ndarray]
-Gradients = Callable[[np.ndarray], np.ndarray]  # x -> one gradient row per margin
+Gradients = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]  # x -> (margins, a gradient row each)
 NEWTON_ITERATIONS = 12
 
 
 @dataclass
 class BandProblem:
-    """What one CBiRRT search needs: the margins with gradients, validity and joint bounds."""
+    """What one CBiRRT search needs: the margins with gradients, a collision check, joint bounds."""
 
     margins: Margins
     gradients: Gradients
-    is_valid: Callable[[np.ndarray], bool]  # collision free and every margin <= -accept
+    collision_free: Callable[[np.ndarray], bool]
     bounds: tuple[np.ndarray, np.ndarray]
     offset: float  # project to margin <= -offset ...
     accept: float  # ... and accept a projected state once margin <= -accept (< offset)
     delta: float
+
+
+def _min_norm_step(jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The smallest dx with jac dx = rows (one row, the usual case, without a solve)."""
+    if len(rows) == 1:
+        g = jac[0]
+        return g * (float(rows[0]) / max(float(g @ g), 1e-12))
+    return jac.T @ np.linalg.solve(jac @ jac.T + 1e-9 * np.eye(len(rows)), rows)
 
 
 class _Tree:
@@ -77,24 +85,28 @@ class _Search:
     def project(self, x: np.ndarray) -> np.ndarray | None:
         """x moved into every band (margin <= -accept), or None if Newton does not get there."""
         p = self.p
+        self.counters.function += 1
+        margins = p.margins(x)
         for _ in range(NEWTON_ITERATIONS):
-            margins = p.margins(x)
-            self.counters.function += 1
             outside = margins > -p.accept
             if not outside.any():
                 return x
             self.counters.jacobian += 1
-            rows = margins[outside] + p.offset
-            jac = p.gradients(x)[outside]
-            gram = jac @ jac.T + 1e-9 * np.eye(len(rows))
-            x = x - jac.T @ np.linalg.solve(gram, rows)
+            margins, grads = p.gradients(x)
+            # Rows near their boundary join the step too, so that fixing one does not push
+            # another out (no zig-zag between two bands).
+            active = margins > -p.offset
+            x = x - _min_norm_step(grads[active], margins[active] + p.offset)
             if not (np.all(x >= self.low) and np.all(x <= self.high)):
                 return None
+            self.counters.function += 1
+            margins = p.margins(x)
         return None
 
     def valid(self, x: np.ndarray) -> bool:
+        """Collision free (projected states are inside every band already)."""
         self.counters.validity += 1
-        return self.p.is_valid(x)
+        return self.p.collision_free(x)
 
     def extend(self, tree: _Tree, index: int, target: np.ndarray, max_steps: int) -> tuple[int, bool]:
         """Constrained extension from node `index` towards `target`: (last node, reached)."""
@@ -122,7 +134,7 @@ class _Search:
 
 
 def plan_in_bands(
-    problem: BandProblem, start: np.ndarray, goal: np.ndarray, time_limit: float, seed: int | None, max_steps: int = 50
+    problem: BandProblem, start: np.ndarray, goal: np.ndarray, time_limit: float, seed: int | None, max_steps: int = 10
 ) -> OmplResult:
     """Bidirectional constrained search; the path's consecutive states are <= ~delta apart."""
     rng = np.random.default_rng(seed)
@@ -131,6 +143,7 @@ def plan_in_bands(
     started = time.perf_counter()
     trees = (_Tree(np.asarray(start, dtype=float)), _Tree(np.asarray(goal, dtype=float)))
     low, high = problem.bounds
+    space = "projected" if len(problem.margins(trees[0].nodes[0])) else "real_vector"
     a, b = trees
     # Try the direct connection first: many band problems are a short slide along the band.
     target = b.nodes[0]
@@ -149,9 +162,9 @@ def plan_in_bands(
             # Shorten for as long as the search took (at least 0.1 s): a bounded share of the plan.
             searched = time.perf_counter() - started
             path = shortcut(search, path, rng, deadline=min(started + time_limit, time.perf_counter() + max(0.1, searched)))
-            return OmplResult(True, path, time.perf_counter() - started, "projected", "", counters)
+            return OmplResult(True, path, time.perf_counter() - started, space, "", counters)
         a, b = b, a
-    return OmplResult(False, [], time.perf_counter() - started, "projected", "no exact solution within the time limit", counters)
+    return OmplResult(False, [], time.perf_counter() - started, space, "no exact solution within the time limit", counters)
 
 
 def shortcut(search: _Search, path: list[np.ndarray], rng: np.random.Generator, deadline: float, attempts: int = 60) -> list[np.ndarray]:

@@ -156,10 +156,11 @@ class ConstraintEvaluator:
         self._update(q, jacobians=False)
         return np.array([self._margin(t, False)[0] for t in self._terms])
 
-    def gradients(self, x: Sequence[float]) -> np.ndarray:
-        """Per constraint, the gradient of its margin w.r.t. the planned joints."""
+    def gradients(self, x: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """(margins, one gradient row per margin w.r.t. the planned joints), in one pass."""
         self._update(self.full(x), jacobians=True)
-        return np.array([self._margin(t, True)[1] for t in self._terms])
+        values, grads = zip(*(self._margin(t, True) for t in self._terms))
+        return np.array(values), np.array(grads)
 
     def deadzone(self, x: Sequence[float], offset: float = 0.0) -> np.ndarray:
         """One row per constraint: max(margin + offset, 0)."""
@@ -183,6 +184,50 @@ class ConstraintEvaluator:
     def equality_jacobian(self, x: Sequence[float]) -> np.ndarray:
         self._update(self.full(x), jacobians=True)
         return np.vstack([self._equality(t, True)[1] for t in self._orientations])
+
+    # -- banded quantities (for slack variables: each equals a slack bounded by its band) ------
+    def quantities(self, x: Sequence[float]) -> np.ndarray:
+        """Orientation: the equality rows' values; volumes: the link position in the frame."""
+        self._update(self.full(x), jacobians=False)
+        return np.concatenate([self._quantity(t, False)[0] for t in self._terms])
+
+    def quantities_jacobian(self, x: Sequence[float]) -> np.ndarray:
+        self._update(self.full(x), jacobians=True)
+        return np.vstack([self._quantity(t, True)[1] for t in self._terms])
+
+    def quantity_bounds(self, reach: float = 3.0) -> tuple[np.ndarray, np.ndarray]:
+        """Boxes that hold every quantity's band: the slack variables' bounds. A dynamic
+        tolerance's widest band is taken `reach` metres from the goal; outside a volume, `reach`."""
+        low, high = [], []
+        for t in self._terms:
+            spec = t.bound.spec
+            if t.target is not None:
+                widest = min(t.tolerance + t.gradient * reach, math.pi)
+                # one free axis: rows are sines of the tilt; otherwise angles
+                bound = (math.sin(widest) if widest < math.pi / 2 else 1.0) if len(t.free) == 1 else widest
+                rows = equality_row_count(t.bound)
+                low += [-bound] * rows
+                high += [bound] * rows
+            elif spec.region == "outside":
+                low += [-reach] * 3
+                high += [reach] * 3
+            else:
+                half = np.array(spec.size) / 2 if isinstance(spec, BoxConstraint) else None
+                if half is None:
+                    r = spec.radius
+                    z = (-r, r) if isinstance(spec, SphereConstraint) else (0.0, spec.height)
+                    half_low, half_high = [-r, -r, z[0]], [r, r, z[1]]
+                else:
+                    half_low, half_high = list(-half), list(half)
+                low += half_low
+                high += half_high
+        return np.array(low), np.array(high)
+
+    def _quantity(self, t: _Term, with_grad: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        if t.target is not None:
+            return self._equality(t, with_grad)
+        values = t.rf_t @ (self.data.oMf[t.link].translation - t.origin)
+        return values, (t.rf_t @ self._jac(t.link)[:3] if with_grad else None)
 
     def _equality(self, t: _Term, with_grad: bool) -> tuple[np.ndarray, np.ndarray | None]:
         r_world = self.data.oMf[t.link].rotation

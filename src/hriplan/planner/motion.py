@@ -25,9 +25,10 @@ from .bands import BandProblem, plan_in_bands
 from .evaluator import ConstraintEvaluator
 from .keep_out import keep_out_obstacles
 from .ompl_backend import solve_with_ompl
-from .options import PlanOptions
+from .options import PlanOptions, check_method
 from .projection import project
 from .resolve import BoundConstraint, bind, set_goal_positions
+from .slack import SlackRows
 from .spec import Axis, ConstraintSpec
 from .validate import VALIDATION_TOLERANCE, PathValidation, validate_path
 
@@ -140,6 +141,7 @@ def plan_motion(
 ) -> MotionResult:
     """Plan a constrained, collision-free motion of `group` from `start` to `goal`."""
     options = options or PlanOptions()
+    check_method(options)
     group = group or robot.default_group
     joint_names = robot.group_joints(group)
     q_start = robot.configuration(start) if isinstance(start, dict) else robot.configuration(start, group)
@@ -208,6 +210,8 @@ def _rows(problem: _Problem, options: PlanOptions):  # noqa: ANN202
     evaluator = problem.evaluator
     if options.space == "rejection" or not evaluator.constraints:
         return None
+    if options.formulation == "slack":
+        return None  # the slack rows live on an augmented space: see _solve
     if options.formulation == "deadzone":
         return (lambda x: evaluator.deadzone(x, BAND_OFFSET), lambda x: evaluator.deadzone_jacobian(x, BAND_OFFSET), len(evaluator.constraints))
     if evaluator.n_equality == 0:
@@ -227,8 +231,8 @@ def _onto_manifold(problem: _Problem, rows, x: np.ndarray, step: float) -> np.nd
 
 def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal: np.ndarray) -> MotionResult:
     rows = _rows(problem, options)
-    hybrid = options.formulation == "hybrid" and options.space != "rejection"
-    is_valid = problem.validity(-PLANNING_MARGIN if hybrid or options.planner == "CBiRRT" else 0.0)
+    inside = options.space != "rejection" and (options.formulation in ("hybrid", "slack") or options.planner == "CBiRRT")
+    is_valid = problem.validity(-PLANNING_MARGIN if inside else 0.0)
     blank = {"group": problem.group, "joint_names": []}
     ends = [_onto_manifold(problem, rows, x, options.validation_step) for x in (x_start, x_goal)]
     if ends[0] is None:
@@ -240,7 +244,6 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             status = "invalid_start" if name == "start" else "invalid_goal"
             reason = problem.describe_violations(x) or problem.describe_collisions(x) or f"within {PLANNING_MARGIN} of a constraint boundary"
             return MotionResult(status=status, message=f"{name} is not valid for planning: {reason}", **blank)
-    bounds = problem.robot.limits(problem.group)
     started = time.perf_counter()
     last_message = ""
     calls: dict[str, int] = {}
@@ -250,10 +253,7 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
         if remaining <= 0.0:
             break
         seed = None if options.seed is None else options.seed + attempt
-        if options.planner == "CBiRRT":
-            run = plan_in_bands(_band_problem(problem, options, is_valid), ends[0], ends[1], remaining, seed)
-        else:
-            run = solve_with_ompl(options.model_copy(update={"time_limit": remaining, "seed": seed}), bounds, ends[0], ends[1], is_valid, rows)
+        run = _solve(problem, options.model_copy(update={"time_limit": remaining, "seed": seed}), ends, is_valid, rows)
         for key, value in vars(run.counters).items():
             calls[key] = calls.get(key, 0) + value
         attempt += 1
@@ -273,13 +273,28 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
                         planning_time=time.perf_counter() - started, calls=calls, space=options.space)  # fmt: skip
 
 
-def _band_problem(problem: _Problem, options: PlanOptions, is_valid) -> BandProblem:  # noqa: ANN001
-    evaluator = problem.evaluator
+def _solve(problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_valid, rows):  # noqa: ANN001, ANN202
+    """One search by the chosen method: hriplan's CBiRRT, OMPL on slack variables, or OMPL."""
+    bounds = problem.robot.limits(problem.group)
+    if options.planner == "CBiRRT":
+        return plan_in_bands(_band_problem(problem, options), ends[0], ends[1], options.time_limit, options.seed)
+    if options.formulation == "slack" and options.space != "rejection" and problem.evaluator.constraints:
+        slack, n = SlackRows(problem.evaluator), problem.evaluator.n
+        run = solve_with_ompl(options, slack.bounds(bounds), slack.lift(ends[0]), slack.lift(ends[1]),
+                              lambda xs: is_valid(xs[:n]), (slack.function, slack.jacobian, slack.k))  # fmt: skip
+        run.states = [s[:n] for s in run.states]
+        return run
+    return solve_with_ompl(options, bounds, ends[0], ends[1], is_valid, rows)
+
+
+def _band_problem(problem: _Problem, options: PlanOptions) -> BandProblem:
+    evaluator, checker = problem.evaluator, problem.checker
     if evaluator.constraints:
         margins, gradients = lambda x: evaluator.margins(evaluator.full(x)), evaluator.gradients
     else:
-        margins, gradients = (lambda x: np.zeros(0)), (lambda x: np.zeros((0, evaluator.n)))
-    return BandProblem(margins, gradients, is_valid, problem.robot.limits(problem.group), BAND_OFFSET, PLANNING_MARGIN, options.delta)
+        margins, gradients = (lambda x: np.zeros(0)), (lambda x: (np.zeros(0), np.zeros((0, evaluator.n))))
+    return BandProblem(margins, gradients, lambda x: not checker.in_collision(evaluator.full(x)), problem.robot.limits(problem.group),
+                       BAND_OFFSET, PLANNING_MARGIN, options.delta)  # fmt: skip
 
 
 def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:
