@@ -176,7 +176,7 @@ def shortcut(search: _Search, path: list[np.ndarray], rng: np.random.Generator, 
         if len(path) < 3 or time.perf_counter() > deadline:
             break
         i, j = sorted(rng.choice(len(path), size=2, replace=False))
-        old = sum(float(np.linalg.norm(path[k + 1] - path[k])) for k in range(i, j))
+        old = _length(path[i : j + 1])
         if j - i < 2 or old <= 1.02 * float(np.linalg.norm(path[j] - path[i])) + 1e-3:
             continue
         tree = _Tree(path[i])
@@ -184,7 +184,10 @@ def shortcut(search: _Search, path: list[np.ndarray], rng: np.random.Generator, 
         if not reached:
             continue
         middle = tree.branch(end)
-        new = sum(float(np.linalg.norm(middle[k + 1] - middle[k])) for k in range(len(middle) - 1))
-        if new < old - 1e-6:
+        if _length(middle) < old - 1e-6:
             path = path[:i] + middle[:-1] + path[j:]
     return path
+
+
+def _length(states: list[np.ndarray]) -> float:
+    return float(np.linalg.norm(np.diff(np.array(states), axis=0), axis=1).sum())

@@ -263,7 +263,7 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
                 break
             continue
         waypoints = _dedupe([x_start, *run.states, x_goal])
-        validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step)
+        validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step, human_distance=False)
         if validation.valid:
             return MotionResult(status="solved", group=problem.group, joint_names=[], path=[w.tolist() for w in waypoints],
                                 validation=validation, planning_time=time.perf_counter() - started, space=run.space, calls=calls)  # fmt: skip

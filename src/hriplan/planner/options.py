@@ -32,9 +32,9 @@ class PlanOptions(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    planner: Literal[PLANNERS] = "RRTConnect"  # type: ignore[valid-type]
-    space: Space = "atlas"
-    formulation: Formulation = "hybrid"
+    planner: Literal[PLANNERS] = "CBiRRT"  # type: ignore[valid-type]
+    space: Space = "projected"
+    formulation: Formulation = "deadzone"
     time_limit: float = Field(default=5.0, gt=0.0, le=3600.0)
     seed: int | None = None
     simplify: bool = True

@@ -131,8 +131,8 @@ class Step(_Strict):
 
 
 class Planning(_Strict):
-    planner: Literal[PLANNERS] = "RRTConnect"  # type: ignore[valid-type]
-    space: Space = "atlas"
+    planner: Literal[PLANNERS] = "CBiRRT"  # type: ignore[valid-type]
+    space: Space = "projected"  # CBiRRT's space (PlanOptions' defaults)
     time_limit: Positive = 10.0
     seed: int | None = None
 
