@@ -197,3 +197,11 @@ def test_every_method_plans_or_is_refused_in_one_line(planner, space, formulatio
         return
     result = plan_motion(session.robot, session.checker, specs, problem.start, problem.goal, options, problem.group)
     assert result.solved, result.message
+
+
+@pytest.mark.parametrize("rows", [1, 2, 3])
+def test_newton_step_is_the_minimum_norm_solution(rows, rng):
+    from hriplan.planner.bands import _min_norm_step
+
+    jac, values = rng.normal(size=(rows, 6)), rng.normal(size=rows)
+    assert np.allclose(_min_norm_step(jac, values), np.linalg.pinv(jac) @ values, atol=1e-6)

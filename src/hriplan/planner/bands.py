@@ -39,10 +39,17 @@ class BandProblem:
 
 
 def _min_norm_step(jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """The smallest dx with jac dx = rows (one row, the usual case, without a solve)."""
+    """The smallest dx with jac dx = rows (one or two rows, the usual cases, in closed form)."""
     if len(rows) == 1:
         g = jac[0]
         return g * (float(rows[0]) / max(float(g @ g), 1e-12))
+    if len(rows) == 2:
+        a, b = jac[0], jac[1]
+        aa, ab, bb = float(a @ a) + 1e-9, float(a @ b), float(b @ b) + 1e-9
+        det = aa * bb - ab * ab
+        la = (bb * float(rows[0]) - ab * float(rows[1])) / det
+        lb = (aa * float(rows[1]) - ab * float(rows[0])) / det
+        return la * a + lb * b
     return jac.T @ np.linalg.solve(jac @ jac.T + 1e-9 * np.eye(len(rows)), rows)
 
 
@@ -103,6 +110,13 @@ class _Search:
             margins = p.margins(x)
         return None
 
+    def sample(self, rng: np.random.Generator) -> np.ndarray:
+        """A random target inside the bands where Newton gets one there: extensions towards it
+        then slide along the bands instead of stopping where a band turns away."""
+        x = rng.uniform(self.low, self.high)
+        inside = self.project(x.copy())
+        return x if inside is None else inside
+
     def valid(self, x: np.ndarray) -> bool:
         """Collision free (projected states are inside every band already)."""
         self.counters.validity += 1
@@ -112,7 +126,7 @@ class _Search:
         """Constrained extension from node `index` towards `target`: (last node, reached)."""
         x = tree.nodes[index].copy()
         delta = self.p.delta
-        distance = float(np.linalg.norm(target - x))
+        distance = _norm(target - x)
         for _ in range(max_steps):
             if distance <= 1e-9:
                 return index, True
@@ -120,9 +134,9 @@ class _Search:
             moved = self.project(step)
             if moved is None:
                 return index, False
-            new_distance = float(np.linalg.norm(target - moved))
+            new_distance = _norm(target - moved)
             # No progress, or projection threw the state far from the step: blocked.
-            if new_distance >= distance - 1e-6 or float(np.linalg.norm(moved - x)) > 2.0 * delta:
+            if new_distance >= distance - 1e-6 or _norm(moved - x) > 2.0 * delta:
                 return index, False
             if not self.valid(moved):
                 return index, False
@@ -150,7 +164,7 @@ def plan_in_bands(
     while time.perf_counter() - started < time_limit:
         size = len(a)
         reached_a, _ = search.extend(a, a.nearest(target), target, max_steps)
-        target = rng.uniform(low, high)
+        target = search.sample(rng)
         if len(a) == size:
             a, b = b, a
             continue
@@ -187,6 +201,10 @@ def shortcut(search: _Search, path: list[np.ndarray], rng: np.random.Generator, 
         if _length(middle) < old - 1e-6:
             path = path[:i] + middle[:-1] + path[j:]
     return path
+
+
+def _norm(v: np.ndarray) -> float:
+    return math.sqrt(float(v @ v))
 
 
 def _length(states: list[np.ndarray]) -> float:
