@@ -8,7 +8,7 @@ import pytest
 
 from hriplan import HriplanError
 from hriplan.planner import evaluator as evaluator_module
-from hriplan.planner.bands import BandProblem, _Search
+from hriplan.planner.bands import BandProblem, _min_norm_step, _Search
 from hriplan.planner.evaluator import ConstraintEvaluator
 from hriplan.planner.motion import plan_motion
 from hriplan.planner.ompl_backend import Counters
@@ -201,7 +201,5 @@ def test_every_method_plans_or_is_refused_in_one_line(planner, space, formulatio
 
 @pytest.mark.parametrize("rows", [1, 2, 3])
 def test_newton_step_is_the_minimum_norm_solution(rows, rng):
-    from hriplan.planner.bands import _min_norm_step
-
     jac, values = rng.normal(size=(rows, 6)), rng.normal(size=rows)
     assert np.allclose(_min_norm_step(jac, values), np.linalg.pinv(jac) @ values, atol=1e-6)
