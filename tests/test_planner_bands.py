@@ -97,7 +97,7 @@ def test_the_default_planner_tilts_within_the_band_to_pass_the_post(name):
 
 def test_volumes_only_plan_by_projection_not_rejection():
     problem, session = _session("f_madar_volumes_only")
-    result = session.plan(problem.start, problem.goal, PlanOptions(seed=1, time_limit=10.0))
+    result = session.plan(problem.start, problem.goal, PlanOptions(seed=1, time_limit=10.0), problem.group)
     assert result.solved, result.message
     assert result.motion.space == "projected" and result.motion.calls["validity"] < 2000  # rejection: ~10^5
     robot, frames = session.robot, {c.spec.id: c for c in result.trajectory.constraints}
