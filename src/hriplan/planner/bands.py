@@ -162,7 +162,6 @@ def plan_in_bands(
     search = _Search(problem, counters)
     started = time.perf_counter()
     trees = (_Tree(np.asarray(start, dtype=float)), _Tree(np.asarray(goal, dtype=float)))
-    low, high = problem.bounds
     space = "projected" if len(problem.margins(trees[0].nodes[0])) else "real_vector"
     a, b = trees
     # Try the direct connection first: many band problems are a short slide along the band.
