@@ -16,6 +16,7 @@ from hriplan.planner.options import PlanOptions
 from hriplan.planner.problem import load_problem
 from hriplan.planner.resolve import bind
 from hriplan.planner.session import PlanningSession
+from hriplan.planner.spec import FrameRef, SphereConstraint
 from hriplan.planner.validate import densify
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.spatial import Pose
@@ -203,3 +204,20 @@ def test_every_method_plans_or_is_refused_in_one_line(planner, space, formulatio
 def test_newton_step_is_the_minimum_norm_solution(rows, rng):
     jac, values = rng.normal(size=(rows, 6)), rng.normal(size=rows)
     assert np.allclose(_min_norm_step(jac, values), np.linalg.pinv(jac) @ values, atol=1e-6)
+
+
+def test_the_tool_slides_around_a_sphere_it_must_stay_out_of():
+    """An `outside` volume across the straight line: projection pushes the steps around it."""
+    problem, session = _session("a_ur5_upright_box")
+    robot = session.robot
+    session.move_obstacle("block", Pose(xyz=(2.0, 2.0, 0.0)))
+    start, goal = robot.configuration(problem.start), robot.configuration(problem.goal.values)
+    middle = tool_pose(robot, (start + goal) / 2).translation
+    joints = robot.group_joints()
+    session.set_constraints([SphereConstraint(id="keep_out", joints=joints, target_link="tool", region="outside", radius=0.12,
+                                              frame=FrameRef(offset=Pose(xyz=tuple(middle))))])  # fmt: skip
+    result = session.plan(problem.start, problem.goal, PlanOptions(seed=3, time_limit=20.0))
+    assert result.solved, result.message
+    assert result.motion.calls["jacobian"] > 0  # steps were projected out of the sphere, not rejected
+    distances = [float(np.linalg.norm(tool_pose(robot, robot.configuration(p.positions)).translation - middle)) for p in result.trajectory.points]
+    assert min(distances) >= 0.12 - 1e-4
