@@ -16,6 +16,7 @@ from hriplan.planner.options import PlanOptions
 from hriplan.planner.problem import load_problem
 from hriplan.planner.resolve import bind
 from hriplan.planner.session import PlanningSession
+from hriplan.planner.slack import SlackRows
 from hriplan.planner.spec import FrameRef, SphereConstraint
 from hriplan.planner.validate import densify
 from hriplan.robots.ik import solve_ik
@@ -221,3 +222,21 @@ def test_the_tool_slides_around_a_sphere_it_must_stay_out_of():
     assert result.motion.calls["jacobian"] > 0  # steps were projected out of the sphere, not rejected
     distances = [float(np.linalg.norm(tool_pose(robot, robot.configuration(p.positions)).translation - middle)) for p in result.trajectory.points]
     assert min(distances) >= 0.12 - 1e-4
+
+
+def test_slack_rows_vanish_on_lifted_states_and_have_the_right_jacobian(rng):
+    problem, session = _session("b_madar_handover")
+    robot = session.robot
+    bound = bind(list(session.constraints.values()), robot, session.checker)
+    evaluator = ConstraintEvaluator(robot, bound, "right_arm", robot.configuration(problem.start))
+    slack = SlackRows(evaluator)
+    assert slack.k == 2 + 3 + 3  # upright rows, box position, cone position
+    x0 = np.array(robot.group_values(robot.configuration(problem.start), "right_arm"))
+    lifted = slack.lift(x0)
+    assert np.abs(slack.function(lifted)).max() < 1e-12
+    low, high = slack.bounds(robot.limits("right_arm"))
+    assert np.all(lifted >= low) and np.all(lifted <= high)  # the start is inside every band
+    for _ in range(5):
+        xs = lifted + rng.normal(0.0, 0.05, len(lifted))
+        numeric = np.column_stack([(slack.function(xs + 1e-6 * e) - slack.function(xs - 1e-6 * e)) / 2e-6 for e in np.eye(len(xs))])
+        assert np.allclose(slack.jacobian(xs), numeric, atol=1e-5)

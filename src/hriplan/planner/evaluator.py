@@ -71,6 +71,17 @@ class _Term:
         )  # fmt: skip
 
 
+def _volume_box(spec: object) -> tuple[list[float], list[float]]:
+    """The box around a volume's solid in its frame: box and sphere centred, cylinder and cone
+    standing on z in [0, height]."""
+    if isinstance(spec, BoxConstraint):
+        half = [size / 2.0 for size in spec.size]
+        return [-h for h in half], half
+    r = spec.radius
+    z = (-r, r) if isinstance(spec, SphereConstraint) else (0.0, spec.height)
+    return [-r, -r, z[0]], [r, r, z[1]]
+
+
 def equality_row_count(c: BoundConstraint) -> int:
     return (3, 2, 1)[len(c.free)] if c.is_orientation else 0
 
@@ -208,19 +219,10 @@ class ConstraintEvaluator:
                 rows = equality_row_count(t.bound)
                 low += [-bound] * rows
                 high += [bound] * rows
-            elif spec.region == "outside":
-                low += [-reach] * 3
-                high += [reach] * 3
             else:
-                half = np.array(spec.size) / 2 if isinstance(spec, BoxConstraint) else None
-                if half is None:
-                    r = spec.radius
-                    z = (-r, r) if isinstance(spec, SphereConstraint) else (0.0, spec.height)
-                    half_low, half_high = [-r, -r, z[0]], [r, r, z[1]]
-                else:
-                    half_low, half_high = list(-half), list(half)
-                low += half_low
-                high += half_high
+                box = ([-reach] * 3, [reach] * 3) if spec.region == "outside" else _volume_box(spec)
+                low += box[0]
+                high += box[1]
         return np.array(low), np.array(high)
 
     def _quantity(self, t: _Term, with_grad: bool) -> tuple[np.ndarray, np.ndarray | None]:
