@@ -24,6 +24,7 @@ Margins = Callable[[np.ndarray], np.ndarray]
 Gradients = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]  # x -> (margins, a gradient row each)
 NEWTON_ITERATIONS = 12
 LOCAL_SHARE, LOCAL_SPREAD = 0.8, 0.3  # rad: targets sampled near the tree
+SHORTCUT_MIN_STEPS = 300
 
 
 @dataclass
@@ -178,21 +179,24 @@ def plan_in_bands(
         if connected:
             path_a, path_b = a.branch(reached_a), b.branch(reached_b)
             path = path_a + path_b[::-1][1:] if a is trees[0] else path_b + path_a[::-1][1:]
-            # Shorten for as long as the search took (at least 0.1 s): a bounded share of the plan.
-            searched = time.perf_counter() - started
-            path = shortcut(search, path, rng, deadline=min(started + time_limit, time.perf_counter() + max(0.1, searched)))
+            # Shorten with as much work as the search took (at least SHORTCUT_MIN_STEPS steps):
+            # a bounded share of the plan, counted in steps so that a seed gives one path.
+            budget = counters.validity + max(SHORTCUT_MIN_STEPS, counters.validity)
+            path = shortcut(search, path, rng, budget, deadline=started + time_limit)
             return OmplResult(True, path, time.perf_counter() - started, space, "", counters)
         a, b = b, a
     return OmplResult(False, [], time.perf_counter() - started, space, "no exact solution within the time limit", counters)
 
 
-def shortcut(search: _Search, path: list[np.ndarray], rng: np.random.Generator, deadline: float, attempts: int = 60) -> list[np.ndarray]:
+def shortcut(search: _Search, path: list[np.ndarray], rng: np.random.Generator, budget: int, deadline: float,
+             attempts: int = 60) -> list[np.ndarray]:  # fmt: skip
     """Replace random sub-paths by constrained extensions between their ends while they shorten
-    the path (each replacement is a chain of projected, valid states like the trees' edges).
+    the path (each replacement is a chain of projected, valid states like the trees' edges),
+    until `budget` collision checks have been spent.
     A sub-path already within 2 % of the straight line between its ends is not tried: no
     replacement can gain more, and trying costs a projected walk."""
     for _ in range(attempts):
-        if len(path) < 3 or time.perf_counter() > deadline:
+        if len(path) < 3 or search.counters.validity >= budget or time.perf_counter() > deadline:
             break
         i, j = sorted(rng.choice(len(path), size=2, replace=False))
         old = _length(path[i : j + 1])
