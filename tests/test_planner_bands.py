@@ -50,6 +50,7 @@ def tilt(robot, q):
 
 
 def on_rail(robot, q):
+    """Inside scenario (d)'s rail: a 1 cm x 0.8 m x 0.3 m box centred at (0.455, 0, 0.2)."""
     p = tool_pose(robot, q).translation - np.array([0.455, 0.0, 0.2])
     return bool(np.all(np.abs(p) <= np.array([0.005, 0.4, 0.15]) + 1e-4))
 
@@ -84,8 +85,8 @@ def test_the_default_planner_tilts_within_the_band_to_pass_the_post(name):
     q_goal = robot.configuration(problem.goal.values)
     p_goal = tool_pose(robot, q_goal).translation
     tilts = []
-    points = np.array([robot.group_values(robot.configuration(dict(zip(result.trajectory.joint_names, p.positions)), base=robot.configuration(result.trajectory.start)))
-                       for p in result.trajectory.points])  # fmt: skip
+    assert result.trajectory.joint_names == robot.joint_names  # the UR5's one group: positions are full configurations
+    points = np.array([p.positions for p in result.trajectory.points])  # the timed trajectory, as written
     for x in densify(list(points), 0.01):
         q = robot.configuration(x)
         allowed = upright.tolerance + upright.tolerance_gradient * float(np.linalg.norm(tool_pose(robot, q).translation - p_goal))
