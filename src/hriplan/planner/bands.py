@@ -38,6 +38,7 @@ class BandProblem:
     offset: float  # project to margin <= -offset ...
     accept: float  # ... and accept a projected state once margin <= -accept (< offset)
     delta: float
+    constrained: bool = True  # False: no band at all, steps are never projected
 
 
 def _min_norm_step(jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -94,6 +95,8 @@ class _Search:
     def project(self, x: np.ndarray) -> np.ndarray | None:
         """x moved into every band (margin <= -accept), or None if Newton does not get there."""
         p = self.p
+        if not p.constrained:
+            return x
         self.counters.function += 1
         margins = p.margins(x)
         for _ in range(NEWTON_ITERATIONS):
@@ -163,7 +166,7 @@ def plan_in_bands(
     search = _Search(problem, counters)
     started = time.perf_counter()
     trees = (_Tree(np.asarray(start, dtype=float)), _Tree(np.asarray(goal, dtype=float)))
-    space = "projected" if len(problem.margins(trees[0].nodes[0])) else "real_vector"
+    space = "projected" if problem.constrained else "real_vector"
     a, b = trees
     # Try the direct connection first: many band problems are a short slide along the band.
     target = b.nodes[0]

@@ -289,12 +289,8 @@ def _solve(problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_v
 
 def _band_problem(problem: _Problem, options: PlanOptions) -> BandProblem:
     evaluator, checker = problem.evaluator, problem.checker
-    if evaluator.constraints:
-        margins, gradients = lambda x: evaluator.margins(evaluator.full(x)), evaluator.gradients
-    else:
-        margins, gradients = (lambda x: np.zeros(0)), (lambda x: (np.zeros(0), np.zeros((0, evaluator.n))))
-    return BandProblem(margins, gradients, lambda x: not checker.in_collision(evaluator.full(x)), problem.robot.limits(problem.group),
-                       BAND_OFFSET, PLANNING_MARGIN, options.delta)  # fmt: skip
+    return BandProblem(lambda x: evaluator.margins(evaluator.full(x)), evaluator.gradients, lambda x: not checker.in_collision(evaluator.full(x)),
+                       problem.robot.limits(problem.group), BAND_OFFSET, PLANNING_MARGIN, options.delta, bool(evaluator.constraints))  # fmt: skip
 
 
 def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:
