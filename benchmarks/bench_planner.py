@@ -1,6 +1,7 @@
 """Planner benchmark: scenarios x constrained spaces x planners x seeds.
 
 Run: .venv/bin/python benchmarks/bench_planner.py [--seeds 50] [--scenarios a,b] [--methods default] [--out results.json]
+     .venv/bin/python benchmarks/bench_planner.py --bands --seeds 20 --baseline-seeds 5  (a-h, the band methods)
 Each run plans one scenario (benchmarks/scenarios/*.json, plus `a_ur5_unconstrained`: scenario
 a without its constraints) through a PlanningSession in a worker process and times it; a run
 counts as solved only if its path passed dense validation within the scenario's time limit AND
@@ -31,6 +32,11 @@ UNCONSTRAINED = {"a_ur5_unconstrained": "a_ur5_upright_box"}
 # and the seed framework's rejection sampling as the baseline.
 METHODS = [("atlas", "hybrid"), ("tangent_bundle", "hybrid"), ("projected", "hybrid"), ("projected", "deadzone"), ("rejection", "hybrid")]
 PLANNERS = ["RRTConnect", "BKPIECE1", "KPIECE1", "PRM"]
+# The band families (REPORT-planner.md, "Planning inside the bands"): every scenario, each method.
+BAND_TIME_LIMITS = {"d_ur5_tilt_past_post_static": 5.0, "d_ur5_tilt_past_post_dynamic": 5.0, "e_ur5_tilted_start": 5.0,
+                    "f_madar_volumes_only": 5.0, "h_ur5_cluttered_cabinet": 5.0}  # fmt: skip
+BAND_METHODS = [("projected", "deadzone", "CBiRRT"), ("atlas", "hybrid", "RRTConnect"), ("atlas", "slack", "RRTConnect"),
+                ("rejection", "hybrid", "RRTConnect")]  # fmt: skip
 _sessions: dict = {}
 
 
@@ -46,7 +52,7 @@ def _run(job: tuple[str, str, str, str, int]) -> dict:
         _sessions[scenario] = (problem, session)
     problem, session = _sessions[scenario]
     options = problem.options.model_copy(update={"space": space, "formulation": formulation, "planner": planner,
-                                                 "seed": seed, "time_limit": TIME_LIMITS[scenario]})  # fmt: skip
+                                                 "seed": seed, "time_limit": TIME_LIMITS.get(scenario) or BAND_TIME_LIMITS[scenario]})  # fmt: skip
     start = time.perf_counter()
     result = session.plan(problem.start, problem.goal, options, problem.group)
     seconds = time.perf_counter() - start
@@ -67,6 +73,34 @@ def _jobs(seeds: int, baseline_seeds: int, planners: list[str], scenarios: list[
                 n = seeds if main else baseline_seeds
                 jobs += [(scenario, space, formulation, planner, s) for s in range(n)]
     return jobs
+
+
+def _band_jobs(seeds: int, baseline_seeds: int) -> list[tuple]:
+    """Every scenario (a-i and the band families) with each band method; the methods that fail
+    by timing out (slack, rejection) get fewer seeds."""
+    jobs = []
+    for scenario in [*TIME_LIMITS, *BAND_TIME_LIMITS]:
+        for space, formulation, planner in BAND_METHODS:
+            n = seeds if formulation != "slack" and space != "rejection" else baseline_seeds
+            jobs += [(scenario, space, formulation, planner, 1000 + s) for s in range(n)]
+    return jobs
+
+
+def _band_table(rows: list[dict]) -> str:
+    lines = ["| scenario | method | solved | median s | p95 s | path / straight (median) | median calls (f / J / valid) |",
+             "|---|---|---|---|---|---|---|"]  # fmt: skip
+    order = [*TIME_LIMITS, *BAND_TIME_LIMITS]
+    keys = sorted({(r["scenario"], r["space"], r["formulation"], r["planner"]) for r in rows}, key=lambda k: (order.index(k[0]), BAND_METHODS.index(k[1:])))
+    for key in keys:
+        runs = [r for r in rows if (r["scenario"], r["space"], r["formulation"], r["planner"]) == key]
+        solved = [r for r in runs if r["status"] == "solved"]
+        times = [r["seconds"] for r in solved]
+        med = lambda k: int(np.median([r["calls"].get(k, 0) for r in runs]))  # noqa: E731
+        stats = f"{np.median(times):.3f} | {np.percentile(times, 95):.3f}" if times else "- | -"
+        ratio = f"{np.median([r['path'] for r in solved]):.2f} / {solved[0]['straight']:.2f}" if solved else "-"
+        lines.append(f"| {key[0]} | {key[3]} {key[1]} {key[2]} | {len(solved)}/{len(runs)} | {stats} | {ratio} | "
+                     f"{med('function')} / {med('jacobian')} / {med('validity')} |")  # fmt: skip
+    return "\n".join(lines)
 
 
 def _table(rows: list[dict]) -> str:
@@ -95,20 +129,21 @@ def main() -> None:
     parser.add_argument("--planners", default=",".join(PLANNERS))
     parser.add_argument("--scenarios", default=",".join(TIME_LIMITS), help="comma-separated scenario names (prefixes work)")
     parser.add_argument("--methods", choices=("all", "default"), default="all", help="default: atlas + hybrid only")
+    parser.add_argument("--bands", action="store_true", help="the band methods on every scenario (a-i and d-h) instead")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=None, help="write every run as JSON")
     args = parser.parse_args()
     os.environ["OPENBLAS_NUM_THREADS"] = "1"  # or the worker pool is slower than one process
     scenarios = [name for prefix in args.scenarios.split(",") for name in TIME_LIMITS if name.startswith(prefix)]
     methods = METHODS if args.methods == "all" else METHODS[:1]
-    jobs = _jobs(args.seeds, args.baseline_seeds, args.planners.split(","), scenarios, methods)
+    jobs = _band_jobs(args.seeds, args.baseline_seeds) if args.bands else _jobs(args.seeds, args.baseline_seeds, args.planners.split(","), scenarios, methods)
     started = time.perf_counter()
     with ProcessPoolExecutor(args.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
         rows = list(pool.map(_run, jobs, chunksize=4))
     if args.out:
         args.out.write_text(json.dumps(rows, indent=0))
     print(f"{len(rows)} runs in {time.perf_counter() - started:.0f} s with {args.workers} workers")
-    print(_table(rows))
+    print(_band_table(rows) if args.bands else _table(rows))
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 
 from hriplan.planner.motion import JointGoal
 from hriplan.planner.problem import PlanningProblem
@@ -157,7 +158,96 @@ def madar_one_arm_holds() -> PlanningProblem:
                            start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(robot.joint_names, goal))))  # fmt: skip
 
 
-SCENARIOS = (ur5_upright_box, madar_handover, madar_peg_in_hole, madar_left_arm, madar_one_arm_holds)
+# -- band families (d, e, f, h): the tolerance bands and volumes used along the whole path -------
+UR5_DOWN = Pose(rpy=(np.pi, 0.0, 0.0))
+UR5_HOME = (0.0, -1.2, 1.5, -1.9, -1.57, 0.0)
+
+
+def _tilted_down(angle: float) -> np.ndarray:
+    """The UR5 tool pointing down, tilted by `angle` about world y (its wrist leans to -x)."""
+    return pin.utils.rpyToMatrix(0.0, -angle, 0.0) @ UR5_DOWN.rotation()
+
+
+def _ur5_problem(name: str, description: str, scene: Scene, constraints: list, start: np.ndarray, goal: np.ndarray) -> PlanningProblem:
+    robot = load_robot("ur5")
+    return PlanningProblem(name=name, description=description, robot="ur5", scene=scene, constraints=ConstraintSet(constraints=constraints),
+                           start=dict(zip(robot.joint_names, start)), goal=JointGoal(values=dict(zip(robot.joint_names, robot.group_values(goal)))))  # fmt: skip
+
+
+def ur5_tilt_past_post(dynamic: bool) -> PlanningProblem:
+    """(d) The tool slides along a 1 cm rail past a post standing 4-5 cm from it: upright, the
+    wrist hits the post at every point of the rail there; tilted 0.2-0.4 rad away it passes."""
+    robot = load_robot("ur5")
+    scene = Scene(obstacles=[table(position=(0.5, 0.0), size=(0.6, 1.2, 0.04), top=-0.05),
+                             Obstacle(name="post", shape=Box(size=(0.1, 0.3, 0.8)), pose=Pose(xyz=(0.55, 0.0, 0.3)))])  # fmt: skip
+    checker = CollisionChecker(robot, scene)
+    joints = robot.group_joints()
+    tolerance = {"tolerance": 0.05, "tolerance_gradient": 1.0} if dynamic else {"tolerance": 0.5}
+    constraints = [
+        OrientationConstraint(id="upright", joints=joints, target_link="tool", free_axes=["z"], target=UR5_DOWN, **tolerance),
+        BoxConstraint(id="rail", joints=joints, target_link="tool", size=(0.01, 0.8, 0.3), frame=FrameRef(offset=Pose(xyz=(0.455, 0.0, 0.2)))),
+    ]  # fmt: skip
+    home = robot.configuration(UR5_HOME)
+    start = _ik(robot, checker, "arm", _pose(UR5_DOWN.rotation(), (0.455, -0.35, 0.15)), home)
+    goal = _ik(robot, checker, "arm", _pose(UR5_DOWN.rotation(), (0.455, 0.35, 0.15)), start)
+    kind = "dynamic" if dynamic else "static"
+    return _ur5_problem(f"d_ur5_tilt_past_post_{kind}", f"UR5 tool on a rail past a post: passes only tilted within its {kind} tolerance",
+                        scene, constraints, start, goal)  # fmt: skip
+
+
+def ur5_tilted_start() -> PlanningProblem:
+    """(e) Scenario (a) with a dynamic tolerance (0.05 rad + 0.5 rad/m), starting tilted 0.25 rad:
+    inside its tolerance 0.6 m from the goal (0.35 rad), far outside the 0.05 rad at the goal."""
+    robot = load_robot("ur5")
+    scene = Scene(obstacles=[table(position=(0.5, 0.0), size=(0.6, 1.2, 0.04), top=-0.05),
+                             Obstacle(name="block", shape=Box(size=(0.3, 0.08, 0.35)), pose=Pose(xyz=(0.45, 0.0, 0.125)))])  # fmt: skip
+    checker = CollisionChecker(robot, scene)
+    joints = robot.group_joints()
+    constraints = [
+        OrientationConstraint(id="upright", joints=joints, target_link="tool", free_axes=["z"], target=UR5_DOWN, tolerance=0.05, tolerance_gradient=0.5),
+        BoxConstraint(id="workspace", joints=joints, target_link="tool", size=(0.8, 1.2, 0.6), frame=FrameRef(offset=Pose(xyz=(0.45, 0.0, 0.3)))),
+    ]  # fmt: skip
+    home = robot.configuration(UR5_HOME)
+    start = _ik(robot, checker, "arm", _pose(_tilted_down(0.25), (0.45, -0.3, 0.12)), home)
+    goal = _ik(robot, checker, "arm", _pose(UR5_DOWN.rotation(), (0.45, 0.3, 0.12)), start)
+    return _ur5_problem("e_ur5_tilted_start", "UR5 starts tilted inside its dynamic tolerance and ends upright over a block",
+                        scene, constraints, start, goal)  # fmt: skip
+
+
+def madar_volumes_only() -> PlanningProblem:
+    """(f) The empty-can handover: scenario (b) without the upright constraint (cone + box only)."""
+    problem = madar_handover()
+    volumes = [c for c in problem.constraints.constraints if c.type != "orientation"]
+    return problem.model_copy(update={"name": "f_madar_volumes_only", "description": "MADAR hands an empty can over: approach cone and shared workspace only",
+                                      "constraints": ConstraintSet(constraints=volumes)})  # fmt: skip
+
+
+def ur5_cluttered_cabinet() -> PlanningProblem:
+    """(h) From a cluttered table into a cabinet's middle compartment, the tool upright."""
+    robot = load_robot("ur5")
+    board = lambda name, size, xyz: Obstacle(name=name, shape=Box(size=size), pose=Pose(xyz=xyz))  # noqa: E731
+    scene = Scene(obstacles=[
+        table(position=(0.55, 0.0), size=(0.7, 1.4, 0.04), top=-0.05),
+        board("cabinet_left", (0.4, 0.02, 0.9), (0.7, -0.3, 0.4)), board("cabinet_right", (0.4, 0.02, 0.9), (0.7, 0.3, 0.4)),
+        board("cabinet_back", (0.02, 0.62, 0.9), (0.91, 0.0, 0.4)), board("cabinet_shelf", (0.4, 0.6, 0.02), (0.7, 0.0, 0.25)),
+        board("cabinet_top", (0.4, 0.62, 0.02), (0.7, 0.0, 0.86)),
+        Obstacle(name="can_1", shape=Cylinder(radius=0.04, height=0.2), pose=Pose(xyz=(0.3, -0.15, 0.05))),
+        Obstacle(name="can_2", shape=Cylinder(radius=0.04, height=0.25), pose=Pose(xyz=(0.25, 0.25, 0.075))),
+        board("crate", (0.15, 0.2, 0.15), (0.45, -0.55, 0.025)),
+    ])  # fmt: skip
+    checker = CollisionChecker(robot, scene)
+    joints = robot.group_joints()
+    constraints = [OrientationConstraint(id="upright", joints=joints, target_link="tool", free_axes=["z"], target=UR5_DOWN, tolerance=0.1)]
+    home = robot.configuration(UR5_HOME)
+    start = _ik(robot, checker, "arm", _pose(UR5_DOWN.rotation(), (0.3, -0.35, 0.15)), home)
+    goal = _ik(robot, checker, "arm", _pose(UR5_DOWN.rotation(), (0.65, 0.05, 0.33)), start)
+    return _ur5_problem("h_ur5_cluttered_cabinet", "UR5 carries a cup upright from a cluttered table into a cabinet compartment",
+                        scene, constraints, start, goal)  # fmt: skip
+
+
+BAND_FAMILIES = (lambda: ur5_tilt_past_post(False), lambda: ur5_tilt_past_post(True), ur5_tilted_start, madar_volumes_only, ur5_cluttered_cabinet)
+
+SCENARIOS = (ur5_upright_box, madar_handover, madar_peg_in_hole, *BAND_FAMILIES, madar_left_arm, madar_one_arm_holds)
 
 if __name__ == "__main__":
     OUT.mkdir(exist_ok=True)

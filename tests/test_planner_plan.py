@@ -148,7 +148,7 @@ def test_other_spaces_solve_an_open_problem(problem, session, space, formulation
     seeds only.)"""
     session.move_obstacle("block", Pose(xyz=(2.0, 2.0, 0.0)))
     try:
-        result = session.plan(problem.start, problem.goal, PlanOptions(space=space, formulation=formulation, seed=-2, time_limit=30.0))
+        result = session.plan(problem.start, problem.goal, PlanOptions(planner="RRTConnect", space=space, formulation=formulation, seed=-2, time_limit=30.0))
     finally:
         session.move_obstacle("block", Pose(xyz=(0.45, 0.0, 0.125)))
     assert result.solved, result.message

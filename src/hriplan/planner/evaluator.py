@@ -71,6 +71,17 @@ class _Term:
         )  # fmt: skip
 
 
+def _volume_box(spec: object) -> tuple[list[float], list[float]]:
+    """The box around a volume's solid in its frame: box and sphere centred, cylinder and cone
+    standing on z in [0, height]."""
+    if isinstance(spec, BoxConstraint):
+        half = [size / 2.0 for size in spec.size]
+        return [-h for h in half], half
+    r = spec.radius
+    z = (-r, r) if isinstance(spec, SphereConstraint) else (0.0, spec.height)
+    return [-r, -r, z[0]], [r, r, z[1]]
+
+
 def equality_row_count(c: BoundConstraint) -> int:
     return (3, 2, 1)[len(c.free)] if c.is_orientation else 0
 
@@ -91,6 +102,8 @@ class ConstraintEvaluator:
         self.n_equality = sum(equality_row_count(c) for c in self.constraints)
         self._terms = [_Term.of(c) for c in self.constraints]
         self._orientations = [t for t in self._terms if t.target is not None]
+        self._key: bytes | None = None  # the configuration self.data holds kinematics for
+        self._has_jacobians = False
 
     # -- kinematics ------------------------------------------------------------------------
     def full(self, x: Sequence[float]) -> np.ndarray:
@@ -100,12 +113,18 @@ class ConstraintEvaluator:
         return q
 
     def _update(self, q: np.ndarray, jacobians: bool) -> None:
+        """Kinematics at q, computed once per configuration: OMPL asks for the rows, the
+        Jacobian and the validity of the same state in turn, and each needs the same FK."""
+        key = q.tobytes()
+        if key == self._key and (self._has_jacobians or not jacobians):
+            return
         if jacobians:
             pin.computeJointJacobians(self.model, self.data, q)
         else:
             pin.forwardKinematics(self.model, self.data, q)
         for link in self.links:
             pin.updateFramePlacement(self.model, self.data, link)
+        self._key, self._has_jacobians = key, jacobians
 
     def _jac(self, link: int) -> np.ndarray:
         return pin.getFrameJacobian(self.model, self.data, link, LWA)[:, self.vidx]
@@ -148,6 +167,12 @@ class ConstraintEvaluator:
         self._update(q, jacobians=False)
         return np.array([self._margin(t, False)[0] for t in self._terms])
 
+    def gradients(self, x: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """(margins, one gradient row per margin w.r.t. the planned joints), in one pass."""
+        self._update(self.full(x), jacobians=True)
+        values, grads = zip(*(self._margin(t, True) for t in self._terms))
+        return np.array(values), np.array(grads)
+
     def deadzone(self, x: Sequence[float], offset: float = 0.0) -> np.ndarray:
         """One row per constraint: max(margin + offset, 0)."""
         self._update(self.full(x), jacobians=False)
@@ -170,6 +195,41 @@ class ConstraintEvaluator:
     def equality_jacobian(self, x: Sequence[float]) -> np.ndarray:
         self._update(self.full(x), jacobians=True)
         return np.vstack([self._equality(t, True)[1] for t in self._orientations])
+
+    # -- banded quantities (for slack variables: each equals a slack bounded by its band) ------
+    def quantities(self, x: Sequence[float]) -> np.ndarray:
+        """Orientation: the equality rows' values; volumes: the link position in the frame."""
+        self._update(self.full(x), jacobians=False)
+        return np.concatenate([self._quantity(t, False)[0] for t in self._terms])
+
+    def quantities_jacobian(self, x: Sequence[float]) -> np.ndarray:
+        self._update(self.full(x), jacobians=True)
+        return np.vstack([self._quantity(t, True)[1] for t in self._terms])
+
+    def quantity_bounds(self, reach: float = 3.0) -> tuple[np.ndarray, np.ndarray]:
+        """Boxes that hold every quantity's band: the slack variables' bounds. A dynamic
+        tolerance's widest band is taken `reach` metres from the goal; outside a volume, `reach`."""
+        low, high = [], []
+        for t in self._terms:
+            spec = t.bound.spec
+            if t.target is not None:
+                widest = min(t.tolerance + t.gradient * reach, math.pi)
+                # one free axis: rows are sines of the tilt; otherwise angles
+                bound = (math.sin(widest) if widest < math.pi / 2 else 1.0) if len(t.free) == 1 else widest
+                rows = equality_row_count(t.bound)
+                low += [-bound] * rows
+                high += [bound] * rows
+            else:
+                box = ([-reach] * 3, [reach] * 3) if spec.region == "outside" else _volume_box(spec)
+                low += box[0]
+                high += box[1]
+        return np.array(low), np.array(high)
+
+    def _quantity(self, t: _Term, with_grad: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        if t.target is not None:
+            return self._equality(t, with_grad)
+        values = t.rf_t @ (self.data.oMf[t.link].translation - t.origin)
+        return values, (t.rf_t @ self._jac(t.link)[:3] if with_grad else None)
 
     def _equality(self, t: _Term, with_grad: bool) -> tuple[np.ndarray, np.ndarray | None]:
         r_world = self.data.oMf[t.link].rotation

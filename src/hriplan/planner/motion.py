@@ -12,7 +12,7 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Iterator, Sequence
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -29,13 +29,19 @@ from .keep_out import keep_out_obstacles
 from .options import PlanOptions, check_options
 from .projection import project
 from .resolve import BoundConstraint, bind, set_goal_positions
+from .slack import SlackRows
 from .spec import Axis, ConstraintSpec
 from .validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
+
+if TYPE_CHECKING:
+    from .bands import BandProblem
 
 # Planning keeps this much inside every band so that chords between planned states stay valid.
 PLANNING_MARGIN = 2e-3
 # Straightening an arm is checked on every this-many-th dense state before all of them.
 SPARSE_FIRST = 16
+# Dead-zone rows project this far inside a band, so a projected state is valid for planning.
+BAND_OFFSET = 2 * PLANNING_MARGIN
 Status = Literal["solved", "invalid_start", "invalid_goal", "unreachable_goal", "timeout", "invalid_path", "planner_error"]
 
 
@@ -220,8 +226,10 @@ def _rows(problem: _Problem, options: PlanOptions):  # noqa: ANN202
     evaluator = problem.evaluator
     if options.space == "rejection" or not evaluator.constraints:
         return None
+    if options.formulation == "slack":
+        return None  # the slack rows live on an augmented space: see _solve
     if options.formulation == "deadzone":
-        return (lambda x: evaluator.deadzone(x, PLANNING_MARGIN), lambda x: evaluator.deadzone_jacobian(x, PLANNING_MARGIN), len(evaluator.constraints))
+        return (lambda x: evaluator.deadzone(x, BAND_OFFSET), lambda x: evaluator.deadzone_jacobian(x, BAND_OFFSET), len(evaluator.constraints))
     if evaluator.n_equality == 0:
         return None
     return evaluator.equality, evaluator.equality_jacobian, evaluator.n_equality
@@ -239,8 +247,8 @@ def _onto_manifold(problem: _Problem, rows, x: np.ndarray, step: float) -> np.nd
 
 def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal: np.ndarray) -> MotionResult:
     rows = _rows(problem, options)
-    hybrid = options.formulation == "hybrid" and options.space != "rejection"
-    limit = -PLANNING_MARGIN if hybrid else 0.0
+    inside = options.space != "rejection" and (options.formulation in ("hybrid", "slack") or options.planner == "CBiRRT")
+    limit = -PLANNING_MARGIN if inside else 0.0
     is_valid = problem.validity(limit)
     blank = {"group": problem.group, "joint_names": []}
     ends = [_onto_manifold(problem, rows, x, options.validation_step) for x in (x_start, x_goal)]
@@ -253,9 +261,6 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             status = "invalid_start" if name == "start" else "invalid_goal"
             reason = problem.describe_violations(x) or problem.describe_collisions(x) or f"within {PLANNING_MARGIN} of a constraint boundary"
             return MotionResult(status=status, message=f"{name} is not valid for planning: {reason}", **blank)
-    bounds = problem.robot.limits(problem.group)
-    from .ompl_backend import solve_with_ompl  # OMPL loads only when a motion is planned
-
     started = time.perf_counter()
     last_message = ""
     calls: dict[str, int] = {}
@@ -264,7 +269,7 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
         remaining = options.time_limit - (time.perf_counter() - started)
         if remaining <= 0.0:
             break
-        run = solve_with_ompl(options.model_copy(update={"time_limit": remaining}), bounds, ends[0], ends[1], is_valid, rows, attempt)
+        run = _solve(problem, options.model_copy(update={"time_limit": remaining}), ends, is_valid, rows, attempt)
         for key, value in vars(run.counters).items():
             calls[key] = calls.get(key, 0) + value
         attempt += 1
@@ -275,7 +280,7 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             continue
         for states in [s for s in (run.states, run.unsimplified) if s]:  # if a shortcut cut a corner: the planner's own path
             waypoints = _dedupe([x_start, *states, x_goal])
-            validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step)
+            validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step, human_distance=False)
             if validation.valid:
                 waypoints, validation = _straighten_arms(problem, options, waypoints, validation, limit)
                 return MotionResult(status="solved", group=problem.group, joint_names=[], path=[w.tolist() for w in waypoints],
@@ -305,6 +310,33 @@ def _straighten_arms(problem: _Problem, options: PlanOptions, waypoints: list[np
     straightened = _dedupe(straightened)
     again = validate_path(problem.evaluator, problem.checker, straightened, options.validation_step)
     return (straightened, again) if again.valid else (waypoints, validation)
+def _solve(problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_valid, rows, attempt: int):  # noqa: ANN001, ANN202
+    """One search (re-plan number `attempt`) by the chosen method: hriplan's CBiRRT, OMPL on slack
+    variables, or OMPL. OMPL and the band planner load only when a motion is planned."""
+    from .ompl_backend import ompl_seed, solve_with_ompl
+
+    bounds = problem.robot.limits(problem.group)
+    if options.planner == "CBiRRT":
+        from .bands import plan_in_bands
+
+        seed = None if options.seed is None else ompl_seed(options.seed, attempt)
+        return plan_in_bands(_band_problem(problem, options), ends[0], ends[1], options.time_limit, seed)
+    if options.formulation == "slack" and options.space != "rejection" and problem.evaluator.constraints:
+        slack, n = SlackRows(problem.evaluator), problem.evaluator.n
+        run = solve_with_ompl(options, slack.bounds(bounds), slack.lift(ends[0]), slack.lift(ends[1]),
+                              lambda xs: is_valid(xs[:n]), (slack.function, slack.jacobian, slack.k), attempt)  # fmt: skip
+        run.states = [s[:n] for s in run.states]
+        run.unsimplified = [s[:n] for s in run.unsimplified]
+        return run
+    return solve_with_ompl(options, bounds, ends[0], ends[1], is_valid, rows, attempt)
+
+
+def _band_problem(problem: _Problem, options: PlanOptions) -> BandProblem:
+    from .bands import BandProblem
+
+    evaluator, checker = problem.evaluator, problem.checker
+    return BandProblem(lambda x: evaluator.margins(evaluator.full(x)), evaluator.gradients, lambda x: not checker.in_collision(evaluator.full(x)),
+                       problem.robot.limits(problem.group), BAND_OFFSET, PLANNING_MARGIN, options.delta, bool(evaluator.constraints))  # fmt: skip
 
 
 def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:

@@ -51,8 +51,10 @@ def validate_path(
     checker: CollisionChecker,
     states: Sequence[np.ndarray],
     step: float = 0.01,
+    human_distance: bool = True,
 ) -> PathValidation:
-    """Check the path (ambient vectors of the evaluator's group) densely."""
+    """Check the path (ambient vectors of the evaluator's group) densely; `human_distance` adds
+    the closest approach to a person (a report figure, costly: planning leaves it out)."""
     dense = densify(states, step)
     worst = np.full(len(evaluator.constraints), -np.inf)
     collision = None
@@ -68,7 +70,7 @@ def validate_path(
         ConstraintCheck(id=c.id, max_violation=float(w), satisfied=bool(w <= VALIDATION_TOLERANCE))
         for c, w in zip(evaluator.constraints, worst)
     ]
-    sample = dense[np.unique(np.linspace(0, len(dense) - 1, min(len(dense), DISTANCE_SAMPLES)).astype(int))]
+    sample = dense[np.unique(np.linspace(0, len(dense) - 1, min(len(dense), DISTANCE_SAMPLES)).astype(int))] if human_distance else []
     distances = [checker.human_distance(evaluator.full(x)) for x in sample]
     best = min(distances, key=lambda d: d[0]) if distances else (float("inf"), "", "")
     violated = [c.id for c in checks if not c.satisfied]

@@ -15,7 +15,7 @@ from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, Validatio
 
 from hriplan.files import error_location
 from hriplan.ontology.situation import FillLevel, Name, Role
-from hriplan.planner.options import PLANNERS, PlanOptions, Space
+from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
 from hriplan.planner.spec import Axis
 from hriplan.robots.human import HumanSpec, Side
 from hriplan.robots.scene import Obstacle, Shape
@@ -172,8 +172,9 @@ def step_name(step: Step, index: int) -> str:
 class Planning(_Strict):
     """How to plan the steps: the planner options a task may set (checked by PlanOptions' limits)."""
 
-    planner: Literal[PLANNERS] = "RRTConnect"  # type: ignore[valid-type]
-    space: Space = "atlas"
+    planner: Literal[PLANNERS] = "CBiRRT"  # type: ignore[valid-type]
+    space: Space = "projected"  # CBiRRT's space (PlanOptions' defaults)
+    formulation: Formulation | None = Field(default=None, description="Default: the space's own (atlas, tangent_bundle: hybrid; else deadzone).")
     time_limit: Positive = 10.0
     seed: int | None = None
     project_start: bool = Field(default=False, description="Move a start that violates a constraint onto it first.")
@@ -181,7 +182,7 @@ class Planning(_Strict):
     @model_validator(mode="after")
     def _within_planner_limits(self) -> "Planning":
         try:
-            PlanOptions(**self.model_dump())
+            PlanOptions(**self.model_dump(exclude_none=True))
         except ValidationError as exc:
             first = exc.errors()[0]
             raise ValueError(f"{error_location(first['loc'])}: {first['msg']}") from None

@@ -242,8 +242,7 @@ class TaskRunner:
         derivation, arms = outcome.derivation, outcome.arms
         session.set_constraints(derivation.constraint_set())
         group = robot.arm_group(arms[0]) if len(arms) == 1 else robot.default_group
-        options = PlanOptions(planner=self.task.planning.planner, space=self.task.planning.space, time_limit=self.task.planning.time_limit,
-                              seed=self.task.planning.seed, project_start=self.task.planning.project_start)  # fmt: skip
+        options = PlanOptions(**self.task.planning.model_dump(exclude_none=True))
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
         motion = plan_motion(robot, session.checker, list(session.constraints.values()), start, goal, options, group)
         if motion.solved and rederive:
