@@ -121,7 +121,6 @@ def test_plan_of_a_task_writes_one_viewer_page_for_all_its_steps(tmp_path):
 
 def test_seed_and_project_start_reach_the_planner_from_the_file_and_the_command_line(tmp_path, monkeypatch):
     from hriplan.cli.tasks import load_checked_task
-    from hriplan.planner.session import PlanningSession
     from hriplan.tasks.pipeline import TaskRunner
 
     task_file = tmp_path / "t.yaml"
@@ -136,11 +135,11 @@ def test_seed_and_project_start_reach_the_planner_from_the_file_and_the_command_
     class Stop(Exception):
         pass
 
-    def spy(self, start, goal, options=None, group=None, **kwargs):  # noqa: ANN001
+    def spy(robot, checker, constraints, start, goal, options=None, group=None):  # noqa: ANN001
         seen.append(options)
         raise Stop
 
-    monkeypatch.setattr(PlanningSession, "plan", spy)
+    monkeypatch.setattr("hriplan.tasks.pipeline.plan_motion", spy)
     with pytest.raises(Stop):
         TaskRunner(overridden).run(plan=True)
     assert (seen[0].seed, seen[0].project_start) == (9, True)

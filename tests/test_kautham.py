@@ -52,7 +52,7 @@ def test_box_disabled_and_query_mapped_by_name(problem):
     assert problem.start["right_shoulder_pan_joint"] == pytest.approx(4 * math.pi * 0.629 - 2 * math.pi)
     assert problem.start["right_elbow_joint"] == pytest.approx(4 * math.pi * 0.581 - 2 * math.pi)
     assert problem.goal.values["right_wrist_3_joint"] == pytest.approx(4 * math.pi * 0.552 - 2 * math.pi)
-    assert problem.group == "right_arm" and problem.options.time_limit == 10.0 and problem.options.range == 0.1
+    assert problem.group == "right_arm" and problem.options.time_limit == 10.0 and problem.options.planner == "CBiRRT"
 
 
 def test_rpy_conventions_differ_for_combined_angles(tmp_path):

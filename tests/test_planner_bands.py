@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from pydantic import ValidationError
 
 from hriplan import HriplanError
 from hriplan.planner import evaluator as evaluator_module
@@ -191,13 +192,17 @@ def box_only():
 def test_every_method_plans_or_is_refused_in_one_line(planner, space, formulation, box_only):
     """The empty-can handover (f) without its cone: each combination plans, or is refused before planning."""
     problem, session = box_only
-    options = PlanOptions(planner=planner, space=space, formulation=formulation, seed=1, time_limit=20.0)
     specs = list(session.constraints.values())
-    if (planner, space, formulation) not in ACCEPTED:
-        with pytest.raises(HriplanError) as refused:
-            plan_motion(session.robot, session.checker, specs, problem.start, problem.goal, options, problem.group)
-        assert "\n" not in str(refused.value) and formulation in str(refused.value) + planner
+    if (planner, space, formulation) not in ACCEPTED:  # refused when the options are made, or (a copy) when planning
+        with pytest.raises(ValidationError) as refused:
+            PlanOptions(planner=planner, space=space, formulation=formulation, seed=1, time_limit=20.0)
+        message = refused.value.errors()[0]["msg"]
+        assert "\n" not in message and formulation in message + planner
+        copied = PlanOptions(planner="RRTConnect").model_copy(update={"planner": planner, "space": space, "formulation": formulation})
+        with pytest.raises(HriplanError, match="^options: "):
+            plan_motion(session.robot, session.checker, specs, problem.start, problem.goal, copied, problem.group)
         return
+    options = PlanOptions(planner=planner, space=space, formulation=formulation, seed=1, time_limit=20.0)
     result = plan_motion(session.robot, session.checker, specs, problem.start, problem.goal, options, problem.group)
     assert result.solved, result.message
 

@@ -39,20 +39,23 @@ def tool_z(robot, q):
 def test_deadzone_on_a_charted_space_is_refused_up_front(problem, free_session, tmp_path):
     for space in ("atlas", "tangent_bundle"):
         with pytest.raises(ValidationError, match=f"deadzone formulation cannot be planned on the {space} space"):
-            PlanOptions(space=space, formulation="deadzone")
+            PlanOptions(planner="RRTConnect", space=space, formulation="deadzone")
     PlanOptions(space="projected", formulation="deadzone")  # the combination it is meant for
     data = json.loads((SCENARIOS / "a_ur5_upright_box.json").read_text())
-    data["options"].update(space="tangent_bundle", formulation="deadzone")
+    data["options"].update(planner="RRTConnect", space="tangent_bundle", formulation="deadzone")
     (tmp_path / "p.json").write_text(json.dumps(data))
-    with pytest.raises(HriplanError, match=r"p.json: options: Value error, the deadzone formulation cannot"):
+    with pytest.raises(HriplanError, match=r"p.json: options: the deadzone formulation cannot"):
         load_problem(tmp_path / "p.json")
-    copied = PlanOptions().model_copy(update={"formulation": "deadzone"})  # model_copy skips validation
+    copied = PlanOptions(planner="RRTConnect", space="atlas").model_copy(update={"formulation": "deadzone"})  # model_copy skips validation
     with pytest.raises(HriplanError, match="^options: the deadzone formulation cannot be planned on the atlas space"):
         plan_motion(free_session.robot, free_session.checker, list(problem.constraints.constraints), problem.start, problem.goal, copied)
 
 
 def test_a_range_for_a_planner_without_one_is_refused():
-    assert sorted(RANGED_PLANNERS) == sorted(p for p in PLANNERS if hasattr(getattr(og, p), "setRange"))
+    ompl_planners = [p for p in PLANNERS if p != "CBiRRT"]  # CBiRRT is hriplan's own: it steps by delta
+    assert sorted(RANGED_PLANNERS) == sorted(p for p in ompl_planners if hasattr(getattr(og, p), "setRange"))
+    with pytest.raises(ValidationError, match="planner CBiRRT has no range setting"):
+        PlanOptions(range=0.5)
     with pytest.raises(ValidationError, match="planner PRM has no range setting"):
         PlanOptions(planner="PRM", range=0.5)
     PlanOptions(planner="RRTConnect", range=0.5)

@@ -293,6 +293,6 @@ def test_a_task_passing_too_close_to_a_collaborator_fails_in_one_line(tmp_path):
                             capture_output=True, text=True, cwd=tmp_path)  # fmt: skip
     assert result.returncode == 1 and "Traceback" not in result.stderr
     failure = result.stderr.strip().splitlines()[-1]
-    assert failure.startswith("planning failed at step carry (timing_failed): ") and "from dana/" in failure
+    assert failure.startswith("planning failed at step carry") and "(timing_failed): " in failure and "from dana/" in failure
     assert "inside the minimum protective separation 0.310 m of ISO/TS 15066" in failure
     assert not list(tmp_path.glob("t*.json"))

@@ -26,9 +26,12 @@ YAML = {"content-type": "application/yaml"}
 
 
 def slow_problem(seconds: float) -> dict:
-    """A problem that runs for its whole time limit: rejection sampling never meets the upright band."""
+    """A problem that runs for its whole time limit: rejection sampling never meets a 0.002 rad upright band."""
     problem = copy.deepcopy(PROBLEM)
-    problem["options"].update(space="rejection", time_limit=seconds, seed=1)
+    problem["options"].update(planner="RRTConnect", space="rejection", time_limit=seconds, seed=1)
+    for constraint in problem["constraints"]["constraints"]:  # a band too thin for rejection sampling to meet
+        if constraint["type"] == "orientation":
+            constraint["tolerance"] = 0.002
     return problem
 
 

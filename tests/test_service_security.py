@@ -110,7 +110,10 @@ def test_yaml_aliases_are_refused(client):
 def test_a_request_past_its_time_limit_is_504_and_its_worker_is_replaced(server, client):
     (before,) = wait_for_workers(server, 1, AUTH)
     slow = copy.deepcopy(PROBLEM)
-    slow["options"].update(space="rejection", time_limit=60, seed=1)
+    slow["options"].update(planner="RRTConnect", space="rejection", time_limit=60, seed=1)
+    for constraint in slow["constraints"]["constraints"]:  # a band too thin for rejection sampling to meet
+        if constraint["type"] == "orientation":
+            constraint["tolerance"] = 0.002
     response = client.post("/solve", json=slow)
     assert response.status_code == 504 and response.json()["error"] == "the request ran past its time limit of 8 s and was stopped"
     (after,) = wait_for_workers(server, 1, AUTH)

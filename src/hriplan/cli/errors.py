@@ -64,7 +64,7 @@ class OneLineErrors(TyperGroup):
             where = f" (see '{exc.ctx.command_path} --help')" if getattr(exc, "ctx", None) else ""
             typer.echo(f"error: {exc.format_message()}{where}", err=True)
             code = exc.exit_code
-        except click_errors.Abort:
+        except typer.Abort:
             typer.echo("interrupted", err=True)
             code = INTERRUPTED
         finally:

@@ -315,7 +315,9 @@ def import_kautham(path: str | Path, rpy: Literal["kautham", "urdf"] = "kautham"
     goal = _configuration(reader, robot, controls, goal_controls, "goal", ranges)
     moving = [j for j in robot.joint_names if abs(start[j] - goal[j]) > 1e-12]
     group = _group(robot, [*moving, *[j for c in constraints if c.enabled for j in c.joints]])
-    options = PlanOptions(time_limit=_parameter(reader, root, "_Max Planning Time", 10.0), range=_parameter(reader, root, "_Range", 0.1))
+    # Kautham's `_Range` is its RRTConnect's step; hriplan's default CBiRRT, which plans inside
+    # the tolerance bands these problems are about, extends by `delta` and takes no range.
+    options = PlanOptions(time_limit=_parameter(reader, root, "_Max Planning Time", 10.0))
     return PlanningProblem(
         name=path.stem, description=f"imported from the Kautham problem {path.name} (world = the robot's <Home> frame)",
         robot=robot.name, scene=Scene(obstacles=obstacles), constraints=ConstraintSet(constraints=constraints), group=group,
