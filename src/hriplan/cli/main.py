@@ -10,6 +10,7 @@ import typer
 
 from hriplan import HriplanError, __version__
 from hriplan.cli.errors import clear_errors
+from hriplan.cli.sweeps import SWEEP_COMMANDS
 from hriplan.cli.tasks import TASK_COMMANDS
 from hriplan.cli.view import plot, view
 
@@ -79,5 +80,5 @@ def solve(
     raise typer.Exit(code)
 
 
-for _name, _command in {"view": view, "plot": plot, **TASK_COMMANDS}.items():
+for _name, _command in {"view": view, "plot": plot, **TASK_COMMANDS, **SWEEP_COMMANDS}.items():
     app.command(_name)(clear_errors(_command))
