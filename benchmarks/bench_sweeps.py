@@ -70,6 +70,7 @@ def main() -> None:
     parser.add_argument("--variants", type=int, default=8)
     parser.add_argument("--handover", type=int, default=500)
     parser.add_argument("--noop", type=int, default=2000)
+    parser.add_argument("--noop-actors", default="2,8", help="Actor counts for the dispatch ceiling.")
     parser.add_argument("--out", type=Path, default=Path("out/bench_sweeps"))
     args = parser.parse_args()
     out, result = args.out, {}
@@ -89,12 +90,14 @@ def main() -> None:
                           "overhead_per_variant_ms": 1000 * statistics.mean(i - w for i, w in zip(intervals, worker_times))}  # fmt: skip
     print(json.dumps(result, indent=1), flush=True)
 
-    # 2. the Ray driver's ceiling: variants that cost nothing, two actors
+    # 2. the Ray driver's ceiling: variants that cost nothing, with few and with many actors
     if args.noop:
         light = expand(GIVE, [parse_vary(f"planning.seed=1:{args.noop}:1")])
-        stamps, _ = timed_run(RayEngine(2), light, out / "noop", work=noop)
-        result["ray_noop"] = {"variants": len(light), "wall": stamps[-1] - stamps[0], "rate": steady_rate(stamps)}
-        print(json.dumps(result["ray_noop"]), flush=True)
+        result["ray_noop"] = []
+        for actors in (int(a) for a in args.noop_actors.split(",")):
+            stamps, _ = timed_run(RayEngine(actors), light, out / f"noop{actors}", work=noop)
+            result["ray_noop"].append({"actors": actors, "variants": len(light), "wall": stamps[-1] - stamps[0], "rate": steady_rate(stamps)})
+            print(json.dumps(result["ray_noop"][-1]), flush=True)
 
     # 3. the handover sweep over where the person stands (grid of about --handover positions)
     if args.handover:

@@ -144,3 +144,23 @@ def test_batch_keys_files_and_a_failed_derivation_is_an_error_row(tmp_path):
     (row,) = run_variant(far, plan=False)
     assert row["status"] == "error" and "cannot reach" in row["reason"] and row["step_index"] == -1
     assert json.loads(row["task"])["humans"][0]["position"] == [1.5, 3.0]
+
+
+def test_report_maps_success_and_separation_over_the_varied_position(tmp_path):
+    from hriplan.sweeps.report import per_variant, write_report
+
+    store = ResultStore(tmp_path)
+    for i, (x, y) in enumerate([(0.0, 1.2), (0.0, 1.4), (0.2, 1.2), (0.2, 1.4)]):
+        common = {"key": f"k{i}", "vary.humans.bob.position.0": x, "vary.humans.bob.position.1": y, "vary.planning.seed": 1}
+        store.add([common | {"step_index": 0, "status": "solved", "min_separation.bob": 0.30 + i},
+                   common | {"step_index": 1, "status": "solved" if i != 3 else "timeout", "min_separation.bob": 0.25 + i}])
+    store.compact()
+    records = {r["key"]: r for r in per_variant(read_results(tmp_path))}
+    assert [records[f"k{i}"]["success"] for i in range(4)] == [True, True, True, False]
+    assert records["k2"]["separation"] == pytest.approx(2.25)  # the smaller of its two steps
+    page = write_report(tmp_path)
+    assert page == tmp_path / "report.html" and "4 variants, 3 succeeded in every step" in page.read_text()
+    image = tmp_path / "success_map.png"
+    assert image.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and image.stat().st_size > 10_000
+    result = CliRunner().invoke(app, ["sweep", "--report", str(tmp_path)])
+    assert result.exit_code == 0 and "report.html" in result.output
