@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import sys
 import time
@@ -51,6 +52,16 @@ def steady_rate(stamps: list[float]) -> float:
     return (len(stamps) - 2) / (stamps[-1] - stamps[1])
 
 
+def warm(rows: list[dict]) -> list[dict]:
+    """Rows after each worker's first (which includes loading the robot)."""
+    seen, kept = set(), []
+    for row in rows:
+        if row["worker"] in seen:
+            kept.append(row)
+        seen.add(row["worker"])
+    return kept
+
+
 def direct_times(variants) -> list[float]:  # noqa: ANN001
     """The same variants planned in this process on one warm session: the plain cost of a plan."""
     from hriplan.planner.session import PlanningSession
@@ -78,13 +89,18 @@ def main() -> None:
 
     # 1. throughput, 1 worker vs 2, and the per-variant overhead (1 worker) over a direct plan
     one, one_rows = timed_run(LocalEngine(1), variants, out / "w1")
-    two, _ = timed_run(LocalEngine(2), variants, out / "w2")
+    two, two_rows = timed_run(LocalEngine(2), variants, out / "w2")
     intervals = [b - a for a, b in zip(one[1:], one[2:])]
     worker_times = [r["wall_time"] for r in one_rows][1:]
     direct = direct_times(variants[1:])
     result["throughput"] = {"variants": len(variants), "wall_1": one[-1] - one[0], "wall_2": two[-1] - two[0],
                             "rate_1": steady_rate(one), "rate_2": steady_rate(two), "speedup": steady_rate(two) / steady_rate(one),
-                            "speedup_wall": (one[-1] - one[0]) / (two[-1] - two[0])}  # fmt: skip
+                            "speedup_wall": (one[-1] - one[0]) / (two[-1] - two[0]),
+                            # CPU seconds per variant (after each worker's first): equal means the workers do not
+                            # contend inside hriplan, so throughput scales with the cores actually free
+                            "cpu_per_variant_1": statistics.mean(r["cpu_time"] for r in warm(one_rows)),
+                            "cpu_per_variant_2": statistics.mean(r["cpu_time"] for r in warm(two_rows)),
+                            "load_average": os.getloadavg()}  # fmt: skip
     result["overhead"] = {"mean_interval_1_worker": statistics.mean(intervals), "mean_worker_run": statistics.mean(worker_times),
                           "mean_direct_plan": statistics.mean(direct),
                           "overhead_per_variant_ms": 1000 * statistics.mean(i - w for i, w in zip(intervals, worker_times))}  # fmt: skip
