@@ -13,6 +13,7 @@ from collections import defaultdict
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -52,25 +53,34 @@ def _cells(records: list[dict], axes: list[str]) -> dict[tuple, tuple[float, flo
     return cells
 
 
+def _panel(figure, ax, cells: dict, axes: list[str], value: int, **style) -> None:  # noqa: ANN001, ANN003
+    """One value of the cells over the axes: a grid of cells when the points form one, else dots."""
+    points = [p for p in cells if cells[p][value] is not None]
+    if not points:
+        return
+    xs, ys = [p[0] for p in points], [p[1] if len(axes) > 1 else 0.0 for p in points]
+    ux, uy = sorted(set(xs)), sorted(set(ys))
+    if len(ux) * len(uy) <= 4 * len(points):
+        grid = np.full((len(uy), len(ux)), np.nan)
+        for x, y, p in zip(xs, ys, points):
+            grid[uy.index(y), ux.index(x)] = cells[p][value]
+        drawn = ax.pcolormesh(ux, uy, np.ma.masked_invalid(grid), shading="nearest", **style)
+    else:
+        drawn = ax.scatter(xs, ys, c=[cells[p][value] for p in points], s=60, **style)
+    figure.colorbar(drawn, ax=ax, label="success rate" if value == 0 else "closest approach to a person (m)")
+
+
 def _draw_map(cells: dict, axes: list[str], path: Path) -> None:
     figure, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
-    points = list(cells)
-    xs = [p[0] for p in points]
-    ys = [p[1] for p in points] if len(axes) > 1 else [0.0] * len(points)
-    rate = left.scatter(xs, ys, c=[cells[p][0] for p in points], cmap="RdYlGn", vmin=0, vmax=1, s=120, marker="s")
-    figure.colorbar(rate, ax=left, label="success rate")
+    _panel(figure, left, cells, axes, 0, cmap="RdYlGn", vmin=0, vmax=1)
+    _panel(figure, right, cells, axes, 1, cmap="viridis")
     left.set_title("success")
-    measured = [p for p in points if cells[p][1] is not None]
-    if measured:
-        sep = right.scatter([p[0] for p in measured], [p[1] if len(axes) > 1 else 0.0 for p in measured],
-                            c=[cells[p][1] for p in measured], cmap="viridis", s=120, marker="s")  # fmt: skip
-        figure.colorbar(sep, ax=right, label="closest approach to a person (m)")
     right.set_title("separation (solved motions)")
     for ax in (left, right):
         ax.set_xlabel(axes[0])
         ax.set_ylabel(axes[1] if len(axes) > 1 else "")
         if len(axes) > 1 and _same_units(axes):
-            ax.set_aspect("equal", adjustable="datalim")
+            ax.set_aspect("equal", adjustable="box")
     figure.savefig(path, dpi=110)
     plt.close(figure)
 

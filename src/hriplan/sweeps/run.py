@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import time
 from collections import Counter
 from pathlib import Path
@@ -40,6 +41,11 @@ class SweepSummary(BaseModel):
         return "\n".join(lines + [f"results: {self.results}"])
 
 
+def _pattern(reason: str) -> str:
+    """A reason with its numbers masked, so failures of one kind are counted together."""
+    return re.sub(r"-?\d+(\.\d+)?", "#", reason)
+
+
 def succeeded(rows: list[Row]) -> bool:
     return bool(rows) and all(r["status"] in ("solved", "derived") for r in rows)
 
@@ -49,7 +55,7 @@ def summarize(rows: list[Row], keys: set[str], skipped: int, ran: int, wall: flo
     by_key: dict[str, list[Row]] = {}
     for r in mine:
         by_key.setdefault(r["key"], []).append(r)
-    failed = Counter(r["reason"] or r["status"] for r in mine if r["status"] not in ("solved", "derived"))
+    failed = Counter(_pattern(r["reason"] or r["status"]) for r in mine if r["status"] not in ("solved", "derived"))
     return SweepSummary(variants=len(keys), skipped=skipped, ran=ran, solved=sum(succeeded(v) for v in by_key.values()),
                         statuses=dict(Counter(r["status"] for r in mine)), reasons=dict(failed.most_common(3)),
                         wall_time=wall, results=str(results))  # fmt: skip
