@@ -5,6 +5,7 @@ Each takes the directory of its call log first: bind it with functools.partial."
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 from hriplan.sweeps.worker import run_variant
@@ -24,10 +25,12 @@ def counting(log, variant, plan):  # noqa: ANN001, ANN201
 
 
 def dies_on_seed_7(log, variant, plan):  # noqa: ANN001, ANN201
-    """The worker process dies whenever it runs the variant with seed 7."""
+    """The worker process dies whenever it runs the variant with seed 7; the others take 3 s, so
+    one is still running on the other worker when it dies (and goes down with a local pool)."""
     _log(log, variant)
     if variant.task.planning.seed == 7:
         os._exit(3)
+    time.sleep(3.0)
     return run_variant(variant, plan)
 
 
