@@ -95,3 +95,43 @@ def test_a_worker_that_dies_once_is_retried_and_its_variant_kept(tmp_path, log_d
     variants = expand(GIVE, [parse_vary("planning.seed=6:8:1")])
     run_sweep(variants, tmp_path / "s", LocalEngine(2), plan=False, work=partial(helpers.dies_once_on_seed_7, log_dir), progress=False)
     assert sorted(r["status"] for r in _by_key(tmp_path / "s").values()) == ["derived"] * 3
+
+
+def test_batch_from_the_command_line_then_its_report(tmp_path):
+    from typer.testing import CliRunner
+
+    from hriplan.cli.main import app
+
+    out = tmp_path / "b"
+    result = CliRunner().invoke(app, ["batch", str(GIVE), str(TAKE), "-o", str(out), "--derive-only", "--workers", "1", "-q"])
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("2 variants: 2 run, 0 already done; 2 succeeded in every step")
+    rows = _by_key(out)
+    assert sorted({Path(r["source"]).name for r in rows.values()}) == sorted([GIVE.name, TAKE.name])
+    assert sorted(r["step"] for r in rows.values()) == ["hand_over", "place_can", "take_can"]
+    again = CliRunner().invoke(app, ["batch", str(GIVE), str(TAKE), "-o", str(out), "--derive-only", "-q"])
+    assert again.output.startswith("2 variants: 0 run, 2 already done")
+    assert CliRunner().invoke(app, ["sweep", "--report", str(out)]).exit_code == 0
+    assert (out / "variants.png").stat().st_size > 5_000 and "2 variants, 2 succeeded" in (out / "report.html").read_text()
+
+
+def test_ctrl_c_stops_keeps_what_is_done_and_a_rerun_resumes(tmp_path):
+    import os
+    import signal
+    import subprocess
+
+    out = tmp_path / "s"
+    command = [sys.executable, "-m", "hriplan.cli", "sweep", str(GIVE), "--vary", "planning.seed=1:40:1", "-o", str(out),
+               "--derive-only", "--workers", "1"]  # fmt: skip
+    env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
+    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = process.stderr.readline()  # the first progress line: one variant is done
+    assert first.startswith("... 1/40 variants"), first
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err
+    kept = int(err.split("interrupted: ")[1].split()[0])
+    assert 1 <= kept < 40 and len(_by_key(out)) == kept and not list((out / "parts").glob("*"))
+    rerun = subprocess.run(command + ["-q"], env=env, capture_output=True, text=True, timeout=600)
+    assert rerun.returncode == 0 and rerun.stdout.startswith(f"40 variants: {40 - kept} run, {kept} already done"), rerun.stdout
+    assert len(_by_key(out)) == 40

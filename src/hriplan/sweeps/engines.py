@@ -69,8 +69,11 @@ class LocalEngine:
                     running[pool.submit(work, variant, plan)] = variant
                 done, _ = wait(running, return_when=FIRST_COMPLETED)
                 if any(isinstance(f.exception(), BrokenProcessPool) for f in done):
-                    wait(running)  # every variant in flight went down with the pool
+                    wait(running)  # every variant still running went down with the pool
                     for future, variant in running.items():
+                        if not isinstance(future.exception(), BrokenProcessPool):
+                            deliver(variant, _error_rows(variant, future.exception()) if future.exception() else future.result())
+                            continue
                         attempts[variant.key] += 1
                         if attempts[variant.key] >= ATTEMPTS:
                             deliver(variant, _died(variant, "the process ended abruptly"))
@@ -117,8 +120,8 @@ class RayEngine:
             ray.init(address=self.address, logging_level="ERROR", log_to_driver=False)
         else:
             _single_threaded_blas()
-            env = {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)} | {
-                k: os.environ[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "HOME")}  # fmt: skip
+            threads = {k: os.environ[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+            env = {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)} | threads  # workers import what the driver does
             ray.init(num_cpus=self.workers or os.cpu_count(), include_dashboard=False, _node_ip_address="127.0.0.1",
                      runtime_env={"env_vars": env}, logging_level="ERROR", log_to_driver=False)  # fmt: skip
         return ray, True

@@ -37,7 +37,7 @@ def per_variant(rows: list[Row]) -> list[dict]:
     for key, steps in by_key.items():
         separations = [v for r in steps for c, v in r.items() if c.startswith("min_separation.") and v is not None]
         varied = {c[len(VARY):]: v for c, v in steps[0].items() if c.startswith(VARY)}
-        records.append({"key": key, "varied": varied, "success": succeeded(steps), "separation": min(separations, default=None)})
+        records.append({"key": key, "source": Path(steps[0].get("source") or key).name, "varied": varied, "success": succeeded(steps), "separation": min(separations, default=None)})
     return records
 
 
@@ -92,7 +92,7 @@ def _same_units(axes: list[str]) -> bool:
 
 def _draw_bars(records: list[dict], path: Path) -> None:
     figure, ax = plt.subplots(figsize=(max(6, 0.4 * len(records)), 4), constrained_layout=True)
-    labels = [", ".join(f"{k}={v}" for k, v in r["varied"].items()) or r["key"] for r in records]
+    labels = [", ".join(f"{k}={v}" for k, v in r["varied"].items()) or r["source"] for r in records]
     ax.bar(range(len(records)), [r["separation"] or 0.0 for r in records], color=["tab:green" if r["success"] else "tab:red" for r in records])
     ax.set_xticks(range(len(records)), labels, rotation=60, ha="right", fontsize=7)
     ax.set_ylabel("closest approach to a person (m); red: failed")
