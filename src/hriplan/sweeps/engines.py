@@ -106,7 +106,7 @@ class SessionActor:
 
 
 class RayEngine:
-    """Ray actors, one per CPU: a local runtime (loopback, no dashboard) or an existing cluster."""
+    """Ray actors, one per CPU: a local runtime (no dashboard) or an existing cluster."""
 
     def __init__(self, workers: int | None = None, address: str | None = None) -> None:
         self.workers, self.address = workers, address
@@ -122,8 +122,10 @@ class RayEngine:
             _single_threaded_blas()
             threads = {k: os.environ[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
             env = {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)} | threads  # workers import what the driver does
-            ray.init(num_cpus=self.workers or os.cpu_count(), include_dashboard=False, _node_ip_address="127.0.0.1",
-                     runtime_env={"env_vars": env}, logging_level="ERROR", log_to_driver=False)  # fmt: skip
+            # Ray resolves 127.0.0.1 to the node's address by design (ray-project/ray#26293): its
+            # services listen there, not on loopback; no dashboard is started.
+            ray.init(num_cpus=self.workers or os.cpu_count(), include_dashboard=False, runtime_env={"env_vars": env},
+                     logging_level="ERROR", log_to_driver=False)  # fmt: skip
         return ray, True
 
     def run(self, variants: list[Variant], plan: bool, deliver: Deliver, work: Work = run_variant) -> None:
