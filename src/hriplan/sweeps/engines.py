@@ -34,6 +34,12 @@ def _error_rows(variant: Variant, exc: BaseException) -> list[Row]:
     return [variant_columns(variant) | {"step": "", "step_index": -1, "status": "error", "reason": f"{type(exc).__name__}: {exc}"}]
 
 
+def _outcome(variant: Variant, future: Future) -> list[Row]:
+    """A finished variant's rows, or an error row if its planning raised."""
+    exc = future.exception()
+    return _error_rows(variant, exc) if exc else future.result()
+
+
 def _died(variant: Variant, detail: str) -> list[Row]:
     return failure_rows(variant, f"its worker died on each of {ATTEMPTS} attempts ({detail})")
 
@@ -72,7 +78,7 @@ class LocalEngine:
                     wait(running)  # every variant still running went down with the pool
                     for future, variant in running.items():
                         if not isinstance(future.exception(), BrokenProcessPool):
-                            deliver(variant, _error_rows(variant, future.exception()) if future.exception() else future.result())
+                            deliver(variant, _outcome(variant, future))  # it finished before the pool broke
                             continue
                         attempts[variant.key] += 1
                         if attempts[variant.key] >= ATTEMPTS:
@@ -85,8 +91,7 @@ class LocalEngine:
                     continue
                 for future in done:
                     variant = running.pop(future)
-                    exc = future.exception()
-                    deliver(variant, _error_rows(variant, exc) if exc else future.result())
+                    deliver(variant, _outcome(variant, future))
         except BaseException:  # Ctrl-C or a failure here: stop the workers, keep what was delivered
             pool.shutdown(wait=False, cancel_futures=True)
             for process in (getattr(pool, "_processes", None) or {}).values():
