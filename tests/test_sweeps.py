@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 from types import SimpleNamespace
@@ -164,3 +165,22 @@ def test_report_maps_success_and_separation_over_the_varied_position(tmp_path):
     assert image.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and image.stat().st_size > 10_000
     result = CliRunner().invoke(app, ["sweep", "--report", str(tmp_path)])
     assert result.exit_code == 0 and "report.html" in result.output
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_is_a_bar_on_a_terminal_and_plain_lines_otherwise():
+    from hriplan.sweeps.progress import Progress
+
+    terminal, log = _Terminal(), io.StringIO()
+    for stream in (terminal, log):
+        progress = Progress(3, stream=stream, every=0.0)
+        for _ in range(3):
+            progress.advance()
+        progress.close()
+    assert "3/3" in terminal.getvalue() and "variant/s" in terminal.getvalue() and "\r" in terminal.getvalue()
+    lines = log.getvalue().splitlines()
+    assert lines[-1].startswith("... 3/3 variants,") and "ETA 0 s" in lines[-1] and len(lines) == 3
