@@ -10,6 +10,7 @@ import typer
 
 from hriplan import HriplanError, __version__
 from hriplan.cli.errors import OneLineErrors, clear_errors
+from hriplan.cli.sweeps import SWEEP_COMMANDS
 from hriplan.cli.tasks import TASK_COMMANDS
 from hriplan.cli.serve import serve
 from hriplan.cli.view import plot, view
@@ -116,5 +117,5 @@ def solve(
     raise typer.Exit(code)
 
 
-for _name, _command in {"view": view, "plot": plot, "serve": serve, **TASK_COMMANDS}.items():
+for _name, _command in {"view": view, "plot": plot, "serve": serve, **TASK_COMMANDS, **SWEEP_COMMANDS}.items():
     app.command(_name)(clear_errors(_command))
