@@ -38,8 +38,13 @@ def _engine(engine: str, workers: int | None, address: str | None):  # noqa: ANN
 
 
 def _run(variants, output: Path, output_format: str, engine, derive_only: bool, quiet: bool) -> None:  # noqa: ANN001
+    import signal
+
     from hriplan.sweeps.run import SweepInterrupted, run_sweep
 
+    # A sweep stops cleanly itself on Ctrl-C (its workers stopped, what is done kept and compacted),
+    # so here Ctrl-C is Python's KeyboardInterrupt, not the CLI's immediate exit.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         summary = run_sweep(variants, output, engine, plan=not derive_only, csv=output_format == "csv", progress=not quiet)
     except SweepInterrupted as exc:

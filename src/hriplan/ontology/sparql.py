@@ -137,6 +137,8 @@ def run_query(graph: rdflib.Graph, text: str, limits: QueryLimits | None = None)
 
 def prepare_query(text: str) -> Query:
     """Parse a query and refuse what would write or reach outside the graph; errors give a position."""
+    if not text.strip():
+        raise HriplanError("empty SPARQL query: give a SELECT, ASK, CONSTRUCT or DESCRIBE query")
     try:
         query = prepareQuery(text, initNs=PREFIXES)
     except pyparsing.ParseBaseException as exc:
