@@ -43,7 +43,8 @@ def main() -> None:
     bob = task.humans[0]
     for k in range(args.updates):
         dx = 0.1 if k % 2 == 0 else -0.1
-        moved = bob.model_copy(update={"position": (bob.position[0] + dx, bob.position[1])})
+        reach = {side: (x + dx, y, z) for side, (x, y, z) in bob.reach.items()}  # the hand moves with her
+        moved = bob.model_copy(update={"position": (bob.position[0] + dx, bob.position[1]), "reach": reach})
         variant = task.model_copy(update={"humans": [moved]})
         timing["time"] = 0.0
         started = time.perf_counter()
