@@ -86,39 +86,35 @@ def _band_jobs(seeds: int, baseline_seeds: int) -> list[tuple]:
     return jobs
 
 
+def _summary(runs: list[dict]) -> str:
+    """Table cells for the runs of one method: solved, median and p95 s, path vs straight, calls."""
+    solved = [r for r in runs if r["status"] == "solved"]
+    times = [r["seconds"] for r in solved]
+    med = lambda k: int(np.median([r["calls"].get(k, 0) for r in runs]))  # noqa: E731
+    stats = f"{np.median(times):.3f} | {np.percentile(times, 95):.3f}" if times else "- | -"
+    ratio = f"{np.median([r['path'] for r in solved]):.2f} / {np.median([r['straight'] for r in solved]):.2f}" if solved else "-"
+    return f"{len(solved)}/{len(runs)} | {stats} | {ratio} | {med('function')} / {med('jacobian')} / {med('validity')}"
+
+
+def _runs_by_method(rows: list[dict], order) -> list[tuple[tuple, list[dict]]]:  # noqa: ANN001
+    method = lambda r: (r["scenario"], r["space"], r["formulation"], r["planner"])  # noqa: E731
+    return [(key, [r for r in rows if method(r) == key]) for key in sorted({method(r) for r in rows}, key=order)]
+
+
 def _band_table(rows: list[dict]) -> str:
     lines = ["| scenario | method | solved | median s | p95 s | path / straight (median) | median calls (f / J / valid) |",
              "|---|---|---|---|---|---|---|"]  # fmt: skip
-    order = [*TIME_LIMITS, *BAND_TIME_LIMITS]
-    keys = sorted({(r["scenario"], r["space"], r["formulation"], r["planner"]) for r in rows}, key=lambda k: (order.index(k[0]), BAND_METHODS.index(k[1:])))
-    for key in keys:
-        runs = [r for r in rows if (r["scenario"], r["space"], r["formulation"], r["planner"]) == key]
-        solved = [r for r in runs if r["status"] == "solved"]
-        times = [r["seconds"] for r in solved]
-        med = lambda k: int(np.median([r["calls"].get(k, 0) for r in runs]))  # noqa: E731
-        stats = f"{np.median(times):.3f} | {np.percentile(times, 95):.3f}" if times else "- | -"
-        ratio = f"{np.median([r['path'] for r in solved]):.2f} / {solved[0]['straight']:.2f}" if solved else "-"
-        lines.append(f"| {key[0]} | {key[3]} {key[1]} {key[2]} | {len(solved)}/{len(runs)} | {stats} | {ratio} | "
-                     f"{med('function')} / {med('jacobian')} / {med('validity')} |")  # fmt: skip
+    scenarios = [*TIME_LIMITS, *BAND_TIME_LIMITS]
+    for key, runs in _runs_by_method(rows, lambda k: (scenarios.index(k[0]), BAND_METHODS.index(k[1:]))):
+        lines.append(f"| {key[0]} | {key[3]} {key[1]} {key[2]} | {_summary(runs)} |")
     return "\n".join(lines)
 
 
 def _table(rows: list[dict]) -> str:
     lines = ["| scenario | space | formulation | planner | solved | median s | p95 s | median path / straight rad | median calls (f / J / valid) |",
              "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
-    keys = sorted({(r["scenario"], r["space"], r["formulation"], r["planner"]) for r in rows}, key=lambda k: (k[0], METHODS.index(k[1:3]), k[3]))
-    for key in keys:
-        runs = [r for r in rows if (r["scenario"], r["space"], r["formulation"], r["planner"]) == key]
-        solved = [r for r in runs if r["status"] == "solved"]
-        times = [r["seconds"] for r in solved]
-        med = lambda k: int(np.median([r["calls"].get(k, 0) for r in runs]))  # noqa: E731
-        stats = f"{np.median(times):.3f} | {np.percentile(times, 95):.3f}" if times else "- | -"
-        if solved:
-            stats += f" | {np.median([r['path'] for r in solved]):.2f} / {np.median([r['straight'] for r in solved]):.2f}"
-        else:
-            stats += " | -"
-        lines.append(f"| {key[0]} | {key[1]} | {key[2]} | {key[3]} | {len(solved)}/{len(runs)} | {stats} | "
-                     f"{med('function')} / {med('jacobian')} / {med('validity')} |")  # fmt: skip
+    for key, runs in _runs_by_method(rows, lambda k: (k[0], METHODS.index(k[1:3]), k[3])):
+        lines.append(f"| {key[0]} | {key[1]} | {key[2]} | {key[3]} | {_summary(runs)} |")
     return "\n".join(lines)
 
 
