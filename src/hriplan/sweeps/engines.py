@@ -65,16 +65,25 @@ class LocalEngine:
         attempts: Counter[str] = Counter()
         running: dict[Future, Variant] = {}
         pool = self._pool()
+
+        def submit(variant: Variant, source: deque) -> bool:
+            """Start a variant; False (and the variant back in `source`) if the pool has broken."""
+            try:
+                running[pool.submit(work, variant, plan)] = variant
+            except BrokenProcessPool:  # a worker died since the last wait: found out here first
+                source.appendleft(variant)
+                return False
+            return True
+
         try:
             while queue or alone or running:
+                broken = False
                 if alone and not running:
-                    variant = alone.popleft()
-                    running[pool.submit(work, variant, plan)] = variant
-                while not alone and queue and len(running) < self.workers:
-                    variant = queue.popleft()
-                    running[pool.submit(work, variant, plan)] = variant
-                done, _ = wait(running, return_when=FIRST_COMPLETED)
-                if any(isinstance(f.exception(), BrokenProcessPool) for f in done):
+                    broken = not submit(alone.popleft(), alone)
+                while not broken and not alone and queue and len(running) < self.workers:
+                    broken = not submit(queue.popleft(), queue)
+                done, _ = wait(running, return_when=FIRST_COMPLETED) if running else (set(), set())
+                if broken or any(isinstance(f.exception(), BrokenProcessPool) for f in done):
                     wait(running)  # every variant still running went down with the pool
                     for future, variant in running.items():
                         if not isinstance(future.exception(), BrokenProcessPool):
