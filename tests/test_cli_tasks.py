@@ -174,3 +174,20 @@ def test_progress_plain_when_piped_live_on_a_terminal_silent_when_quiet():
     import re
 
     assert re.search(r"\d+\.\d s", text), text
+
+
+def test_a_preparatory_turn_is_written_beside_its_step_and_validates(tmp_path):
+    # One task step, two motions: the scissors are turned blades-away in place, then handed over.
+    # Before: the turn had no file name and `plan` died with a KeyError traceback.
+    scissors = ROOT / "tests" / "data" / "people" / "scissors_one_step.yaml"
+    result = run("plan", scissors, "-o", tmp_path / "scissors.json", "-q")
+    assert result.returncode == 0, result.stderr
+    turn, hand_over = tmp_path / "scissors.hand_over_prepare.json", tmp_path / "scissors.json"
+    assert f"wrote {turn}" in result.stdout and f"wrote {hand_over}" in result.stdout
+    first, second = (json.loads(p.read_text()) for p in (turn, hand_over))
+    assert (first["step"], second["step"]) == ("hand_over_prepare", "hand_over")
+    # the handover starts where the turn ends, every joint
+    end = dict(first["start"]) | dict(zip(first["joint_names"], first["points"][-1]["positions"]))
+    assert all(abs(second["start"][j] - v) < 1e-9 for j, v in end.items())
+    for path in (turn, hand_over):
+        assert run("validate", path, "-q").returncode == 0

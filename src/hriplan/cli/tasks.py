@@ -91,7 +91,7 @@ def plan(
     with progress(quiet) as report:
         runner = _runner(task, report, loaded)
         outcome = runner.run(plan=True)
-        written = _write_outcome(outcome, paths, html, plots, several, report)
+        written = _write_outcome(outcome, output, paths, html, plots, report)
     if as_json:
         typer.echo(json.dumps(_json(outcome, written), indent=1))
     else:
@@ -103,15 +103,18 @@ def plan(
         raise typer.Exit(1)
 
 
-def _write_outcome(outcome, paths: dict[str, Path], html: Path | None, plots: Path | None, several: bool,
+def _write_outcome(outcome, output: Path, paths: dict[str, Path], html: Path | None, plots: Path | None,
                    report: Callable[[str], None]) -> list[Path]:  # noqa: ANN001 - a TaskOutcome
-    """Write the solved steps' trajectories, and the viewer page and figures if asked for."""
+    """Write the solved steps' trajectories, and the viewer page and figures if asked for. A step
+    the pipeline adds (a preparatory turn) is written beside its task step's file."""
     written = []
     solved = [step for step in outcome.steps if step.trajectory is not None]
+    several = len(outcome.steps) > 1
     for step in solved:
-        paths[step.name].parent.mkdir(parents=True, exist_ok=True)
-        step.trajectory.save(paths[step.name])
-        written.append(paths[step.name])
+        path = paths.get(step.name) or file_output(_step_path(output, step.name, True))
+        path.parent.mkdir(parents=True, exist_ok=True)
+        step.trajectory.save(path)
+        written.append(path)
     if html is not None and solved:
         from hriplan.viewer import write_task_viewer
 
