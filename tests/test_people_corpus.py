@@ -100,6 +100,10 @@ def test_each_situation_plans_and_every_trajectory_holds_its_constraints(name):
     expected = EXPECTED[name]
     runner = TaskRunner(load_task(DATA / f"{name}.yaml"))
     outcome = runner.run()
+    if "refused" in expected:
+        failed = next(s for s in outcome.steps if s.status != "solved")
+        assert (failed.status, expected["refused"]["says"] in failed.message) == (expected["refused"]["status"], True), failed.message
+        return
     if expected.get("plans", True) is not True:
         assert not outcome.solved, f"{name} plans now: drop its `plans` entry from expected.yaml"
         pytest.xfail(expected["plans"])

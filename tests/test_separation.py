@@ -279,8 +279,10 @@ def test_a_start_inside_the_minimum_separation_fails_with_the_reason():
     start = dict(zip(session.robot.joint_names, q0))
     assert session.plan(start, goal, group="right_arm").solved  # without the policy it plans and runs
     result = session.plan(start, goal, group="right_arm", safety=default_policy("madar", [bystander]))
-    assert not result.solved
-    assert "from dana/" in result.message and "inside the minimum protective separation 0.550 m" in result.message
+    # the planner keeps S_0 (separation_zones.py): the start is refused before any search
+    assert result.status == "invalid_start"
+    assert result.message.startswith("start is inside a person's minimum separation of ISO/TS 15066")
+    assert " - dana/" in result.message and "(minimum separation 0.550 m)" in result.message
 
 
 def test_a_task_passing_too_close_to_a_collaborator_fails_in_one_line(tmp_path):
@@ -293,6 +295,7 @@ def test_a_task_passing_too_close_to_a_collaborator_fails_in_one_line(tmp_path):
                             capture_output=True, text=True, cwd=tmp_path)  # fmt: skip
     assert result.returncode == 1 and "Traceback" not in result.stderr
     failure = result.stderr.strip().splitlines()[-1]
-    assert failure.startswith("planning failed at step carry") and "(timing_failed): " in failure and "from dana/" in failure
-    assert "inside the minimum protective separation 0.310 m of ISO/TS 15066" in failure
+    # she stands within S_0 of the arm's start: refused before planning (before: after planning, by the timing)
+    assert failure.startswith("planning failed at step carry") and "(invalid_start): " in failure and " - dana/" in failure
+    assert "is inside a person's minimum separation of ISO/TS 15066" in failure and "(minimum separation 0.310 m)" in failure
     assert not list(tmp_path.glob("t*.json"))

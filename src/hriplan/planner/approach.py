@@ -51,8 +51,7 @@ class ApproachMonitor:
         model = robot.model
         self._iq = robot.group_indices(group)
         self._iv = np.array([model.joints[model.getJointId(j)].idx_v for j in robot.group_joints(group)])
-        planned = {model.getJointId(j) for j in robot.group_joints(group)}
-        self._moved = {j for j in range(1, model.njoints) if planned & set(_chain(model, j))}
+        self._moved = robot.moved_joints(group)
         self._memo: dict[bytes, list[PersonSample]] = {}  # the report re-reads the timing's final check
 
     def full(self, x: np.ndarray) -> np.ndarray:
@@ -111,11 +110,3 @@ class ApproachMonitor:
         """Per row: the largest factor on `dxs` that keeps every person's limit (inf: unbounded)."""
         return np.array([min((s.scale for s in self.samples(x, dx)), default=np.inf) for x, dx in zip(xs, dxs)])
 
-
-def _chain(model: pin.Model, joint: int) -> list[int]:
-    """The joint and its ancestors up to the universe."""
-    chain = []
-    while joint > 0:
-        chain.append(joint)
-        joint = model.parents[joint]
-    return chain

@@ -18,7 +18,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan import HriplanError
-from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.collision import ZONE_NAMING, CollisionChecker
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import JointValues, Robot
 from hriplan.robots.spatial import Pose
@@ -29,6 +29,8 @@ from .keep_out import keep_out_obstacles
 from .options import PlanOptions, check_options
 from .projection import project
 from .resolve import BoundConstraint, bind, set_goal_positions
+from .separation import SeparationPolicy
+from .separation_zones import keeping_separation
 from .slack import SlackRows
 from .spec import Axis, ConstraintSpec
 from .validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
@@ -100,6 +102,14 @@ class _Problem:
     def describe_collisions(self, x: np.ndarray) -> str:
         return ", ".join(f"{c.a} - {c.b}" for c in self.checker.contacts(self.evaluator.full(x)))
 
+    def collision_message(self, what: str, x: np.ndarray) -> str:
+        """"start is in collision: ...", or, if only people's minimum separations are entered, that."""
+        contacts = self.checker.contacts(self.evaluator.full(x))
+        listed = ", ".join(f"{c.a} - {c.b}" for c in contacts)
+        if contacts and all(ZONE_NAMING in c.a + c.b for c in contacts):
+            return f"{what} is inside a person's minimum separation of ISO/TS 15066 (the robot would have to stand still): {listed}"
+        return f"{what} is in collision: {listed}"
+
     def validity(self, limit: float):  # noqa: ANN201
         """State validity for planning: collision free and every margin <= limit."""
         evaluator, checker = self.evaluator, self.checker
@@ -145,8 +155,10 @@ def plan_motion(
     goal: Goal,
     options: PlanOptions | None = None,
     group: str | None = None,
+    safety: SeparationPolicy | None = None,
 ) -> MotionResult:
-    """Plan a constrained, collision-free motion of `group` from `start` to `goal`."""
+    """Plan a constrained, collision-free motion of `group` from `start` to `goal`. With `safety`,
+    the moving parts keep ISO/TS 15066's minimum separation from people (separation_zones.py)."""
     options = options or PlanOptions()
     # No group: a tool goal moves its own arm only, a joint goal the whole robot.
     group = group or (robot.arm_group(goal.arm) if isinstance(goal, ToolGoal) else robot.default_group)
@@ -157,11 +169,11 @@ def plan_motion(
     _check_group(robot, bound, group)
     full_start = dict(zip(robot.joint_names, q_start.tolist()))
     result = lambda status, message: MotionResult(status=status, message=message, group=group, joint_names=joint_names, start=full_start)  # noqa: E731
-    with with_keep_out(checker, bound):
+    with keeping_separation(checker, robot, safety, group, q_start), with_keep_out(checker, bound):
         problem = _Problem(robot, checker, bound, group, q_start)
         x_start = robot.group_values(q_start, group)
         if checker.in_collision(q_start):
-            return result("invalid_start", f"start is in collision: {problem.describe_collisions(x_start)}")
+            return result("invalid_start", problem.collision_message("start", x_start))
         # The goal first: it fixes p_goal, so the start is checked at its own dynamic tolerance.
         goal_or_error = _resolve_goal(problem, goal, x_start)
         if isinstance(goal_or_error, MotionResult):
@@ -193,7 +205,7 @@ def _resolve_goal(problem: _Problem, goal: Goal, x_start: np.ndarray) -> np.ndar
         x_goal = robot.group_values(q_goal, group)
         _set_goal_positions(problem, x_goal)
         if problem.checker.in_collision(q_goal):
-            return MotionResult(status="invalid_goal", message=f"goal is in collision: {problem.describe_collisions(x_goal)}", **blank)
+            return MotionResult(status="invalid_goal", message=problem.collision_message("goal", x_goal), **blank)
         if problem.describe_violations(x_goal):
             return MotionResult(status="invalid_goal", message=f"goal violates {problem.describe_violations(x_goal)}", **blank)
         return x_goal

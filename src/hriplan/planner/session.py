@@ -81,13 +81,9 @@ class PlanningSession:
     # -- perception and task updates (no rebuild) ------------------------------------------
     def move_obstacle(self, name: str, pose: Pose) -> None:
         self.checker.move_obstacle(name, pose)
-        self.checker.scene = self.checker.scene.model_copy(update={"obstacles": [
-            o.model_copy(update={"pose": pose}) if o.name == name else o for o in self.checker.scene.obstacles]})  # fmt: skip
 
     def pose_human(self, spec: HumanSpec) -> None:
         self.checker.pose_human(spec)
-        self.checker.scene = self.checker.scene.model_copy(update={"humans": [
-            spec if h.name == spec.name else h for h in self.checker.scene.humans]})  # fmt: skip
 
     def set_scene(self, scene: Scene) -> None:
         self.checker.set_scene(scene)
@@ -118,7 +114,7 @@ class PlanningSession:
             if retry and remaining <= 0.0:
                 break
             run = options if retry == 0 else options.model_copy(update={"time_limit": remaining, "seed": _retry_seed(options.seed, retry)})
-            motion = plan_motion(self.robot, self.checker, list(self.constraints.values()), start, goal, run, group)
+            motion = plan_motion(self.robot, self.checker, list(self.constraints.values()), start, goal, run, group, safety)
             result = self.time(motion, options, safety)
             if result.status != "timing_failed":
                 break

@@ -27,10 +27,23 @@ from .scene import Scene
 from .spatial import Pose
 
 
+# How a separation zone is named in contacts and messages: "bob/left_upperleg (minimum separation 0.225 m)".
+ZONE_NAMING = "minimum separation"
+
+
 @dataclass(frozen=True)
 class Contact:
     a: str
     b: str
+
+
+@dataclass(frozen=True)
+class SeparationZones:
+    """Per person, per capsule: how far beyond the bare capsule the moving parts must stay (m).
+    Checked only against robot parts and carried objects on `moving_joints`."""
+
+    distances: dict[str, dict[str, float]]
+    moving_joints: frozenset[int]
 
 
 @dataclass(frozen=True)
@@ -54,6 +67,7 @@ class CollisionChecker:
         self.parts = robot_parts(robot, padding)
         self.acm = load_acm(robot, robot_parts(robot))
         self.humans: dict[str, Human] = {}
+        self.zones: SeparationZones | None = None
         self.set_scene(scene or Scene())
 
     # -- building ---------------------------------------------------------------------------
@@ -61,7 +75,7 @@ class CollisionChecker:
         """Replace the scene's contents (pairs are recomputed; the robot model is kept)."""
         self.scene = scene
         gm = pin.GeometryModel()
-        self.kind: list[str] = []  # per geometry: robot, mesh:<part>, attached:<arm>, obstacle, human
+        self.kind: list[str] = []  # per geometry: robot, mesh:<part>, attached:<arm>, obstacle, human, zone
         for part in self.parts:
             gm.addGeometryObject(pin.GeometryObject(part.name, part.joint, part.placement, part.geometry))
             self.kind.append("robot")
@@ -95,10 +109,32 @@ class CollisionChecker:
                 slots.append(gm.addGeometryObject(pin.GeometryObject(f"{spec.name}/{capsule.name}", 0, placement, geometry)))
                 self.kind.append("human")
             self._human_slots[spec.name] = slots
+        self._zone_slots = self._add_zones(gm)
         self.geom_model = gm
         self._pair_up()
         self._index = {g.name: i for i, g in enumerate(gm.geometryObjects)}
         self._build_distance_model()
+
+    def _add_zones(self, gm: pin.GeometryModel) -> dict[str, list[tuple[int, int]]]:
+        """The separation zones' grown capsules; per person: (geometry slot, capsule index)."""
+        slots: dict[str, list[tuple[int, int]]] = {}
+        for name, distances in (self.zones.distances if self.zones else {}).items():
+            human = self.humans.get(name)
+            if human is None:
+                raise HriplanError(f"the scene has no person {name!r} to keep a separation from")
+            slots[name] = []
+            for k, (capsule, placement) in enumerate(zip(human.capsules, human.capsule_placements())):
+                if capsule.name in distances:
+                    grown = coal.Capsule(capsule.radius + distances[capsule.name], capsule.length)
+                    label = f"{name}/{capsule.name} ({ZONE_NAMING} {distances[capsule.name]:.3f} m)"
+                    slots[name].append((gm.addGeometryObject(pin.GeometryObject(label, 0, placement, grown)), k))
+                    self.kind.append("zone")
+        return slots
+
+    def set_zones(self, zones: SeparationZones | None) -> None:
+        """Keep the moving parts this far from people's capsules (None: no zones); rebuilds pairs."""
+        self.zones = zones
+        self.set_scene(self.scene)
 
     def _build_distance_model(self) -> None:
         """Robot parts and people only, with robot-person pairs: distances in one C++ call."""
@@ -134,9 +170,13 @@ class CollisionChecker:
     def _checked(self, i: int, j: int) -> bool:
         ki, kj = self.kind[i], self.kind[j]
         names = (self.geom_model.geometryObjects[i].name, self.geom_model.geometryObjects[j].name)
-        static = ("obstacle", "human")
+        static = ("obstacle", "human", "zone")
         if ki in static and kj in static:
             return False
+        if "zone" in (ki, kj):
+            other = j if ki == "zone" else i
+            moving = self.kind[other] == "robot" or self.kind[other].startswith("attached:")
+            return moving and self.geom_model.geometryObjects[other].parentJoint in self.zones.moving_joints
         if ki == "robot" and kj == "robot":
             return f"{names[0]}|{names[1]}" not in self.acm and f"{names[1]}|{names[0]}" not in self.acm
         if ki.startswith("mesh:") or kj.startswith("mesh:"):
@@ -194,6 +234,7 @@ class CollisionChecker:
         if i is None or self.kind[i] != "obstacle":
             raise HriplanError(f"the scene has no obstacle {name!r}")
         self.geom_model.geometryObjects[i].placement = pose.se3()
+        self.scene = self.scene.model_copy(update={"obstacles": [o.model_copy(update={"pose": pose}) if o.name == name else o for o in self.scene.obstacles]})
         fixed = [p for p, part in enumerate(self.parts) if part.joint == 0]
         before = {p for p, o in self._fixed_contacts if o == i}
         self._fixed_contacts -= {(p, i) for p in before}
@@ -201,14 +242,18 @@ class CollisionChecker:
             self._pair_up()
 
     def pose_human(self, spec: HumanSpec) -> None:
-        """Re-pose a person already in the scene: only capsule placements change."""
+        """Re-pose a person already in the scene: only capsule placements change (and the scene)."""
         if spec.name not in self.humans:
             raise HriplanError(f"the scene has no person {spec.name!r}")
         human = self.humans[spec.name]
         human.pose(spec)
+        self.scene = self.scene.model_copy(update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]})
         for slot, placement in zip(self._human_slots[spec.name], human.capsule_placements()):
             self.geom_model.geometryObjects[slot].placement = placement
             self._distance_model.geometryObjects[self._distance_slots[slot]].placement = placement
+        placements = human.capsule_placements()
+        for slot, k in self._zone_slots.get(spec.name, []):
+            self.geom_model.geometryObjects[slot].placement = placements[k]
         person_model = self._person_models[spec.name][0]
         first = person_model.ngeoms - len(human.capsules)
         for k, placement in enumerate(human.capsule_placements()):

@@ -20,6 +20,7 @@ from pydantic import BaseModel
 
 from hriplan import HriplanError
 
+from .collision import ZONE_NAMING
 from .model import Robot
 
 AXES = {"x": 0, "y": 1, "z": 2}
@@ -248,7 +249,10 @@ def rejection_message(n: int, reasons: Counter) -> str:
         return f"all {n} solutions are rejected by is_valid"
     top = ", ".join(f"{reason} ({count} of {n})" for reason, count in reasons.most_common(3))
     hints = []
-    if any(r.startswith("collides") for r in reasons):
+    if any(ZONE_NAMING in r for r in reasons):
+        hints.append("meet the person farther from the body parts named (ISO/TS 15066 minimum separation; contact is "
+                     "allowed only at their contact regions)")
+    if any(r.startswith("collides") and ZONE_NAMING not in r for r in reasons):
         hints.append("move the goal away from what collides (e.g. higher above a table) or hold the object another way")
     if any(r.startswith("violates") for r in reasons):
         hints.append("choose a goal orientation the violated constraint allows")

@@ -115,6 +115,19 @@ class Robot:
             raise HriplanError(f"robot {self.name!r} has no joint group {group!r}; groups: {', '.join(self.groups)}")
         return group
 
+    def moved_joints(self, group: str | None = None) -> frozenset[int]:
+        """Model joint ids that move when the group moves: its joints and every joint below them."""
+        model = self.model
+        planned = {model.getJointId(j) for j in self.group_joints(group)}
+        moved = set()
+        for joint in range(1, model.njoints):
+            ancestor = joint
+            while ancestor > 0 and ancestor not in planned:
+                ancestor = model.parents[ancestor]
+            if ancestor > 0:
+                moved.add(joint)
+        return frozenset(moved)
+
     def group_indices(self, group: str | None = None) -> np.ndarray:
         """Indices of the group's joints in the planning model's configuration vector."""
         return self._index[self._group(group)]

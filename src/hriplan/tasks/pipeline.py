@@ -244,12 +244,13 @@ class TaskRunner:
         group = robot.arm_group(arms[0]) if len(arms) == 1 else robot.default_group
         options = PlanOptions(**self.task.planning.model_dump(exclude_none=True))
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
-        motion = plan_motion(robot, session.checker, list(session.constraints.values()), start, goal, options, group)
+        motion = plan_motion(robot, session.checker, list(session.constraints.values()), start, goal, options, group, derivation.separation)
         if motion.solved and rederive:
             _, derivation = self.derive_step(step, index, state, carried_paths(robot, start, motion, outcome.name, self.knowledge_bases))
             if derivation.constraint_set() != outcome.derivation.constraint_set():  # user rules may depend on the path
                 session.set_constraints(derivation.constraint_set())
-                motion = plan_motion(robot, session.checker, list(session.constraints.values()), start, goal, options, group)
+                motion = plan_motion(robot, session.checker, list(session.constraints.values()), start, goal, options, group,
+                                     derivation.separation)
         outcome = outcome.model_copy(update={"derivation": derivation})
         if not motion.solved:
             return outcome.model_copy(update={"status": motion.status, "message": motion.message}), start
