@@ -135,7 +135,7 @@ def test_seed_and_project_start_reach_the_planner_from_the_file_and_the_command_
     class Stop(Exception):
         pass
 
-    def spy(robot, checker, constraints, start, goal, options=None, group=None):  # noqa: ANN001
+    def spy(robot, checker, constraints, start, goal, options=None, group=None, safety=None):  # noqa: ANN001
         seen.append(options)
         raise Stop
 

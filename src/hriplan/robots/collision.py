@@ -59,6 +59,12 @@ class PersonPairs:
     person_point: np.ndarray  # (k, 3) world
 
 
+# What a build of the scene sets, remembered for the last few builds.
+_BUILT = ("kind", "_touched_by", "_human_slots", "humans", "_zone_slots", "geom_model", "geom_data", "_broadphase",
+          "_fixed_contacts", "_index", "_distance_model", "_distance_data", "_distance_slots", "_person_models")
+_REMEMBERED_BUILDS = 4
+
+
 class CollisionChecker:
     """Robot vs scene, robot vs people, robot self-collision and carried objects vs the rest."""
 
@@ -68,23 +74,54 @@ class CollisionChecker:
         self.acm = load_acm(robot, robot_parts(robot))
         self.humans: dict[str, Human] = {}
         self.zones: SeparationZones | None = None
+        self._robot_geometry = self._robot_objects()
+        self._internal_pairs: list[tuple[int, int]] | None = None
+        self._builds: dict[str, dict[str, object]] = {}  # most recent last
+        self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
     # -- building ---------------------------------------------------------------------------
-    def set_scene(self, scene: Scene) -> None:
-        """Replace the scene's contents (pairs are recomputed; the robot model is kept)."""
-        self.scene = scene
-        gm = pin.GeometryModel()
-        self.kind: list[str] = []  # per geometry: robot, mesh:<part>, attached:<arm>, obstacle, human, zone
-        for part in self.parts:
-            gm.addGeometryObject(pin.GeometryObject(part.name, part.joint, part.placement, part.geometry))
-            self.kind.append("robot")
+    def _robot_objects(self) -> list[tuple[pin.GeometryObject, str]]:
+        """The robot's parts, then the URDF shapes of the parts the ACM checks on meshes: the
+        same in every scene, so built once (with their kinds)."""
+        objects = [(pin.GeometryObject(part.name, part.joint, part.placement, part.geometry), "robot") for part in self.parts]
         meshed = {name for pair, reason in self.acm.items() if reason == MESH for name in pair.split("|")}
         for part in self.parts:
             if part.name in meshed:
-                for shape in part_collision_shapes(self.robot, part):
-                    gm.addGeometryObject(shape)
-                    self.kind.append(f"mesh:{part.name}")
+                objects += [(shape, f"mesh:{part.name}") for shape in part_collision_shapes(self.robot, part)]
+        return objects
+
+    def set_scene(self, scene: Scene) -> None:
+        """Replace the scene's contents (pairs are recomputed; the robot model is kept). The same
+        scene again changes nothing."""
+        if scene == self.scene:
+            return
+        self.scene = scene.model_copy(deep=True)  # the caller may change theirs in place later
+        self._build()
+
+    def _build(self) -> None:
+        """The geometry and pairs of the scene and zones, or the remembered ones of an earlier build
+        (planning adds and removes keep-out and separation zones around every call)."""
+        key = (self.scene.model_dump_json(), None if self.zones is None else
+               (sorted(self.zones.moving_joints), sorted((p, sorted(d.items())) for p, d in self.zones.distances.items())))  # fmt: skip
+        key = repr(key)
+        if key in self._builds:
+            vars(self).update(self._builds.pop(key))
+            for spec in self.scene.humans:  # the Human objects are shared between builds
+                self.humans[spec.name].pose(spec)
+        else:
+            self._build_new()
+        self._builds[key] = {name: getattr(self, name) for name in _BUILT}
+        if len(self._builds) > _REMEMBERED_BUILDS:
+            self._builds.pop(next(iter(self._builds)))
+
+    def _build_new(self) -> None:
+        scene = self.scene
+        gm = pin.GeometryModel()
+        self.kind: list[str] = []  # per geometry: robot, mesh:<part>, attached:<arm>, obstacle, human, zone
+        for geometry, kind in self._robot_geometry:
+            gm.addGeometryObject(pin.GeometryObject(geometry))
+            self.kind.append(kind)
         for obj in scene.attached:
             tool = self.robot.frame_id(self.robot.tool_frame(obj.arm))
             frame = self.robot.model.frames[tool]
@@ -134,7 +171,7 @@ class CollisionChecker:
     def set_zones(self, zones: SeparationZones | None) -> None:
         """Keep the moving parts this far from people's capsules (None: no zones); rebuilds pairs."""
         self.zones = zones
-        self.set_scene(self.scene)
+        self._build()
 
     def _build_distance_model(self) -> None:
         """Robot parts and people only, with robot-person pairs: distances in one C++ call."""
@@ -209,10 +246,14 @@ class CollisionChecker:
         gm = self.geom_model
         gm.removeAllCollisionPairs()
         self._fixed_contacts: set[tuple[int, int]] = set()
-        for i in range(gm.ngeoms):
-            for j in range(i + 1, gm.ngeoms):
-                if self._checked(i, j):
-                    gm.addCollisionPair(pin.CollisionPair(i, j))
+        robot = len(self._robot_geometry)
+        if self._internal_pairs is None:  # the robot's own pairs are the same in every scene
+            self._internal_pairs = [(i, j) for i in range(robot) for j in range(i + 1, robot) if self._checked(i, j)]
+        # A scene geometry pairs only with robot parts and carried objects (added before the rest).
+        movers = [i for i, kind in enumerate(self.kind) if kind == "robot" or kind.startswith("attached:")]
+        pairs = self._internal_pairs + [(i, j) for j in range(robot, gm.ngeoms) for i in movers if i < j and self._checked(i, j)]
+        for i, j in sorted(pairs):
+            gm.addCollisionPair(pin.CollisionPair(i, j))
         self.geom_data = gm.createData()
         # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
         self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self.geom_data)
@@ -233,6 +274,7 @@ class CollisionChecker:
         i = self._index.get(name)
         if i is None or self.kind[i] != "obstacle":
             raise HriplanError(f"the scene has no obstacle {name!r}")
+        self._builds.clear()  # the current build changes in place
         self.geom_model.geometryObjects[i].placement = pose.se3()
         self.scene = self.scene.model_copy(update={"obstacles": [o.model_copy(update={"pose": pose}) if o.name == name else o for o in self.scene.obstacles]})
         fixed = [p for p, part in enumerate(self.parts) if part.joint == 0]
@@ -245,6 +287,7 @@ class CollisionChecker:
         """Re-pose a person already in the scene: only capsule placements change (and the scene)."""
         if spec.name not in self.humans:
             raise HriplanError(f"the scene has no person {spec.name!r}")
+        self._builds.clear()  # the current build changes in place
         human = self.humans[spec.name]
         human.pose(spec)
         self.scene = self.scene.model_copy(update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]})
