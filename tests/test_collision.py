@@ -125,3 +125,35 @@ def test_the_fixed_base_is_checked_on_its_meshes_against_obstacles():
     assert ("base_link", "table") in [(c.a, c.b) for c in checker.contacts(q)]
     checker.move_obstacle("table", under)
     assert not checker.in_collision(q) and checker.contacts(q) == []
+
+
+def pair_names(checker) -> set[tuple[str, str]]:
+    objects = checker.geom_model.geometryObjects
+    return {(objects[p.first].name, objects[p.second].name) for p in checker.geom_model.collisionPairs}
+
+
+def test_a_remembered_build_is_the_build_and_in_place_updates_survive_a_rebuild(madar):
+    q = madar.configuration(CLEAR)
+    tool = madar.frame_pose("right_tool", q)[:3, 3]
+    scene = Scene(obstacles=[Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=(3, 3, 3)))],
+                  humans=[HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)])  # fmt: skip
+    checker = CollisionChecker(madar, scene)
+    plain = pair_names(checker)
+    boxed = scene.model_copy(update={"obstacles": [*scene.obstacles, Obstacle(name="zone", shape=Box(size=(0.2, 0.2, 0.2)), pose=Pose(xyz=tuple(tool)))]})
+    checker.set_scene(boxed)
+    assert checker.in_collision(q) and pair_names(checker) == pair_names(CollisionChecker(madar, boxed))
+    checker.set_scene(scene)  # back: remembered, the same pairs as built fresh
+    assert not checker.in_collision(q) and pair_names(checker) == plain
+    # Before: a person re-posed in place went back to where the scene had her at the next rebuild.
+    near = HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2, reach={"right": tuple(tool)})
+    checker.pose_human(near)
+    assert checker.scene.humans == [near] and checker.in_collision(q)
+    checker.set_scene(boxed.model_copy(update={"humans": [near]}))
+    checker.set_scene(checker.scene.model_copy(update={"obstacles": scene.obstacles}))
+    assert checker.in_collision(q) and {c.b for c in checker.contacts(q)} >= {"bob/right_hand"}
+    # A scene changed in place by its owner after set_scene is not mistaken for the one built.
+    mine = Scene()
+    checker.set_scene(mine)
+    mine.obstacles.append(Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=tuple(tool))))
+    checker.set_scene(mine)
+    assert checker.in_collision(q)

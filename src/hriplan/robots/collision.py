@@ -60,7 +60,7 @@ class PersonPairs:
 
 
 # What a build of the scene sets, remembered for the last few builds.
-_BUILT = ("kind", "_touched_by", "_human_slots", "humans", "_zone_slots", "geom_model", "geom_data", "_broadphase",
+_BUILT = ("kind", "_touched_by", "_resting", "_human_slots", "humans", "_zone_slots", "geom_model", "geom_data", "_broadphase",
           "_fixed_contacts", "_index", "_distance_model", "_distance_data", "_distance_slots", "_person_models")
 _REMEMBERED_BUILDS = 4
 
@@ -130,6 +130,7 @@ class CollisionChecker:
             )
             self.kind.append(f"attached:{obj.arm}")
         self._touched_by = {o.name: o.touched_by for o in scene.obstacles if o.touched_by is not None}
+        self._resting = {(a.name, support) for a in scene.attached for support in a.resting_on}
         for obstacle in scene.obstacles:
             gm.addGeometryObject(pin.GeometryObject(obstacle.name, 0, obstacle.pose.se3(), obstacle.shape.geometry()))
             self.kind.append("obstacle")
@@ -222,6 +223,8 @@ class CollisionChecker:
                 return False
             a, b = ki.split(":", 1)[1], kj.split(":", 1)[1]
             return MESH in (self.acm.get(f"{a}|{b}"), self.acm.get(f"{b}|{a}"))
+        if (names[0], names[1]) in self._resting or (names[1], names[0]) in self._resting:
+            return False  # a held object being lifted off what it stands on
         for (k, a), (other, b) in (((ki, i), (kj, j)), ((kj, j), (ki, i))):
             if k == "robot" and other == "obstacle" and self.parts[a].joint == 0:
                 return self._fixed_part_touches(a, b)

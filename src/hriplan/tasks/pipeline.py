@@ -7,6 +7,7 @@ provenance -> planning scene and goal -> plan -> validated, timed trajectory.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -33,8 +34,9 @@ from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
 
 from .goals import ResolvedGoal, after_step, resolve_goal, task_kind
+from .lift import LIFT, lift_path, supports
 from .grasps import Grasp, allowed_grasps
-from .model import Step, TaskFile, step_name
+from .model import GraspGoal, Step, TaskFile, step_name
 from .prepare import preparatory_goal
 from .world import TaskState
 
@@ -42,6 +44,9 @@ if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is plann
     from hriplan.planner.session import PlanningSession
 
 Progress = Callable[[str], None]
+# Motions the pipeline adds to a task step, named after it: a turn in place before, a lift after a pick.
+PREPARE, LIFT_OFF = "_prepare", "_lift"
+ADDED_MOTIONS = {PREPARE: "the preparatory turn before", LIFT_OFF: "the lift after"}
 # Spacing of the joint-space samples at which a carried object's path is recorded (rad).
 PATH_STEP = 0.05
 
@@ -222,7 +227,7 @@ class TaskRunner:
         if prepared is not None:
             turn, violated = prepared
             kept = [c for c in outcome.derivation.constraints if c.spec.id != violated.spec.id]
-            prep = outcome.model_copy(update={"name": f"{outcome.name}_prepare", "kind": "Transport",
+            prep = outcome.model_copy(update={"name": f"{outcome.name}{PREPARE}", "kind": "Transport",
                                               "derivation": outcome.derivation.model_copy(update={"constraints": kept})})  # fmt: skip
             self.progress(f"{outcome.name}: the start violates {violated.spec.id}; turning in place first")
             prep, start = self._motion(step, index, state, turn, start, prep, rederive=False)
@@ -232,7 +237,42 @@ class TaskRunner:
             if prep.status != "solved":
                 return outcomes, start
         final, end = self._motion(step, index, state, goal, start, outcome)
-        return [*outcomes, final], end
+        outcomes.append(final)
+        if final.status == "solved" and isinstance(step.goal, GraspGoal) and not step.goals:
+            lift, end = self._lift(step.goal, resolved[0], state, end, final)
+            outcomes += [lift] if lift is not None else []
+        return outcomes, end
+
+    def _lift(self, goal: GraspGoal, resolved: ResolvedGoal, state: TaskState, start: dict[str, float],
+              grasped: StepOutcome) -> tuple[StepOutcome | None, dict[str, float]]:  # fmt: skip
+        """After a pick, lift the object straight off what it stands on (tasks/lift.py), timed and
+        validated under the pick's constraints; None if it stands on nothing."""
+        session, robot, (arm,) = self._session(), self._session().robot, grasped.arms
+        held = replace(state, held_by_arm=dict(state.held_by_arm), held_by_person=dict(state.held_by_person), poses=dict(state.poses))
+        after_step(goal, resolved, arm, held)
+        scene = held.scene()
+        session.set_scene(scene)
+        q = robot.configuration(start)
+        resting = supports(session.checker, q, goal.grasp)
+        if not resting:
+            return None, start
+        lifting = scene.model_copy(update={"attached": [a.model_copy(update={"resting_on": resting}) if a.name == goal.grasp else a
+                                                        for a in scene.attached]})  # fmt: skip
+        session.set_scene(lifting)
+        x_lift, why = lift_path(robot, session.checker, arm, q)
+        outcome = grasped.model_copy(update={"name": f"{grasped.name}{LIFT_OFF}", "kind": "Transport", "scene": lifting, "trajectory": None})
+        group = robot.arm_group(arm)
+        if x_lift is not None:
+            session.set_scene(scene)
+            if session.checker.in_collision(robot.configuration(x_lift, group, base=q)):
+                x_lift, why = None, f"{LIFT} m up it still touches {', '.join(resting)}"
+        if x_lift is None:
+            return outcome.model_copy(update={"status": "unreachable_goal", "message": f"lifting {goal.grasp} off {', '.join(resting)}: {why}"}), start
+        session.set_scene(lifting)
+        session.set_constraints(grasped.derivation.constraint_set())
+        motion = MotionResult(status="solved", group=group, joint_names=robot.group_joints(group), start=dict(zip(robot.joint_names, q.tolist())),
+                              path=[robot.group_values(q, group).tolist(), x_lift.tolist()])  # fmt: skip
+        return self._timed(outcome, motion, grasped.derivation, start)
 
     def _motion(self, step: Step, index: int, state: TaskState, goal: MotionGoal, start: dict[str, float],
                 outcome: StepOutcome, rederive: bool = True) -> tuple[StepOutcome, dict[str, float]]:  # fmt: skip
@@ -254,7 +294,14 @@ class TaskRunner:
         outcome = outcome.model_copy(update={"derivation": derivation})
         if not motion.solved:
             return outcome.model_copy(update={"status": motion.status, "message": motion.message}), start
-        result = session.time(motion, options.model_copy(update={"velocity_scale": derivation.velocity_scale}), safety=derivation.separation)
+        return self._timed(outcome, motion, derivation, start)
+
+    def _timed(self, outcome: StepOutcome, motion: MotionResult, derivation: Derivation,
+               start: dict[str, float]) -> tuple[StepOutcome, dict[str, float]]:  # fmt: skip
+        """Time a planned motion under the derivation's velocity scale and people, on the session's
+        scene and constraints; the outcome with its trajectory, and where it ends."""
+        options = PlanOptions(**self.task.planning.model_dump(exclude_none=True)).model_copy(update={"velocity_scale": derivation.velocity_scale})
+        result = self._session().time(motion, options, safety=derivation.separation)
         if not result.solved:
             return outcome.model_copy(update={"status": result.status, "message": result.message}), start
         trajectory = _with_reasons(result.trajectory, derivation).model_copy(update={"task": self.task.name, "step": outcome.name})
@@ -333,6 +380,10 @@ def against_task(trajectory: TrajectoryFile, runner: TaskRunner) -> TrajectoryFi
     outcome = runner.run(plan=False)
     step = next((s for s in outcome.steps if s.name == trajectory.step), None)
     if step is None:
+        added = next(((suffix, what) for suffix, what in ADDED_MOTIONS.items() if (trajectory.step or "").endswith(suffix)), None)
+        if added is not None:
+            raise HriplanError(f"step {trajectory.step!r} is {added[1]} task step {trajectory.step[: -len(added[0])]!r}, which --task "
+                               f"does not re-derive: validate it against its own record (without --task)")
         raise HriplanError(f"the trajectory's step {trajectory.step!r} is not a step of task {runner.task.name!r}")
     resolved = [ResolvedConstraint(spec=c.spec, frame_in_world=Pose(), reason=c.reason) for c in step.derivation.constraints]
     return trajectory.model_copy(update={"constraints": resolved, "scene": step.scene})
