@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hriplan import HriplanError
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation
 from hriplan.robots.scene import Box
@@ -26,7 +27,8 @@ def facts():
     return KnowledgeBase(situation).facts
 
 
-@pytest.mark.parametrize("obj, names", [("knife", ["HandleGrasp"]), ("cup", ["SideGrasp"]), ("bowl", ["SideGrasp", "TopGrasp"]),
+@pytest.mark.parametrize("obj, names", [("knife", ["HandleGrasp"]), ("cup", ["SideGrasp", "UpperSideGrasp"]),
+                                        ("bowl", ["SideGrasp", "TopGrasp"]),
                                         ("peg", ["SideGrasp"]), ("screwdriver", ["HandleGrasp", "SideGrasp"])])
 def test_the_rules_allow_the_grasps_a_person_would_use_in_order(facts, obj, names):
     assert [g.name for g in allowed_grasps(facts, obj, "madar_right", "+y")] == names
@@ -69,3 +71,16 @@ def test_a_25_cm_knife_is_handed_over_by_its_handle():
     hand_over = outcome.steps[-1]
     (knife,) = hand_over.trajectory.scene.attached
     assert np.allclose(knife.grasp.xyz, (0.0, 0.075, 0.0), atol=1e-9)  # held 7.5 cm towards the handle
+
+
+def test_a_rule_cannot_require_a_grasp_the_kind_does_not_afford(tmp_path):
+    # Before: a required grasp replaced the afforded ones, so a full open bowl got every grasp any
+    # rule names; now the rules restrict what the kind affords, and nothing left is an error.
+    rules = tmp_path / "top.rules"
+    rules.write_text("# A test rule: a grasp a peg does not afford.\n[peg_from_the_top]\n    Peg(?o) -> requiresGrasp(?o, TopGrasp)\n")
+    situation = Situation.model_validate({"task": {"kind": "Transport", "arms": ["right"], "carries": {"peg": "right"}},
+                                          "objects": [{"name": "peg", "kind": "Peg"}, {"name": "bowl", "kind": "Bowl", "fill_level": "Full", "open": True}]})  # fmt: skip
+    facts = KnowledgeBase(situation, rule_files=[str(rules)]).facts
+    with pytest.raises(HriplanError, match="no grasp of peg is allowed: the rules require TopGrasp, its kind affords SideGrasp"):
+        allowed_grasps(facts, "peg", "madar_right", "+y")
+    assert [g.name for g in allowed_grasps(facts, "bowl", "madar_right", "+y")] == ["SideGrasp"]  # full and open: not from the top

@@ -165,3 +165,26 @@ def test_the_can_in_the_givers_hand_is_in_the_scene_and_only_the_taking_hand_may
     untouched = CollisionChecker(robot, take.scene.model_copy(update={"obstacles": [o.model_copy(update={"touched_by": None}) for o in take.scene.obstacles]}))
     pairs = {(untouched.geom_model.geometryObjects[p.first].name, untouched.geom_model.geometryObjects[p.second].name) for p in untouched.geom_model.collisionPairs}
     assert any("coke_can" in pair and any(n.startswith("right_hand") for n in pair) for pair in pairs)
+
+
+def test_a_full_glass_is_picked_from_the_side_above_the_table_lifted_brought_into_the_cone_and_handed_over():
+    # Before: the side grasp around the glass's middle put the hand into the table, and a start far
+    # to the side of bob's line of sight was refused by the approach cone (invalid_start).
+    runner, outcome = run(DATA / "pick_full_glass_hand_over.yaml")
+    assert [(s.name, s.status) for s in outcome.steps] == [("pick", "solved"), ("pick_lift", "solved"),
+                                                           ("hand_over_prepare", "solved"), ("hand_over", "solved")]  # fmt: skip
+    pick, lift, prepare, hand_over = (s.trajectory for s in outcome.steps)
+    robot = runner.session.robot
+    (glass,) = lift.scene.attached
+    # held 4 cm (40% of its 10 cm) above its middle, its axis along the tool's y
+    assert np.allclose(glass.grasp.xyz, (0.0, -0.04, 0.0), atol=1e-9) and np.allclose(glass.grasp.rotation()[:, 2], (0, 1, 0))
+    # the preparatory motion keeps the glass upright (ontology: 0.1 rad) and ends inside the cone;
+    # the handover stays inside it throughout, by the cone's own geometry
+    for trajectory in (prepare, hand_over):
+        up = tool_rotations(robot, trajectory)[:, :, 1] @ np.array([0.0, 0.0, 1.0])
+        assert np.arccos(np.clip(up, -1.0, 1.0)).max() <= 0.1 + 1e-4
+    cone = next(c for c in hand_over.constraints if isinstance(c.spec, ConeConstraint))
+    frame = cone.frame_in_world.matrix()
+    assert "approach_cone_bob" not in {c.spec.id for c in prepare.constraints}
+    assert inside_cone(tool_positions(robot, prepare)[:1], frame, cone.spec.radius, cone.spec.height)[0] > 0.1  # started far outside
+    assert inside_cone(tool_positions(robot, hand_over), frame, cone.spec.radius, cone.spec.height).max() <= 1e-4

@@ -1,7 +1,8 @@
 """Grasps a person would use, from the ontology: which ones an object allows, in order.
 
 An object kind affords grasps (side, top, handle; `affordsGrasp` on its class), rules may
-require some (`requiresGrasp`: a full open cup from the side, a knife by its handle), and each
+require some (`requiresGrasp`: a full open cup from the side, a knife by its handle) of those it
+affords, and each
 grasp says which tool axis lies along the object's axis and where along the object the hand
 closes. An arm without a robot hand (a bare UR5 flange) holds objects along its usual axis.
 """
@@ -49,9 +50,13 @@ def allowed_grasps(facts: Facts, obj: str, arm_individual: str, usual_axis: str)
     """The grasps the rules allow for `obj` in an arm, most preferred first."""
     if not facts.get(arm_individual, "hasRobotHand"):
         return [Grasp("usual", usual_axis)]
-    names = facts.get(obj, "requiresGrasp") or facts.get(obj, "affordsGrasp")
-    if not names:
+    required, afforded = set(map(str, facts.get(obj, "requiresGrasp"))), set(map(str, facts.get(obj, "affordsGrasp")))
+    if not afforded | required:
         return [Grasp("usual", usual_axis)]
+    names = required & afforded if required and afforded else required or afforded  # rules restrict what the kind affords
+    if not names:
+        raise HriplanError(f"no grasp of {obj} is allowed: the rules require {', '.join(sorted(required))}, "
+                           f"its kind affords {', '.join(sorted(afforded))}")
     grasps = sorted((str(n) for n in names), key=lambda n: (facts.number(n, "hasPreference"), n))
     found = [Grasp(n, str(facts.one(n, "hasGraspAxis")), facts.number(n, "hasGraspOffset")) for n in grasps]
     for g in found:

@@ -217,22 +217,22 @@ class TaskRunner:
 
     def _plan_step(self, step: Step, index: int, state: TaskState, resolved: list[ResolvedGoal], start: dict[str, float],
                    outcome: StepOutcome) -> tuple[list[StepOutcome], dict[str, float]]:  # fmt: skip
-        """Plan the step, after a preparatory turn in place if its start violates one of its
-        orientation constraints (tasks/prepare.py)."""
+        """Plan the step, after a preparatory motion if its start violates one of its orientation
+        or cone constraints (tasks/prepare.py), and lift what it picks off its support (lift.py)."""
         session = self._session()
         session.set_scene(outcome.scene)
         goal = resolved[0].goal if len(resolved) == 1 else self._joint_goal(resolved, start)
         prepared = preparatory_goal(session.robot, session.checker, outcome.derivation.constraints, start) if len(outcome.arms) == 1 else None
         outcomes = []
         if prepared is not None:
-            turn, violated = prepared
-            kept = [c for c in outcome.derivation.constraints if c.spec.id != violated.spec.id]
+            turned = {c.spec.id for c in prepared.violated}
+            kept = [c for c in outcome.derivation.constraints if c.spec.id not in turned]
             prep = outcome.model_copy(update={"name": f"{outcome.name}{PREPARE}", "kind": "Transport",
                                               "derivation": outcome.derivation.model_copy(update={"constraints": kept})})  # fmt: skip
-            self.progress(f"{outcome.name}: the start violates {violated.spec.id}; turning in place first")
-            prep, start = self._motion(step, index, state, turn, start, prep, rederive=False)
-            prep = prep.model_copy(update={"message": f"turns the held object onto {violated.spec.id} before {outcome.name}"
-                                           if prep.status == "solved" else f"preparatory turn onto {violated.spec.id}: {prep.message}"})  # fmt: skip
+            self.progress(f"{outcome.name}: the start violates {', '.join(sorted(turned))}; a preparatory motion first")
+            prep, start = self._motion(step, index, state, prepared.goal, start, prep, rederive=False)
+            prep = prep.model_copy(update={"message": f"{prepared.what} before {outcome.name}" if prep.status == "solved"
+                                           else f"preparatory motion ({prepared.what}): {prep.message}"})  # fmt: skip
             outcomes.append(prep)
             if prep.status != "solved":
                 return outcomes, start

@@ -1,43 +1,64 @@
-"""The preparatory motion of a step: turn what the hand holds, where it is, so the approach
-starts within the step's orientation constraints.
+"""The preparatory motion of a step: bring the tool where the step's approach constraints hold,
+so the approach starts within them.
 
-A constraint whose purpose is the approach (a blade pointing away from the receiver) must hold
-during the whole approach; a tool that starts held another way (scissors upright) is first
-turned in place, under every other constraint of the step (the people's keep-outs), and the
-approach then starts inside it. This is the explicit preparatory phase the seed framework
-leaves to the user (the handover_scissors example's turn_blades step, done for them).
+A constraint whose purpose is the approach must hold during the whole approach: a blade pointing
+away from the receiver, an approach from inside the cone at the person's hand. A start outside
+it gets an explicit preparatory motion first, under every other constraint of the step (the
+people's keep-outs, an upright cup): a tool that starts held another way (scissors upright) is
+turned in place; a tool outside the approach cone (a glass just picked off a table, far to the
+side of the receiver's line of sight) is brought onto the cone's axis, ENTRY of its height from
+the hand, as held. The approach then starts inside. This is the explicit preparatory phase the
+seed framework leaves to the user (the handover_scissors example's turn_blades step).
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
 from hriplan.planner.evaluator import ConstraintEvaluator
 from hriplan.planner.motion import ToolGoal
 from hriplan.planner.resolve import bind
-from hriplan.planner.spec import OrientationConstraint
+from hriplan.planner.spec import ConeConstraint, OrientationConstraint
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
 from hriplan.robots.spatial import Pose
 from hriplan.rules.infer import DerivedConstraint
 
 VIOLATION = 1e-4  # as the planner's validation tolerance
+ENTRY = 0.8  # where on its axis a cone is entered, as a fraction of its height from the apex
+
+
+class Preparation(NamedTuple):
+    goal: ToolGoal
+    violated: list[DerivedConstraint]  # the constraints the preparatory motion brings the tool within
+    what: str  # "turns the held object in place onto sharp_end_away_scissors", for messages
 
 
 def preparatory_goal(robot: Robot, checker: CollisionChecker, constraints: list[DerivedConstraint],
-                     start: dict[str, float]) -> tuple[ToolGoal, DerivedConstraint] | None:  # fmt: skip
-    """The tool goal that turns the held object in place onto the first orientation constraint
-    the start violates, and that constraint; None when the start meets them all."""
+                     start: dict[str, float]) -> Preparation | None:  # fmt: skip
+    """The tool goal that brings one arm's tool within every orientation and cone constraint the
+    start violates (the first violated one's arm); None when the start meets them all."""
     q = robot.configuration(start)
+    violated = []
     for c in constraints:
-        if not isinstance(c.spec, OrientationConstraint):
-            continue
-        (bound,) = bind([c.spec], robot, checker)
-        if ConstraintEvaluator(robot, [bound], robot.arm_group(c.arm), q).margins(q).max() <= VIOLATION:
-            continue
-        tool = robot.frame_pose(robot.tool_frame(c.arm), q)
-        target = np.eye(4)
-        target[:3, :3] = bound.frame.rotation @ c.spec.target.rotation()
-        target[:3, 3] = tool[:3, 3]
-        return ToolGoal(arm=c.arm, pose=Pose.from_matrix(target), free_axes=c.spec.free_axes), c
-    return None
+        if isinstance(c.spec, (OrientationConstraint, ConeConstraint)) and (not violated or c.arm == violated[0][0].arm):
+            (bound,) = bind([c.spec], robot, checker)
+            if ConstraintEvaluator(robot, [bound], robot.arm_group(c.arm), q).margins(q).max() > VIOLATION:
+                violated.append((c, bound))
+    if not violated:
+        return None
+    arm = violated[0][0].arm
+    target, free_axes, what = robot.frame_pose(robot.tool_frame(arm), q), [], []
+    for c, bound in violated:
+        if isinstance(c.spec, OrientationConstraint):
+            target[:3, :3] = bound.frame.rotation @ c.spec.target.rotation()
+            free_axes = c.spec.free_axes
+            what.append(f"turns the held object onto {c.spec.id}")
+        else:
+            target[:3, 3] = bound.frame.act(np.array([0.0, 0.0, ENTRY * c.spec.height]))
+            what.append(f"brings the tool into {c.spec.id}")
+    if any(isinstance(c.spec, ConeConstraint) for c, _ in violated):
+        free_axes = []  # a position and the orientation it has, or the one turned onto
+    return Preparation(ToolGoal(arm=arm, pose=Pose.from_matrix(target), free_axes=free_axes), [c for c, _ in violated], " and ".join(what))
