@@ -191,3 +191,20 @@ def test_a_preparatory_turn_is_written_beside_its_step_and_validates(tmp_path):
     assert all(abs(second["start"][j] - v) < 1e-9 for j, v in end.items())
     for path in (turn, hand_over):
         assert run("validate", path, "-q").returncode == 0
+
+
+def test_validate_re_checks_the_speed_allowed_near_people(planned, tmp_path):
+    # Before: validate checked constraints and collisions only; a file whose robot moves twice as
+    # fast past the receiver passed.
+    _, out = planned
+    ok = run("validate", out / "handover.json", "-q")
+    assert ok.returncode == 0 and "speed and separation (ISO/TS 15066): kept, at most" in ok.stdout
+    data = json.loads((out / "handover.json").read_text())
+    assert data["report"]["separation"] and data["scene"]["humans"]
+    for point in data["points"]:  # same path, twice the speed (the recorded velocities)
+        point["velocities"] = [2.0 * v for v in point["velocities"]]
+    fast = tmp_path / "fast.json"
+    fast.write_text(json.dumps(data))
+    bad = run("validate", fast, "-q")
+    assert bad.returncode == 1 and "speed and separation (ISO/TS 15066): EXCEEDED" in bad.stdout
+    assert "faster than ISO/TS 15066 allows near people" in bad.stderr and "x the speed allowed towards" in bad.stderr

@@ -194,16 +194,27 @@ def validate(
     task: TaskOption = None,
     quiet: Quiet = False,
 ) -> None:
-    """Re-check a trajectory densely against its constraints and collisions (exit 1 if it fails)."""
+    """Re-check a trajectory densely against its constraints and collisions, and its speed near
+    people against ISO/TS 15066 at every written point (exit 1 if it fails)."""
     from hriplan.planner.replay import PlannedWorld
+    from hriplan.rules.separation import default_policy
 
     plan_file = load_for_task(trajectory, task, quiet)
-    result = PlannedWorld.load(plan_file).validate()
+    world = PlannedWorld.load(plan_file)
+    result = world.validate()
     for check in result.constraints:
         typer.echo(f"{check.id:32s} worst margin {check.max_violation:+.4f} {'kept' if check.satisfied else 'VIOLATED'}")
     typer.echo(f"collision: {result.collision or 'none'}; checked {result.states_checked} states")
+    speed = None
+    if plan_file.report.separation and plan_file.scene.humans:  # timed for people: re-check it, by their roles
+        roles = {trace.person: trace.role for trace in plan_file.report.separation if trace.role}
+        speed = world.speed_check(default_policy(plan_file.robot, plan_file.scene.humans, roles))
+        typer.echo(f"speed and separation (ISO/TS 15066): {'kept' if speed.kept else 'EXCEEDED'}, {speed.message}")
     if not result.valid:
         typer.echo(f"invalid: {result.message}", err=True)
+        raise typer.Exit(1)
+    if speed is not None and not speed.kept:
+        typer.echo(f"invalid: faster than ISO/TS 15066 allows near people: {speed.message}", err=True)
         raise typer.Exit(1)
 
 

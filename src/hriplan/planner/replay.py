@@ -13,13 +13,22 @@ from dataclasses import dataclass
 import numpy as np
 
 from hriplan import HriplanError
+from hriplan.planner.approach import ApproachMonitor
 from hriplan.planner.evaluator import ConstraintEvaluator
 from hriplan.planner.motion import with_keep_out
 from hriplan.planner.resolve import BoundConstraint, bind, set_goal_positions
+from hriplan.planner.separation import SPEED_LIMIT_SLACK, SeparationPolicy
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.planner.validate import PathValidation, validate_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot, load_robot
+
+
+@dataclass(frozen=True)
+class SpeedCheck:
+    kept: bool
+    message: str
+    worst: float = np.inf  # smallest factor on the written velocities that keeps every limit
 
 
 @dataclass
@@ -87,11 +96,32 @@ class PlannedWorld:
         """(distance, robot part, person part) of the closest robot-person pair at every point."""
         return [self.checker.human_distance(self.planning_q(row)) for row in self.positions]
 
-    def validate(self, step: float = 0.01) -> PathValidation:
-        """Dense validation of the timed points, as the planner validated its path."""
+    def group(self) -> str:
         group = next((g for g in self.robot.groups if self.robot.group_joints(g) == self.trajectory.joint_names), None)
         if group is None:
             raise HriplanError(f"the trajectory's joints are not a joint group of {self.robot.name!r}")
+        return group
+
+    def speed_check(self, policy: SeparationPolicy) -> SpeedCheck:
+        """ISO/TS 15066 speed and separation at every written point and velocity, for `policy`."""
+        monitor = ApproachMonitor(self.robot, self.checker, policy, self.group(), self.planning_q(self.positions[0]))
+        velocities = np.array([p.velocities for p in self.trajectory.points])
+        try:
+            scales = monitor.speed_scale(self.positions, velocities)
+        except HriplanError as exc:  # a moving part inside a person's S_0
+            return SpeedCheck(kept=False, message=str(exc))
+        k = int(np.argmin(scales))
+        if scales[k] >= 1.0 - SPEED_LIMIT_SLACK:
+            return SpeedCheck(kept=True, worst=float(scales[k]), message=f"at most {1 / scales[k]:.0%} of the speed allowed towards anyone"
+                              if np.isfinite(scales[k]) else "no moving part approaches a person")  # fmt: skip
+        (sample,) = [s for s in monitor.samples(self.positions[k], velocities[k]) if s.scale == scales[k]][:1]
+        return SpeedCheck(kept=False, worst=float(scales[k]), message=(
+            f"{1 / scales[k]:.2f}x the speed allowed towards {sample.capsule} ({sample.part}, {sample.separation:.3f} m away) "
+            f"at t={self.times[k]:.2f} s"))  # fmt: skip
+
+    def validate(self, step: float = 0.01) -> PathValidation:
+        """Dense validation of the timed points, as the planner validated its path."""
+        group = self.group()
         evaluator = ConstraintEvaluator(self.robot, self.constraints, group, self.planning_q(self.positions[0]))
         with with_keep_out(self.checker, self.constraints):
             return validate_path(evaluator, self.checker, list(self.positions), step)

@@ -30,6 +30,9 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+# A timed sample may exceed its speed limit by this fraction (timing.py checks, validate re-checks).
+SPEED_LIMIT_SLACK = 1e-2
+
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
 

@@ -21,6 +21,8 @@ from pydantic import BaseModel, ConfigDict
 
 from hriplan import HriplanError
 
+from .separation import SPEED_LIMIT_SLACK
+
 # TOPP-RA logs every solve at INFO and a failure at WARNING; we report failures ourselves.
 logging.getLogger("toppra").setLevel(logging.ERROR)
 
@@ -50,7 +52,6 @@ _ACCELERATION_SLACK = 5e-2
 # each gridpoint takes the smallest value within one grid spacing of it. Samples exceeding it
 # by more than the slack make the limit tighter by the overshoot, at most this often.
 _SPEED_LIMIT_SPACING = 0.02
-_SPEED_LIMIT_SLACK = 1e-2
 _SPEED_LIMIT_RETRIES = 3
 
 SpeedScale = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -122,7 +123,7 @@ def time_parameterize(
         if speed_scale is None:
             break
         worst = float(np.min(speed_scale(positions, velocities)))
-        if worst >= 1.0 - _SPEED_LIMIT_SLACK:
+        if worst >= 1.0 - SPEED_LIMIT_SLACK:
             break
         factor *= 0.99 * worst
     else:
