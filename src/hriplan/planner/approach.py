@@ -50,7 +50,8 @@ class ApproachMonitor:
     check), while the pair geometry is rebuilt whenever the checker rebuilds a person's model."""
 
     def __init__(self, robot: Robot, checker: CollisionChecker, policy: SeparationPolicy, group: str, base: np.ndarray) -> None:
-        self.robot, self.checker, self.policy, self.base = robot, checker, policy, np.asarray(base, dtype=float)
+        self.robot, self.checker, self.policy, self.group = robot, checker, policy, group
+        self.base = np.asarray(base, dtype=float)
         missing = [name for name in checker.humans if policy.person(name) is None]
         if missing:
             raise HriplanError(f"the separation policy has no parameters for {', '.join(missing)}")
