@@ -199,15 +199,20 @@ def test_the_batched_monitor_gives_the_per_point_numbers_on_the_handover(handove
     assert monitor.samples(xs[3], dxs[3]) is monitor.samples(xs[3].copy(), dxs[3].copy())
 
 
+def _right_arm_sweep(session: PlanningSession) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """From the ready posture, the right arm sweeps out past the people (30 points, one velocity)."""
+    q0 = session.robot.configuration(posture("madar", "ready"))
+    x0 = session.robot.group_values(q0, "right_arm")
+    xs = np.linspace(x0, x0 + np.array([0.8, -0.4, 0.4, 0.3, -0.2, 0.5]), 30)
+    return q0, xs, np.tile([0.3, -0.2, 0.4, 0.5, -0.3, 0.2], (30, 1))
+
+
 def test_the_batched_monitor_follows_every_person_and_their_moves():
     people = [HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi), HumanSpec(name="ann", position=(0.9, 1.5), yaw=-1.6,
               reach={"left": (0.95, 1.1, 1.1)})]  # fmt: skip
     session = PlanningSession("madar", Scene(humans=people), hands={"right": "open"})
     policy = default_policy("madar", people, {"sam": "Supervisor", "ann": "Giver"})
-    q0 = session.robot.configuration(posture("madar", "ready"))
-    x0 = session.robot.group_values(q0, "right_arm")
-    xs = np.linspace(x0, x0 + np.array([0.8, -0.4, 0.4, 0.3, -0.2, 0.5]), 30)
-    dxs = np.tile([0.3, -0.2, 0.4, 0.5, -0.3, 0.2], (30, 1))
+    q0, xs, dxs = _right_arm_sweep(session)
     monitor = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
     monitor.speed_scale(xs, dxs)
     for x, dx in zip(xs, dxs):
@@ -230,3 +235,31 @@ def test_a_part_inside_the_minimum_separation_raises_the_per_point_message(hando
     with pytest.raises(HriplanError) as raised:
         monitor.speed_scale(xs, dxs)
     assert str(raised.value) == stops[0]
+
+
+def test_the_first_point_inside_s0_is_reported_whichever_person_it_is():
+    """Policy order sam, ben; the path reaches ben's S_0 (point 8) before sam's (point 13)."""
+    people = [HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi), HumanSpec(name="ben", position=(0.3, 1.5), yaw=-math.pi / 2)]
+    session = PlanningSession("madar", Scene(humans=people), hands={"right": "open"})
+    policy = default_policy("madar", people, {"sam": "Supervisor", "ben": "Bystander"})
+    strict = policy.model_copy(update={"robot": policy.robot.model_copy(update={"position_uncertainty": 0.2})})
+    q0, xs, dxs = _right_arm_sweep(session)
+    references = [_reference(session, strict, "right_arm", q0, x, dx) for x, dx in zip(xs, dxs)]
+    first = next(r for r in references if isinstance(r, str))
+    assert "from ben/" in first and "from sam/" in references[-1]
+    with pytest.raises(HriplanError) as raised:
+        ApproachMonitor(session.robot, session.checker, strict, "right_arm", q0).speed_scale(xs, dxs)
+    assert str(raised.value) == first
+
+
+def test_the_monitor_does_not_query_every_pair_through_coal_point_by_point(handover, monkeypatch):
+    """The speed guard: capsule pairs (most of them) are batched; `person_pairs` (all ~500 pairs
+    through coal, read from Python: the former route) is not used."""
+    session, policy, group, q0, xs, dxs = handover
+
+    def refused(*_):  # noqa: ANN202
+        raise AssertionError("person_pairs called by the monitor")
+
+    monkeypatch.setattr(session.checker, "person_pairs", refused)
+    scales = ApproachMonitor(session.robot, session.checker, policy, group, q0).speed_scale(xs, dxs)
+    assert np.isfinite(scales).any()
