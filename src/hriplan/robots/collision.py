@@ -346,3 +346,10 @@ class CollisionChecker:
             robot_point=np.array([r.getNearestPoint1() for r in results]).reshape(-1, 3),
             person_point=np.array([r.getNearestPoint2() for r in results]).reshape(-1, 3),
         )
+
+    def person_model(self, person: str) -> pin.GeometryModel:
+        """The model `person_pairs` measures: robot parts and carried objects against `person`'s
+        bare capsules, one pair per part and capsule (for callers that batch many states)."""
+        if person not in self._person_models:
+            raise HriplanError(f"the scene has no person {person!r}")
+        return self._person_models[person][0]
