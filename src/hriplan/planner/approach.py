@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
 from hriplan import HriplanError
 from hriplan.robots.collision import CollisionChecker
