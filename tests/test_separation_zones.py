@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from hriplan.planner.separation import minimum_separation
-from hriplan.planner.separation_zones import ZONE_SLACK, keeping_separation, separation_zones
+from hriplan.planner.motion import with_keep_out
+from hriplan.planner.separation_zones import ZONE_SLACK, separation_zones
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.model import load_robot
@@ -34,13 +35,13 @@ def test_a_bystander_beside_the_left_arm_binds_the_left_arm_only(robot):
     assert minimum_separation(policy.robot, policy.people[0]) == pytest.approx(0.55)
     q = robot.configuration(posture("madar", "ready"))
     assert not checker.in_collision(q) and left_arm_clearance(robot, checker, q, "dana") < 0.55
-    with keeping_separation(checker, robot, policy, "right_arm", q):
+    with with_keep_out(checker, [], separation_zones(checker, robot, policy, "right_arm", q)):
         zone_pairs = [(checker.geom_model.geometryObjects[p.first], checker.geom_model.geometryObjects[p.second])
                       for p in checker.geom_model.collisionPairs if "zone" in (checker.kind[p.first], checker.kind[p.second])]  # fmt: skip
         others = {b.name if "minimum separation" in a.name else a.name for a, b in zone_pairs}
         assert others and all(name.startswith("right_") for name in others)
         assert not checker.in_collision(q)  # the fixed torso and the still left arm do not count
-    with keeping_separation(checker, robot, policy, "left_arm", q):
+    with with_keep_out(checker, [], separation_zones(checker, robot, policy, "left_arm", q)):
         contacts = checker.contacts(q)
         assert any(c.b == "dana/middle_thorax (minimum separation 0.550 m)" or c.a.startswith("dana/") for c in contacts)
         assert all(c.a.startswith("left_") for c in contacts)
@@ -63,7 +64,7 @@ def test_the_slack_beyond_s0_stops_at_the_start_so_a_start_the_timing_accepts_is
     zones = separation_zones(checker, robot, policy, "left_arm", q)
     grown = zones.distances["dana"]
     assert s0 < min(grown.values()) < s0 + 0.002 and max(grown.values()) == pytest.approx(s0 + ZONE_SLACK)
-    with keeping_separation(checker, robot, policy, "left_arm", q):
+    with with_keep_out(checker, [], separation_zones(checker, robot, policy, "left_arm", q)):
         assert not checker.in_collision(q)
         # when she steps 1 cm closer, the arm is inside the zone (it moves with her)
         checker.pose_human(dana.model_copy(update={"position": (x + 0.01, 0.37)}))

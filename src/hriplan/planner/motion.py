@@ -18,7 +18,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan import HriplanError
-from hriplan.robots.collision import ZONE_NAMING, CollisionChecker
+from hriplan.robots.collision import ZONE_NAMING, CollisionChecker, SeparationZones
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import JointValues, Robot
 from hriplan.robots.spatial import Pose
@@ -30,7 +30,7 @@ from .options import PlanOptions, check_options
 from .projection import project
 from .resolve import BoundConstraint, bind, set_goal_positions
 from .separation import SeparationPolicy
-from .separation_zones import keeping_separation
+from .separation_zones import separation_zones
 from .slack import SlackRows
 from .spec import Axis, ConstraintSpec
 from .validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
@@ -125,18 +125,19 @@ class _Problem:
 
 
 @contextlib.contextmanager
-def with_keep_out(checker: CollisionChecker, bound: list[BoundConstraint]) -> Iterator[None]:
-    """The checker with the keep-out zones of `bound` added as obstacles, for the block's duration."""
+def with_keep_out(checker: CollisionChecker, bound: list[BoundConstraint], separation: SeparationZones | None = None) -> Iterator[None]:
+    """The checker with the keep-out zones of `bound` added as obstacles and the people's
+    `separation` zones (separation_zones.py), for the block's duration (one build)."""
     zones = keep_out_obstacles(bound)
-    if not zones:
+    if not zones and separation is None:
         yield
         return
-    scene = checker.scene
-    checker.set_scene(scene.model_copy(update={"obstacles": [*scene.obstacles, *zones]}))
+    scene, before = checker.scene, checker.zones
+    checker.set_world(scene.model_copy(update={"obstacles": [*scene.obstacles, *zones]}), separation)
     try:
         yield
     finally:
-        checker.set_scene(scene)
+        checker.set_world(scene, before)
 
 
 def _check_group(robot: Robot, bound: list[BoundConstraint], group: str) -> None:
@@ -169,7 +170,8 @@ def plan_motion(
     _check_group(robot, bound, group)
     full_start = dict(zip(robot.joint_names, q_start.tolist()))
     result = lambda status, message: MotionResult(status=status, message=message, group=group, joint_names=joint_names, start=full_start)  # noqa: E731
-    with keeping_separation(checker, robot, safety, group, q_start), with_keep_out(checker, bound):
+    separation = None if safety is None or not checker.humans else separation_zones(checker, robot, safety, group, q_start)
+    with with_keep_out(checker, bound, separation):
         problem = _Problem(robot, checker, bound, group, q_start)
         x_start = robot.group_values(q_start, group)
         if checker.in_collision(q_start):

@@ -12,9 +12,6 @@ lower arm) get no zone: there power and force limiting caps the speed instead.
 
 from __future__ import annotations
 
-import contextlib
-from collections.abc import Iterator
-
 import numpy as np
 
 from hriplan.robots.collision import CollisionChecker, SeparationZones
@@ -50,19 +47,3 @@ def separation_zones(checker: CollisionChecker, robot: Robot, policy: Separation
             if person.contact_region(capsule.name) is None
         }
     return SeparationZones(distances=distances, moving_joints=moving)
-
-
-@contextlib.contextmanager
-def keeping_separation(checker: CollisionChecker, robot: Robot, policy: SeparationPolicy | None, group: str,
-                       q_start: np.ndarray) -> Iterator[None]:  # fmt: skip
-    """The checker with `policy`'s separation zones for the block's duration (none without a
-    policy or people)."""
-    if policy is None or not checker.humans:
-        yield
-        return
-    before = checker.zones
-    checker.set_zones(separation_zones(checker, robot, policy, group, q_start))
-    try:
-        yield
-    finally:
-        checker.set_zones(before)

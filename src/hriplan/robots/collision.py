@@ -62,7 +62,7 @@ class PersonPairs:
 # What a build of the scene sets, remembered for the last few builds.
 _BUILT = ("kind", "_touched_by", "_resting", "_human_slots", "humans", "_zone_slots", "geom_model", "geom_data", "_broadphase",
           "_fixed_contacts", "_index", "_distance_model", "_distance_data", "_distance_slots", "_person_models")
-_REMEMBERED_BUILDS = 4
+_REMEMBERED_BUILDS = 8
 
 
 class CollisionChecker:
@@ -77,6 +77,7 @@ class CollisionChecker:
         self._robot_geometry = self._robot_objects()
         self._internal_pairs: list[tuple[int, int]] | None = None
         self._builds: dict[str, dict[str, object]] = {}  # most recent last
+        self._people_models: dict[str, tuple] = {}  # distance and person models by what is carried and the people
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
@@ -94,9 +95,14 @@ class CollisionChecker:
     def set_scene(self, scene: Scene) -> None:
         """Replace the scene's contents (pairs are recomputed; the robot model is kept). The same
         scene again changes nothing."""
-        if scene == self.scene:
+        self.set_world(scene, self.zones)
+
+    def set_world(self, scene: Scene, zones: SeparationZones | None) -> None:
+        """The scene and the people's separation zones (None: none) in one build."""
+        if scene == self.scene and zones == self.zones:
             return
         self.scene = scene.model_copy(deep=True)  # the caller may change theirs in place later
+        self.zones = zones
         self._build()
 
     def _build(self) -> None:
@@ -169,24 +175,28 @@ class CollisionChecker:
                     self.kind.append("zone")
         return slots
 
-    def set_zones(self, zones: SeparationZones | None) -> None:
-        """Keep the moving parts this far from people's capsules (None: no zones); rebuilds pairs."""
-        self.zones = zones
-        self._build()
-
     def _build_distance_model(self) -> None:
-        """Robot parts and people only, with robot-person pairs: distances in one C++ call."""
-        dm = pin.GeometryModel()
+        """Robot parts and people only, with robot-person pairs: distances in one C++ call. It and
+        the person models depend on what is carried and on the people only, so builds that
+        differ in obstacles and zones (planning's keep-outs) share them."""
         robot_ids = [i for i, k in enumerate(self.kind) if k == "robot"]
         human_ids = [i for i, k in enumerate(self.kind) if k == "human"]
+        self._distance_slots = {i: k for k, i in enumerate(robot_ids + human_ids)}
+        key = self.scene.model_dump_json(include={"attached", "humans"})
+        if key in self._people_models:
+            self._distance_model, self._distance_data, self._person_models = self._people_models[key]
+            return
+        dm = pin.GeometryModel()
         for i in robot_ids + human_ids:
             dm.addGeometryObject(pin.GeometryObject(self.geom_model.geometryObjects[i]))
         for a in range(len(robot_ids)):
             for b in range(len(robot_ids), len(robot_ids) + len(human_ids)):
                 dm.addCollisionPair(pin.CollisionPair(a, b))
         self._distance_model, self._distance_data = dm, dm.createData()
-        self._distance_slots = {i: k for k, i in enumerate(robot_ids + human_ids)}
         self._build_person_models()
+        self._people_models[key] = (self._distance_model, self._distance_data, self._person_models)
+        if len(self._people_models) > _REMEMBERED_BUILDS:
+            self._people_models.pop(next(iter(self._people_models)))
 
     def _build_person_models(self) -> None:
         """Per person: robot parts and carried objects against the person's bare capsules (no
@@ -211,10 +221,6 @@ class CollisionChecker:
         static = ("obstacle", "human", "zone")
         if ki in static and kj in static:
             return False
-        if "zone" in (ki, kj):
-            other = j if ki == "zone" else i
-            moving = self.kind[other] == "robot" or self.kind[other].startswith("attached:")
-            return moving and self.geom_model.geometryObjects[other].parentJoint in self.zones.moving_joints
         if ki == "robot" and kj == "robot":
             return f"{names[0]}|{names[1]}" not in self.acm and f"{names[1]}|{names[0]}" not in self.acm
         if ki.startswith("mesh:") or kj.startswith("mesh:"):
@@ -254,7 +260,15 @@ class CollisionChecker:
             self._internal_pairs = [(i, j) for i in range(robot) for j in range(i + 1, robot) if self._checked(i, j)]
         # A scene geometry pairs only with robot parts and carried objects (added before the rest).
         movers = [i for i, kind in enumerate(self.kind) if kind == "robot" or kind.startswith("attached:")]
-        pairs = self._internal_pairs + [(i, j) for j in range(robot, gm.ngeoms) for i in movers if i < j and self._checked(i, j)]
+        pairs = list(self._internal_pairs)
+        for j in range(robot, gm.ngeoms):
+            before = [i for i in movers if i < j]
+            if self.kind[j] == "human":  # a person against every part and carried object
+                pairs += [(i, j) for i in before]
+            elif self.kind[j] == "zone":  # a separation zone against the moving ones only
+                pairs += [(i, j) for i in before if gm.geometryObjects[i].parentJoint in self.zones.moving_joints]
+            else:
+                pairs += [(i, j) for i in before if self._checked(i, j)]
         for i, j in sorted(pairs):
             gm.addCollisionPair(pin.CollisionPair(i, j))
         self.geom_data = gm.createData()
@@ -291,6 +305,7 @@ class CollisionChecker:
         if spec.name not in self.humans:
             raise HriplanError(f"the scene has no person {spec.name!r}")
         self._builds.clear()  # the current build changes in place
+        self._people_models.clear()
         human = self.humans[spec.name]
         human.pose(spec)
         self.scene = self.scene.model_copy(update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]})
@@ -325,11 +340,10 @@ class CollisionChecker:
         dm = self._distance_model
         if not dm.collisionPairs:
             return float("inf"), "", ""
-        pin.computeDistances(self.robot.model, self.robot.data, dm, self._distance_data, q)
-        distances = [r.min_distance for r in self._distance_data.distanceResults]
-        k = int(np.argmin(distances))
+        k = pin.computeDistances(self.robot.model, self.robot.data, dm, self._distance_data, q)  # the closest pair
         pair = dm.collisionPairs[k]
-        return float(distances[k]), dm.geometryObjects[pair.first].name, dm.geometryObjects[pair.second].name
+        distance = self._distance_data.distanceResults[k].min_distance
+        return float(distance), dm.geometryObjects[pair.first].name, dm.geometryObjects[pair.second].name
 
     def person_pairs(self, q: np.ndarray, person: str) -> PersonPairs:
         """Every robot part and carried object against every capsule of `person`, at `q`."""

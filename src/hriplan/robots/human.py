@@ -165,7 +165,8 @@ class Human:
         return self.data.oMi[capsule.joint] * capsule.placement
 
     def _reach(self, q: np.ndarray, side: Side, target: np.ndarray) -> np.ndarray:
-        """Damped least squares on the shoulder and elbow so the palm centre reaches `target`."""
+        """Damped least squares on the shoulder and elbow so the palm centre reaches `target`: the
+        first of a few seed postures that reaches it, else the closest."""
         joint, offset = self._frames[f"{side}_hand"]
         idx = [self._iq(f"{side}_{j}") for j in REACH_JOINTS]
         vidx = [self.model.joints[self.model.getJointId(f"{side}_{j}")].idx_v for j in REACH_JOINTS]
@@ -187,6 +188,8 @@ class Human:
             err = np.linalg.norm(target - (self.data.oMi[joint] * offset).translation)
             if err < best_err:
                 best_q, best_err = qs, err
+            if best_err < 1e-4:  # reached: the next seeds would only find another arm posture for it
+                break
         if best_err > 0.01:
             raise HriplanError(
                 f"{self.spec.name}'s {side} hand cannot reach {target.round(3).tolist()} (closest {best_err:.2f} m away)"

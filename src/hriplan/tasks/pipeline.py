@@ -131,14 +131,19 @@ class TaskRunner:
             raise HriplanError(f"the session's robot ({session.robot.name}, hands {session.robot.hand_postures}) is not the task's")
         self.session = session
         self.knowledge_bases: dict[str, KnowledgeBase] = {}  # per step, from the last run
+        self._derived: dict[str, tuple[KnowledgeBase, Derivation]] = {}  # per situation
 
     def derive_step(self, step: Step, index: int, state: TaskState,
                     paths: dict[str, list[tuple[float, float, float]]] | None = None) -> tuple[KnowledgeBase, Derivation]:  # fmt: skip
         situation = situation_for(self.task, step, index, state, paths)  # nearness along `paths`: ontology/relations.py
         self.progress(f"{situation.task.name}: reasoning about the situation")
-        kb = KnowledgeBase(situation, rule_files=self.rule_files)
+        key = situation.model_dump_json()  # the grasp choice and the step derive the same situation
+        if key not in self._derived:
+            kb = KnowledgeBase(situation, rule_files=self.rule_files)
+            self._derived[key] = kb, derive(kb)
+        kb, derivation = self._derived[key]
         self.knowledge_bases[situation.task.name] = kb
-        return kb, derive(kb)
+        return kb, derivation
 
     def run(self, plan: bool = True) -> TaskOutcome:
         """Derive (and plan, unless `plan` is False) every step. Without planning, a step starts
