@@ -97,6 +97,9 @@ def _loaded(height: float | None) -> tuple[pin.Model, tuple[HumanCapsule, ...], 
     return model, tuple(capsules), frames
 
 
+# A seed still this far from the target (m) after this many steps is not converging (it swings
+# against the joint limits): the next seed is tried.
+_GIVE_UP_AFTER, _GIVE_UP_ERROR = 40, 0.05
 # Solved configurations per spec, oldest forgotten first.
 _CONFIGURATIONS: dict[str, np.ndarray] = {}
 _REMEMBERED = 256
@@ -175,11 +178,11 @@ class Human:
         for seed in (np.zeros(5), np.array([0.8, 0.0, 0.0, 0.8, 0.0]), np.array([1.4, 0.3, 0.0, 0.3, 0.0])):
             qs = q.copy()
             qs[idx] = np.clip(seed, lower, upper)
-            for _ in range(200):
+            for iteration in range(200):
                 pin.forwardKinematics(self.model, self.data, qs)
                 palm = self.data.oMi[joint] * offset
                 err = target - palm.translation
-                if np.linalg.norm(err) < 1e-4:
+                if np.linalg.norm(err) < 1e-4 or (iteration >= _GIVE_UP_AFTER and np.linalg.norm(err) > _GIVE_UP_ERROR):
                     break
                 lin = self._point_jacobian(qs, joint, offset.translation)[:, vidx]
                 step = lin.T @ np.linalg.solve(lin @ lin.T + 1e-4 * np.eye(3), err)
