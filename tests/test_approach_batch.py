@@ -103,18 +103,6 @@ def test_capsule_distances_broadcast_one_capsule_against_many():
 
 
 # -- the monitor against the per-point computation it replaced ---------------------------------
-def _moved(model: pin.Model, joints: list[str]) -> set[int]:
-    planned = {model.getJointId(j) for j in joints}
-    moved = set()
-    for joint in range(1, model.njoints):
-        chain = joint
-        while chain > 0 and chain not in planned:
-            chain = model.parents[chain]
-        if chain > 0:
-            moved.add(joint)
-    return moved
-
-
 def _reference(session: PlanningSession, policy: SeparationPolicy, group: str, q0: np.ndarray, x: np.ndarray,
                dx: np.ndarray) -> list[tuple] | str:  # fmt: skip
     """Per person (separation, body separation, allowed, approach, scale, part, capsule) at one
@@ -127,7 +115,7 @@ def _reference(session: PlanningSession, policy: SeparationPolicy, group: str, q
     velocity = np.zeros(model.nv)
     velocity[[model.joints[model.getJointId(j)].idx_v for j in names]] = dx
     pin.computeJointJacobians(model, model_data, q)
-    moved = _moved(model, names)
+    moved = robot.moved_joints(group)  # which parts move is not what is compared here
     rows = []
     for person in (p for p in policy.people if p.name in checker.humans):
         pairs = checker.person_pairs(q, person.name)
