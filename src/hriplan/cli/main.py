@@ -95,11 +95,9 @@ def robot_urdf(
     example-robot-data/: `python -c "from hriplan.cli.urdf_export import package_root; print(package_root())"`.
     """
     from hriplan.cli.urdf_export import portable_urdf
-    from hriplan.robots.descriptions import DESCRIPTIONS
+    from hriplan.robots.descriptions import description_of
 
-    if name not in DESCRIPTIONS:
-        raise HriplanError(f"unknown robot {name!r}; known robots: {', '.join(DESCRIPTIONS)}")
-    sys.stdout.write(portable_urdf(DESCRIPTIONS[name](), mesh_dir) + "\n")
+    sys.stdout.write(portable_urdf(description_of(name).urdf(), mesh_dir) + "\n")
 
 
 @app.command()

@@ -67,7 +67,7 @@ def resolve_frame(ref: FrameRef, robot: Robot, checker: CollisionChecker) -> pin
 
 
 def _base_link(robot: Robot) -> str:
-    return "madar_base_link" if robot.name == "madar" else "base_link"
+    return robot.description.base_link
 
 
 def _check_chain(robot: Robot, spec: ConstraintSpec) -> int:

@@ -1,13 +1,19 @@
-"""Assembled robot descriptions (URDF text): MADAR and a single UR5.
+"""Robot descriptions: MADAR and a single UR5, each its URDF and what an SRDF adds to it.
 
 The URDF is the single source of truth for kinematics and display; `hriplan robot urdf NAME`
-prints it. Numbers are from shared/reference/kautham-constraints.md.
+prints it. Numbers are from shared/reference/kautham-constraints.md. What the planner knows of
+a robot beyond its kinematics (arms, their tool frames and groups, hands, the base link) is a
+`RobotDescription`, as MoveIt keeps it in the SRDF: no code asks for a robot by name.
 """
 
 from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from hriplan import HriplanError
 
 from . import urdf_xml as X
 from .allegro import add_allegro
@@ -95,11 +101,47 @@ def ur5_urdf() -> str:
     return X.to_string(robot)
 
 
-DESCRIPTIONS = {"madar": madar_urdf, "ur5": ur5_urdf}
-# Other names of links, as other descriptions of the same robot spell them (same frame, checked
-# by forward kinematics in tests/test_kautham.py): Kautham's MADAR names the adapter and the
-# hand's base (the Allegro palm) differently; its UR5 uses hriplan's names.
-LINK_ALIASES: dict[str, dict[str, str]] = {
-    "madar": {"right_hand_adapter_link": "right_hand_adapter", "right_hand_base_link": "right_hand_palm_link"},
-    "ur5": {},
+@dataclass(frozen=True)
+class ArmDescription:
+    """One arm: the prefix of its joints (ur5_description's names), its tool frame, its planning
+    group, and whether a robot hand is on it."""
+
+    prefix: str
+    tool_frame: str
+    group: str
+    hand: bool = False
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    name: str
+    urdf: Callable[[], str]
+    base_link: str
+    arms: dict[str, ArmDescription]  # the first is the arm a step moves when nothing says which
+    whole_group: str  # every arm joint, in the model's order
+    # Other names of links, as other descriptions of the same robot spell them (same frame,
+    # checked by forward kinematics in tests/test_kautham.py).
+    link_aliases: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def hands(self) -> list[str]:
+        """The arms with a robot hand (their postures are chosen per task)."""
+        return [arm for arm, description in self.arms.items() if description.hand]
+
+
+DESCRIPTIONS = {
+    "madar": RobotDescription(
+        name="madar", urdf=madar_urdf, base_link=MADAR_BASE, whole_group="both_arms",
+        arms={side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand=True) for side in ("right", "left")},
+        # Kautham's MADAR names the adapter and the hand's base (the Allegro palm) differently.
+        link_aliases={"right_hand_adapter_link": "right_hand_adapter", "right_hand_base_link": "right_hand_palm_link"},
+    ),  # fmt: skip
+    "ur5": RobotDescription(name="ur5", urdf=ur5_urdf, base_link="base_link", whole_group="arm",
+                            arms={"arm": ArmDescription("", "tool", "arm")}),  # fmt: skip
 }
+
+
+def description_of(name: str) -> RobotDescription:
+    if name not in DESCRIPTIONS:
+        raise HriplanError(f"unknown robot {name!r}; known robots: {', '.join(DESCRIPTIONS)}")
+    return DESCRIPTIONS[name]

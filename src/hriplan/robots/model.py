@@ -17,7 +17,7 @@ import pinocchio as pin
 from hriplan import HriplanError
 
 from .allegro import HAND_POSTURES, hand_joint_name, posture_values
-from .descriptions import DESCRIPTIONS, LINK_ALIASES
+from .descriptions import DESCRIPTIONS, RobotDescription, description_of
 from .spatial import Pose
 from .ur5_description import joint_names
 
@@ -33,19 +33,16 @@ class RobotSpec:
     base_pose: Pose = field(default_factory=Pose)
 
 
-def _groups(name: str, model_order: list[str]) -> dict[str, list[str]]:
-    """Joint groups; the whole-robot group follows the model's order (MADAR: left, then right),
-    so its vector is also the full planning configuration."""
-    if name == "madar":
-        return {"right_arm": joint_names("right_"), "left_arm": joint_names("left_"), "both_arms": model_order}
-    return {"arm": model_order}
+def _groups(description: RobotDescription, model_order: list[str]) -> dict[str, list[str]]:
+    """Joint groups: each arm's, and the whole robot's in the model's order (MADAR: left, then
+    right), so that its vector is also the full planning configuration."""
+    groups = {arm.group: joint_names(arm.prefix) for arm in description.arms.values()}
+    return groups | {description.whole_group: model_order}
 
 
 def arms_of(name: str) -> dict[str, tuple[str, str]]:
     """Arm name -> (joint prefix, tool frame) of a robot description."""
-    if name == "madar":
-        return {"right": ("right_", "right_tool"), "left": ("left_", "left_tool")}
-    return {"arm": ("", "tool")}
+    return {arm: (d.prefix, d.tool_frame) for arm, d in description_of(name).arms.items()}
 
 
 class Robot:
@@ -54,23 +51,24 @@ class Robot:
     def __init__(self, spec: RobotSpec) -> None:
         self.spec = spec
         self.name = spec.name
-        self.urdf = DESCRIPTIONS[spec.name]()
+        self.description = description_of(spec.name)
+        self.urdf = self.description.urdf()
         self.full_model = pin.buildModelFromXML(self.urdf)
         self._place_base(self.full_model, spec.base_pose.se3())
         self.full_collision = pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.COLLISION)
         self.full_visual = pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.VISUAL)
         self.hand_postures = dict(spec.hand_postures)
         q_locked = self.full_configuration({})
-        arm_joints = set(joint_names("right_") + joint_names("left_") if spec.name == "madar" else joint_names(""))
+        arm_joints = {j for arm in self.description.arms.values() for j in joint_names(arm.prefix)}
         locked = [j for j in range(1, self.full_model.njoints) if self.full_model.names[j] not in arm_joints]
         self.model, (self.collision_meshes, self.visual) = pin.buildReducedModel(
             self.full_model, [self.full_collision, self.full_visual], locked, q_locked
         )
         self.data = self.model.createData()
         self.joint_names = [self.model.names[j] for j in range(1, self.model.njoints)]
-        self.groups = _groups(spec.name, self.joint_names)
+        self.groups = _groups(self.description, self.joint_names)
         self.arms = arms_of(spec.name)
-        self.link_aliases = LINK_ALIASES.get(spec.name, {})
+        self.link_aliases = self.description.link_aliases
         self._index = {
             g: np.array([self.model.joints[self.model.getJointId(j)].idx_q for j in names])
             for g, names in self.groups.items()
@@ -83,7 +81,7 @@ class Robot:
 
     @property
     def default_group(self) -> str:
-        return "both_arms" if self.name == "madar" else "arm"
+        return self.description.whole_group
 
     @staticmethod
     def _place_base(model: pin.Model, base: pin.SE3) -> None:
@@ -208,7 +206,7 @@ class Robot:
 
     def arm_group(self, arm: str) -> str:
         self._arm(arm)
-        return f"{arm}_arm" if self.name == "madar" else "arm"
+        return self.description.arms[arm].group
 
     def _arm(self, arm: str) -> tuple[str, str]:
         if arm not in self.arms:
@@ -228,9 +226,7 @@ def load_robot(
 
     Robots are cached per (name, hand postures, base pose): loading meshes takes about a second,
     and callers share the instance (so share a robot between threads only with care)."""
-    if name not in DESCRIPTIONS:
-        raise HriplanError(f"unknown robot {name!r}; known robots: {', '.join(ROBOT_NAMES)}")
-    postures = {"right": "open", "left": "open"} if name == "madar" else {}
+    postures = {side: "open" for side in description_of(name).hands}
     for side, posture in (hand_postures or {}).items():
         if side not in postures:
             raise HriplanError(f"robot {name!r} has no hand {side!r}")

@@ -9,8 +9,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 
 from hriplan import HriplanError
-from hriplan.robots.descriptions import DESCRIPTIONS
-from hriplan.robots.model import arms_of
+from hriplan.robots.descriptions import description_of
 from hriplan.robots.ur5_description import joint_names
 
 from .model import TaskFile, step_name
@@ -21,11 +20,10 @@ LIMIT_TOLERANCE = 1e-9  # rad: values written from a limit may round just past i
 @functools.cache
 def joint_limits(robot: str) -> dict[str, tuple[float, float]]:
     """(lower, upper) in rad of every planning joint of `robot`, read from its URDF description."""
-    if robot not in DESCRIPTIONS:
-        raise HriplanError(f"unknown robot {robot!r}; known robots: {', '.join(DESCRIPTIONS)}")
-    arm_joints = {j for prefix, _ in arms_of(robot).values() for j in joint_names(prefix)}
+    description = description_of(robot)
+    arm_joints = {j for arm in description.arms.values() for j in joint_names(arm.prefix)}
     limits = {}
-    for joint in ET.fromstring(DESCRIPTIONS[robot]()).iter("joint"):
+    for joint in ET.fromstring(description.urdf()).iter("joint"):
         limit = joint.find("limit")
         if joint.get("name") in arm_joints and limit is not None:
             limits[joint.get("name")] = (float(limit.get("lower")), float(limit.get("upper")))

@@ -26,7 +26,7 @@ from hriplan.planner.resolve import resolve_frame
 from hriplan.planner.spec import OrientationConstraint
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
 from hriplan.robots.ik import solve_two_arms
-from hriplan.robots.model import Robot, arms_of, load_robot
+from hriplan.robots.model import Robot, arms_of, description_of, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.robots.postures import posture
@@ -81,7 +81,7 @@ def step_arms(task: TaskFile, step: Step, state: TaskState) -> list[str]:
         obj = getattr(step.goal, field, None)
         if obj in state.held_by_arm:
             return [state.held_by_arm[obj]]
-    return ["right"] if task.robot == "madar" else ["arm"]
+    return [next(iter(description_of(task.robot).arms))]
 
 
 def situation_for(task: TaskFile, step: Step, index: int, state: TaskState,
@@ -370,7 +370,7 @@ def carried_paths(robot: Robot, start: dict[str, float], motion: MotionResult, s
 
 def _hands(task: TaskFile) -> dict[str, str]:
     """The task's hand postures as a loaded robot reports them (unnamed hands open)."""
-    return {side: task.hands.get(side, "open") for side in arms_of(task.robot)} if task.robot == "madar" else {}
+    return {side: task.hands.get(side, "open") for side in description_of(task.robot).hands}
 
 
 def _with_reasons(trajectory: TrajectoryFile, derivation: Derivation) -> TrajectoryFile:
