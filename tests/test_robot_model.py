@@ -164,3 +164,25 @@ def test_meshes_sit_where_example_robot_data_puts_them(rng):
             a = world(ours.model, ours.data, ours.collision_meshes, q, ours_name)
             b = world(ref.model, ref_data, ref.collision_model, q, ref_name)
             assert np.abs(a @ turn.T - b).max() < 1e-3, ours_name
+
+
+def test_a_robot_is_its_description_not_its_name(monkeypatch):
+    # A robot added as data only (a UR5 whose arm is called "main"): groups, tool frame, hands and
+    # the base link come from its description; before, code branched on the names madar and ur5.
+    from hriplan.planner.motion import JointGoal
+    from hriplan.planner.session import PlanningSession
+    from hriplan.robots import descriptions
+
+    main = descriptions.RobotDescription(name="cell_ur5", urdf=descriptions.ur5_urdf, base_link="base_link", whole_group="all",
+                                         arms={"main": descriptions.ArmDescription("", "tool", "main_arm")})  # fmt: skip
+    monkeypatch.setitem(descriptions.DESCRIPTIONS, "cell_ur5", main)
+    robot = load_robot("cell_ur5")
+    assert robot.groups.keys() == {"main_arm", "all"} and robot.default_group == "all"
+    assert robot.arm_group("main") == "main_arm" and robot.tool_frame("main") == "tool" and robot.hand_postures == {}
+    with pytest.raises(HriplanError, match="has no hand 'right'"):
+        load_robot("cell_ur5", {"right": "power"})
+    session = PlanningSession(robot)
+    goal = JointGoal(values={"shoulder_lift_joint": -1.2, "elbow_joint": 1.0})
+    result = session.plan(dict(zip(robot.joint_names, [0.0, -1.57, 1.57, 0.0, 0.0, 0.0])), goal, group="main_arm")
+    assert result.solved, result.message
+    assert result.trajectory.points[-1].positions[1] == pytest.approx(-1.2, abs=1e-6)
