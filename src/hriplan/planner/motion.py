@@ -294,7 +294,7 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             continue
         for states in [s for s in (run.states, run.unsimplified) if s]:  # if a shortcut cut a corner: the planner's own path
             waypoints = _dedupe([x_start, *states, x_goal])
-            validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step, human_distance=False)
+            validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step)
             if validation.valid:
                 waypoints, validation = _straighten_arms(problem, options, waypoints, validation, limit)
                 return MotionResult(status="solved", group=problem.group, joint_names=[], path=[w.tolist() for w in waypoints],

@@ -161,7 +161,7 @@ class PlanningSession:
             except HriplanError as exc:
                 message = str(exc)
                 continue
-            check = validate_path(evaluator, self.checker, np.array(timed.positions), options.validation_step)
+            check = validate_path(evaluator, self.checker, np.array(timed.positions), options.validation_step, human_distance=True)
             if check.valid:
                 return timed, check, ""
             message = f"the timed trajectory left the validated path: {check.message}"

@@ -51,10 +51,10 @@ def validate_path(
     checker: CollisionChecker,
     states: Sequence[np.ndarray],
     step: float = 0.01,
-    human_distance: bool = True,
+    human_distance: bool = False,
 ) -> PathValidation:
     """Check the path (ambient vectors of the evaluator's group) densely; `human_distance` adds
-    the closest approach to a person (a report figure, costly: planning leaves it out)."""
+    the closest approach to a person (a report figure, costly: only the timed path's report asks)."""
     dense = densify(states, step)
     worst = np.full(len(evaluator.constraints), -np.inf)
     collision = None
