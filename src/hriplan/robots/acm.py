@@ -17,22 +17,17 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
+from .fit_cache import cache_dir
 from .model import Robot
 from .robot_geometry import RobotPart, parent_links
 
 DEFAULT_SAMPLES = 10000
 RULES = "adjacent; never (sampled); always or two apart -> mesh; no SRDF pairs"
 MESH = "mesh"  # the reason of pairs checked on their meshes rather than their fitted parts
-
-
-def _cache_dir() -> Path:
-    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hriplan"
 
 
 def _key(robot: Robot, parts: tuple[RobotPart, ...], samples: int) -> str:
@@ -95,7 +90,7 @@ def compute_acm(robot: Robot, parts: tuple[RobotPart, ...], samples: int = DEFAU
 
 def load_acm(robot: Robot, parts: tuple[RobotPart, ...], samples: int = DEFAULT_SAMPLES) -> dict[str, str]:
     """The ACM for this robot, from the cache or computed (and cached)."""
-    path = _cache_dir() / f"acm-{robot.name}-{_key(robot, parts, samples)}.json"
+    path = cache_dir() / f"acm-{robot.name}-{_key(robot, parts, samples)}.json"
     if path.exists():
         return json.loads(path.read_text())
     acm = compute_acm(robot, parts, samples)

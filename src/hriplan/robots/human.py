@@ -21,6 +21,7 @@ from hriplan import HriplanError
 
 from .assets import resolve_package_uri
 from .bounding import fit_box, fit_capsule
+from .fit_cache import cached_fit, se3, se3_data
 
 Side = Literal["left", "right"]
 SEGMENTS = (
@@ -64,8 +65,23 @@ class HumanCapsule:
     placement: pin.SE3  # in the segment's joint frame
 
 
+# Change whenever the way a person's capsules and frames are fitted changes: it keys the disk cache.
+FIT_RULES = "a capsule per segment on its visual meshes; hand, head and thorax frames at their box centres"
+
+
 @functools.cache
 def _loaded(height: float | None) -> tuple[pin.Model, tuple[HumanCapsule, ...], dict[str, tuple[int, pin.SE3]]]:
+    """The body model (kinematics), its capsules and named frames, fitted once per machine
+    (fit_cache.py: loading and fitting the meshes takes most of a second)."""
+    data = cached_fit("human", (FIT_RULES, height, DEFAULT_WEIGHT), lambda: _fitted(height))
+    model = pin.Model()
+    model.loadFromString(data["model"])
+    capsules = tuple(HumanCapsule(c["name"], c["joint"], c["radius"], c["length"], se3(c["placement"])) for c in data["capsules"])
+    frames = {name: (joint, se3(placement)) for name, (joint, placement) in data["frames"].items()}
+    return model, capsules, frames
+
+
+def _fitted(height: float | None) -> dict:
     loader = HumanLoader(height=height, weight=DEFAULT_WEIGHT if height else None)
     model, visual = loader.robot.model, loader.robot.visual_model
     points: dict[str, list[np.ndarray]] = {s: [] for s in SEGMENTS}
@@ -88,13 +104,13 @@ def _loaded(height: float | None) -> tuple[pin.Model, tuple[HumanCapsule, ...], 
         if segment.endswith("hand") or segment in ("middle_head", "middle_thorax"):
             _, centre = fit_box(cloud)
             named[segment] = (joints[segment], centre)
-    frames = {
-        "head": named["middle_head"],
-        "torso": named["middle_thorax"],
-        "left_hand": named["left_hand"],
-        "right_hand": named["right_hand"],
-    }
-    return model, tuple(capsules), frames
+    frames = {"head": "middle_head", "torso": "middle_thorax", "left_hand": "left_hand", "right_hand": "right_hand"}
+    return {
+        "model": model.saveToString(),
+        "capsules": [{"name": c.name, "joint": c.joint, "radius": c.radius, "length": c.length, "placement": se3_data(c.placement)}
+                     for c in capsules],
+        "frames": {name: (named[segment][0], se3_data(named[segment][1])) for name, segment in frames.items()},
+    }  # fmt: skip
 
 
 # A seed still this far from the target (m) after this many steps is not converging (it swings

@@ -56,14 +56,11 @@ class Robot:
         self.full_model = pin.buildModelFromXML(self.urdf)
         self._place_base(self.full_model, spec.base_pose.se3())
         self.full_collision = pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.COLLISION)
-        self.full_visual = pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.VISUAL)
         self.hand_postures = dict(spec.hand_postures)
-        q_locked = self.full_configuration({})
+        self._q_locked = self.full_configuration({})
         arm_joints = {j for arm in self.description.arms.values() for j in joint_names(arm.prefix)}
-        locked = [j for j in range(1, self.full_model.njoints) if self.full_model.names[j] not in arm_joints]
-        self.model, (self.collision_meshes, self.visual) = pin.buildReducedModel(
-            self.full_model, [self.full_collision, self.full_visual], locked, q_locked
-        )
+        self._locked = [j for j in range(1, self.full_model.njoints) if self.full_model.names[j] not in arm_joints]
+        self.model, self.collision_meshes = pin.buildReducedModel(self.full_model, self.full_collision, self._locked, self._q_locked)
         self.data = self.model.createData()
         self.joint_names = [self.model.names[j] for j in range(1, self.model.njoints)]
         self.groups = _groups(self.description, self.joint_names)
@@ -78,6 +75,17 @@ class Robot:
             for g, names in self.groups.items()
         }
         self.q_neutral = pin.neutral(self.model)
+
+    @functools.cached_property
+    def full_visual(self) -> pin.GeometryModel:
+        """The visual meshes of the full model, loaded when first drawn or fitted (about a second:
+        a process that only derives or plans from cached parts never pays it)."""
+        return pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.VISUAL)
+
+    @functools.cached_property
+    def visual(self) -> pin.GeometryModel:
+        """The visual meshes on the planning model (fingers at their postures)."""
+        return pin.buildReducedModel(self.full_model, self.full_visual, self._locked, self._q_locked)[1]
 
     @property
     def default_group(self) -> str:

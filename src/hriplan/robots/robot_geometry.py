@@ -17,6 +17,7 @@ import pinocchio as pin
 from .assets import resolve_package_uri
 from .bounding import fit_box, fit_capsule
 from .descriptions import TORSO
+from .fit_cache import cached_fit, se3, se3_data, shape, shape_data
 from .model import Robot, RobotSpec
 
 _STRUCTURE = re.compile(r"^(madar_\w+|\w*hand_adapter)$")
@@ -60,7 +61,22 @@ def _group(link: str) -> str:
 _CACHE: dict[tuple[RobotSpec, float], tuple[RobotPart, ...]] = {}
 
 
+# Change whenever the way parts are fitted changes: it keys the fits kept on disk.
+FIT_RULES = "capsules on collision + hand visual meshes per link group; palm box; structure primitives kept"
+
+
 def _parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:
+    """The fitted parts, from the disk cache (fit_cache.py) when this robot was fitted before."""
+    key = (FIT_RULES, robot.urdf, robot.spec.hand_postures, padding)
+    fitted = cached_fit(f"parts-{robot.name}", key, lambda: {"parts": [_part_data(p) for p in _fitted_parts(robot, padding)]})
+    return tuple(RobotPart(p["name"], p["link"], p["joint"], shape(p["shape"]), se3(p["placement"])) for p in fitted["parts"])
+
+
+def _part_data(part: RobotPart) -> dict:
+    return {"name": part.name, "link": part.link, "joint": part.joint, "shape": shape_data(part.geometry), "placement": se3_data(part.placement)}
+
+
+def _fitted_parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:
     model = robot.model
     clouds: dict[str, list[np.ndarray]] = {}
     owners: dict[str, tuple[str, int]] = {}

@@ -1,0 +1,76 @@
+"""Shapes fitted to meshes, kept on disk between processes.
+
+Fitting a robot's collision parts or a person's capsules reads every visual mesh (about a second
+each, most of a CLI command's time), while the result changes only with the description, the mesh
+package, the library versions and the fitting rules. Results are JSON under
+`$XDG_CACHE_HOME/hriplan/` (default `~/.cache/hriplan/`), named by a hash of all of those, beside
+the allowed-collision matrices (acm.py); a file that cannot be read is fitted again.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Callable
+from importlib.metadata import version
+from pathlib import Path
+from typing import Any
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+
+def cache_dir() -> Path:
+    return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hriplan"
+
+
+def cached_fit(kind: str, key: object, fit: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+    """`fit()`'s JSON-able result for `key` (anything with a stable repr), from disk if fitted
+    before with the same mesh package and pinocchio/coal versions."""
+    text = repr((key, version("example-robot-data"), pin.__version__, coal.__version__))
+    path = cache_dir() / f"{kind}-{hashlib.sha256(text.encode()).hexdigest()[:16]}.json"
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        pass
+    result = fit()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(result))
+    tmp.replace(path)
+    return result
+
+
+def se3_data(placement: pin.SE3) -> list[list[float]]:
+    return placement.homogeneous.tolist()
+
+
+def se3(data: list[list[float]]) -> pin.SE3:
+    matrix = np.asarray(data, dtype=float)
+    return pin.SE3(matrix[:3, :3], matrix[:3, 3])
+
+
+def shape_data(shape: coal.CollisionGeometry) -> dict[str, Any]:
+    """A primitive as JSON: capsule, cylinder, box or sphere."""
+    if isinstance(shape, coal.Capsule):
+        return {"type": "capsule", "radius": shape.radius, "length": 2.0 * shape.halfLength}
+    if isinstance(shape, coal.Cylinder):
+        return {"type": "cylinder", "radius": shape.radius, "length": 2.0 * shape.halfLength}
+    if isinstance(shape, coal.Box):
+        return {"type": "box", "size": (2.0 * np.asarray(shape.halfSide)).tolist()}
+    if isinstance(shape, coal.Sphere):
+        return {"type": "sphere", "radius": shape.radius}
+    raise TypeError(f"cannot keep a {type(shape).__name__} as a fitted shape")
+
+
+def shape(data: dict[str, Any]) -> coal.CollisionGeometry:
+    kind = data["type"]
+    if kind == "capsule":
+        return coal.Capsule(data["radius"], data["length"])
+    if kind == "cylinder":
+        return coal.Cylinder(data["radius"], data["length"])
+    if kind == "box":
+        return coal.Box(*data["size"])
+    return coal.Sphere(data["radius"])
