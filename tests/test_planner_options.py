@@ -22,11 +22,6 @@ SCENARIOS = Path(__file__).parents[1] / "benchmarks" / "scenarios"
 
 
 @pytest.fixture(scope="module")
-def problem():
-    return load_problem(SCENARIOS / "a_ur5_upright_box.json")
-
-
-@pytest.fixture(scope="module")
 def free_session(problem):
     """The UR5 scenario's scene with no constraints: plain joint-space planning."""
     return PlanningSession(problem.robot, problem.scene)

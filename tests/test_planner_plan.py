@@ -1,7 +1,5 @@
 """Planning end to end on the UR5 benchmark scenario: results are checked independently."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -9,7 +7,6 @@ from hriplan import HriplanError
 from hriplan.planner.evaluator import ConstraintEvaluator
 from hriplan.planner.motion import JointGoal, ToolGoal, plan_motion
 from hriplan.planner.options import PlanOptions
-from hriplan.planner.problem import load_problem
 from hriplan.planner.resolve import bind
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.spec import CylinderConstraint, FrameRef
@@ -17,13 +14,6 @@ from hriplan.planner.trajectory import load_trajectory
 from hriplan.planner.validate import densify, validate_path
 from hriplan.robots.scene import Box, Obstacle
 from hriplan.robots.spatial import Pose
-
-SCENARIOS = Path(__file__).parents[1] / "benchmarks" / "scenarios"
-
-
-@pytest.fixture(scope="module")
-def problem():
-    return load_problem(SCENARIOS / "a_ur5_upright_box.json")
 
 
 @pytest.fixture(scope="module")

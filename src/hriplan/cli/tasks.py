@@ -106,7 +106,7 @@ def plan(
 def _write_outcome(outcome, output: Path, paths: dict[str, Path], html: Path | None, plots: Path | None,
                    report: Callable[[str], None]) -> list[Path]:  # noqa: ANN001 - a TaskOutcome
     """Write the solved steps' trajectories, and the viewer page and figures if asked for. A step
-    the pipeline adds (a preparatory turn) is written beside its task step's file."""
+    the pipeline adds (a preparatory motion, a lift after a pick) is written beside its task step's file."""
     written = []
     solved = [step for step in outcome.steps if step.trajectory is not None]
     several = len(outcome.steps) > 1

@@ -28,7 +28,6 @@ from hriplan.robots.model import Robot, load_robot
 class SpeedCheck:
     kept: bool
     message: str
-    worst: float = np.inf  # smallest factor on the written velocities that keeps every limit
 
 
 @dataclass
@@ -112,10 +111,10 @@ class PlannedWorld:
             return SpeedCheck(kept=False, message=str(exc))
         k = int(np.argmin(scales))
         if scales[k] >= 1.0 - SPEED_LIMIT_SLACK:
-            return SpeedCheck(kept=True, worst=float(scales[k]), message=f"at most {1 / scales[k]:.0%} of the speed allowed towards anyone"
+            return SpeedCheck(kept=True, message=f"at most {1 / scales[k]:.0%} of the speed allowed towards anyone"
                               if np.isfinite(scales[k]) else "no moving part approaches a person")  # fmt: skip
-        (sample,) = [s for s in monitor.samples(self.positions[k], velocities[k]) if s.scale == scales[k]][:1]
-        return SpeedCheck(kept=False, worst=float(scales[k]), message=(
+        sample = min(monitor.samples(self.positions[k], velocities[k]), key=lambda s: s.scale)  # the person who binds
+        return SpeedCheck(kept=False, message=(
             f"{1 / scales[k]:.2f}x the speed allowed towards {sample.capsule} ({sample.part}, {sample.separation:.3f} m away) "
             f"at t={self.times[k]:.2f} s"))  # fmt: skip
 

@@ -46,7 +46,7 @@ if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is plann
 Progress = Callable[[str], None]
 # Motions the pipeline adds to a task step, named after it: a turn in place before, a lift after a pick.
 PREPARE, LIFT_OFF = "_prepare", "_lift"
-ADDED_MOTIONS = {PREPARE: "the preparatory turn before", LIFT_OFF: "the lift after"}
+ADDED_MOTIONS = {PREPARE: "the preparatory motion before", LIFT_OFF: "the lift after"}
 # Spacing of the joint-space samples at which a carried object's path is recorded (rad).
 PATH_STEP = 0.05
 
@@ -287,7 +287,7 @@ class TaskRunner:
         derivation, arms = outcome.derivation, outcome.arms
         session.set_constraints(derivation.constraint_set())
         group = robot.arm_group(arms[0]) if len(arms) == 1 else robot.default_group
-        options = PlanOptions(**self.task.planning.model_dump(exclude_none=True))
+        options = self._options()
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
         motion = plan_motion(robot, session.checker, list(session.constraints.values()), start, goal, options, group, derivation.separation)
         if motion.solved and rederive:
@@ -305,13 +305,16 @@ class TaskRunner:
                start: dict[str, float]) -> tuple[StepOutcome, dict[str, float]]:  # fmt: skip
         """Time a planned motion under the derivation's velocity scale and people, on the session's
         scene and constraints; the outcome with its trajectory, and where it ends."""
-        options = PlanOptions(**self.task.planning.model_dump(exclude_none=True)).model_copy(update={"velocity_scale": derivation.velocity_scale})
+        options = self._options().model_copy(update={"velocity_scale": derivation.velocity_scale})
         result = self._session().time(motion, options, safety=derivation.separation)
         if not result.solved:
             return outcome.model_copy(update={"status": result.status, "message": result.message}), start
         trajectory = _with_reasons(result.trajectory, derivation).model_copy(update={"task": self.task.name, "step": outcome.name})
         end = dict(start) | dict(zip(trajectory.joint_names, trajectory.points[-1].positions))
         return outcome.model_copy(update={"status": "solved", "trajectory": trajectory}), end
+
+    def _options(self) -> PlanOptions:
+        return PlanOptions(**self.task.planning.model_dump(exclude_none=True))
 
     def _held_axes(self, start: dict[str, float], state: TaskState, derivation: Derivation, scene: Scene) -> dict[str, np.ndarray]:
         """Per arm holding something: the world direction the held object's axis should keep:
