@@ -58,3 +58,25 @@ def test_the_task_pipeline_gives_each_insert_goal_its_own_hole():
     situation = situation_for(task, task.steps[0], 0, TaskState.initial(task))
     assert situation.task.goal_targets() == {"peg_right": "hole_right", "peg_left": "hole_left"}
     assert situation.task.target is None  # two holes: no single target object of the task
+
+
+def test_a_person_hands_with_the_hand_they_reach_out():
+    # Before: the active hand was the right one unless named, so a receiver reaching out her left
+    # hand was handed the object at her hanging right hand (behind and below where she reached).
+    from hriplan.tasks.goals import resolve_goal
+    from hriplan.tasks.grasps import Grasp
+    from hriplan.tasks.model import TaskFile
+    from hriplan.tasks.world import TaskState
+
+    task = TaskFile.model_validate({
+        "robot": "madar", "objects": [{"name": "can", "kind": "Can", "held_by": "left", "shape": {"type": "cylinder", "radius": 0.033, "height": 0.12}}],
+        "humans": [{"name": "eve", "role": "Receiver", "position": [-0.5, 1.5], "yaw": -1.5708, "reach": {"left": [-0.45, 1.1, 1.05]}}],
+        "steps": [{"goal": {"hand_over": "can", "to": "eve"}}]})  # fmt: skip
+    assert task.humans[0].hand == "left"
+    state = TaskState.initial(task)
+    state.grasps["can"] = Grasp("SideGrasp", "+y")
+    goal = resolve_goal(task.steps[0].goal, "left", state).goal
+    # independently: she faces -y (towards the robot), so the can is 19 cm in front of that palm
+    assert np.allclose(goal.pose.xyz, (-0.45, 1.1 - 0.19, 1.05), atol=0.02)
+    with pytest.raises(ValueError, match="eve hands with the right hand but reaches out only the left one"):
+        TaskFile.model_validate(task.model_dump() | {"humans": [task.humans[0].model_dump() | {"hand": "right"}]})

@@ -58,7 +58,15 @@ class TaskHuman(HumanSpec):
 
     name: Name
     role: Role
-    hand: Side = "right"
+    hand: Side = Field(default="right", description="The hand they hand or take with: the one they reach out if they reach out one, else the right.")
+
+    @model_validator(mode="after")
+    def _hand_they_reach_out(self) -> "TaskHuman":
+        if "hand" not in self.model_fields_set and len(self.reach) == 1:
+            self.hand = next(iter(self.reach))
+        elif self.reach and self.hand not in self.reach:
+            raise ValueError(f"{self.name} hands with the {self.hand} hand but reaches out only the {', '.join(self.reach)} one")
+        return self
 
 
 class Table(_Strict):
