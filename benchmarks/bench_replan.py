@@ -22,8 +22,8 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.api import PlanningSession, load_task, run_task
-from hriplan.planner.approach import ApproachMonitor
-from hriplan.planner.separation import allowed_speeds
+from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.separation import allowed_speeds
 from hriplan.planner.session import PlanningSession as Session
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "handover_full_can_receiver.yaml"

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hriplan.planner.approach import ApproachMonitor
+from hriplan.safety.approach import ApproachMonitor
 from hriplan.planner.timing import time_parameterize
 from hriplan.planner.validate import densify
 from hriplan.tasks.load import load_task

@@ -13,7 +13,7 @@ import pinocchio as pin
 
 from hriplan.planner.motion import JointGoal
 from hriplan.planner.problem import PlanningProblem
-from hriplan.planner.spec import BoxConstraint, ConeConstraint, ConstraintSet, CylinderConstraint, FrameRef, OrientationConstraint
+from hriplan.planner.constraints.spec import BoxConstraint, ConeConstraint, ConstraintSet, CylinderConstraint, FrameRef, OrientationConstraint
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.ik import solve_ik, solve_two_arms

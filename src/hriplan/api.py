@@ -27,12 +27,12 @@ from pathlib import Path
 from hriplan.planner.motion import JointGoal, MotionResult, ToolGoal
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.session import PlanningSession, PlanResult
-from hriplan.planner.spec import (BoxConstraint, ConeConstraint, ConstraintSet, CylinderConstraint, FrameRef,
+from hriplan.planner.constraints.spec import (BoxConstraint, ConeConstraint, ConstraintSet, CylinderConstraint, FrameRef,
                                   OrientationConstraint, SphereConstraint)  # fmt: skip
 from hriplan.planner.trajectory import TrajectoryFile, load_trajectory
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
-from hriplan.robots.postures import POSTURES, posture
+from hriplan.robots.descriptions.postures import POSTURES, posture
 from hriplan.robots.scene import AttachedObject, Box, Capsule, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.load import load_task

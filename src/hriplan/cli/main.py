@@ -72,7 +72,7 @@ RobotName = Annotated[str | None, typer.Argument(help="madar or ur5 (none: list 
 @clear_errors
 def robot_info(name: RobotName = None, hand: HandOption = []) -> None:  # noqa: B006 - typer needs a literal default
     """Joints, groups, limits, tool frames and collision parts of a robot (no name: the robots)."""
-    from hriplan.robots.descriptions import DESCRIPTIONS
+    from hriplan.robots.descriptions.registry import DESCRIPTIONS
 
     if name is None:
         typer.echo("robots: " + ", ".join(DESCRIPTIONS) + " (hriplan robot info NAME for one)")
@@ -95,7 +95,7 @@ def robot_urdf(
     example-robot-data/: `python -c "from hriplan.cli.urdf_export import package_root; print(package_root())"`.
     """
     from hriplan.cli.urdf_export import portable_urdf
-    from hriplan.robots.descriptions import description_of
+    from hriplan.robots.descriptions.registry import description_of
 
     sys.stdout.write(portable_urdf(description_of(name).urdf(), mesh_dir) + "\n")
 

@@ -10,9 +10,9 @@ from hriplan.cli.outputs import file_output
 from hriplan.planner.motion import JointGoal
 from hriplan.planner.problem import load_problem
 from hriplan.planner.session import PlanningSession
-from hriplan.rules.separation import default_policy
+from hriplan.safety.policy import default_policy
 from hriplan.tasks.joints import check_joint_values
-from hriplan.tasks.summary import separation_phrase
+from hriplan.cli.summary import separation_phrase
 
 
 def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_json: bool) -> int:

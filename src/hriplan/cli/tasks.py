@@ -78,7 +78,7 @@ def plan(
 ) -> None:
     """Run the pipeline: derive each step's constraints, plan, validate, time, write trajectories."""
     from hriplan.tasks.model import step_name
-    from hriplan.tasks.summary import summarize
+    from hriplan.cli.summary import summarize
 
     loaded = load_checked_task(task, seed, project_start or None)
     output = file_output(output or Path("out") / f"{loaded.name}.json")
@@ -141,7 +141,7 @@ def _json(outcome, written: list[Path]) -> dict:  # noqa: ANN001
 def constraints(task: TaskArgument, as_json: Annotated[bool, typer.Option("--json", help="Print the derivation as JSON.")] = False,
                 quiet: Quiet = False, reasoner: ReasonerOption = "fast") -> None:  # fmt: skip
     """What each step would have to respect, with one-line reasons (no planning)."""
-    from hriplan.tasks.summary import constraint_lines
+    from hriplan.cli.summary import constraint_lines
 
     with progress(quiet) as report:
         outcome = _runner(task, report).run(plan=False)
@@ -197,7 +197,7 @@ def validate(
     """Re-check a trajectory densely against its constraints and collisions, and its speed near
     people against ISO/TS 15066 at every written point (exit 1 if it fails)."""
     from hriplan.planner.replay import PlannedWorld
-    from hriplan.rules.separation import default_policy
+    from hriplan.safety.policy import default_policy
 
     plan_file = load_for_task(trajectory, task, quiet)
     world = PlannedWorld.load(plan_file)
@@ -227,7 +227,7 @@ def import_kautham(
 ) -> None:
     """Convert a Kautham problem (robot, obstacles, constraints, controls, query) to hriplan's problem format, and plan it."""
     from hriplan.cli.solve import solve_problem_file
-    from hriplan.tasks.kautham import import_kautham as convert
+    from hriplan.formats.kautham import import_kautham as convert
 
     target = file_output(output or Path("out") / f"{problem.stem}.problem.json")
     if plan_it:

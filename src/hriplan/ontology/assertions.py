@@ -14,9 +14,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from hriplan import HriplanError
-from hriplan.rules.ruleset import Rule, read_predicates
+from hriplan.ontology.ruleset import Rule, read_predicates
 
-from .situation import Situation, SituationHuman
+from hriplan.ontology.situation import Situation, SituationHuman
 
 Assertion = tuple[str, str, bool | int | float | str]
 TYPE = "a"

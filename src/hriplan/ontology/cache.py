@@ -20,10 +20,10 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
-from hriplan.rules.ruleset import Rule
+from hriplan.ontology.ruleset import Rule
 
-from .assertions import Assertion
-from .facts import Facts
+from hriplan.ontology.assertions import Assertion
+from hriplan.ontology.facts import Facts
 
 FORMAT_VERSION = 2  # bump when what is cached changes meaning
 MEMORY_ENTRIES = 256

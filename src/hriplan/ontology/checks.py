@@ -9,11 +9,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from hriplan import HriplanError
-from hriplan.rules.ruleset import Name, Rule
+from hriplan.ontology.ruleset import Name, Rule
 
-from .assertions import TYPE, Assertion, arm_individual
-from .schema import Schema
-from .situation import Situation
+from hriplan.ontology.assertions import TYPE, Assertion, arm_individual
+from hriplan.ontology.schema import Schema
+from hriplan.ontology.situation import Situation
 
 
 def check_input(schema: Schema, situation: Situation, rules: Sequence[Rule], assertions: Sequence[Assertion]) -> None:

@@ -17,23 +17,23 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hriplan.rules.ruleset import Rule, load_rules, read_predicates
+from hriplan.ontology.ruleset import Rule, load_rules, read_predicates
 
-from .assertions import Assertion, situation_assertions
-from .cache import Reasoning, ReasoningCache, default_cache, reasoning_key
-from .checks import check_input
-from .facts import Facts
-from .reasoners import InconsistentSituation, Reasoner, default_reasoner
-from .relations import RELATIONS, ComputedRelation, RelationKind, compute_relations
-from .rule_engine import reason
-from .schema import Schema, load_schema
-from .situation import Situation
-from .vocabulary import PREFIXES, OntologySource, ontology_source
+from hriplan.ontology.assertions import Assertion, situation_assertions
+from hriplan.ontology.cache import Reasoning, ReasoningCache, default_cache, reasoning_key
+from hriplan.ontology.checks import check_input
+from hriplan.ontology.facts import Facts
+from hriplan.ontology.reasoners import InconsistentSituation, Reasoner, default_reasoner
+from hriplan.ontology.relations import RELATIONS, ComputedRelation, RelationKind, compute_relations
+from hriplan.ontology.rule_engine import reason
+from hriplan.ontology.schema import Schema, load_schema
+from hriplan.ontology.situation import Situation
+from hriplan.ontology.vocabulary import PREFIXES, OntologySource, ontology_source
 
 if TYPE_CHECKING:  # rdflib's SPARQL engine and owlready2 load only when used
     import rdflib
 
-    from .sparql import QueryResult
+    from hriplan.ontology.sparql import QueryResult
 
 
 class KnowledgeBase:
@@ -83,8 +83,8 @@ class KnowledgeBase:
 
     def _reason_pellet(self) -> Reasoning:
         """Build the World, run Pellet (the JVM start) and cache what it concluded."""
-        from .reasoner import dump_ntriples, extract_facts, run_pellet
-        from .world import build_world
+        from hriplan.ontology.pellet import dump_ntriples, extract_facts, run_pellet
+        from hriplan.ontology.owl_world import build_world
 
         world = build_world(self._source, self.rules, self.assertions)
         try:
@@ -118,6 +118,6 @@ class KnowledgeBase:
 
     def query(self, text: str) -> QueryResult:
         """Answer a SPARQL 1.1 query over the asserted + inferred graph."""
-        from .sparql import run_query
+        from hriplan.ontology.sparql import run_query
 
         return run_query(self.graph, text)

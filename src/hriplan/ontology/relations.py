@@ -23,9 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .assertions import Assertion
-from .facts import Facts
-from .situation import Situation
+from hriplan.ontology.assertions import Assertion
+from hriplan.ontology.facts import Facts
+from hriplan.ontology.situation import Situation
 
 
 @dataclass(frozen=True)

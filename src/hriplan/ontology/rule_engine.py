@@ -17,12 +17,12 @@ import functools
 from collections.abc import Iterable, Sequence
 
 from hriplan import HriplanError
-from hriplan.rules.matching import EVALUATED, constant, same_value, solutions
-from hriplan.rules.ruleset import Rule, Var
+from hriplan.ontology.rule_matching import EVALUATED, constant, same_value, solutions
+from hriplan.ontology.ruleset import Rule, Var
 
-from .assertions import TYPE, Assertion
-from .facts import Facts, Value
-from .schema import Schema
+from hriplan.ontology.assertions import TYPE, Assertion
+from hriplan.ontology.facts import Facts, Value
+from hriplan.ontology.schema import Schema
 
 MAX_ROUNDS = 100
 

@@ -19,8 +19,8 @@ import rdflib
 from rdflib.collection import Collection
 from rdflib.namespace import OWL, RDF, RDFS, XSD
 
-from .facts import Facts, Value
-from .vocabulary import NAMESPACE, OntologySource
+from hriplan.ontology.facts import Facts, Value
+from hriplan.ontology.vocabulary import NAMESPACE, OntologySource
 
 DATA_TYPES: dict[str, tuple[type, ...]] = {
     str(XSD.boolean): (bool,), str(XSD.string): (str,), str(XSD.integer): (int,),

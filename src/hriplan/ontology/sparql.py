@@ -30,7 +30,7 @@ from rdflib.query import Result
 
 from hriplan import HriplanError
 
-from .vocabulary import PREFIXES
+from hriplan.ontology.vocabulary import PREFIXES
 
 QueryFormat = Literal["table", "json", "csv", "turtle"]
 FORMATS: tuple[str, ...] = ("table", "json", "csv", "turtle")

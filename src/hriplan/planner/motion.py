@@ -23,20 +23,20 @@ from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import JointValues, Robot
 from hriplan.robots.spatial import Pose
 
-from .arm_shortcut import arm_subgroups, straighten_arms
-from .evaluator import ConstraintEvaluator
-from .keep_out import keep_out_obstacles
-from .options import PlanOptions, check_options
-from .projection import project
-from .resolve import BoundConstraint, bind, set_goal_positions
-from .separation import SeparationPolicy
-from .separation_zones import separation_zones
-from .slack import SlackRows
-from .spec import Axis, ConstraintSpec
-from .validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
+from hriplan.planner.search.arm_shortcut import arm_subgroups, straighten_arms
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.planner.constraints.keep_out import keep_out_obstacles
+from hriplan.planner.options import PlanOptions, check_options
+from hriplan.planner.constraints.projection import project
+from hriplan.planner.constraints.binding import BoundConstraint, bind, set_goal_positions
+from hriplan.safety.separation import SeparationPolicy
+from hriplan.safety.zones import separation_zones
+from hriplan.planner.constraints.slack import SlackRows
+from hriplan.planner.constraints.spec import Axis, ConstraintSpec
+from hriplan.planner.validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
 
 if TYPE_CHECKING:
-    from .bands import BandProblem
+    from hriplan.planner.search.cbirrt import BandProblem
 
 # Planning keeps this much inside every band so that chords between planned states stay valid.
 PLANNING_MARGIN = 2e-3
@@ -327,11 +327,11 @@ def _straighten_arms(problem: _Problem, options: PlanOptions, waypoints: list[np
 def _solve(problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_valid, rows, attempt: int):  # noqa: ANN001, ANN202
     """One search (re-plan number `attempt`) by the chosen method: hriplan's CBiRRT, OMPL on slack
     variables, or OMPL. OMPL and the band planner load only when a motion is planned."""
-    from .ompl_backend import ompl_seed, solve_with_ompl
+    from hriplan.planner.search.ompl_solver import ompl_seed, solve_with_ompl
 
     bounds = problem.robot.limits(problem.group)
     if options.planner == "CBiRRT":
-        from .bands import plan_in_bands
+        from hriplan.planner.search.cbirrt import plan_in_bands
 
         seed = None if options.seed is None else ompl_seed(options.seed, attempt)
         return plan_in_bands(_band_problem(problem, options), ends[0], ends[1], options.time_limit, seed)
@@ -346,7 +346,7 @@ def _solve(problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_v
 
 
 def _band_problem(problem: _Problem, options: PlanOptions) -> BandProblem:
-    from .bands import BandProblem
+    from hriplan.planner.search.cbirrt import BandProblem
 
     evaluator, checker = problem.evaluator, problem.checker
     return BandProblem(lambda x: evaluator.margins(evaluator.full(x)), evaluator.gradients, lambda x: not checker.in_collision(evaluator.full(x)),

@@ -13,9 +13,9 @@ from pydantic import BaseModel, ConfigDict, Field
 from hriplan.files import load_model
 from hriplan.robots.scene import Scene
 
-from .motion import Goal
-from .options import PlanOptions
-from .spec import ConstraintSet
+from hriplan.planner.motion import Goal
+from hriplan.planner.options import PlanOptions
+from hriplan.planner.constraints.spec import ConstraintSet
 
 
 class PlanningProblem(BaseModel):

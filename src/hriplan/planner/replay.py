@@ -13,11 +13,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from hriplan import HriplanError
-from hriplan.planner.approach import ApproachMonitor
-from hriplan.planner.evaluator import ConstraintEvaluator
+from hriplan.safety.approach import ApproachMonitor
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.motion import with_keep_out
-from hriplan.planner.resolve import BoundConstraint, bind, set_goal_positions
-from hriplan.planner.separation import SPEED_LIMIT_SLACK, SeparationPolicy
+from hriplan.planner.constraints.binding import BoundConstraint, bind, set_goal_positions
+from hriplan.safety.separation import SPEED_LIMIT_SLACK, SeparationPolicy
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.planner.validate import PathValidation, validate_path
 from hriplan.robots.collision import CollisionChecker

@@ -6,10 +6,10 @@ import math
 
 import numpy as np
 
-from .approach import ApproachMonitor
-from .separation import contact_speed_limit, minimum_separation
-from .timing import TimedPath
-from .trajectory import SeparationTrace
+from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.separation import contact_speed_limit, minimum_separation
+from hriplan.planner.timing import TimedPath
+from hriplan.planner.trajectory import SeparationTrace
 
 
 def _finite(value: float) -> float | None:

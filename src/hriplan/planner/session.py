@@ -23,18 +23,18 @@ from hriplan.robots.model import JointValues, Robot, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
-from .approach import ApproachMonitor
-from .evaluator import ConstraintEvaluator
-from .motion import Goal, MotionResult, Status, plan_motion, with_keep_out
-from .ompl_backend import ompl_seed
-from .options import PlanOptions
-from .resolve import bind, set_goal_positions
-from .separation import SeparationPolicy
-from .separation_report import separation_report
-from .spec import ConstraintSet, ConstraintSpec
-from .timing import time_parameterize
-from .trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
-from .validate import densify, validate_path
+from hriplan.safety.approach import ApproachMonitor
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.planner.motion import Goal, MotionResult, Status, plan_motion, with_keep_out
+from hriplan.planner.search.ompl_solver import ompl_seed
+from hriplan.planner.options import PlanOptions
+from hriplan.planner.constraints.binding import bind, set_goal_positions
+from hriplan.safety.separation import SeparationPolicy
+from hriplan.planner.separation_report import separation_report
+from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec
+from hriplan.planner.timing import time_parameterize
+from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
+from hriplan.planner.validate import densify, validate_path
 
 # Knot spacing handed to the time parameteriser, then a denser retry if re-validation fails.
 TIMING_STEPS = (0.05, 0.01)

@@ -21,7 +21,7 @@ from pydantic import BaseModel, ConfigDict
 
 from hriplan import HriplanError
 
-from .separation import SPEED_LIMIT_SLACK
+from hriplan.safety.separation import SPEED_LIMIT_SLACK
 
 # TOPP-RA logs every solve at INFO and a failure at WARNING; we report failures ourselves.
 logging.getLogger("toppra").setLevel(logging.ERROR)

@@ -16,7 +16,7 @@ from hriplan.files import load_model
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
-from .spec import ConstraintSpec
+from hriplan.planner.constraints.spec import ConstraintSpec
 
 SCHEMA = "hriplan.trajectory"
 SCHEMA_VERSION = 1

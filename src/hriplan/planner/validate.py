@@ -14,7 +14,7 @@ from pydantic import BaseModel
 
 from hriplan.robots.collision import CollisionChecker
 
-from .evaluator import ConstraintEvaluator
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 
 VALIDATION_TOLERANCE = 1e-4
 DISTANCE_SAMPLES = 150

@@ -21,9 +21,9 @@ import json
 import numpy as np
 import pinocchio as pin
 
-from .fit_cache import cache_dir
-from .model import Robot
-from .robot_geometry import RobotPart, parent_links
+from hriplan.robots.fit_cache import cache_dir
+from hriplan.robots.model import Robot
+from hriplan.robots.robot_geometry import RobotPart, parent_links
 
 DEFAULT_SAMPLES = 10000
 RULES = "adjacent; never (sampled); always or two apart -> mesh; no SRDF pairs"

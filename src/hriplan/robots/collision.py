@@ -19,12 +19,12 @@ import pinocchio as pin
 
 from hriplan import HriplanError
 
-from .acm import MESH, load_acm
-from .human import Human, HumanSpec
-from .model import Robot
-from .robot_geometry import part_collision_shapes, robot_parts
-from .scene import Scene
-from .spatial import Pose
+from hriplan.robots.acm import MESH, load_acm
+from hriplan.robots.human import Human, HumanSpec
+from hriplan.robots.model import Robot
+from hriplan.robots.robot_geometry import part_collision_shapes, robot_parts
+from hriplan.robots.scene import Scene
+from hriplan.robots.spatial import Pose
 
 
 # How a separation zone is named in contacts and messages: "bob/left_upperleg (minimum separation 0.225 m)".

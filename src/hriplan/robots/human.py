@@ -19,9 +19,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan import HriplanError
 
-from .assets import resolve_package_uri
-from .bounding import fit_box, fit_capsule
-from .fit_cache import cached_fit, se3, se3_data
+from hriplan.robots.assets import resolve_package_uri
+from hriplan.robots.bounding import fit_box, fit_capsule
+from hriplan.robots.fit_cache import cached_fit, se3, se3_data
 
 Side = Literal["left", "right"]
 SEGMENTS = (

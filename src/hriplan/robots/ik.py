@@ -20,8 +20,8 @@ from pydantic import BaseModel
 
 from hriplan import HriplanError
 
-from .collision import ZONE_NAMING
-from .model import Robot
+from hriplan.robots.collision import ZONE_NAMING
+from hriplan.robots.model import Robot
 
 AXES = {"x": 0, "y": 1, "z": 2}
 ORTHONORMAL_TOLERANCE = 1e-6

@@ -6,9 +6,9 @@ import collections
 
 import numpy as np
 
-from .acm import MESH, load_acm
-from .model import Robot
-from .robot_geometry import robot_parts
+from hriplan.robots.acm import MESH, load_acm
+from hriplan.robots.model import Robot
+from hriplan.robots.robot_geometry import robot_parts
 
 
 def describe(robot: Robot) -> str:

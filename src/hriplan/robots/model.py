@@ -16,10 +16,10 @@ import pinocchio as pin
 
 from hriplan import HriplanError
 
-from .allegro import HAND_POSTURES, hand_joint_name, posture_values
-from .descriptions import DESCRIPTIONS, RobotDescription, description_of
-from .spatial import Pose
-from .ur5_description import joint_names
+from hriplan.robots.descriptions.allegro import HAND_POSTURES, hand_joint_name, posture_values
+from hriplan.robots.descriptions.registry import DESCRIPTIONS, RobotDescription, description_of
+from hriplan.robots.spatial import Pose
+from hriplan.robots.descriptions.ur5_arm import joint_names
 
 JointValues = Mapping[str, float] | Sequence[float] | np.ndarray
 

@@ -14,11 +14,11 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from .assets import resolve_package_uri
-from .bounding import fit_box, fit_capsule
-from .descriptions import TORSO
-from .fit_cache import cached_fit, se3, se3_data, shape, shape_data
-from .model import Robot, RobotSpec
+from hriplan.robots.assets import resolve_package_uri
+from hriplan.robots.bounding import fit_box, fit_capsule
+from hriplan.robots.descriptions.registry import TORSO
+from hriplan.robots.fit_cache import cached_fit, se3, se3_data, shape, shape_data
+from hriplan.robots.model import Robot, RobotSpec
 
 _STRUCTURE = re.compile(r"^(madar_\w+|\w*hand_adapter)$")
 _FINGER = re.compile(r"^(?P<prefix>\w*?)hand_link_(?P<n>\d+)\.0(_tip)?$")

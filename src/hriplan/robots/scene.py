@@ -14,8 +14,8 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hriplan import HriplanError
 
-from .spatial import Pose
-from .human import HumanSpec
+from hriplan.robots.spatial import Pose
+from hriplan.robots.human import HumanSpec
 
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from hriplan.planner.spec import (
+from hriplan.planner.constraints.spec import (
     BoxConstraint,
     ConeConstraint,
     ConstraintSpec,
@@ -12,7 +12,7 @@ from hriplan.planner.spec import (
     SphereConstraint,
 )
 
-from .infer import Derivation, Derived, DerivedConstraint, DerivedVelocityScale
+from hriplan.rules.infer import Derivation, Derived, DerivedConstraint, DerivedVelocityScale
 
 
 def explain(item: Derivation | Derived) -> str:

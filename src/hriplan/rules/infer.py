@@ -17,12 +17,12 @@ from hriplan import HriplanError
 from hriplan.ontology.cache import ReasoningCache
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation
-from hriplan.planner.separation import SeparationPolicy
-from hriplan.planner.spec import ConstraintSet, ConstraintSpec
+from hriplan.safety.separation import SeparationPolicy
+from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec
 
-from .instantiate import Arm, Context, Form, anchored_arms, form_of
-from .provenance import Provenance
-from .separation import situation_policy
+from hriplan.rules.instantiate import Arm, Context, Form, anchored_arms, form_of
+from hriplan.rules.provenance import Provenance
+from hriplan.safety.policy import situation_policy
 
 CONSTRAINED_BY = "isConstrainedBy"
 

@@ -20,7 +20,7 @@ import pinocchio as pin
 from hriplan import HriplanError
 from hriplan.ontology.facts import Facts
 from hriplan.ontology.situation import Situation, SituationHuman, SituationObject
-from hriplan.planner.spec import (
+from hriplan.planner.constraints.spec import (
     BoxConstraint,
     ConeConstraint,
     ConstraintSpec,
@@ -32,7 +32,7 @@ from hriplan.planner.spec import (
 from hriplan.robots.human import HELD_OBJECT_OFFSET, Human, HumanSpec
 from hriplan.robots.spatial import Pose
 
-from .geometry import angle_between, bearing, box_between, rotation_pose, rotation_with_axis
+from hriplan.rules.geometry import angle_between, bearing, box_between, rotation_pose, rotation_with_axis
 
 SIGNED_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
 # A cone reaching back to the tool's start is this much longer than the distance to it.

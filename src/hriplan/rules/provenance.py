@@ -20,8 +20,8 @@ from hriplan.ontology.assertions import TYPE, Assertion
 from hriplan.ontology.facts import Facts, Value
 from hriplan.ontology.relations import ComputedRelation
 
-from .matching import Binding, resolve, solutions, unify
-from .ruleset import Atom, Rule
+from hriplan.ontology.rule_matching import Binding, resolve, solutions, unify
+from hriplan.ontology.ruleset import Atom, Rule
 
 MAX_DEPTH = 3
 

@@ -23,19 +23,19 @@ from starlette.middleware.cors import CORSMiddleware
 
 from hriplan import HriplanError, __version__
 from hriplan.planner.problem import PlanningProblem
-from hriplan.planner.spec import ConstraintSet
+from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Mesh, Obstacle, Scene
 from hriplan.tasks.model import TaskFile
 from hriplan.tasks.pipeline import TaskOutcome, step_name
 
-from .config import ServiceConfig
-from .errors import RequestError, error_response
-from .guard import Guard
-from .schemas import (ErrorBody, ExplainResponse, PlanResponse, SessionCreate, SessionPlanRequest, SessionState, StoredTask,
+from hriplan.service.config import ServiceConfig
+from hriplan.service.errors import RequestError, error_response
+from hriplan.service.guard import Guard
+from hriplan.service.schemas import (ErrorBody, ExplainResponse, PlanResponse, SessionCreate, SessionPlanRequest, SessionState, StoredTask,
                       TaskPlanResponse)  # fmt: skip
-from .sparql_protocol import add_sparql_routes
-from .workers import Busy, PoolError, WorkerPool
+from hriplan.service.sparql_protocol import add_sparql_routes
+from hriplan.service.workers import Busy, PoolError, WorkerPool
 
 JSON_OR_YAML = {"requestBody": {"content": {"application/yaml": {"schema": {"$ref": "#/components/schemas/TaskFile"}}}}}
 ERRORS: dict[int | str, dict[str, Any]] = {code: {"model": ErrorBody} for code in (400, 404, 409, 413, 422, 500, 503, 504)}

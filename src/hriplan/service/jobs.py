@@ -23,10 +23,10 @@ from hriplan.tasks.knowledge import _ontology_graph
 from hriplan.tasks.model import TaskFile
 from hriplan.tasks.pipeline import TaskRunner
 
-from .errors import RequestError
-from .negotiation import choose
-from .ros import joint_trajectory
-from .schemas import ExplainResponse, PlanResponse, SessionPlanRequest, SessionState, StepExplanation, TaskPlanResponse
+from hriplan.service.errors import RequestError
+from hriplan.service.negotiation import choose
+from hriplan.service.ros import joint_trajectory
+from hriplan.service.schemas import ExplainResponse, PlanResponse, SessionPlanRequest, SessionState, StepExplanation, TaskPlanResponse
 
 
 Reply = tuple[str, str]  # (body, media type)

@@ -7,12 +7,12 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan.planner.motion import Goal
 from hriplan.planner.options import PlanOptions
-from hriplan.planner.spec import ConstraintSet
+from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.robots.scene import Scene
 from hriplan.tasks.pipeline import StepOutcome
 
-from .ros import JointTrajectory
+from hriplan.service.ros import JointTrajectory
 
 SessionId = str
 

@@ -15,8 +15,8 @@ from fastapi import FastAPI, Request, Response
 
 from hriplan.ontology.sparql import UPDATES_REFUSED
 
-from .errors import RequestError
-from .negotiation import GRAPH_TYPES, RESULT_TYPES, choose
+from hriplan.service.errors import RequestError
+from hriplan.service.negotiation import GRAPH_TYPES, RESULT_TYPES, choose
 
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
 FORMATS = rdflib.Namespace("http://www.w3.org/ns/formats/")

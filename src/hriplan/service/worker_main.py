@@ -21,9 +21,9 @@ def serve(conn: Connection) -> None:
     from hriplan import HriplanError
     from hriplan.ontology.sparql import QueryTimeout
 
-    from .errors import RequestError
-    from .jobs import JOBS
-    from .negotiation import NotAcceptable
+    from hriplan.service.errors import RequestError
+    from hriplan.service.jobs import JOBS
+    from hriplan.service.negotiation import NotAcceptable
 
     conn.send(("ready", os.getpid()))
     while True:

@@ -15,7 +15,7 @@ from collections.abc import Awaitable, Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
-from .worker_main import serve
+from hriplan.service.worker_main import serve
 
 SPAWN = multiprocessing.get_context("spawn")
 

@@ -17,8 +17,8 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
-from .variants import Variant
-from .worker import Row, failure_rows, run_variant, variant_columns
+from hriplan.sweeps.variants import Variant
+from hriplan.sweeps.worker import Row, failure_rows, run_variant, variant_columns
 
 Work = Callable[[Variant, bool], list[Row]]
 Deliver = Callable[[Variant, list[Row]], None]

@@ -18,8 +18,8 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from .results import Row, read_results  # noqa: E402
-from .run import succeeded  # noqa: E402
+from hriplan.sweeps.results import Row, read_results  # noqa: E402
+from hriplan.sweeps.run import succeeded  # noqa: E402
 
 VARY = "vary."
 

@@ -9,11 +9,11 @@ from pathlib import Path
 
 from pydantic import BaseModel
 
-from .engines import Engine, LocalEngine, Work
-from .progress import Progress
-from .results import ResultStore, Row
-from .variants import Variant
-from .worker import run_variant
+from hriplan.sweeps.engines import Engine, LocalEngine, Work
+from hriplan.sweeps.progress import Progress
+from hriplan.sweeps.results import ResultStore, Row
+from hriplan.sweeps.variants import Variant
+from hriplan.sweeps.worker import run_variant
 
 
 class SweepInterrupted(Exception):

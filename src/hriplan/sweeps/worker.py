@@ -17,7 +17,7 @@ from typing import Any
 
 from hriplan import HriplanError
 
-from .variants import Variant
+from hriplan.sweeps.variants import Variant
 
 Row = dict[str, Any]
 

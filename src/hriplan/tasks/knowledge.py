@@ -12,7 +12,7 @@ from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.sparql import QueryResult, run_query
 from hriplan.ontology.vocabulary import PREFIXES, ontology_source
 
-from .pipeline import TaskRunner
+from hriplan.tasks.pipeline import TaskRunner
 
 
 def knowledge_base_for(runner: TaskRunner, step: str | None) -> KnowledgeBase:

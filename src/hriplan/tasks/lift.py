@@ -19,7 +19,7 @@ from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import Robot
 
-from .goals import PLACE_CLEARANCE
+from hriplan.tasks.goals import PLACE_CLEARANCE
 
 LIFT = PLACE_CLEARANCE
 # A lift may drift sideways this much (m) and must rise by at least this much between dense states.

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from hriplan.files import load_model
 
-from .model import TaskFile
+from hriplan.tasks.model import TaskFile
 
 
 def load_task(path: str | Path) -> TaskFile:

@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, Validatio
 from hriplan.files import error_location
 from hriplan.ontology.situation import FillLevel, Name, Role
 from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
-from hriplan.planner.spec import Axis
+from hriplan.planner.constraints.spec import Axis
 from hriplan.robots.human import HumanSpec, Side
 from hriplan.robots.scene import Obstacle, Shape
 from hriplan.robots.spatial import Pose

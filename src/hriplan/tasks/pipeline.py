@@ -22,23 +22,23 @@ from hriplan.ontology.situation import Situation, SituationHuman, SituationObjec
 from hriplan.planner.motion import Goal as MotionGoal
 from hriplan.planner.motion import JointGoal, MotionResult, ToolGoal, plan_motion
 from hriplan.planner.options import PlanOptions
-from hriplan.planner.resolve import resolve_frame
-from hriplan.planner.spec import OrientationConstraint
+from hriplan.planner.constraints.binding import resolve_frame
+from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
 from hriplan.robots.ik import solve_two_arms
 from hriplan.robots.model import Robot, arms_of, description_of, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
-from hriplan.robots.postures import posture
+from hriplan.robots.descriptions.postures import posture
 from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
 
-from .goals import ResolvedGoal, after_step, resolve_goal, task_kind
-from .lift import LIFT, lift_path, supports
-from .grasps import Grasp, allowed_grasps
-from .model import GraspGoal, Step, TaskFile, step_name
-from .prepare import preparatory_goal
-from .world import TaskState
+from hriplan.tasks.goals import ResolvedGoal, after_step, resolve_goal, task_kind
+from hriplan.tasks.lift import LIFT, lift_path, supports
+from hriplan.tasks.grasps import Grasp, allowed_grasps
+from hriplan.tasks.model import GraspGoal, Step, TaskFile, step_name
+from hriplan.tasks.prepare import preparatory_goal
+from hriplan.tasks.task_state import TaskState
 
 if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is planned
     from hriplan.planner.session import PlanningSession

@@ -17,10 +17,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hriplan.planner.evaluator import ConstraintEvaluator
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.motion import ToolGoal
-from hriplan.planner.resolve import bind
-from hriplan.planner.spec import ConeConstraint, OrientationConstraint
+from hriplan.planner.constraints.binding import bind
+from hriplan.planner.constraints.spec import ConeConstraint, OrientationConstraint
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
 from hriplan.robots.spatial import Pose

@@ -9,7 +9,7 @@ controls (play, pause, time slider, speed). viser records scenes too, but its cl
 from a process; a hand-written three.js page would re-do what meshcat's client does.
 """
 
-from .page import write_task_viewer, write_viewer
-from .plots import write_plots
+from hriplan.viewer.page import write_task_viewer, write_viewer
+from hriplan.viewer.plots import write_plots
 
 __all__ = ["write_plots", "write_task_viewer", "write_viewer"]

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from hriplan.planner.spec import (
+from hriplan.planner.constraints.spec import (
     BoxConstraint,
     ConeConstraint,
     CylinderConstraint,

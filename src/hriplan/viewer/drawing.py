@@ -20,7 +20,7 @@ from meshcat.animation import Animation, AnimationClip, AnimationTrack
 from meshcat.commands import SetAnimation, SetObject, SetProperty, SetTransform
 from meshcat.path import Path
 
-from .shapes import IndexedMesh, Part
+from hriplan.viewer.shapes import IndexedMesh, Part
 
 
 def material(color: int, opacity: float = 1.0, **properties: object) -> mg.MeshPhongMaterial:

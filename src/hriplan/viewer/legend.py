@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from html import escape
 
-from hriplan.planner.spec import OrientationConstraint
+from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.planner.trajectory import TrajectoryFile
 
-from .describe import describe, kind
-from .scene import PERSON, SLOWED, TOOL_PATH
-from .volumes import INSIDE, KEEP_OUT, LINK_AXIS, ORIENTATION, OUTSIDE, colors
+from hriplan.viewer.describe import describe, kind
+from hriplan.viewer.scene import PERSON, SLOWED, TOOL_PATH
+from hriplan.viewer.volumes import INSIDE, KEEP_OUT, LINK_AXIS, ORIENTATION, OUTSIDE, colors
 
 KEY = (
     (INSIDE[0], "allowed region (stay inside): green, teal"),

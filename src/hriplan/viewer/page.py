@@ -27,9 +27,9 @@ from hriplan import HriplanError
 from hriplan.files import write_atomically
 from hriplan.planner.trajectory import TrajectoryFile
 
-from .drawing import Drawing
-from .legend import LEGEND_CSS, legend_html
-from .scene import build_drawing
+from hriplan.viewer.drawing import Drawing
+from hriplan.viewer.legend import LEGEND_CSS, legend_html
+from hriplan.viewer.scene import build_drawing
 from hriplan.planner.replay import PlannedWorld
 
 CLIENT = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"

@@ -19,10 +19,10 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from hriplan.files import temporary_path
-from hriplan.planner.spec import OrientationConstraint
+from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.planner.trajectory import TrajectoryFile
 
-from .describe import describe, kind
+from hriplan.viewer.describe import describe, kind
 from hriplan.planner.replay import PlannedWorld
 
 DPI = 110

@@ -16,14 +16,14 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from hriplan.planner.spec import OrientationConstraint
+from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.planner.trajectory import ResolvedConstraint
 from hriplan.robots.human import display_meshes
 from hriplan.robots.scene import Mesh
 
-from .drawing import Drawing, material, rgba_color
-from .shapes import Part, beads, parts, tube
-from .volumes import colors, draw_orientation, draw_volume, link_axes
+from hriplan.viewer.drawing import Drawing, material, rgba_color
+from hriplan.viewer.shapes import Part, beads, parts, tube
+from hriplan.viewer.volumes import colors, draw_orientation, draw_volume, link_axes
 from hriplan.planner.replay import PlannedWorld
 
 MAX_FPS = 25.0

@@ -17,7 +17,7 @@ import meshcat.geometry as mg
 import numpy as np
 import pinocchio as pin
 
-from hriplan.planner.spec import (
+from hriplan.planner.constraints.spec import (
     BoxConstraint,
     ConeConstraint,
     CylinderConstraint,
@@ -26,8 +26,8 @@ from hriplan.planner.spec import (
 )
 from hriplan.planner.trajectory import ResolvedConstraint
 
-from .drawing import Drawing, material
-from .shapes import Y_TO_Z, Frustum, Part, translation
+from hriplan.viewer.drawing import Drawing, material
+from hriplan.viewer.shapes import Y_TO_Z, Frustum, Part, translation
 
 # Per region a few shades, so that overlapping volumes of one kind stay apart.
 INSIDE = (0x2CA02C, 0x17BECF, 0x9ACD32)

@@ -1,0 +1,1 @@
+"""Other tools' files read as hriplan data (Kautham problem files)."""

@@ -1,0 +1,1 @@
+"""Constraints: their specification, binding to a robot, geometry, margins with Jacobians, projection."""

@@ -1,0 +1,223 @@
+"""Plan inside tolerance bands and volumes: CBiRRT (Berenson et al. 2009), hriplan's own loop.
+
+Two trees grow from the start and the goal. Each extension steps `delta` towards a target and,
+only when the step leaves a band (a margin above -offset), projects it back by minimum-norm
+Newton steps on the dead-zone rows max(margin + offset, 0). Inside a band nothing is projected,
+so the tool may tilt within its tolerance and the link may move anywhere in its volume; states
+are never rejected for leaving a band, they are moved back into it. OMPL's ProjectedStateSpace
+does the same projection but samples and walks to far-away random states (see
+benchmarks/REPORT-planner.md); this loop takes bounded steps and stops at the first blocked one.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from hriplan.planner.search.ompl_solver import Counters, OmplResult
+
+Margins = Callable[[np.ndarray], np.ndarray]
+Gradients = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]  # x -> (margins, a gradient row each)
+NEWTON_ITERATIONS = 12
+LOCAL_SHARE, LOCAL_SPREAD = 0.8, 0.3  # rad: targets sampled near the tree
+SHORTCUT_MIN_STEPS = 300
+
+
+@dataclass
+class BandProblem:
+    """What one CBiRRT search needs: the margins with gradients, a collision check, joint bounds."""
+
+    margins: Margins
+    gradients: Gradients
+    collision_free: Callable[[np.ndarray], bool]
+    bounds: tuple[np.ndarray, np.ndarray]
+    offset: float  # project to margin <= -offset ...
+    accept: float  # ... and accept a projected state once margin <= -accept (< offset)
+    delta: float
+    constrained: bool = True  # False: no band at all, steps are never projected
+
+
+def _min_norm_step(jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The smallest dx with jac dx = rows (one or two rows, the usual cases, in closed form)."""
+    if len(rows) == 1:
+        g = jac[0]
+        return g * (float(rows[0]) / max(float(g @ g), 1e-12))
+    if len(rows) == 2:
+        a, b = jac[0], jac[1]
+        aa, ab, bb = float(a @ a) + 1e-9, float(a @ b), float(b @ b) + 1e-9
+        det = aa * bb - ab * ab
+        la = (bb * float(rows[0]) - ab * float(rows[1])) / det
+        lb = (aa * float(rows[1]) - ab * float(rows[0])) / det
+        return la * a + lb * b
+    return jac.T @ np.linalg.solve(jac @ jac.T + 1e-9 * np.eye(len(rows)), rows)
+
+
+class _Tree:
+    """Nodes in a growing array (nearest neighbour by one numpy pass) with parent links."""
+
+    def __init__(self, root: np.ndarray, capacity: int = 4096) -> None:
+        self.nodes = np.empty((capacity, len(root)))
+        self.nodes[0] = root
+        self.parents = [-1]
+
+    def __len__(self) -> int:
+        return len(self.parents)
+
+    def nearest(self, x: np.ndarray) -> int:
+        diff = self.nodes[: len(self)] - x
+        return int(np.argmin(np.einsum("ij,ij->i", diff, diff)))
+
+    def add(self, x: np.ndarray, parent: int) -> int:
+        if len(self) == len(self.nodes):
+            self.nodes = np.concatenate([self.nodes, np.empty_like(self.nodes)])
+        self.nodes[len(self)] = x
+        self.parents.append(parent)
+        return len(self) - 1
+
+    def branch(self, index: int) -> list[np.ndarray]:
+        """States from the root to node `index`."""
+        out = []
+        while index >= 0:
+            out.append(self.nodes[index].copy())
+            index = self.parents[index]
+        return out[::-1]
+
+
+class _Search:
+    def __init__(self, problem: BandProblem, counters: Counters) -> None:
+        self.p, self.counters = problem, counters
+        self.low, self.high = problem.bounds
+
+    def project(self, x: np.ndarray) -> np.ndarray | None:
+        """x moved into every band (margin <= -accept), or None if Newton does not get there."""
+        p = self.p
+        if not p.constrained:
+            return x
+        self.counters.function += 1
+        margins = p.margins(x)
+        for _ in range(NEWTON_ITERATIONS):
+            outside = margins > -p.accept
+            if not outside.any():
+                return x
+            self.counters.jacobian += 1
+            margins, grads = p.gradients(x)
+            # Rows near their boundary join the step too, so that fixing one does not push
+            # another out (no zig-zag between two bands).
+            active = margins > -p.offset
+            x = x - _min_norm_step(grads[active], margins[active] + p.offset)
+            if not (np.all(x >= self.low) and np.all(x <= self.high)):
+                return None
+            self.counters.function += 1
+            margins = p.margins(x)
+        return None
+
+    def sample(self, rng: np.random.Generator, tree: _Tree) -> np.ndarray:
+        """A random target inside the bands where Newton gets one there: extensions towards it
+        then slide along the bands instead of stopping where a band turns away. Most targets
+        (LOCAL_SHARE) are near a node of the tree, in the IK branch it explores; uniform
+        targets in the joint box mostly lie in other branches, where extensions stall."""
+        if rng.random() < LOCAL_SHARE:
+            x = np.clip(tree.nodes[rng.integers(len(tree))] + rng.normal(0.0, LOCAL_SPREAD, len(self.low)), self.low, self.high)
+        else:
+            x = rng.uniform(self.low, self.high)
+        inside = self.project(x.copy())
+        return x if inside is None else inside
+
+    def valid(self, x: np.ndarray) -> bool:
+        """Collision free (projected states are inside every band already)."""
+        self.counters.validity += 1
+        return self.p.collision_free(x)
+
+    def extend(self, tree: _Tree, index: int, target: np.ndarray, max_steps: int) -> tuple[int, bool]:
+        """Constrained extension from node `index` towards `target`: (last node, reached)."""
+        x = tree.nodes[index].copy()
+        delta = self.p.delta
+        distance = _norm(target - x)
+        for _ in range(max_steps):
+            if distance <= 1e-9:
+                return index, True
+            step = target if distance <= delta else x + (target - x) * (delta / distance)
+            moved = self.project(step)
+            if moved is None:
+                return index, False
+            new_distance = _norm(target - moved)
+            # No progress, or projection threw the state far from the step: blocked.
+            if new_distance >= distance - 1e-6 or _norm(moved - x) > 2.0 * delta:
+                return index, False
+            if not self.valid(moved):
+                return index, False
+            index = tree.add(moved, index)
+            x, distance = moved, new_distance
+            if distance <= 1e-6:
+                return index, True
+        return index, False
+
+
+def plan_in_bands(
+    problem: BandProblem, start: np.ndarray, goal: np.ndarray, time_limit: float, seed: int | None, max_steps: int = 10
+) -> OmplResult:
+    """Bidirectional constrained search; the path's consecutive states are <= ~delta apart."""
+    rng = np.random.default_rng(seed)
+    counters = Counters()
+    search = _Search(problem, counters)
+    started = time.perf_counter()
+    trees = (_Tree(np.asarray(start, dtype=float)), _Tree(np.asarray(goal, dtype=float)))
+    space = "projected" if problem.constrained else "real_vector"
+    a, b = trees
+    # Try the direct connection first: many band problems are a short slide along the band.
+    target = b.nodes[0]
+    while time.perf_counter() - started < time_limit:
+        size = len(a)
+        reached_a, _ = search.extend(a, a.nearest(target), target, max_steps)
+        target = search.sample(rng, b)
+        if len(a) == size:
+            a, b = b, a
+            continue
+        joint = a.nodes[reached_a]
+        reached_b, connected = search.extend(b, b.nearest(joint), joint, 10 * max_steps)
+        if connected:
+            path_a, path_b = a.branch(reached_a), b.branch(reached_b)
+            path = path_a + path_b[::-1][1:] if a is trees[0] else path_b + path_a[::-1][1:]
+            # Shorten with as much work as the search took (at least SHORTCUT_MIN_STEPS steps):
+            # a bounded share of the plan, counted in steps so that a seed gives one path.
+            budget = counters.validity + max(SHORTCUT_MIN_STEPS, counters.validity)
+            path = shortcut(search, path, rng, budget, deadline=started + time_limit)
+            return OmplResult(True, path, time.perf_counter() - started, space, "", counters)
+        a, b = b, a
+    return OmplResult(False, [], time.perf_counter() - started, space, "no exact solution within the time limit", counters)
+
+
+def shortcut(search: _Search, path: list[np.ndarray], rng: np.random.Generator, budget: int, deadline: float,
+             attempts: int = 60) -> list[np.ndarray]:  # fmt: skip
+    """Replace random sub-paths by constrained extensions between their ends while they shorten
+    the path (each replacement is a chain of projected, valid states like the trees' edges),
+    until `budget` collision checks have been spent.
+    A sub-path already within 2 % of the straight line between its ends is not tried: no
+    replacement can gain more, and trying costs a projected walk."""
+    for _ in range(attempts):
+        if len(path) < 3 or search.counters.validity >= budget or time.perf_counter() > deadline:
+            break
+        i, j = sorted(rng.choice(len(path), size=2, replace=False))
+        old = _length(path[i : j + 1])
+        if j - i < 2 or old <= 1.02 * float(np.linalg.norm(path[j] - path[i])) + 1e-3:
+            continue
+        tree = _Tree(path[i])
+        end, reached = search.extend(tree, 0, path[j], max_steps=int(math.ceil(old / search.p.delta)) + 2)
+        if not reached:
+            continue
+        middle = tree.branch(end)
+        if _length(middle) < old - 1e-6:
+            path = path[:i] + middle[:-1] + path[j:]
+    return path
+
+
+def _norm(v: np.ndarray) -> float:
+    return math.sqrt(float(v @ v))
+
+
+def _length(states: list[np.ndarray]) -> float:
+    return float(np.linalg.norm(np.diff(np.array(states), axis=0), axis=1).sum())

@@ -1,0 +1,1 @@
+"""The physical world: robot descriptions and models, kinematics, IK, people, scenes, collision."""

@@ -1,0 +1,147 @@
+"""Robot descriptions: MADAR and a single UR5, each its URDF and what an SRDF adds to it.
+
+The URDF is the single source of truth for kinematics and display; `hriplan robot urdf NAME`
+prints it. Numbers are from shared/reference/kautham-constraints.md. What the planner knows of
+a robot beyond its kinematics (arms, their tool frames and groups, hands, the base link) is a
+`RobotDescription`, as MoveIt keeps it in the SRDF: no code asks for a robot by name.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from hriplan import HriplanError
+
+from hriplan.robots import urdf_xml as X
+from hriplan.robots.descriptions.allegro import add_allegro
+from hriplan.robots.descriptions.ur5_arm import add_ur5
+
+MADAR_BASE = "madar_base_link"
+# Arm base mounts on the MADAR base (URDF rpy), as published for the real robot.
+ARM_MOUNTS = {
+    "right": ((0.256, 0.0, 1.389), (3.142, -0.7874, 0.0)),
+    "left": ((-0.256, 0.0, 1.389), (-3.142, 0.7874, 0.0)),
+}
+# wrist_3 -> adapter -> Allegro palm, and the adapter's collision cylinder.
+ADAPTER_OFFSET = (0.0, 0.0, 0.0225)
+ADAPTER_TO_PALM = ((0.0, 0.01, 0.1175), (0.0, 0.0, math.pi / 2))
+ADAPTER_CYLINDER = (0.035, 0.045)
+# Tool (TCP) frame in the palm frame: the centre of a power grasp, z = approach direction
+# (out of the palm), x = along the fingers, y = z x x (the axis of a grasped cylinder).
+TOOL_IN_PALM = ((0.045, 0.0, 0.035), (math.pi, -math.pi / 2, 0.0))
+# Torso / structure primitives: (name, geometry, xyz).
+TORSO = (
+    ("madar_base_cylinder", X.cylinder(0.4, 0.75), (0.0, 0.0, 0.375)),
+    ("madar_crossbar", X.box((0.5, 0.08, 0.05)), (0.0, 0.0, 1.395)),
+    ("madar_column", X.box((0.08, 0.08, 0.63)), (0.0, 0.0, 1.056)),
+    ("madar_electronics_box", X.box((0.43, 0.2, 0.33)), (0.0, -0.14, 0.916)),
+)
+WHEEL_RADIUS = 0.10
+WHEEL_CIRCLE = 0.29
+
+
+def _add_structure(robot: ET.Element) -> None:
+    base = X.link(robot, MADAR_BASE)
+    for name, geometry, xyz in TORSO:
+        for role in ("visual", "collision"):
+            X.shape(base, role, geometry, xyz, name=name)
+    for i in range(3):
+        angle = 2.0 * math.pi * i / 3.0
+        wheel = f"madar_wheel_{i + 1}"
+        el = X.link(robot, wheel)
+        for role in ("visual", "collision"):
+            X.shape(el, role, X.sphere(WHEEL_RADIUS), name=wheel)
+        X.joint(
+            robot,
+            f"motor_{i + 1}",
+            "continuous",
+            MADAR_BASE,
+            wheel,
+            xyz=(WHEEL_CIRCLE * math.cos(angle), WHEEL_CIRCLE * math.sin(angle), WHEEL_RADIUS),
+            rpy=(0.0, 0.0, angle),
+            axis=(1.0, 0.0, 0.0),
+            limit={"effort": 50.0, "velocity": 10.0},
+        )
+
+
+def _add_hand(robot: ET.Element, prefix: str, side: str) -> None:
+    adapter = f"{prefix}hand_adapter"
+    el = X.link(robot, adapter)
+    radius, length = ADAPTER_CYLINDER
+    for role in ("visual", "collision"):
+        X.shape(el, role, X.cylinder(radius, length), name=adapter)
+    X.joint(robot, f"{prefix}hand_adapter_joint", "fixed", f"{prefix}wrist_3_link", adapter, ADAPTER_OFFSET)
+    palm = add_allegro(robot, prefix, side)
+    X.joint(robot, f"{prefix}hand_mount_joint", "fixed", adapter, palm, *ADAPTER_TO_PALM)
+    X.link(robot, f"{prefix}tool")
+    X.joint(robot, f"{prefix}tool_joint", "fixed", palm, f"{prefix}tool", *TOOL_IN_PALM)
+
+
+def madar_urdf() -> str:
+    """MADAR: torso primitives, three omni wheels, two UR5 arms, an Allegro hand on each wrist."""
+    robot = ET.Element("robot", name="madar")
+    _add_structure(robot)
+    for side, (xyz, rpy) in ARM_MOUNTS.items():
+        prefix = f"{side}_"
+        add_ur5(robot, prefix)
+        X.joint(robot, f"{prefix}arm_mount_joint", "fixed", MADAR_BASE, f"{prefix}base_link", xyz, rpy)
+        _add_hand(robot, prefix, side)
+    return X.to_string(robot)
+
+
+def ur5_urdf() -> str:
+    """A single UR5 with a TCP frame `tool` on the flange (z out of the flange)."""
+    robot = ET.Element("robot", name="ur5")
+    add_ur5(robot, "")
+    X.link(robot, "tool")
+    X.joint(robot, "tool_joint", "fixed", "wrist_3_link", "tool")
+    return X.to_string(robot)
+
+
+@dataclass(frozen=True)
+class ArmDescription:
+    """One arm: the prefix of its joints (ur5_description's names), its tool frame, its planning
+    group, and whether a robot hand is on it."""
+
+    prefix: str
+    tool_frame: str
+    group: str
+    hand: bool = False
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    name: str
+    urdf: Callable[[], str]
+    base_link: str
+    arms: dict[str, ArmDescription]  # the first is the arm a step moves when nothing says which
+    whole_group: str  # every arm joint, in the model's order
+    # Other names of links, as other descriptions of the same robot spell them (same frame,
+    # checked by forward kinematics in tests/test_kautham.py).
+    link_aliases: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def hands(self) -> list[str]:
+        """The arms with a robot hand (their postures are chosen per task)."""
+        return [arm for arm, description in self.arms.items() if description.hand]
+
+
+DESCRIPTIONS = {
+    "madar": RobotDescription(
+        name="madar", urdf=madar_urdf, base_link=MADAR_BASE, whole_group="both_arms",
+        arms={side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand=True) for side in ("right", "left")},
+        # Kautham's MADAR names the adapter and the hand's base (the Allegro palm) differently.
+        link_aliases={"right_hand_adapter_link": "right_hand_adapter", "right_hand_base_link": "right_hand_palm_link"},
+    ),  # fmt: skip
+    "ur5": RobotDescription(name="ur5", urdf=ur5_urdf, base_link="base_link", whole_group="arm",
+                            arms={"arm": ArmDescription("", "tool", "arm")}),  # fmt: skip
+}
+
+
+def description_of(name: str) -> RobotDescription:
+    if name not in DESCRIPTIONS:
+        raise HriplanError(f"unknown robot {name!r}; known robots: {', '.join(DESCRIPTIONS)}")
+    return DESCRIPTIONS[name]

@@ -1,0 +1,135 @@
+"""How fast the robot approaches each person along a path, against the ISO/TS 15066 limit.
+
+For every robot part moved by the planned group (and every carried object) and every capsule of
+a person: the separation between them and the speed of the part's closest point towards the
+person's closest point (the robot speed v_r of ISO/TS 15066), per unit of the joint velocity
+given (its whole speed near a contact region, see separation.py). The allowed speed comes from
+`separation.allowed_speed`; the ratio of the two bounds the
+path speed. A moved part inside a person's minimum separation (allowed speed 0) is an error:
+the robot would have to stand still there.
+
+All points of one call are measured in one batch (robots/person_distance.py): timing asks for
+the whole path at once, and one coal query per point and pair was most of a re-plan's time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hriplan import HriplanError
+from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.model import Robot
+from hriplan.safety.person_distance import PersonDistances
+
+from hriplan.safety.separation import PersonSeparation, SeparationPolicy, allowed_speeds, minimum_separation
+
+# Below this separation (m) the direction to the person is undefined: the part's whole speed counts.
+_TOUCHING = 1e-6
+
+
+@dataclass(frozen=True)
+class PersonSample:
+    """One person at one configuration: the binding part-capsule pair and its numbers."""
+
+    separation: float  # the closest moved part to the person (m)
+    body_separation: float  # the same, outside the person's contact regions (what S_0 applies to)
+    allowed: float  # allowed speed towards the person of the binding pair (m/s)
+    approach: float  # speed of the binding pair towards the person for the given joint velocity (m/s)
+    scale: float  # largest factor on the joint velocity keeping every pair within its limit (inf: none)
+    part: str
+    capsule: str
+
+
+class ApproachMonitor:
+    """A robot group's approach to the people of a policy, at configurations of that group.
+
+    Serves one scene: samples are memoised by state (the report re-reads the timing's final
+    check), while the pair geometry is rebuilt whenever the checker rebuilds a person's model."""
+
+    def __init__(self, robot: Robot, checker: CollisionChecker, policy: SeparationPolicy, group: str, base: np.ndarray) -> None:
+        self.robot, self.checker, self.policy, self.group = robot, checker, policy, group
+        self.base = np.asarray(base, dtype=float)
+        missing = [name for name in checker.humans if policy.person(name) is None]
+        if missing:
+            raise HriplanError(f"the separation policy has no parameters for {', '.join(missing)}")
+        self.people: list[PersonSeparation] = [p for p in policy.people if p.name in checker.humans]
+        model = robot.model
+        self._iq = robot.group_indices(group)
+        self._iv = np.array([model.joints[model.getJointId(j)].idx_v for j in robot.group_joints(group)])
+        self._moved = robot.moved_joints(group)
+        self._memo: dict[bytes, list[PersonSample]] = {}
+        self._distances: dict[str, tuple[PersonDistances, np.ndarray]] = {}
+
+    def full(self, x: np.ndarray) -> np.ndarray:
+        q = self.base.copy()
+        q[self._iq] = x
+        return q
+
+    def samples(self, x: np.ndarray, dx: np.ndarray) -> list[PersonSample]:
+        """Per person (policy order), at group values `x` moving with group velocity `dx`."""
+        return self._rows(np.asarray(x, dtype=float)[None], np.asarray(dx, dtype=float)[None])[0]
+
+    def speed_scale(self, xs: np.ndarray, dxs: np.ndarray) -> np.ndarray:
+        """Per row: the largest factor on `dxs` that keeps every person's limit (inf: unbounded)."""
+        rows = self._rows(np.asarray(xs, dtype=float), np.asarray(dxs, dtype=float))
+        return np.array([min((s.scale for s in row), default=np.inf) for row in rows])
+
+    def _rows(self, xs: np.ndarray, dxs: np.ndarray) -> list[list[PersonSample]]:
+        """`samples` of every row, the ones not memoised computed in one batch; a moved part inside
+        S_0 raises at the first such row (first person there), as row-by-row evaluation would."""
+        keys = [np.concatenate([x, dx]).tobytes() for x, dx in zip(xs, dxs)]
+        first: dict[bytes, int] = {}
+        for i, key in enumerate(keys):
+            first.setdefault(key, i)
+        new = [i for key, i in first.items() if key not in self._memo]
+        if new:
+            qs = np.array([self.full(x) for x in xs[new]])
+            dqs = np.zeros((len(new), self.robot.model.nv))
+            dqs[:, self._iv] = dxs[new]
+            per_person = [self._person(person, qs, dqs) for person in self.people]
+            stops = [stop for _, stop in per_person if stop is not None]
+            if stops:
+                raise HriplanError(min(stops, key=lambda stop: stop[0])[1])
+            self._memo.update({keys[i]: [samples[n] for samples, _ in per_person] for n, i in enumerate(new)})
+        return [self._memo[k] for k in keys]
+
+    def _pairs(self, person: PersonSeparation) -> tuple[PersonDistances, np.ndarray]:
+        """The person's pair geometry and which rows meet a contact region (once per person model)."""
+        model = self.checker.person_model(person.name)
+        cached = self._distances.get(person.name)
+        if cached is None or cached[0].person_model is not model:
+            distances = PersonDistances(self.robot.model, model, self._moved)
+            cached = distances, np.array([person.contact_region(c) is not None for c in distances.capsules], dtype=bool)
+            self._distances[person.name] = cached
+        return cached
+
+    def _person(self, person: PersonSeparation, qs: np.ndarray, dqs: np.ndarray) -> tuple[list[PersonSample], tuple[int, str] | None]:
+        """One person's sample at each state, or the first state with a moved part inside S_0 and why."""
+        distances, contact = self._pairs(person)
+        pairs = distances.at(qs, dqs)
+        if not pairs.parts:
+            return [PersonSample(np.inf, np.inf, np.inf, 0.0, np.inf, "", "") for _ in qs], None
+        distance, v = pairs.distance, pairs.robot_velocity
+        whole = contact | (distance <= _TOUCHING)
+        towards = np.einsum("nkj,nkj->nk", v, pairs.person_point - pairs.robot_point) / np.maximum(distance, _TOUCHING)
+        approach = np.where(whole, np.linalg.norm(v, axis=2), towards)
+        allowed = allowed_speeds(self.policy.robot, person, distance, pairs.capsules)
+        stopped = allowed <= 0.0
+        if stopped.any():
+            n = int(np.flatnonzero(stopped.any(axis=1))[0])
+            k = int(np.flatnonzero(stopped[n])[np.argmin(distance[n, stopped[n]])])
+            return [], (n, f"{pairs.parts[k]} passes {distance[n, k]:.3f} m from {person.name}/{pairs.capsules[k]}, inside the "
+                           f"minimum protective separation {minimum_separation(self.policy.robot, person):.3f} m of ISO/TS 15066 "
+                           f"(the robot would have to stand still there)")  # fmt: skip
+        binding = np.argmin(allowed - approach, axis=1)
+        closing = approach > 0.0
+        scale = np.min(np.where(closing, allowed / np.where(closing, approach, 1.0), np.inf), axis=1)
+        body = np.min(np.where(contact, np.inf, distance), axis=1)
+        at = np.arange(len(qs))
+        samples = [PersonSample(float(d), float(b), float(a), float(r), float(s), pairs.parts[k], pairs.capsules[k])
+                   for d, b, a, r, s, k in zip(distance.min(axis=1), body, allowed[at, binding], approach[at, binding],
+                                               scale, binding)]  # fmt: skip
+        return samples, None
+

@@ -1,5 +1,0 @@
-"""Import Kautham problem files (the seed framework's XML) as hriplan planning problems."""
-
-from .problem import import_kautham
-
-__all__ = ["import_kautham"]

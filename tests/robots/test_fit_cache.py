@@ -1,0 +1,87 @@
+"""Fitted shapes kept on disk (robots/fit_cache.py): the same shapes, fitted once per machine."""
+
+import json
+from pathlib import Path
+
+import subprocess
+import sys
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from hriplan.robots import human
+from hriplan.robots.fit_cache import cached_fit, shape, shape_data
+from hriplan.robots.model import load_robot
+from hriplan.robots.robot_geometry import _fitted_parts, _parts
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    return tmp_path / "hriplan"
+
+
+def test_a_fit_is_computed_once_then_read_and_a_broken_file_is_fitted_again(cache):
+    calls = []
+
+    def fit():
+        calls.append(1)
+        return {"value": [1.5, 2.25]}
+
+    assert cached_fit("thing", ("rules", 1), fit) == {"value": [1.5, 2.25]}
+    assert cached_fit("thing", ("rules", 1), fit) == {"value": [1.5, 2.25]} and len(calls) == 1
+    assert cached_fit("thing", ("rules", 2), fit) and len(calls) == 2  # another key: fitted
+    files = sorted(cache.glob("thing-*.json"))
+    assert len(files) == 2
+    for broken in files:
+        broken.write_text("{not json")
+    assert cached_fit("thing", ("rules", 1), fit) == {"value": [1.5, 2.25]} and len(calls) == 3
+
+
+def test_the_robot_parts_read_back_are_the_parts_fitted(cache):
+    robot = load_robot("madar", {"right": "power"})
+    fitted, first, again = _fitted_parts(robot, 0.0), _parts(robot, 0.0), _parts(robot, 0.0)
+    assert len(list(cache.glob("parts-madar-*.json"))) == 1
+    for a, b, c in zip(fitted, first, again, strict=True):
+        assert (a.name, a.link, a.joint) == (b.name, b.link, b.joint) == (c.name, c.link, c.joint)
+        assert shape_data(a.geometry) == shape_data(b.geometry) == shape_data(c.geometry)
+        assert np.array_equal(a.placement.homogeneous, c.placement.homogeneous)
+    kinds = {type(p.geometry) for p in again}
+    assert {coal.Capsule, coal.Box, coal.Cylinder, coal.Sphere} <= kinds
+
+
+def test_the_person_read_back_is_the_person_fitted(cache):
+    data = human._fitted(None)
+    model, capsules, frames = human._loaded.__wrapped__(None)  # through the cache file
+    assert len(list(cache.glob("human-*.json"))) == 1
+    assert [c["name"] for c in data["capsules"]] == [c.name for c in capsules]
+    assert [c["radius"] for c in data["capsules"]] == [c.radius for c in capsules]
+    fresh = pin.Model()
+    fresh.loadFromString(data["model"])
+    assert model == fresh and model.names[1] == "root_joint"  # the scaled body, free flyer first
+    assert frames["right_hand"][0] == data["frames"]["right_hand"][0]
+    assert np.array_equal(frames["head"][1].homogeneous, np.array(data["frames"]["head"][1]))
+
+
+@pytest.mark.parametrize("geometry", [coal.Capsule(0.05, 0.3), coal.Cylinder(0.4, 0.75), coal.Box(0.5, 0.08, 0.05), coal.Sphere(0.1)])
+def test_each_kept_shape_comes_back_the_same(geometry):
+    back = shape(json.loads(json.dumps(shape_data(geometry))))
+    assert type(back) is type(geometry) and shape_data(back) == shape_data(geometry)
+
+
+def test_deriving_constraints_loads_no_visual_mesh():
+    # The visual meshes take about a second to load; only the viewer and a first fit need them.
+    # In a fresh process: robots are shared within one.
+    code = (
+        "from pathlib import Path\n"
+        "from hriplan.tasks.load import load_task\n"
+        "from hriplan.tasks.pipeline import TaskRunner\n"
+        "runner = TaskRunner(load_task(Path('examples/handover_full_can.yaml')))\n"
+        "assert runner.run(plan=False).steps\n"
+        "print(sorted({'visual', 'full_visual'} & set(vars(runner._robot()))))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=Path(__file__).parents[2], timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"

@@ -1,0 +1,253 @@
+"""The batched approach monitor gives the per-point numbers, and its capsule geometry is coal's.
+
+References that do not share the code under test: coal.distance per capsule pair; for the
+monitor, the per-point computation it replaced (kept here): coal's closest points through
+`CollisionChecker.person_pairs`, point velocities from pinocchio's joint Jacobians. coal's GJK
+(palm, adapter, can) converges to 1e-6 from a guess that depends on what its model computed
+before; both sides walk the same points in the same order from fresh models, so they agree to
+rounding and the tolerances can stay tight.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from hriplan import HriplanError
+from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.separation import SeparationPolicy, allowed_speed, minimum_separation
+from hriplan.planner.session import PlanningSession
+from hriplan.planner.validate import densify
+from hriplan.safety.capsule_distance import capsule_distances
+from hriplan.robots.human import HumanSpec
+from hriplan.robots.descriptions.postures import posture
+from hriplan.robots.scene import Scene
+from hriplan.safety.policy import default_policy
+from hriplan.tasks.load import load_task
+from hriplan.tasks.pipeline import TaskRunner
+
+EXAMPLES = Path(__file__).parents[2] / "examples"
+FIELDS = ("separation", "body_separation", "allowed", "approach", "scale")
+
+
+# -- capsule pairs against coal ----------------------------------------------------------------
+def _frame(axis: np.ndarray) -> np.ndarray:
+    """A rotation whose z column is `axis` (coal's capsule axis)."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(axis, helper)
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(axis, x), axis])
+
+
+def _random_capsules(n: int) -> dict[str, np.ndarray]:
+    """Random pairs, a quarter of each kind: general, parallel (same or opposite axis), one of
+    them a sphere (first or second), both spheres; many overlap. Plus pairs whose axes cross exactly."""
+    rng = np.random.default_rng(7)
+    unit = lambda v: v / np.linalg.norm(v, axis=-1, keepdims=True)  # noqa: E731
+    c1, c2 = rng.uniform(-0.5, 0.5, (n, 3)), rng.uniform(-0.5, 0.5, (n, 3))
+    a1, a2 = unit(rng.normal(size=(n, 3))), unit(rng.normal(size=(n, 3)))
+    h1, h2 = rng.uniform(0.0, 0.3, n), rng.uniform(0.0, 0.3, n)
+    r1, r2 = rng.uniform(0.01, 0.15, n), rng.uniform(0.01, 0.15, n)
+    kind = np.arange(n) % 4
+    a2[kind == 1] = a1[kind == 1] * np.where(np.arange(n)[kind == 1] % 8 == 1, 1.0, -1.0)[:, None]
+    h1[(kind == 2) & (np.arange(n) % 8 == 2)] = 0.0  # the first a sphere, or
+    h2[(kind == 2) & (np.arange(n) % 8 == 6)] = 0.0  # the second
+    h1[kind == 3], h2[kind == 3] = 0.0, 0.0
+    crossing = np.arange(n) % 50 == 0  # axes meeting at the midpoint of the second
+    c1[crossing] = c2[crossing] + (rng.uniform(-0.1, 0.1, crossing.sum()))[:, None] * a1[crossing]
+    h1[crossing] = 0.2
+    return {"c1": c1, "a1": a1, "h1": h1, "r1": r1, "c2": c2, "a2": a2, "h2": h2, "r2": r2, "kind": kind, "crossing": crossing}
+
+
+def _segment_distance(point: np.ndarray, centre: np.ndarray, axis: np.ndarray, half: float) -> float:
+    t = np.clip(np.dot(point - centre, axis), -half, half)
+    return float(np.linalg.norm(point - (centre + t * axis)))
+
+
+def test_capsule_distances_equal_coal_on_random_pairs_in_one_batch():
+    pairs = _random_capsules(2000)
+    d, p1, p2 = capsule_distances(*(pairs[k] for k in ("c1", "a1", "h1", "r1", "c2", "a2", "h2", "r2")))
+    request, overlapping = coal.DistanceRequest(), 0
+    for i in range(len(d)):
+        result = coal.DistanceResult()
+        coal.distance(coal.Capsule(pairs["r1"][i], 2 * pairs["h1"][i]), coal.Transform3s(_frame(pairs["a1"][i]), pairs["c1"][i]),
+                      coal.Capsule(pairs["r2"][i], 2 * pairs["h2"][i]), coal.Transform3s(_frame(pairs["a2"][i]), pairs["c2"][i]),
+                      request, result)  # fmt: skip
+        assert d[i] == pytest.approx(result.min_distance, abs=1e-6), i
+        overlapping += d[i] < 0.0
+        # Witness points: on each capsule's surface and |d| apart (parallel axes have many such pairs).
+        assert _segment_distance(p1[i], pairs["c1"][i], pairs["a1"][i], pairs["h1"][i]) == pytest.approx(pairs["r1"][i], abs=1e-9)
+        assert _segment_distance(p2[i], pairs["c2"][i], pairs["a2"][i], pairs["h2"][i]) == pytest.approx(pairs["r2"][i], abs=1e-9)
+        assert np.linalg.norm(p2[i] - p1[i]) == pytest.approx(abs(d[i]), abs=1e-9)
+        if pairs["kind"][i] != 1 and not pairs["crossing"][i]:  # unique closest points: coal's
+            np.testing.assert_allclose(p1[i], result.getNearestPoint1(), atol=1e-6)
+            np.testing.assert_allclose(p2[i], result.getNearestPoint2(), atol=1e-6)
+    assert overlapping > 100 and pairs["crossing"].sum() == 40
+    np.testing.assert_allclose(d[pairs["crossing"]], -(pairs["r1"] + pairs["r2"])[pairs["crossing"]], atol=1e-12)
+
+
+def test_capsule_distances_broadcast_one_capsule_against_many():
+    pairs = _random_capsules(40)
+    one = capsule_distances(pairs["c1"][:1], pairs["a1"][:1], pairs["h1"][0], pairs["r1"][0],
+                            pairs["c2"], pairs["a2"], pairs["h2"], pairs["r2"])  # fmt: skip
+    for i in range(40):
+        single = capsule_distances(pairs["c1"][0], pairs["a1"][0], pairs["h1"][0], pairs["r1"][0],
+                                   pairs["c2"][i], pairs["a2"][i], pairs["h2"][i], pairs["r2"][i])  # fmt: skip
+        for batch, alone in zip(one, single):
+            np.testing.assert_allclose(batch[i], alone, atol=1e-15)
+
+
+# -- the monitor against the per-point computation it replaced ---------------------------------
+def _reference(session: PlanningSession, policy: SeparationPolicy, group: str, q0: np.ndarray, x: np.ndarray,
+               dx: np.ndarray) -> list[tuple] | str:  # fmt: skip
+    """Per person (separation, body separation, allowed, approach, scale, part, capsule) at one
+    point, or the S_0 error message: coal closest points, Jacobian velocities."""
+    robot, checker = session.robot, session.checker
+    model, model_data = robot.model, robot.model.createData()
+    names = robot.group_joints(group)
+    q = q0.copy()
+    q[robot.group_indices(group)] = x
+    velocity = np.zeros(model.nv)
+    velocity[[model.joints[model.getJointId(j)].idx_v for j in names]] = dx
+    pin.computeJointJacobians(model, model_data, q)
+    moved = robot.moved_joints(group)  # which parts move is not what is compared here
+    rows = []
+    for person in (p for p in policy.people if p.name in checker.humans):
+        pairs = checker.person_pairs(q, person.name)
+        picked = [k for k, j in enumerate(pairs.joints) if j in moved]
+        if not picked:
+            rows.append((math.inf, math.inf, math.inf, 0.0, math.inf, "", ""))
+            continue
+        values = []
+        for k in picked:
+            joint, d = int(pairs.joints[k]), float(pairs.distance[k])
+            twist = pin.getJointJacobian(model, model_data, joint, pin.LOCAL_WORLD_ALIGNED) @ velocity
+            v = twist[:3] + np.cross(twist[3:], pairs.robot_point[k] - model_data.oMi[joint].translation)
+            contact = person.contact_region(pairs.capsules[k]) is not None
+            if contact or d <= 1e-6:
+                approach = float(np.linalg.norm(v))
+            else:
+                approach = float(v @ (pairs.person_point[k] - pairs.robot_point[k]) / d)
+            values.append((d, approach, allowed_speed(policy.robot, person, d, pairs.capsules[k]), contact, k))
+        stopped = [row for row in values if row[2] <= 0.0]
+        if stopped:
+            d, _, _, _, k = min(stopped, key=lambda row: row[0])
+            return (f"{pairs.parts[k]} passes {d:.3f} m from {person.name}/{pairs.capsules[k]}, inside the minimum "
+                    f"protective separation {minimum_separation(policy.robot, person):.3f} m of ISO/TS 15066 "
+                    f"(the robot would have to stand still there)")  # fmt: skip
+        binding = min(values, key=lambda row: row[2] - row[1])
+        scale = min((row[2] / row[1] for row in values if row[1] > 0.0), default=math.inf)
+        body = min((row[0] for row in values if not row[3]), default=math.inf)
+        rows.append((min(row[0] for row in values), body, binding[2], binding[1], scale, pairs.parts[binding[4]],
+                     pairs.capsules[binding[4]]))  # fmt: skip
+    return rows
+
+
+def _assert_same(monitor: ApproachMonitor, reference: list[tuple], x: np.ndarray, dx: np.ndarray) -> None:
+    got = monitor.samples(x, dx)
+    assert len(got) == len(reference)
+    for sample, expected in zip(got, reference):
+        for field, value in zip(FIELDS, expected):
+            assert getattr(sample, field) == pytest.approx(value, rel=1e-9, abs=1e-12), field
+        assert (sample.part, sample.capsule) == expected[5:]
+
+
+@pytest.fixture(scope="module")
+def handover():
+    """The re-plan benchmark's handover: the right arm carries the can (a cylinder) to the receiver."""
+    outcome = TaskRunner(load_task(EXAMPLES / "handover_full_can_receiver.yaml"), EXAMPLES).run()
+    step = next(s for s in outcome.steps if s.trajectory is not None and s.trajectory.scene.attached)
+    traj = step.trajectory
+    session = PlanningSession(traj.robot, traj.scene, hands=traj.hands)
+    group = next(g for g in session.robot.groups if session.robot.group_joints(g) == traj.joint_names)
+    q0 = session.robot.configuration(traj.start)
+    xs = np.array(densify([np.array(p.positions) for p in traj.points], 0.05))
+    dxs = np.gradient(xs, axis=0) * 4.0  # a joint velocity per point, not all zero, varying in direction
+    return session, step.derivation.separation, group, q0, xs, dxs
+
+
+def test_the_batched_monitor_gives_the_per_point_numbers_on_the_handover(handover):
+    session, policy, group, q0, xs, dxs = handover
+    monitor = ApproachMonitor(session.robot, session.checker, policy, group, q0)
+    scales = monitor.speed_scale(xs, dxs)
+    references = [_reference(session, policy, group, q0, x, dx) for x, dx in zip(xs, dxs)]
+    assert len(xs) > 50 and np.isfinite(scales).sum() > 10  # the receiver limits part of the path
+    np.testing.assert_allclose(scales, [min(r[4] for r in ref) for ref in references], rtol=1e-9)
+    for x, dx, reference in zip(xs, dxs, references):
+        _assert_same(monitor, reference, x, dx)
+    # The batch reached every kind of pair: the can and the palm (coal), capsules, a contact region.
+    bound = {(s.part, s.capsule) for x, dx in zip(xs, dxs) for s in monitor.samples(x, dx)}
+    assert len(bound) > 1
+    # The separation report re-reads the timing's samples: the same objects, not a recomputation.
+    assert monitor.samples(xs[3], dxs[3]) is monitor.samples(xs[3].copy(), dxs[3].copy())
+
+
+def _right_arm_sweep(session: PlanningSession) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """From the ready posture, the right arm sweeps out past the people (30 points, one velocity)."""
+    q0 = session.robot.configuration(posture("madar", "ready"))
+    x0 = session.robot.group_values(q0, "right_arm")
+    xs = np.linspace(x0, x0 + np.array([0.8, -0.4, 0.4, 0.3, -0.2, 0.5]), 30)
+    return q0, xs, np.tile([0.3, -0.2, 0.4, 0.5, -0.3, 0.2], (30, 1))
+
+
+def test_the_batched_monitor_follows_every_person_and_their_moves():
+    people = [HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi), HumanSpec(name="ann", position=(0.9, 1.5), yaw=-1.6,
+              reach={"left": (0.95, 1.1, 1.1)})]  # fmt: skip
+    session = PlanningSession("madar", Scene(humans=people), hands={"right": "open"})
+    policy = default_policy("madar", people, {"sam": "Supervisor", "ann": "Giver"})
+    q0, xs, dxs = _right_arm_sweep(session)
+    monitor = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
+    monitor.speed_scale(xs, dxs)
+    for x, dx in zip(xs, dxs):
+        _assert_same(monitor, _reference(session, policy, "right_arm", q0, x, dx), x, dx)
+    # A new scene (the checker rebuilds the person models) is measured afresh by a new monitor's batch.
+    session.set_scene(Scene(humans=[people[0].model_copy(update={"position": (1.6, 0.4)}), people[1]]))
+    moved = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
+    for x, dx in zip(xs[::7], dxs[::7]):
+        _assert_same(moved, _reference(session, policy, "right_arm", q0, x, dx), x, dx)
+
+
+def test_a_part_inside_the_minimum_separation_raises_the_per_point_message(handover):
+    session, policy, group, q0, xs, dxs = handover
+    robot = policy.robot.model_copy(update={"position_uncertainty": 0.4})  # S_0 grows by 0.38 m
+    strict = policy.model_copy(update={"robot": robot})
+    references = [_reference(session, strict, group, q0, x, dx) for x, dx in zip(xs, dxs)]
+    stops = [r for r in references if isinstance(r, str)]
+    assert 0 < len(stops) < len(references) and not isinstance(references[0], str)  # the first stop is found, not the first row
+    monitor = ApproachMonitor(session.robot, session.checker, strict, group, q0)
+    with pytest.raises(HriplanError) as raised:
+        monitor.speed_scale(xs, dxs)
+    assert str(raised.value) == stops[0]
+
+
+def test_the_first_point_inside_s0_is_reported_whichever_person_it_is():
+    """Policy order sam, ben; the path reaches ben's S_0 (point 8) before sam's (point 13)."""
+    people = [HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi), HumanSpec(name="ben", position=(0.3, 1.5), yaw=-math.pi / 2)]
+    session = PlanningSession("madar", Scene(humans=people), hands={"right": "open"})
+    policy = default_policy("madar", people, {"sam": "Supervisor", "ben": "Bystander"})
+    strict = policy.model_copy(update={"robot": policy.robot.model_copy(update={"position_uncertainty": 0.2})})
+    q0, xs, dxs = _right_arm_sweep(session)
+    references = [_reference(session, strict, "right_arm", q0, x, dx) for x, dx in zip(xs, dxs)]
+    first = next(r for r in references if isinstance(r, str))
+    assert "from ben/" in first and "from sam/" in references[-1]
+    with pytest.raises(HriplanError) as raised:
+        ApproachMonitor(session.robot, session.checker, strict, "right_arm", q0).speed_scale(xs, dxs)
+    assert str(raised.value) == first
+
+
+def test_the_monitor_does_not_query_every_pair_through_coal_point_by_point(handover, monkeypatch):
+    """The speed guard: capsule pairs (most of them) are batched; `person_pairs` (all ~500 pairs
+    through coal, read from Python: the former route) is not used."""
+    session, policy, group, q0, xs, dxs = handover
+
+    def refused(*_):  # noqa: ANN202
+        raise AssertionError("person_pairs called by the monitor")
+
+    monkeypatch.setattr(session.checker, "person_pairs", refused)
+    scales = ApproachMonitor(session.robot, session.checker, policy, group, q0).speed_scale(xs, dxs)
+    assert np.isfinite(scales).any()

@@ -1,0 +1,186 @@
+"""Sweep variants, result rows and files, and the command line (no worker processes here)."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
+import pyarrow.parquet as pq
+import pytest
+from typer.testing import CliRunner
+
+from hriplan import HriplanError
+from hriplan.cli.main import app
+from hriplan.sweeps.results import ResultStore, read_results
+from hriplan.sweeps.variants import batch, expand, parse_vary
+from hriplan.sweeps.worker import _SESSIONS, run_variant, separation_columns
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+TAKE = EXAMPLES / "handover_full_can.yaml"
+GIVE = EXAMPLES / "handover_full_can_receiver.yaml"
+
+
+def test_ranges_are_inclusive_and_integer_ranges_stay_integers():
+    assert parse_vary("objects.x.fill_level=0.5:1.5:0.25").grid() == [0.5, 0.75, 1.0, 1.25, 1.5]
+    seeds = parse_vary("planning.seed=1:7:3").grid()
+    assert seeds == [1, 4, 7] and all(isinstance(s, int) for s in seeds)
+
+
+def test_lists_json_and_grids():
+    assert parse_vary("humans.bob.role=Receiver,Bystander").grid() == ["Receiver", "Bystander"]
+    assert parse_vary("humans.bob.position=[[0, 1.4], [0.2, 1.5]]").grid() == [[0, 1.4], [0.2, 1.5]]
+    grid = parse_vary("humans.bob.position=[0.4:0.8:0.2, 1.0:2.0:1.0]").grid()
+    assert grid == [[0.4, 1.0], [0.4, 2.0], [0.6, 1.0], [0.6, 2.0], [0.8, 1.0], [0.8, 2.0]]
+    assert parse_vary("humans.bob.position=[0.1|0.3, 1.5]").grid() == [[0.1, 1.5], [0.3, 1.5]]
+
+
+@pytest.mark.parametrize("text", ["planning.seed", "=1,2", "planning.seed=3:1:1", "planning.seed=1:2:0", "humans.b.position=[1:2:1"])
+def test_malformed_vary_is_an_error(text):
+    with pytest.raises(HriplanError):
+        parse_vary(text)
+
+
+def test_cross_product_sets_the_named_fields_of_validated_tasks():
+    variants = expand(GIVE, [parse_vary("humans.bob.position=[0.0:0.1:0.1, 1.45]"), parse_vary("objects.can.fill_level=Full,Empty")])
+    assert len(variants) == 4 and len({v.key for v in variants}) == 4
+    got = {(v.task.humans[0].position, v.task.objects[0].fill_level) for v in variants}
+    assert got == {((0.0, 1.45), "Full"), ((0.0, 1.45), "Empty"), ((0.1, 1.45), "Full"), ((0.1, 1.45), "Empty")}
+    # everything not varied is the base task's; keys are stable from one expansion to the next
+    assert all(v.task.planning.seed == 1 and v.task.scene.tables[0].top == 0.72 for v in variants)
+    again = expand(GIVE, [parse_vary("humans.bob.position=[0.0:0.1:0.1, 1.45]"), parse_vary("objects.can.fill_level=Full,Empty")])
+    assert [v.key for v in again] == [v.key for v in variants]
+
+
+def test_one_component_of_a_vector_by_index():
+    variants = expand(GIVE, [parse_vary("humans.bob.position.1=1.4,1.5")])
+    assert [v.task.humans[0].position for v in variants] == [(0.0, 1.4), (0.0, 1.5)]
+
+
+def test_random_draws_are_reproducible_and_inside_the_ranges():
+    dims = [parse_vary("humans.bob.position=[-0.3:0.3:0.1, 1.3:1.6:0.1]"), parse_vary("planning.seed=1:1000:1")]
+    first, second = expand(GIVE, dims, samples=12, seed=5), expand(GIVE, dims, samples=12, seed=5)
+    assert [v.key for v in first] == [v.key for v in second] and len(first) == 12
+    for v in first:
+        x, y = v.task.humans[0].position
+        assert -0.3 <= x <= 0.3 and 1.3 <= y <= 1.6 and 1 <= v.task.planning.seed <= 1000
+    assert [v.key for v in expand(GIVE, dims, samples=12, seed=6)] != [v.key for v in first]
+
+
+@pytest.mark.parametrize(("vary", "message"), [
+    ("humans.zed.position=1", "no item 'zed' in the list (names: bob)"),
+    ("humans.bob.positon=1", "no field 'positon'"),
+    ("objects.can.fill_level=Brimming", "variant objects.can.fill_level=\"Brimming\": objects.0.fill_level"),
+    ("humans.bob.role=Nobody", "variant humans.bob.role=\"Nobody\": humans.0.role"),
+])  # fmt: skip
+def test_bad_paths_and_values_name_the_problem(vary, message):
+    with pytest.raises(HriplanError, match=None) as info:
+        expand(GIVE, [parse_vary(vary)])
+    assert message in str(info.value) and "\n" not in str(info.value)
+
+
+def test_cli_bad_vary_is_one_line_and_exit_2(tmp_path):
+    result = CliRunner().invoke(app, ["sweep", str(GIVE), "--vary", "humans.zed.position=1", "-o", str(tmp_path / "s")])
+    assert result.exit_code == 2
+    assert result.output.strip().count("\n") == 0 and result.output.startswith("error: --vary humans.zed.position")
+    assert CliRunner().invoke(app, ["sweep", str(GIVE), "-o", str(tmp_path / "s")]).exit_code == 2
+    assert CliRunner().invoke(app, ["sweep", "--report", str(tmp_path / "nothing")]).exit_code == 2
+    assert CliRunner().invoke(app, ["batch", str(tmp_path / "missing.yaml"), "-o", str(tmp_path / "b")]).exit_code == 2
+
+
+def test_store_parts_compact_dedupe_and_resume_keys(tmp_path):
+    store = ResultStore(tmp_path, flush_rows=2)
+    store.add([{"key": "a", "step_index": 0, "status": "solved", "vary.role": "Giver"}])
+    assert not list((tmp_path / "parts").glob("*.parquet"))  # buffered
+    store.add([{"key": "b", "step_index": 0, "status": "error", "vary.role": 3.5}])  # mixed types: text
+    assert len(list((tmp_path / "parts").glob("part-*.parquet"))) == 1
+    assert store.finished_keys() == {"a", "b"}
+    store.add([{"key": "a", "step_index": 0, "status": "failed"}])  # a repeat: the latest wins
+    path = store.compact(csv=True)
+    assert path == tmp_path / "results.csv" and path.read_text().count("\n") == 3
+    assert not list((tmp_path / "parts").glob("*")) and not list(tmp_path.glob(".*.tmp"))
+    table = pq.read_table(tmp_path / "results.parquet")
+    assert sorted(zip(table["key"].to_pylist(), table["status"].to_pylist())) == [("a", "failed"), ("b", "error")]
+    assert sorted(ResultStore(tmp_path).finished_keys()) == ["a", "b"]
+    assert len(read_results(tmp_path)) == 2
+
+
+def test_separation_per_person_from_traces_or_the_closest_pair():
+    old = SimpleNamespace(min_human_distance=0.21, closest_pair=("right_hand_finger_1", "bob/right_hand"))
+    assert separation_columns(old, ["ann", "bob"]) == {"min_separation.ann": None, "min_separation.bob": 0.21, "ssm_worst_margin": None}
+    traces = [SimpleNamespace(person="ann", min_separation=0.8, worst_margin=0.3), SimpleNamespace(person="bob", min_separation=0.2, worst_margin=-0.1)]
+    new = SimpleNamespace(min_human_distance=0.2, closest_pair=("x", "bob/torso"), separation=traces)
+    assert separation_columns(new, ["ann", "bob"]) == {"min_separation.ann": 0.8, "min_separation.bob": 0.2, "ssm_worst_margin": -0.1}
+
+
+def test_a_planned_row_reproduces_a_direct_plan_of_its_task():
+    """The row holds the variant's task: planning it directly gives the row's numbers."""
+    from hriplan.tasks.model import TaskFile
+    from hriplan.tasks.pipeline import TaskRunner
+
+    variant = expand(GIVE, [parse_vary("planning.seed=3")])[0]
+    (row,) = run_variant(variant)
+    assert row["status"] == "solved" and row["step"] == "hand_over"
+    direct = TaskRunner(TaskFile.model_validate_json(row["task"])).run(plan=True).steps[0]
+    report = direct.trajectory.report
+    assert row["path_length"] == pytest.approx(report.path_length, rel=1e-9)
+    assert row["duration"] == pytest.approx(report.duration, rel=1e-9)
+    assert row["min_separation.bob"] == pytest.approx(report.min_human_distance) and report.min_human_distance > 0
+    assert row["constraint_kinds"].split(",") == sorted({c.kind for c in direct.derivation.constraints} | {v.kind for v in direct.derivation.velocity})
+    # independent of the planner's report: the joint-space length of the trajectory's points
+    points = [p.positions for p in direct.trajectory.points]
+    length = sum(sum((a - b) ** 2 for a, b in zip(p, q)) ** 0.5 for p, q in zip(points, points[1:]))
+    assert row["path_length"] == pytest.approx(length, rel=0.05)
+    # a second variant on the same robot and hands reuses this worker's session
+    sessions = dict(_SESSIONS)
+    run_variant(expand(GIVE, [parse_vary("planning.seed=4")])[0])
+    assert _SESSIONS == sessions and len(sessions) == 1
+
+
+def test_batch_keys_files_and_a_failed_derivation_is_an_error_row(tmp_path):
+    variants = batch([GIVE, TAKE, GIVE])
+    assert len(variants) == 2 and variants[0].source == str(GIVE)
+    far = expand(TAKE, [parse_vary("humans.alice.position=[[1.5, 3.0]]")])[0]
+    (row,) = run_variant(far, plan=False)
+    assert row["status"] == "error" and "cannot reach" in row["reason"] and row["step_index"] == -1
+    assert json.loads(row["task"])["humans"][0]["position"] == [1.5, 3.0]
+
+
+def test_report_maps_success_and_separation_over_the_varied_position(tmp_path):
+    from hriplan.sweeps.report import per_variant, write_report
+
+    store = ResultStore(tmp_path)
+    for i, (x, y) in enumerate([(0.0, 1.2), (0.0, 1.4), (0.2, 1.2), (0.2, 1.4)]):
+        common = {"key": f"k{i}", "vary.humans.bob.position.0": x, "vary.humans.bob.position.1": y, "vary.planning.seed": 1}
+        store.add([common | {"step_index": 0, "status": "solved", "min_separation.bob": 0.30 + i},
+                   common | {"step_index": 1, "status": "solved" if i != 3 else "timeout", "min_separation.bob": 0.25 + i}])
+    store.compact()
+    records = {r["key"]: r for r in per_variant(read_results(tmp_path))}
+    assert [records[f"k{i}"]["success"] for i in range(4)] == [True, True, True, False]
+    assert records["k2"]["separation"] == pytest.approx(2.25)  # the smaller of its two steps
+    page = write_report(tmp_path)
+    assert page == tmp_path / "report.html" and "4 variants, 3 succeeded in every step" in page.read_text()
+    image = tmp_path / "success_map.png"
+    assert image.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and image.stat().st_size > 10_000
+    result = CliRunner().invoke(app, ["sweep", "--report", str(tmp_path)])
+    assert result.exit_code == 0 and "report.html" in result.output
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_is_a_bar_on_a_terminal_and_plain_lines_otherwise():
+    from hriplan.sweeps.progress import Progress
+
+    terminal, log = _Terminal(), io.StringIO()
+    for stream in (terminal, log):
+        progress = Progress(3, stream=stream, every=0.0)
+        for _ in range(3):
+            progress.advance()
+        progress.close()
+    assert "3/3" in terminal.getvalue() and "variant/s" in terminal.getvalue() and "\r" in terminal.getvalue()
+    lines = log.getvalue().splitlines()
+    assert lines[-1].startswith("... 3/3 variants,") and "ETA 0 s" in lines[-1] and len(lines) == 3

@@ -1,0 +1,137 @@
+"""Engines: local worker processes and a real local Ray runtime (2 CPUs) give the same results;
+a rerun skips finished variants; a worker that dies is retried once, then recorded."""
+
+from __future__ import annotations
+
+import sys
+from functools import partial
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the helpers, for spawned workers too
+
+import sweeps_helpers as helpers  # noqa: E402
+
+from hriplan.sweeps.engines import LocalEngine, RayEngine  # noqa: E402
+from hriplan.sweeps.run import run_sweep  # noqa: E402
+from hriplan.sweeps.variants import expand, parse_vary  # noqa: E402
+
+ray = pytest.importorskip("ray")
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+GIVE = EXAMPLES / "handover_full_can_receiver.yaml"
+TAKE = EXAMPLES / "handover_full_can.yaml"
+
+
+@pytest.fixture
+def log_dir(tmp_path):
+    return tmp_path
+
+
+def _by_key(directory: Path) -> dict:
+    from hriplan.sweeps.results import read_results
+
+    return {(r["key"], r["step_index"]): r for r in read_results(directory)}
+
+
+@pytest.fixture(scope="module")
+def ray_runtime():
+    engine = RayEngine(workers=2)
+    engine._connect()
+    yield engine
+    ray.shutdown()
+
+
+def test_ray_and_local_give_the_same_results(tmp_path, ray_runtime):
+    derive = expand(TAKE, [parse_vary("humans.alice.position=[-0.1:0.1:0.1, 1.35:1.45:0.1]")])
+    # a generous time limit: the machine is shared, and a seeded plan is only repeatable if it finishes
+    planned = expand(GIVE, [parse_vary("planning.time_limit=120"), parse_vary("objects.can.fill_level=Full,Empty")])
+    results = {}
+    for name, engine in {"local": LocalEngine(2), "ray": ray_runtime}.items():
+        run_sweep(derive, tmp_path / name / "derive", engine, plan=False, progress=False)
+        summary = run_sweep(planned, tmp_path / name / "plan", engine, progress=False)
+        assert summary.ran == 2 and summary.solved == 2
+        results[name] = _by_key(tmp_path / name / "derive") | _by_key(tmp_path / name / "plan")
+    local, remote = results["local"], results["ray"]
+    assert local.keys() == remote.keys() and len({k for k, _ in local}) == 6 + 2
+    # some positions leave the can out of alice's reach: those variants are errors with the reason
+    assert {r["status"] for r in local.values()} == {"derived", "error", "solved"}
+    for k, row in local.items():
+        for column in ("status", "reason", "constraint_kinds", "velocity_scale", "path_length", "duration", "min_separation.bob"):
+            assert row.get(column) == remote[k].get(column), (k, column)
+    planned_rows = [r for r in local.values() if r["status"] == "solved"]
+    assert len(planned_rows) == 2 and all(r["path_length"] > 0 for r in planned_rows)
+    # the rules see each variant's facts: a full can brings constraints an empty one does not
+    kinds = {r["vary.objects.can.fill_level"]: set(r["constraint_kinds"].split(",")) for r in planned_rows}
+    assert kinds["Full"] > kinds["Empty"]
+
+
+def test_rerun_skips_finished_variants_and_widening_runs_only_the_new(tmp_path, log_dir):
+    def sweep(seeds: str) -> int:
+        variants = expand(GIVE, [parse_vary(f"planning.seed={seeds}")])
+        return run_sweep(variants, tmp_path / "s", LocalEngine(2), plan=False, work=partial(helpers.counting, log_dir), progress=False).ran
+
+    assert sweep("1,2") == 2 and len(helpers.calls(log_dir)) == 2
+    assert sweep("1,2") == 0 and len(helpers.calls(log_dir)) == 2
+    assert sweep("1,2,3") == 1 and len(helpers.calls(log_dir)) == 3
+    assert len(_by_key(tmp_path / "s")) == 3
+
+
+@pytest.mark.parametrize("engine", ["local", "ray"])
+def test_a_dying_worker_is_retried_once_then_recorded(tmp_path, log_dir, engine, request):
+    engine = LocalEngine(2) if engine == "local" else request.getfixturevalue("ray_runtime")
+    variants = expand(GIVE, [parse_vary("planning.seed=6:8:1")])
+    summary = run_sweep(variants, tmp_path / "s", engine, plan=False, work=partial(helpers.dies_on_seed_7, log_dir), progress=False)
+    rows = list(_by_key(tmp_path / "s").values())
+    dead = [r for r in rows if r["status"] == "worker_died"]
+    assert len(dead) == 1 and '"seed":7' in dead[0]["task"] and "died on each of 2 attempts" in dead[0]["reason"]
+    assert sorted(r["status"] for r in rows) == ["derived"] * 2 + ["worker_died"]
+    seven = next(v.key for v in variants if v.task.planning.seed == 7)
+    assert helpers.calls(log_dir).count(seven) == 2 and summary.solved == 2
+
+
+def test_a_worker_that_dies_once_is_retried_and_its_variant_kept(tmp_path, log_dir):
+    variants = expand(GIVE, [parse_vary("planning.seed=6:8:1")])
+    run_sweep(variants, tmp_path / "s", LocalEngine(2), plan=False, work=partial(helpers.dies_once_on_seed_7, log_dir), progress=False)
+    assert sorted(r["status"] for r in _by_key(tmp_path / "s").values()) == ["derived"] * 3
+
+
+def test_batch_from_the_command_line_then_its_report(tmp_path):
+    from typer.testing import CliRunner
+
+    from hriplan.cli.main import app
+
+    out = tmp_path / "b"
+    result = CliRunner().invoke(app, ["batch", str(GIVE), str(TAKE), "-o", str(out), "--derive-only", "--workers", "1", "-q"])
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("2 variants: 2 run, 0 already done; 2 succeeded in every step")
+    rows = _by_key(out)
+    assert sorted({Path(r["source"]).name for r in rows.values()}) == sorted([GIVE.name, TAKE.name])
+    assert sorted(r["step"] for r in rows.values()) == ["hand_over", "place_can", "take_can"]
+    again = CliRunner().invoke(app, ["batch", str(GIVE), str(TAKE), "-o", str(out), "--derive-only", "-q"])
+    assert again.output.startswith("2 variants: 0 run, 2 already done")
+    assert CliRunner().invoke(app, ["sweep", "--report", str(out)]).exit_code == 0
+    assert (out / "variants.png").stat().st_size > 5_000 and "2 variants, 2 succeeded" in (out / "report.html").read_text()
+
+
+def test_ctrl_c_stops_keeps_what_is_done_and_a_rerun_resumes(tmp_path):
+    import os
+    import signal
+    import subprocess
+
+    out = tmp_path / "s"
+    command = [sys.executable, "-m", "hriplan.cli", "sweep", str(GIVE), "--vary", "planning.seed=1:40:1", "-o", str(out),
+               "--derive-only", "--workers", "1"]  # fmt: skip
+    env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
+    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = process.stderr.readline()  # the first progress line: one variant is done
+    assert first.startswith("... 1/40 variants"), first
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err
+    kept = int(err.split("interrupted: ")[1].split()[0])
+    assert 1 <= kept < 40 and len(_by_key(out)) == kept and not list((out / "parts").glob("*"))
+    rerun = subprocess.run(command + ["-q"], env=env, capture_output=True, text=True, timeout=600)
+    assert rerun.returncode == 0 and rerun.stdout.startswith(f"40 variants: {40 - kept} run, {kept} already done"), rerun.stdout
+    assert len(_by_key(out)) == 40
