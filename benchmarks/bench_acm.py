@@ -29,7 +29,9 @@ def main(states: int) -> None:
         start = time.perf_counter()
         free = sum(not checker.in_collision(q) for q in qs)
         cost = (time.perf_counter() - start) / states * 1e6
-        print(f"| {name} | {', '.join(f'{k} {n}' for k, n in sorted(reasons.items()))} | {free / states:.0%} | {cost:.1f} |")
+        print(
+            f"| {name} | {', '.join(f'{k} {n}' for k, n in sorted(reasons.items()))} | {free / states:.0%} | {cost:.1f} |"
+        )
 
 
 if __name__ == "__main__":

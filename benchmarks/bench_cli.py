@@ -55,8 +55,13 @@ def children_cpu() -> float:
 def imported(args: list[str], src: Path) -> tuple[float, list[str]]:
     """Seconds spent importing (python -X importtime, top-level modules) and which heavy ones load."""
     env = dict(os.environ, PYTHONPATH=str(src))
-    out = subprocess.run([sys.executable, "-X", "importtime", "-m", "hriplan.cli", *args], env=env,
-                         capture_output=True, text=True, timeout=600)  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-X", "importtime", "-m", "hriplan.cli", *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     total, heavy = 0.0, set()
     for line in out.stderr.splitlines():
         fields = line.split("|")
@@ -83,20 +88,32 @@ def main() -> None:
     args = parser.parse_args()
     sources, reps = [SRC, *(p.resolve() for p in args.src)], args.reps
     out = Path(tempfile.mkdtemp(prefix="hriplan-bench-cli-"))
-    print(f"load average before: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores); {reps} runs each, fresh processes\n")
+    print(
+        f"load average before: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores); {reps} runs each, fresh processes\n"
+    )
     print("| command | " + " | ".join(f"{s.parent.name}/src: wall / CPU s" for s in sources) + " | target |")
     print("|---|" + "---|" * len(sources) + "---|")
     plan = ["plan", str(EXAMPLE), "-q", "-o", str(out / "can.json")]
     demo = [*plan, "--html", str(out / "can.html"), "--plots", str(out / "plots")]
-    measured = (("hriplan --help", ["--help"], reps, 0.3), ("hriplan constraints (warm)", ["constraints", str(EXAMPLE), "-q"], reps, 1.0),
-                ("hriplan plan, the demo's plan step (warm)", plan, reps, 2.0), ("make demo's whole command (warm)", demo, max(1, reps // 2), None))  # fmt: skip
+    measured = (
+        ("hriplan --help", ["--help"], reps, 0.3),
+        ("hriplan constraints (warm)", ["constraints", str(EXAMPLE), "-q"], reps, 1.0),
+        ("hriplan plan, the demo's plan step (warm)", plan, reps, 2.0),
+        ("make demo's whole command (warm)", demo, max(1, reps // 2), None),
+    )
     for name, command, n, target in measured:
         print(row(name, [timed(command, n, src) for src in sources], target), flush=True)
     print(f"\nload average after: {os.getloadavg()[0]:.2f}\n")
     for src in sources:
-        for name, command in (("--help", ["--help"]), ("constraints", ["constraints", str(EXAMPLE), "-q"]), ("plan", plan)):
+        for name, command in (
+            ("--help", ["--help"]),
+            ("constraints", ["constraints", str(EXAMPLE), "-q"]),
+            ("plan", plan),
+        ):
             seconds, heavy = imported(command, src)
-            print(f"- {src.parent.name}/src {name}: imports {seconds:.2f} s; heavy modules loaded: {', '.join(heavy) or 'none'}")
+            print(
+                f"- {src.parent.name}/src {name}: imports {seconds:.2f} s; heavy modules loaded: {', '.join(heavy) or 'none'}"
+            )
 
 
 if __name__ == "__main__":

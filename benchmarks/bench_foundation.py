@@ -22,7 +22,7 @@ from hriplan.robots.spatial import Pose
 REPEATS = 5
 
 
-def per_call_us(func, args_list) -> float:  # noqa: ANN001
+def per_call_us(func, args_list) -> float:
     """Median over REPEATS runs of the mean cost of one call, in microseconds."""
     runs = []
     for _ in range(REPEATS):
@@ -59,18 +59,39 @@ def main() -> None:
 
     rows = [
         ("FK + one frame (pinocchio, direct)", per_call_us(fk_frame, [(q,) for q in qs]), ""),
-        ("robot.frame_pose (API, 4x4 out)", per_call_us(lambda q: robot.frame_pose("right_tool", q), [(q,) for q in qs]), ""),
-        ("frame Jacobian (pinocchio, FK included)",
-         per_call_us(lambda q: pin.computeFrameJacobian(model, data, q, tool, pin.LOCAL_WORLD_ALIGNED), [(q,) for q in qs]), ""),
-        ("robot.frame_jacobian (API, group columns)",
-         per_call_us(lambda q: robot.frame_jacobian("right_tool", q), [(q,) for q in qs]), ""),
-        ("collision check, random configurations", per_call_us(checker.in_collision, [(q,) for q in qs]),
-         f"{100 * (1 - len(free) / len(qs)):.0f} % in collision"),
-        ("collision check, collision-free configurations", per_call_us(checker.in_collision, [(q,) for q in free]),
-         f"{len(free)} configurations, {len(checker.geom_model.collisionPairs)} pairs"),
-        ("robot-human minimum distance", per_call_us(checker.human_distance, [(q,) for q in free[:300]]),
-         f"{sum(1 for p in checker._distance_model.collisionPairs)} pairs"),
-    ]  # fmt: skip
+        (
+            "robot.frame_pose (API, 4x4 out)",
+            per_call_us(lambda q: robot.frame_pose("right_tool", q), [(q,) for q in qs]),
+            "",
+        ),
+        (
+            "frame Jacobian (pinocchio, FK included)",
+            per_call_us(
+                lambda q: pin.computeFrameJacobian(model, data, q, tool, pin.LOCAL_WORLD_ALIGNED), [(q,) for q in qs]
+            ),
+            "",
+        ),
+        (
+            "robot.frame_jacobian (API, group columns)",
+            per_call_us(lambda q: robot.frame_jacobian("right_tool", q), [(q,) for q in qs]),
+            "",
+        ),
+        (
+            "collision check, random configurations",
+            per_call_us(checker.in_collision, [(q,) for q in qs]),
+            f"{100 * (1 - len(free) / len(qs)):.0f} % in collision",
+        ),
+        (
+            "collision check, collision-free configurations",
+            per_call_us(checker.in_collision, [(q,) for q in free]),
+            f"{len(free)} configurations, {len(checker.geom_model.collisionPairs)} pairs",
+        ),
+        (
+            "robot-human minimum distance",
+            per_call_us(checker.human_distance, [(q,) for q in free[:300]]),
+            f"{sum(1 for p in checker._distance_model.collisionPairs)} pairs",
+        ),
+    ]
 
     # IK: targets are tool poses of random joint values (reachable by construction).
     targets = [robot.frame_pose("right_tool", rng.uniform(*robot.limits("right_arm")), "right_arm") for _ in range(200)]
@@ -86,13 +107,20 @@ def main() -> None:
         coll_ok += solve_ik(robot, "right", target, base_q=free[0], is_valid=valid).success
         coll_times.append((time.perf_counter() - start) * 1e3)
 
-    print(f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}, pin {pin.__version__}")
+    print(
+        f"machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}, pin {pin.__version__}"
+    )
     print("| what | µs per call | note |\n|---|---|---|")
     for name, value, note in rows:
         print(f"| {name} | {value:.1f} | {note} |")
-    print("| IK, 200 random reachable poses | median " f"{np.median(times) * 1e3:.0f}, p95 {np.percentile(times, 95) * 1e3:.0f} | success {ok}/200 |")
-    print("| IK + collision-free requirement (scene above) | median "
-          f"{np.median(coll_times) * 1e3:.0f}, p95 {np.percentile(coll_times, 95) * 1e3:.0f} | success {coll_ok}/200 (some poses have no collision-free branch) |")  # fmt: skip
+    print(
+        "| IK, 200 random reachable poses | median "
+        f"{np.median(times) * 1e3:.0f}, p95 {np.percentile(times, 95) * 1e3:.0f} | success {ok}/200 |"
+    )
+    print(
+        "| IK + collision-free requirement (scene above) | median "
+        f"{np.median(coll_times) * 1e3:.0f}, p95 {np.percentile(coll_times, 95) * 1e3:.0f} | success {coll_ok}/200 (some poses have no collision-free branch) |"
+    )
 
 
 if __name__ == "__main__":

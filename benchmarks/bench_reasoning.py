@@ -68,8 +68,11 @@ class RunCounter:
 
 
 def moved(situation, person: str, x: float, y: float):
-    return situation.model_copy(update={"humans": [h.model_copy(update={"position": (x, y)}) if h.name == person else h
-                                                   for h in situation.humans]})  # fmt: skip
+    return situation.model_copy(
+        update={
+            "humans": [h.model_copy(update={"position": (x, y)}) if h.name == person else h for h in situation.humans]
+        }
+    )
 
 
 def task_situations(path: Path) -> list:
@@ -94,8 +97,14 @@ def geometry_only(reps: int, counter: RunCounter) -> dict:
         _, wall, cpu = cpu_timed(lambda situation=situation: derivation(situation, cache))
         times.append(wall)
         cpus.append(cpu)
-    return {"first_ms": first * 1e3, "median_ms": statistics.median(times) * 1e3, "max_ms": max(times) * 1e3,
-            "cpu_median_ms": statistics.median(cpus) * 1e3, "moves": reps, "reasoner_runs": counter.runs - before}  # fmt: skip
+    return {
+        "first_ms": first * 1e3,
+        "median_ms": statistics.median(times) * 1e3,
+        "max_ms": max(times) * 1e3,
+        "cpu_median_ms": statistics.median(cpus) * 1e3,
+        "moves": reps,
+        "reasoner_runs": counter.runs - before,
+    }
 
 
 def corpus() -> dict:
@@ -114,10 +123,19 @@ def new_situations(pellet_reps: int, workdir: Path) -> dict:
     measured = [cpu_timed(lambda s=s: derivation(s, ReasoningCache(None)))[1:] for s in situations.values()]
     fast, cpus = [m[0] for m in measured], [m[1] for m in measured]
     names = list(situations)[:pellet_reps]
-    pellet = [timed(lambda n=n: derivation(situations[n], ReasoningCache(workdir / f"pellet-{n}"), "pellet"))[1] for n in names]
-    return {"situations": len(situations), "fast_median_ms": statistics.median(fast) * 1e3, "fast_max_ms": max(fast) * 1e3,
-            "fast_cpu_median_ms": statistics.median(cpus) * 1e3,
-            "pellet_situations": len(names), "pellet_median_s": statistics.median(pellet), "pellet_max_s": max(pellet)}  # fmt: skip
+    pellet = [
+        timed(lambda n=n: derivation(situations[n], ReasoningCache(workdir / f"pellet-{n}"), "pellet"))[1]
+        for n in names
+    ]
+    return {
+        "situations": len(situations),
+        "fast_median_ms": statistics.median(fast) * 1e3,
+        "fast_max_ms": max(fast) * 1e3,
+        "fast_cpu_median_ms": statistics.median(cpus) * 1e3,
+        "pellet_situations": len(names),
+        "pellet_median_s": statistics.median(pellet),
+        "pellet_max_s": max(pellet),
+    }
 
 
 def sweep(variants: int, workdir: Path, counter: RunCounter) -> dict:
@@ -134,8 +152,14 @@ def sweep(variants: int, workdir: Path, counter: RunCounter) -> dict:
     cache, before = ReasoningCache(workdir / "sweep"), counter.runs
     results, total, cpu = cpu_timed(lambda: [derivation(s, cache) for s in situations])
     scales = sorted({d.velocity_scale for d in results})  # type: ignore[union-attr]
-    return {"variants": variants, "total_s": total, "cpu_s": cpu, "per_variant_ms": total / variants * 1e3,
-            "reasoner_runs": counter.runs - before, "velocity_scales": scales}  # fmt: skip
+    return {
+        "variants": variants,
+        "total_s": total,
+        "cpu_s": cpu,
+        "per_variant_ms": total / variants * 1e3,
+        "reasoner_runs": counter.runs - before,
+        "velocity_scales": scales,
+    }
 
 
 def scaled(factor: int):
@@ -149,11 +173,31 @@ def scaled(factor: int):
         for o in base.objects:
             if o.name != "can1":
                 x, y, z = o.pose.xyz
-                objects.append(o.model_copy(update={"name": f"{o.name}_{i}", "pose": o.pose.model_copy(update={"xyz": (x + dx, y + dy, z)})}))
-        objects.append(base.objects[0].model_copy(update={"name": f"cup_{i}", "kind": "Cup", "pose": base.objects[0].pose.model_copy(update={"xyz": (dx, 2.5 + dy, 0.8)})}))
+                objects.append(
+                    o.model_copy(
+                        update={"name": f"{o.name}_{i}", "pose": o.pose.model_copy(update={"xyz": (x + dx, y + dy, z)})}
+                    )
+                )
+        objects.append(
+            base.objects[0].model_copy(
+                update={
+                    "name": f"cup_{i}",
+                    "kind": "Cup",
+                    "pose": base.objects[0].pose.model_copy(update={"xyz": (dx, 2.5 + dy, 0.8)}),
+                }
+            )
+        )
         for h in base.humans:
             role = "Bystander" if h.role == "Receiver" else h.role
-            humans.append(h.model_copy(update={"name": f"{h.name}_{i}", "role": role, "position": (h.position[0] + dx + 3.0, h.position[1] + dy)}))
+            humans.append(
+                h.model_copy(
+                    update={
+                        "name": f"{h.name}_{i}",
+                        "role": role,
+                        "position": (h.position[0] + dx + 3.0, h.position[1] + dy),
+                    }
+                )
+            )
     return base.model_copy(update={"objects": objects, "humans": humans})
 
 
@@ -164,8 +208,14 @@ def scaling(factor: int, workdir: Path) -> dict:
     fast, fast_s = timed(lambda: derivation(situation, ReasoningCache(None)))
     pellet, pellet_s = timed(lambda: derivation(situation, ReasoningCache(workdir / f"scale-{factor}"), "pellet"))
     assert fast == pellet, f"the reasoners disagree at {factor}x"
-    return {"factor": factor, "objects": len(situation.objects), "humans": len(situation.humans), "fast_ms": fast_s * 1e3,
-            "pellet_s": pellet_s, "constraints": len(fast.constraints)}  # type: ignore[union-attr]  # fmt: skip
+    return {
+        "factor": factor,
+        "objects": len(situation.objects),
+        "humans": len(situation.humans),
+        "fast_ms": fast_s * 1e3,
+        "pellet_s": pellet_s,
+        "constraints": len(fast.constraints),
+    }  # type: ignore[union-attr]
 
 
 def child(reasoner: str) -> None:
@@ -202,26 +252,36 @@ def main() -> None:
         for reasoner in ("fast", "pellet"):
             runs = [fresh_process(workdir, reasoner, r) for r in range(args.reps)]
             colds = sorted(r["cold_s"] for r in runs)
-            print(f"cold process, {reasoner} ({args.reps} runs): imports median {statistics.median(r['imports_s'] for r in runs):.2f} s, "
-                  f"first derivation median {statistics.median(colds):.3f} s ({colds[0]:.3f}-{colds[-1]:.3f})")  # fmt: skip
+            print(
+                f"cold process, {reasoner} ({args.reps} runs): imports median {statistics.median(r['imports_s'] for r in runs):.2f} s, "
+                f"first derivation median {statistics.median(colds):.3f} s ({colds[0]:.3f}-{colds[-1]:.3f})"
+            )
         os.environ["XDG_CACHE_HOME"] = str(workdir / "xdg-main")
         counter = RunCounter()
         g = geometry_only(args.reps * 4, counter)
-        print(f"geometry only ({g['moves']} moves of 10 cm): first {g['first_ms']:.1f} ms, then median {g['median_ms']:.2f} ms "
-              f"(max {g['max_ms']:.2f}; CPU median {g['cpu_median_ms']:.2f}), reasoner runs {g['reasoner_runs']}")  # fmt: skip
+        print(
+            f"geometry only ({g['moves']} moves of 10 cm): first {g['first_ms']:.1f} ms, then median {g['median_ms']:.2f} ms "
+            f"(max {g['max_ms']:.2f}; CPU median {g['cpu_median_ms']:.2f}), reasoner runs {g['reasoner_runs']}"
+        )
         n = new_situations(args.reps, workdir)
-        print(f"new qualitative situation, warm process: fast median {n['fast_median_ms']:.1f} ms (max {n['fast_max_ms']:.1f}; "
-              f"CPU median {n['fast_cpu_median_ms']:.1f}) over "
-              f"{n['situations']} situations; Pellet median {n['pellet_median_s']:.2f} s (max {n['pellet_max_s']:.2f}) over "
-              f"{n['pellet_situations']}; ratio {n['pellet_median_s'] * 1e3 / n['fast_median_ms']:.0f}x")  # fmt: skip
+        print(
+            f"new qualitative situation, warm process: fast median {n['fast_median_ms']:.1f} ms (max {n['fast_max_ms']:.1f}; "
+            f"CPU median {n['fast_cpu_median_ms']:.1f}) over "
+            f"{n['situations']} situations; Pellet median {n['pellet_median_s']:.2f} s (max {n['pellet_max_s']:.2f}) over "
+            f"{n['pellet_situations']}; ratio {n['pellet_median_s'] * 1e3 / n['fast_median_ms']:.0f}x"
+        )
         s = sweep(args.sweep, workdir, counter)
-        print(f"sweep: {s['variants']} variants in {s['total_s']:.2f} s (CPU {s['cpu_s']:.2f} s; {s['per_variant_ms']:.2f} ms each), "
-              f"reasoner runs {s['reasoner_runs']}, velocity scales {s['velocity_scales']}")  # fmt: skip
+        print(
+            f"sweep: {s['variants']} variants in {s['total_s']:.2f} s (CPU {s['cpu_s']:.2f} s; {s['per_variant_ms']:.2f} ms each), "
+            f"reasoner runs {s['reasoner_runs']}, velocity scales {s['velocity_scales']}"
+        )
         print("\n| scale | objects | humans | fast ms | Pellet s | constraints |")
         print("|---|---|---|---|---|---|")
         for factor in args.scales:
             r = scaling(factor, workdir)
-            print(f"| {r['factor']}x | {r['objects']} | {r['humans']} | {r['fast_ms']:.1f} | {r['pellet_s']:.2f} | {r['constraints']} |")
+            print(
+                f"| {r['factor']}x | {r['objects']} | {r['humans']} | {r['fast_ms']:.1f} | {r['pellet_s']:.2f} | {r['constraints']} |"
+            )
         print(f"\nload average at end: {os.getloadavg()[0]:.2f}")
 
 

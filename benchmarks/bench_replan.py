@@ -22,9 +22,9 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.api import PlanningSession, load_task, run_task
+from hriplan.planner.session import PlanningSession as Session
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.safety.separation import allowed_speeds
-from hriplan.planner.session import PlanningSession as Session
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "handover_full_can_receiver.yaml"
 
@@ -38,7 +38,7 @@ def main() -> None:
     timing = {"time": 0.0}
     original_time = Session.time
 
-    def timed_stage(self, *a, **k):  # noqa: ANN001, ANN002, ANN003, ANN202 - measure the timing stage alone
+    def timed_stage(self, *a, **k):
         started = time.perf_counter()
         try:
             return original_time(self, *a, **k)
@@ -46,9 +46,12 @@ def main() -> None:
             timing["time"] += time.perf_counter() - started
 
     Session.time = timed_stage
-    batched, compared = ApproachMonitor.speed_scale, {"on": False, "points": 0, "batch": 0.0, "point": 0.0, "worst": 0.0}
+    batched, compared = (
+        ApproachMonitor.speed_scale,
+        {"on": False, "points": 0, "batch": 0.0, "point": 0.0, "worst": 0.0},
+    )
 
-    def comparing(self, xs, dxs):  # noqa: ANN001, ANN202 - time both routes on the monitor's own inputs, in its scene
+    def comparing(self, xs, dxs):
         if compared["on"]:
             _compare(batched, self, np.asarray(xs), np.asarray(dxs), compared)
         return batched(self, xs, dxs)
@@ -69,15 +72,21 @@ def main() -> None:
         totals.append(time.perf_counter() - started)
         cpu.append(time.process_time() - started_cpu)
         stages.append(timing["time"])
-        print(f"update {k + 1}: {outcome.steps[-1].status:>8} in {totals[-1]:.3f} s, CPU {cpu[-1]:.3f} s (timing stage {stages[-1]:.3f} s)")
-    print(f"median: {statistics.median(totals):.3f} s per re-plan (CPU {statistics.median(cpu):.3f} s), "
-          f"of which the timing stage {statistics.median(stages):.3f} s")
+        print(
+            f"update {k + 1}: {outcome.steps[-1].status:>8} in {totals[-1]:.3f} s, CPU {cpu[-1]:.3f} s (timing stage {stages[-1]:.3f} s)"
+        )
+    print(
+        f"median: {statistics.median(totals):.3f} s per re-plan (CPU {statistics.median(cpu):.3f} s), "
+        f"of which the timing stage {statistics.median(stages):.3f} s"
+    )
     compared["on"] = True
     run_task(variant, session)
     c = compared
-    print(f"speed_scale on one re-plan's {c['points']} points: batched {1e3 * c['batch']:.1f} ms, per point through coal "
-          f"{1e3 * c['point']:.1f} ms ({c['point'] / c['batch']:.1f}x); largest relative difference {c['worst']:.1e} (coal's GJK "
-          f"on the non-capsule pairs converges to 1e-6 from a guess that depends on the model's history)")
+    print(
+        f"speed_scale on one re-plan's {c['points']} points: batched {1e3 * c['batch']:.1f} ms, per point through coal "
+        f"{1e3 * c['point']:.1f} ms ({c['point'] / c['batch']:.1f}x); largest relative difference {c['worst']:.1e} (coal's GJK "
+        f"on the non-capsule pairs converges to 1e-6 from a guess that depends on the model's history)"
+    )
 
 
 def _compare(batched: Callable, monitor: ApproachMonitor, xs: np.ndarray, dxs: np.ndarray, stats: dict) -> None:
@@ -91,7 +100,9 @@ def _compare(batched: Callable, monitor: ApproachMonitor, xs: np.ndarray, dxs: n
     stats["point"] += time.perf_counter() - started
     finite = np.isfinite(old)
     assert np.array_equal(finite, np.isfinite(new)), "the two routes disagree on where the speed is limited"
-    stats["worst"] = max(stats["worst"], float(np.max(np.abs(new[finite] - old[finite]) / np.maximum(old[finite], 1.0), initial=0.0)))
+    stats["worst"] = max(
+        stats["worst"], float(np.max(np.abs(new[finite] - old[finite]) / np.maximum(old[finite], 1.0), initial=0.0))
+    )
     stats["points"] += len(xs)
 
 

@@ -69,8 +69,11 @@ def engines(reps: int) -> list[str]:
         store = pyoxigraph.Store()
         store.bulk_load(graph.serialize(format="nt").encode(), pyoxigraph.RdfFormat.N_TRIPLES)
         prefixes = {k: str(v) for k, v in PREFIXES.items()}
-    lines = [f"graph: the handover task's first step, {len(graph)} triples; median of {reps} runs, ms",
-             "| query | rows (each engine) | hriplan (rdflib + guards) | rdflib plain | pyoxigraph |", "|---|---|---|---|---|"]  # fmt: skip
+    lines = [
+        f"graph: the handover task's first step, {len(graph)} triples; median of {reps} runs, ms",
+        "| query | rows (each engine) | hriplan (rdflib + guards) | rdflib plain | pyoxigraph |",
+        "|---|---|---|---|---|",
+    ]
     limits = QueryLimits(time_limit=60, row_limit=10**7)
     for name, text in QUERIES.items():
         guarded = median_ms(lambda t=text: run_query(graph, t, limits), reps)
@@ -79,12 +82,16 @@ def engines(reps: int) -> list[str]:
         rows = [len(run_query(graph, text, limits).rows), len(list(graph.query(prepare_query(text))))]
         rows += [len(list(store.query(text, prefixes=prefixes)))] if pyoxigraph else []
         counts = [str(r[0]) for r in run_query(graph, text, limits).rows] if "COUNT" in text else []
-        lines.append(f"| {name} | {'/'.join(map(str, rows))}{' (count ' + counts[0] + ')' if counts else ''} | {guarded:.2f} | {plain:.2f} | {oxi:.2f} |")
+        lines.append(
+            f"| {name} | {'/'.join(map(str, rows))}{' (count ' + counts[0] + ')' if counts else ''} | {guarded:.2f} | {plain:.2f} | {oxi:.2f} |"
+        )
     began = time.perf_counter()
     try:
         run_query(graph, CROSS_JOIN, QueryLimits(time_limit=1.0))
-    except Exception as exc:  # noqa: BLE001 - the point is that it stops
-        lines.append(f"| 4-way cross join, limit 1 s | - | stopped after {time.perf_counter() - began:.2f} s: {str(exc)[:40]}... | runs until killed | runs until killed (no time limit in the API) |")
+    except Exception as exc:
+        lines.append(
+            f"| 4-way cross join, limit 1 s | - | stopped after {time.perf_counter() - began:.2f} s: {str(exc)[:40]}... | runs until killed | runs until killed (no time limit in the API) |"
+        )
     return lines
 
 
@@ -98,7 +105,11 @@ def one(client: httpx.Client, kind: str, k: int) -> tuple[str, float, bool, str]
         problem["start"]["right_shoulder_pan_joint"] += k * 1e-5
         response = client.post("/solve", json=problem)
         body = response.json() if response.status_code == 200 else {}
-        ok = bool(body.get("solved")) and abs(body["trajectory"]["points"][0]["positions"][0] - problem["start"]["right_shoulder_pan_joint"]) < 1e-9
+        ok = (
+            bool(body.get("solved"))
+            and abs(body["trajectory"]["points"][0]["positions"][0] - problem["start"]["right_shoulder_pan_joint"])
+            < 1e-9
+        )
     elif kind == "constraints":
         response = client.post("/constraints", json={**TASK, "name": f"load{k}"})
         ok = response.status_code == 200 and response.json()["task"] == f"load{k}"
@@ -118,11 +129,16 @@ def load(url: str, requests: int, concurrency: int) -> list[str]:
             results = list(pool.map(lambda k: one(client, kinds[k % 4], k), range(requests)))
         wall = time.perf_counter() - began
     failures = [r for r in results if not r[2]]
-    lines = [f"{requests} requests at concurrency {concurrency}: {wall:.1f} s, {len(failures)} errors or mixed-up answers",
-             "| kind | n | p50 s | p95 s |", "|---|---|---|---|"]  # fmt: skip
+    lines = [
+        f"{requests} requests at concurrency {concurrency}: {wall:.1f} s, {len(failures)} errors or mixed-up answers",
+        "| kind | n | p50 s | p95 s |",
+        "|---|---|---|---|",
+    ]
     for kind in kinds:
         times = sorted(r[1] for r in results if r[0] == kind)
-        lines.append(f"| {kind} | {len(times)} | {times[len(times) // 2]:.2f} | {times[min(len(times) - 1, int(0.95 * len(times)))]:.2f} |")
+        lines.append(
+            f"| {kind} | {len(times)} | {times[len(times) // 2]:.2f} | {times[min(len(times) - 1, int(0.95 * len(times)))]:.2f} |"
+        )
     lines += [f"failure: {f[3]}" for f in failures[:5]]
     return lines
 
@@ -130,7 +146,10 @@ def load(url: str, requests: int, concurrency: int) -> list[str]:
 def bomb(url: str) -> list[str]:
     with httpx.Client(base_url=url, timeout=120) as client:
         alone = [one(client, "solve", k)[1] for k in range(5)]
-        bombs = [threading.Thread(target=client.get, args=("/sparql",), kwargs={"params": {"query": CROSS_JOIN}}) for _ in range(2)]
+        bombs = [
+            threading.Thread(target=client.get, args=("/sparql",), kwargs={"params": {"query": CROSS_JOIN}})
+            for _ in range(2)
+        ]
         for b in bombs:
             b.start()
         time.sleep(0.1)
@@ -139,7 +158,9 @@ def bomb(url: str) -> list[str]:
         waited = time.perf_counter() - began
         for b in bombs:
             b.join()
-    return [f"solve alone: median {statistics.median(alone):.2f} s; during two SPARQL bombs (query limit 2 s): {waited:.2f} s, solved {during[2]}"]
+    return [
+        f"solve alone: median {statistics.median(alone):.2f} s; during two SPARQL bombs (query limit 2 s): {waited:.2f} s, solved {during[2]}"
+    ]
 
 
 def main() -> None:

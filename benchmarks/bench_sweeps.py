@@ -27,16 +27,16 @@ from hriplan.sweeps.variants import expand, parse_vary  # noqa: E402
 GIVE = HERE.parent / "examples" / "handover_full_can_receiver.yaml"
 
 
-def noop(variant, plan):  # noqa: ANN001, ANN201
+def noop(variant, plan):
     """A worker that does nothing: what is left is the engine's own cost per variant."""
     return [{"key": variant.key, "step_index": 0, "status": "derived"}]
 
 
-def timed_run(engine, variants, directory: Path, work=None) -> tuple[list[float], list[dict]]:  # noqa: ANN001
+def timed_run(engine, variants, directory: Path, work=None) -> tuple[list[float], list[dict]]:
     """Run through the engine directly, recording each delivery's time (rows stored as a sweep does)."""
     store, stamps, rows = ResultStore(directory), [], []
 
-    def deliver(variant, delivered):  # noqa: ANN001, ANN202
+    def deliver(variant, delivered):
         stamps.append(time.perf_counter())
         rows.extend(delivered)
         store.add(delivered)
@@ -62,7 +62,7 @@ def warm(rows: list[dict]) -> list[dict]:
     return kept
 
 
-def direct_times(variants) -> list[float]:  # noqa: ANN001
+def direct_times(variants) -> list[float]:
     """The same variants planned in this process on one warm session: the plain cost of a plan."""
     from hriplan.planner.session import PlanningSession
     from hriplan.tasks.pipeline import TaskRunner
@@ -93,17 +93,26 @@ def main() -> None:
     intervals = [b - a for a, b in zip(one[1:], one[2:])]
     worker_times = [r["wall_time"] for r in one_rows][1:]
     direct = direct_times(variants[1:])
-    result["throughput"] = {"variants": len(variants), "wall_1": one[-1] - one[0], "wall_2": two[-1] - two[0],
-                            "rate_1": steady_rate(one), "rate_2": steady_rate(two), "speedup": steady_rate(two) / steady_rate(one),
-                            "speedup_wall": (one[-1] - one[0]) / (two[-1] - two[0]),
-                            # CPU seconds per variant (after each worker's first): equal means the workers do not
-                            # contend inside hriplan, so throughput scales with the cores actually free
-                            "cpu_per_variant_1": statistics.mean(r["cpu_time"] for r in warm(one_rows)),
-                            "cpu_per_variant_2": statistics.mean(r["cpu_time"] for r in warm(two_rows)),
-                            "load_average": os.getloadavg()}  # fmt: skip
-    result["overhead"] = {"mean_interval_1_worker": statistics.mean(intervals), "mean_worker_run": statistics.mean(worker_times),
-                          "mean_direct_plan": statistics.mean(direct),
-                          "overhead_per_variant_ms": 1000 * statistics.mean(i - w for i, w in zip(intervals, worker_times))}  # fmt: skip
+    result["throughput"] = {
+        "variants": len(variants),
+        "wall_1": one[-1] - one[0],
+        "wall_2": two[-1] - two[0],
+        "rate_1": steady_rate(one),
+        "rate_2": steady_rate(two),
+        "speedup": steady_rate(two) / steady_rate(one),
+        "speedup_wall": (one[-1] - one[0]) / (two[-1] - two[0]),
+        # CPU seconds per variant (after each worker's first): equal means the workers do not
+        # contend inside hriplan, so throughput scales with the cores actually free
+        "cpu_per_variant_1": statistics.mean(r["cpu_time"] for r in warm(one_rows)),
+        "cpu_per_variant_2": statistics.mean(r["cpu_time"] for r in warm(two_rows)),
+        "load_average": os.getloadavg(),
+    }
+    result["overhead"] = {
+        "mean_interval_1_worker": statistics.mean(intervals),
+        "mean_worker_run": statistics.mean(worker_times),
+        "mean_direct_plan": statistics.mean(direct),
+        "overhead_per_variant_ms": 1000 * statistics.mean(i - w for i, w in zip(intervals, worker_times)),
+    }
     print(json.dumps(result, indent=1), flush=True)
 
     # 2. the Ray driver's ceiling: variants that cost nothing, with few and with many actors
@@ -112,7 +121,9 @@ def main() -> None:
         result["ray_noop"] = []
         for actors in (int(a) for a in args.noop_actors.split(",")):
             stamps, _ = timed_run(RayEngine(actors), light, out / f"noop{actors}", work=noop)
-            result["ray_noop"].append({"actors": actors, "variants": len(light), "wall": stamps[-1] - stamps[0], "rate": steady_rate(stamps)})
+            result["ray_noop"].append(
+                {"actors": actors, "variants": len(light), "wall": stamps[-1] - stamps[0], "rate": steady_rate(stamps)}
+            )
             print(json.dumps(result["ray_noop"][-1]), flush=True)
 
     # 3. the handover sweep over where the person stands (grid of about --handover positions)

@@ -33,7 +33,9 @@ def main() -> None:
     problem = load_problem(SCENARIOS / f"{args.scenario}.json")
     session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
     session.set_constraints(problem.constraints)
-    chosen = {k: v for k, v in (("planner", args.planner), ("space", args.space), ("formulation", args.formulation)) if v}
+    chosen = {
+        k: v for k, v in (("planner", args.planner), ("space", args.space), ("formulation", args.formulation)) if v
+    }
     specs = list(session.constraints.values())
     profiler = cProfile.Profile()
     calls: dict[str, int] = {}
@@ -47,8 +49,10 @@ def main() -> None:
             calls[key] = calls.get(key, 0) + value
         print(f"seed {seed}: {result.status} in {result.planning_time:.3f} s")
     wall = (time.perf_counter() - started) / args.runs
-    print(f"{args.runs} plans, {wall:.3f} s per plan (profiled), callbacks per plan:",
-          {k: v // args.runs for k, v in calls.items()})  # fmt: skip
+    print(
+        f"{args.runs} plans, {wall:.3f} s per plan (profiled), callbacks per plan:",
+        {k: v // args.runs for k, v in calls.items()},
+    )
     out = io.StringIO()
     stats = pstats.Stats(profiler, stream=out)
     print(f"function calls per plan: {stats.total_calls // args.runs}")

@@ -7,30 +7,62 @@ from pathlib import Path
 
 import numpy as np
 
-from hriplan.api import (ConeConstraint, FrameRef, HumanSpec, OrientationConstraint, PlanningSession, PlanOptions,
-                         Pose, Scene, ToolGoal, load_task, posture, run_task, table)  # fmt: skip
+from hriplan.api import (
+    ConeConstraint,
+    FrameRef,
+    HumanSpec,
+    OrientationConstraint,
+    PlanningSession,
+    PlanOptions,
+    Pose,
+    Scene,
+    ToolGoal,
+    load_task,
+    posture,
+    run_task,
+    table,
+)
 
 EXAMPLES = Path(__file__).parent
 
 # Build once: robot, collision model, scene.
 person = HumanSpec(name="bob", position=(0.0, 1.45), yaw=-np.pi / 2, reach={"right": (0.05, 1.05, 1.05)})
-session = PlanningSession("madar", Scene(obstacles=[table(position=(0.45, 0.85), size=(0.5, 0.5, 0.04), top=0.72)], humans=[person]),
-                          hands={"right": "power"})  # fmt: skip
+session = PlanningSession(
+    "madar",
+    Scene(obstacles=[table(position=(0.45, 0.85), size=(0.5, 0.5, 0.04), top=0.72)], humans=[person]),
+    hands={"right": "power"},
+)
 
 # A motion with hand-written constraints: keep the can upright, approach bob's hand in a cone.
 joints = session.robot.group_joints("right_arm")
 upright = Pose(rpy=(np.pi / 2, 0.0, np.pi))  # tool y (the can's axis) up, tool z towards +y
-session.set_constraints([
-    OrientationConstraint(id="upright", joints=joints, target_link="right_tool", free_axes=["y"], target=upright, tolerance=0.1),
-    ConeConstraint(id="approach", joints=joints, target_link="right_tool", radius=0.3, height=0.55,
-                   frame=FrameRef(entity="bob/right_hand", offset=Pose(rpy=(0.0, np.pi / 2, 0.0)))),
-])  # fmt: skip
+session.set_constraints(
+    [
+        OrientationConstraint(
+            id="upright", joints=joints, target_link="right_tool", free_axes=["y"], target=upright, tolerance=0.1
+        ),
+        ConeConstraint(
+            id="approach",
+            joints=joints,
+            target_link="right_tool",
+            radius=0.3,
+            height=0.55,
+            frame=FrameRef(entity="bob/right_hand", offset=Pose(rpy=(0.0, np.pi / 2, 0.0))),
+        ),
+    ]
+)
 start = posture("madar", "ready")
 hand = session.checker.humans["bob"].frame("right_hand").translation
-goal = ToolGoal(arm="right", pose=Pose(xyz=tuple(hand + (0.0, -0.19, 0.0)), rpy=(np.pi / 2, 0.0, np.pi)), free_axes=["y"])
+goal = ToolGoal(
+    arm="right", pose=Pose(xyz=tuple(hand + (0.0, -0.19, 0.0)), rpy=(np.pi / 2, 0.0, np.pi)), free_axes=["y"]
+)
 result = session.plan(start, goal, PlanOptions(seed=1))
-print("first plan:", result.status, f"{result.trajectory.report.planning_time:.3f} s,",
-      f"{len(result.trajectory.points)} points, worst margins {result.trajectory.report.max_violation}")
+print(
+    "first plan:",
+    result.status,
+    f"{result.trajectory.report.planning_time:.3f} s,",
+    f"{len(result.trajectory.points)} points, worst margins {result.trajectory.report.max_violation}",
+)
 
 # Perception: bob moved his hand a little; re-plan without rebuilding anything.
 session.pose_human(person.model_copy(update={"reach": {"right": (0.07, 1.05, 1.07)}}))

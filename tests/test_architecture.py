@@ -61,7 +61,9 @@ def imports(src: Path = SRC) -> list[tuple[str, str, int]]:
                 continue
             for name in targets:
                 as_path = src / name.replace(".", "/")
-                if name == "hriplan" or (name.startswith("hriplan.") and (as_path.is_dir() or as_path.with_suffix(".py").exists())):
+                if name == "hriplan" or (
+                    name.startswith("hriplan.") and (as_path.is_dir() or as_path.with_suffix(".py").exists())
+                ):
                     found.append((module, name, node.lineno))
     return found
 

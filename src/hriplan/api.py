@@ -24,27 +24,34 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hriplan.planner.constraints.spec import (
+    BoxConstraint,
+    ConeConstraint,
+    ConstraintSet,
+    CylinderConstraint,
+    FrameRef,
+    OrientationConstraint,
+    SphereConstraint,
+)
 from hriplan.planner.motion import JointGoal, MotionResult, ToolGoal
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.session import PlanningSession, PlanResult
-from hriplan.planner.constraints.spec import (BoxConstraint, ConeConstraint, ConstraintSet, CylinderConstraint, FrameRef,
-                                  OrientationConstraint, SphereConstraint)  # fmt: skip
 from hriplan.planner.trajectory import TrajectoryFile, load_trajectory
+from hriplan.robots.descriptions.postures import POSTURES, posture
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
-from hriplan.robots.descriptions.postures import POSTURES, posture
 from hriplan.robots.scene import AttachedObject, Box, Capsule, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.load import load_task
 from hriplan.tasks.model import TaskFile
 from hriplan.tasks.pipeline import TaskOutcome, TaskRunner
 
-
 PERSON_FRAMES: tuple[str, ...] = Human.FRAMES
 
 
-def run_task(task: TaskFile, session: PlanningSession | None = None, base_dir: str | Path = ".", *,
-             keep_task_world: bool = False) -> TaskOutcome:  # fmt: skip
+def run_task(
+    task: TaskFile, session: PlanningSession | None = None, base_dir: str | Path = ".", *, keep_task_world: bool = False
+) -> TaskOutcome:
     """Derive every step's constraints with the rules and plan it, on `session` if given.
 
     Planning a task plans it in the task's world: for each step the session's scene (people,
@@ -63,9 +70,38 @@ def run_task(task: TaskFile, session: PlanningSession | None = None, base_dir: s
 
 
 __all__ = [
-    "AttachedObject", "Box", "BoxConstraint", "Capsule", "ConeConstraint", "ConstraintSet", "Cylinder",
-    "CylinderConstraint", "FrameRef", "HumanSpec", "JointGoal", "MotionResult", "Obstacle", "OrientationConstraint",
-    "PERSON_FRAMES", "POSTURES", "PlanOptions", "PlanResult", "PlanningSession", "Pose", "Scene", "Sphere", "SphereConstraint", "TaskFile",
-    "TaskOutcome", "TaskRunner", "ToolGoal", "TrajectoryFile", "load_robot", "load_task", "load_trajectory",
-    "posture", "run_task", "table",
-]  # fmt: skip
+    "AttachedObject",
+    "Box",
+    "BoxConstraint",
+    "Capsule",
+    "ConeConstraint",
+    "ConstraintSet",
+    "Cylinder",
+    "CylinderConstraint",
+    "FrameRef",
+    "HumanSpec",
+    "JointGoal",
+    "MotionResult",
+    "Obstacle",
+    "OrientationConstraint",
+    "PERSON_FRAMES",
+    "POSTURES",
+    "PlanOptions",
+    "PlanResult",
+    "PlanningSession",
+    "Pose",
+    "Scene",
+    "Sphere",
+    "SphereConstraint",
+    "TaskFile",
+    "TaskOutcome",
+    "TaskRunner",
+    "ToolGoal",
+    "TrajectoryFile",
+    "load_robot",
+    "load_task",
+    "load_trajectory",
+    "posture",
+    "run_task",
+    "table",
+]

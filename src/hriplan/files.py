@@ -64,7 +64,11 @@ def read_data(path: str | Path) -> Any:
     if not text.strip():
         raise HriplanError(f"{path}: the file is empty")
     try:
-        data = json.loads(text, parse_constant=_reject_constant) if path.suffix == ".json" else yaml.load(text, _UniqueKeyLoader)  # noqa: S506 - a safe loader
+        data = (
+            json.loads(text, parse_constant=_reject_constant)
+            if path.suffix == ".json"
+            else yaml.load(text, _UniqueKeyLoader)
+        )
     except HriplanError as exc:  # a key given twice
         raise HriplanError(f"{path}: {exc}") from None
     except json.JSONDecodeError as exc:
@@ -73,7 +77,9 @@ def read_data(path: str | Path) -> Any:
         raise HriplanError(f"{path}: not valid JSON ({exc})") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
-        raise HriplanError(f"{path}: line {mark.line + 1 if mark else '?'}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+        raise HriplanError(
+            f"{path}: line {mark.line + 1 if mark else '?'}: not valid YAML ({getattr(exc, 'problem', exc)})"
+        ) from None
     if not isinstance(data, dict):
         raise HriplanError(f"{path}: expected a mapping of fields at the top level, got {type(data).__name__}")
     return data
@@ -101,12 +107,15 @@ def load_model(path: str | Path, model: type[M]) -> M:
         return model.model_validate(data)
     except ValidationError as exc:
         first = exc.errors()[0]
-        raise HriplanError(f"{path}: {error_location(first['loc'])}: {first['msg'].removeprefix('Value error, ')}") from None
+        raise HriplanError(
+            f"{path}: {error_location(first['loc'])}: {first['msg'].removeprefix('Value error, ')}"
+        ) from None
 
 
 def error_location(loc: tuple[int | str, ...]) -> str:
     """`steps.0.goal.joints` for a pydantic error location: a goal's union tag, which repeats the
     goal's key (`goal.joints.joints`), is dropped."""
+
     def is_tag(k: int) -> bool:
         after_goal = loc[k - 1] == "goal" or (k > 1 and loc[k - 2] == "goals")
         return 0 < k < len(loc) - 1 and loc[k + 1] == loc[k] and after_goal

@@ -23,7 +23,9 @@ def test_robot_urdf_loads_back_in_pinocchio(madar):
     assert model.existJointName("right_wrist_3_joint") and model.existFrame("left_tool")
     data = model.createData()
     pin.framesForwardKinematics(model, data, pin.neutral(model))
-    assert np.allclose(data.oMf[model.getFrameId("right_wrist_3_link")].translation, (-0.3247, 0.1914, 0.8139), atol=1e-4)
+    assert np.allclose(
+        data.oMf[model.getFrameId("right_wrist_3_link")].translation, (-0.3247, 0.1914, 0.8139), atol=1e-4
+    )
     assert "/site-packages/" not in out.stdout and "package://example-robot-data/robots/" in out.stdout
     from hriplan.cli.urdf_export import package_root
 
@@ -73,11 +75,21 @@ def test_solve_failures_have_exit_codes(tmp_path):
     broken = tmp_path / "broken.json"
     broken.write_text(json.dumps(problem))
     bad = run("solve", str(broken))
-    assert bad.returncode == 2 and bad.stderr.startswith(f"error: {broken}: constraints.constraints.0.orientation.tolerance")
+    assert bad.returncode == 2 and bad.stderr.startswith(
+        f"error: {broken}: constraints.constraints.0.orientation.tolerance"
+    )
 
 
-HEAVY = ("ompl", "toppra", "scipy", "matplotlib", "meshcat", "hriplan.planner.session", "hriplan.planner.search.ompl_solver",
-         "hriplan.planner.timing")  # fmt: skip
+HEAVY = (
+    "ompl",
+    "toppra",
+    "scipy",
+    "matplotlib",
+    "meshcat",
+    "hriplan.planner.session",
+    "hriplan.planner.search.ompl_solver",
+    "hriplan.planner.timing",
+)
 
 
 def test_constraints_and_help_do_not_import_the_planner():
@@ -95,19 +107,32 @@ def test_constraints_and_help_do_not_import_the_planner():
     example = __import__("pathlib").Path(__file__).parents[2] / "examples" / "handover_full_can.yaml"
     out = subprocess.run([sys.executable, "-c", probe, str(example)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
-    assert [line for line in out.stdout.splitlines() if line.startswith("loaded")] == ["loaded []", "loaded []"], out.stdout
+    assert [line for line in out.stdout.splitlines() if line.startswith("loaded")] == ["loaded []", "loaded []"], (
+        out.stdout
+    )
 
 
-COMMANDS = ["solve", "view", "plot", "plan", "constraints", "explain", "query", "validate", "import-kautham", "schema",
-            "robot info", "robot urdf"]  # fmt: skip
+COMMANDS = [
+    "solve",
+    "view",
+    "plot",
+    "plan",
+    "constraints",
+    "explain",
+    "query",
+    "validate",
+    "import-kautham",
+    "schema",
+    "robot info",
+    "robot urdf",
+]
 
 
 def test_help_has_examples_exit_codes_and_every_option_explained():
+    from typer.main import get_command
     from typer.testing import CliRunner
 
     from hriplan.cli.main import app
-
-    from typer.main import get_command
 
     top = CliRunner().invoke(app, ["--help"]).stdout
     assert "Examples:" in top and "Exit codes:" in top and "130" in top

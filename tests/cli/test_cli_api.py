@@ -4,8 +4,18 @@ run_task says what it does to the session it is given."""
 import numpy as np
 
 from hriplan import api
-from hriplan.api import (BoxConstraint, HumanSpec, PlanningSession, PlanOptions, Pose, Scene, TaskFile, ToolGoal,
-                         posture, run_task)  # fmt: skip
+from hriplan.api import (
+    BoxConstraint,
+    HumanSpec,
+    PlanningSession,
+    PlanOptions,
+    Pose,
+    Scene,
+    TaskFile,
+    ToolGoal,
+    posture,
+    run_task,
+)
 
 
 def test_a_tool_goal_without_group_moves_its_arm_only():
@@ -17,7 +27,9 @@ def test_a_tool_goal_without_group_moves_its_arm_only():
     assert result.solved, result.message
     trajectory = result.trajectory
     assert trajectory.joint_names == session.robot.group_joints("right_arm")
-    end = session.robot.configuration(trajectory.start | dict(zip(trajectory.joint_names, trajectory.points[-1].positions)))
+    end = session.robot.configuration(
+        trajectory.start | dict(zip(trajectory.joint_names, trajectory.points[-1].positions))
+    )
     assert np.allclose(session.robot.frame_pose("right_tool", end)[:3, 3], goal.pose.xyz, atol=2e-3)
 
 
@@ -28,8 +40,13 @@ def _quat(rotation: np.ndarray) -> tuple[float, float, float, float]:
     return (q.x, q.y, q.z, q.w)
 
 
-TASK = {"name": "api", "robot": "ur5", "humans": [{"name": "bob", "role": "Bystander", "position": [1.5, 0.0], "yaw": 3.14}],
-        "steps": [{"name": "move", "goal": {"joints": {"elbow_joint": 1.0}}}], "planning": {"time_limit": 5, "seed": 1}}  # fmt: skip
+TASK = {
+    "name": "api",
+    "robot": "ur5",
+    "humans": [{"name": "bob", "role": "Bystander", "position": [1.5, 0.0], "yaw": 3.14}],
+    "steps": [{"name": "move", "goal": {"joints": {"elbow_joint": 1.0}}}],
+    "planning": {"time_limit": 5, "seed": 1},
+}
 
 
 def test_run_task_puts_the_sessions_scene_and_constraints_back_unless_asked():

@@ -12,7 +12,9 @@ HANDOVER = ROOT / "examples" / "handover_full_can_receiver.yaml"
 
 
 def run(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "hriplan.cli", *map(str, args)], capture_output=True, text=True, timeout=600, cwd=cwd)
+    return subprocess.run(
+        [sys.executable, "-m", "hriplan.cli", *map(str, args)], capture_output=True, text=True, timeout=600, cwd=cwd
+    )
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +42,7 @@ def test_validate_accepts_the_plan_and_catches_tampering(planned, tmp_path):
     assert ok.returncode == 0, ok.stderr
     assert "upright_can" in ok.stdout and "kept" in ok.stdout
     data = json.loads((out / "handover.json").read_text())
-    for point in data["points"][len(data["points"]) // 2:]:
+    for point in data["points"][len(data["points"]) // 2 :]:
         point["positions"][4] += 0.4  # tilt the wrist: the can spills
     tampered = tmp_path / "tampered.json"
     tampered.write_text(json.dumps(data))
@@ -72,13 +74,17 @@ def test_schema_import_and_bad_input(tmp_path):
     assert "steps" in schema["properties"] and "TakeGoal" in schema["$defs"]
     imported = run("import-kautham", ROOT / "tests" / "data" / "kautham_madar_handover.xml", "-o", tmp_path / "p.json")
     assert imported.returncode == 0 and "3 constraints, group right_arm" in imported.stdout
-    assert json.loads((tmp_path / "p.json").read_text())["constraints"]["constraints"][1]["frame"]["entity"] == "Coke can"
+    assert (
+        json.loads((tmp_path / "p.json").read_text())["constraints"]["constraints"][1]["frame"]["entity"] == "Coke can"
+    )
     missing = run("plan", tmp_path / "nope.yaml")
     assert missing.returncode == 2 and missing.stderr.strip() == f"error: {tmp_path / 'nope.yaml'}: no such file"
 
 
 def test_plugin_api_example_runs():
-    result = subprocess.run([sys.executable, str(ROOT / "examples" / "plugin_api.py")], capture_output=True, text=True, timeout=600)
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "plugin_api.py")], capture_output=True, text=True, timeout=600
+    )
     assert result.returncode == 0, result.stderr
     assert "first plan: solved" in result.stdout and "after bob moved: solved" in result.stdout
     assert "task step place_can: solved, constraints: ['keep_out_alice', 'upright_coke_can']" in result.stdout
@@ -124,7 +130,9 @@ def test_seed_and_project_start_reach_the_planner_from_the_file_and_the_command_
     from hriplan.tasks.pipeline import TaskRunner
 
     task_file = tmp_path / "t.yaml"
-    task_file.write_text("robot: ur5\nsteps: [{goal: {joints: {elbow_joint: 1.0}}}]\nplanning: {seed: 3, project_start: true}\n")
+    task_file.write_text(
+        "robot: ur5\nsteps: [{goal: {joints: {elbow_joint: 1.0}}}]\nplanning: {seed: 3, project_start: true}\n"
+    )
     from_file = load_checked_task(task_file)
     assert (from_file.planning.seed, from_file.planning.project_start) == (3, True)
     overridden = load_checked_task(task_file, seed=9)
@@ -135,7 +143,7 @@ def test_seed_and_project_start_reach_the_planner_from_the_file_and_the_command_
     class Stop(Exception):
         pass
 
-    def spy(robot, checker, constraints, start, goal, options=None, group=None, safety=None):  # noqa: ANN001
+    def spy(robot, checker, constraints, start, goal, options=None, group=None, safety=None):
         seen.append(options)
         raise Stop
 
@@ -156,8 +164,12 @@ def test_progress_plain_when_piped_live_on_a_terminal_silent_when_quiet():
     import pty
 
     master, slave = pty.openpty()
-    process = subprocess.Popen([sys.executable, "-m", "hriplan.cli", "constraints", str(TWO_STEPS)],
-                               stdout=subprocess.DEVNULL, stderr=slave, stdin=subprocess.DEVNULL)  # fmt: skip
+    process = subprocess.Popen(
+        [sys.executable, "-m", "hriplan.cli", "constraints", str(TWO_STEPS)],
+        stdout=subprocess.DEVNULL,
+        stderr=slave,
+        stdin=subprocess.DEVNULL,
+    )
     os.close(slave)
     seen = b""
     while True:

@@ -12,8 +12,8 @@ import pinocchio as pin
 import pytest
 
 from hriplan import HriplanError
-from hriplan.planner.constraints.spec import BoxConstraint, ConeConstraint, OrientationConstraint
 from hriplan.formats.kautham import import_kautham
+from hriplan.planner.constraints.spec import BoxConstraint, ConeConstraint, OrientationConstraint
 
 FIXTURE = Path(__file__).parents[1] / "data" / "kautham_madar_handover.xml"
 
@@ -70,10 +70,21 @@ def test_rpy_conventions_differ_for_combined_angles(tmp_path):
     "old, new, message",
     [
         ('type="cone"', 'type="torus"', "unknown type 'torus'"),
-        ('<GeometricParams radius="0.3" height="0.6"/>', '<GeometricParams radius="0.3"/>', "has no attribute 'height'"),
-        ('<TargetLink name="right_wrist_3_link"/>\n        <Joint name="right_shoulder_link"/>\n        <Joint name="right_upper_arm_link"/>\n        <Joint name="right_fore_arm_link"/>\n        <Joint name="right_wrist_1_link"/>\n        <Joint name="right_wrist_2_link"/>\n        <Joint name="right_wrist_3_link"/>\n        <GeometricParams radius',
-         '<TargetLink name="right_nose_link"/>\n        <GeometricParams radius', "has no link 'right_nose_link'"),
-        ('<Joint name="right_wrist_1_link"/>', '<Joint name="right_wrist_9_link"/>', "no link or joint 'right_wrist_9_link'"),
+        (
+            '<GeometricParams radius="0.3" height="0.6"/>',
+            '<GeometricParams radius="0.3"/>',
+            "has no attribute 'height'",
+        ),
+        (
+            '<TargetLink name="right_wrist_3_link"/>\n        <Joint name="right_shoulder_link"/>\n        <Joint name="right_upper_arm_link"/>\n        <Joint name="right_fore_arm_link"/>\n        <Joint name="right_wrist_1_link"/>\n        <Joint name="right_wrist_2_link"/>\n        <Joint name="right_wrist_3_link"/>\n        <GeometricParams radius',
+            '<TargetLink name="right_nose_link"/>\n        <GeometricParams radius',
+            "has no link 'right_nose_link'",
+        ),
+        (
+            '<Joint name="right_wrist_1_link"/>',
+            '<Joint name="right_wrist_9_link"/>',
+            "no link or joint 'right_wrist_9_link'",
+        ),
         ('entity="Coke can"', 'entity="Pepsi can"', "'Pepsi can' is not an obstacle"),
         ('qx="1"', 'qx="2"', "not a unit quaternion"),
         ('init="0.629"', 'init="1.629"', "not a normalised value"),
@@ -99,7 +110,10 @@ def test_an_imported_problem_plans():
     session.set_constraints(problem.constraints)
     result = session.plan(problem.start, problem.goal, problem.options.model_copy(update={"seed": 1}), problem.group)
     assert result.solved, result.message
-    assert result.trajectory.report.max_violation["upright"] <= 1e-4 and result.trajectory.report.max_violation["workspace"] <= 1e-4
+    assert (
+        result.trajectory.report.max_violation["upright"] <= 1e-4
+        and result.trajectory.report.max_violation["workspace"] <= 1e-4
+    )
 
 
 # -- Kautham's own format: controls files, models folder, Home, link aliases ------------------
@@ -134,7 +148,7 @@ def test_controls_file_gives_every_joint_its_angle():
 def test_query_as_init_and_goal_lists_in_control_order(tmp_path):
     _copy_fixture(tmp_path)
     text = UR5_CELL.read_text()
-    query = text[text.index("<RobotControl"):text.index("</Query>")]
+    query = text[text.index("<RobotControl") : text.index("</Query>")]
     path = tmp_path / "lists.xml"
     path.write_text(text.replace(query, "<Init>0.687037 0.124074</Init><Goal>0.780620 0.311240</Goal>\n"))
     listed = import_kautham(path, models=[MODELS], warn=lambda message: None)
@@ -154,15 +168,22 @@ def test_home_moves_the_world_into_the_robot_frame():
 
 
 def test_obstacle_scale_and_a_skipped_obstacle(tmp_path):
-    _copy_fixture(tmp_path, problem_edit=('obstacle="obstacles/crate.urdf" scale="1.0"', 'obstacle="obstacles/crate.urdf" scale="2.0"'))
+    _copy_fixture(
+        tmp_path,
+        problem_edit=('obstacle="obstacles/crate.urdf" scale="1.0"', 'obstacle="obstacles/crate.urdf" scale="2.0"'),
+    )
     (crate,) = import_kautham(tmp_path / "ur5_cell.xml", models=[MODELS], warn=lambda message: None).scene.obstacles
     assert crate.shape.size == (0.6, 0.4, 0.4) and crate.pose.xyz == pytest.approx((0.45, -0.6, 0.2))
     # Without the models folder: no crate, and the robot file (the elbow's range) is missing too.
     _copy_fixture(tmp_path, problem_edit=('robot="robots/ur5_cell.urdf"', 'robot="robots/ur5_elsewhere.urdf"'))
-    (tmp_path / "controls" / "ur5_cell.cntr").write_text((tmp_path / "controls" / "ur5_cell.cntr").read_text().replace('"0.815"', '"0.6575"'))
+    (tmp_path / "controls" / "ur5_cell.cntr").write_text(
+        (tmp_path / "controls" / "ur5_cell.cntr").read_text().replace('"0.815"', '"0.6575"')
+    )
     warnings = []
     skipped = import_kautham(tmp_path / "ur5_cell.xml", warn=warnings.append)
-    assert skipped.scene.obstacles == [] and skipped.start["elbow_joint"] == pytest.approx(-TWO_PI + 2 * TWO_PI * 0.6575)
+    assert skipped.scene.obstacles == [] and skipped.start["elbow_joint"] == pytest.approx(
+        -TWO_PI + 2 * TWO_PI * 0.6575
+    )
     assert any("skipped obstacle 'crate'" in w and "--models" in w for w in warnings)
     assert any("robot file 'robots/ur5_elsewhere.urdf'" in w for w in warnings)
     box = skipped.constraints.constraints[1]
@@ -194,7 +215,9 @@ def test_kautham_hand_base_link_is_the_palm(madar, rng):
         wrist = pin.SE3(madar.frame_pose("right_wrist_3_link", q))
         kautham = (wrist * adapter * support).homogeneous
         assert np.allclose(madar.frame_pose(madar.link_name("right_hand_base_link"), q), kautham, atol=1e-9)
-        assert np.allclose(madar.frame_pose(madar.link_name("right_hand_adapter_link"), q), (wrist * adapter).homogeneous)
+        assert np.allclose(
+            madar.frame_pose(madar.link_name("right_hand_adapter_link"), q), (wrist * adapter).homogeneous
+        )
 
 
 def _orientation_error(robot, q, constraint) -> float:
@@ -233,12 +256,29 @@ def test_own_fixtures_plan_and_every_point_keeps_the_constraints(path):
 @pytest.mark.parametrize(
     "edit, message",
     [
-        (('robot="controls/ur5_cell.cntr"', 'robot="controls/ur5_missing.cntr"'), "controls file 'controls/ur5_missing.cntr' not found"),
+        (
+            ('robot="controls/ur5_cell.cntr"', 'robot="controls/ur5_missing.cntr"'),
+            "controls file 'controls/ur5_missing.cntr' not found",
+        ),
         (('name="ur5/twist" init', 'name="ur5/spin" init'), "control 'ur5/spin' is not in"),
-        (('<RobotControl name="ur5/twist" init="0.124074" goal="0.311240"/>', ""), "query sets 1 of 2 controls; missing: ur5/twist"),
-        (("<RobotControl name=\"ur5/pan\"", "<RobotControl name=\"ur5/pan\" init=\"0.5\" goal=\"0.5\"/><RobotControl name=\"ur5/pan\""), "control 'ur5/pan' is set twice"),
-        (('<TargetLink name="wrist_3_link"/>\n\t\t\t<GeometricParams',
-          '<TargetLink name="wrist_3_link"/>\n\t\t\t<Enabled status="maybe"/>\n\t\t\t<GeometricParams'), "<Enabled status> must be true or false"),
+        (
+            ('<RobotControl name="ur5/twist" init="0.124074" goal="0.311240"/>', ""),
+            "query sets 1 of 2 controls; missing: ur5/twist",
+        ),
+        (
+            (
+                '<RobotControl name="ur5/pan"',
+                '<RobotControl name="ur5/pan" init="0.5" goal="0.5"/><RobotControl name="ur5/pan"',
+            ),
+            "control 'ur5/pan' is set twice",
+        ),
+        (
+            (
+                '<TargetLink name="wrist_3_link"/>\n\t\t\t<GeometricParams',
+                '<TargetLink name="wrist_3_link"/>\n\t\t\t<Enabled status="maybe"/>\n\t\t\t<GeometricParams',
+            ),
+            "<Enabled status> must be true or false",
+        ),
     ],
 )
 def test_bad_problem_pieces_give_one_line_errors(tmp_path, edit, message):
@@ -250,7 +290,10 @@ def test_bad_problem_pieces_give_one_line_errors(tmp_path, edit, message):
     "edit, message",
     [
         (('eigValue="0.5"', 'eigValue="half"'), "control 'ur5/twist': eigValue: 'half' is not 1 numbers"),
-        (('"ur5/wrist_2_link"', '"ur5/wrist_7_link"'), "DOF 'ur5/wrist_7_link': the robot has no joint moving link 'wrist_7_link'"),
+        (
+            ('"ur5/wrist_2_link"', '"ur5/wrist_7_link"'),
+            "DOF 'ur5/wrist_7_link': the robot has no joint moving link 'wrist_7_link'",
+        ),
         (('"ur5/wrist_2_link"', '"ur10/wrist_2_link"'), "names robot 'ur10', not"),
         (('"ur5/wrist_2_link"', '"wrist_2_link"'), "DOF 'wrist_2_link' is not ROBOT/LINK"),
         (('<DOF name="ur5/shoulder_link" value="1.0"/>', '<DOF name="ur5/X" value="1.0"/>'), "moves the mobile base"),
@@ -267,8 +310,13 @@ def test_bad_obstacle_urdf_and_overlapping_constraints(tmp_path):
     crate = tmp_path / "models" / "obstacles" / "crate.urdf"
     crate.write_text(crate.read_text().replace('<box size="0.3 0.2 0.2" />', '<box size="0.3 0.2" />'))
     _expect(tmp_path / "ur5_cell.xml", "link 'base', collision 1: '0.3 0.2' is not 3 finite numbers", crate)
-    _copy_fixture(tmp_path, problem_edit=('<Joint name="shoulder_link" />\n\t\t\t<Joint name="upper_arm_link" />\n\t\t\t<Joint name="fore_arm_link" />\n\t\t\t<Joint name="wrist_1_link" />\n\t\t\t<Joint name="wrist_2_link" />\n\t\t\t<Joint name="wrist_3_link" />\n\t\t</Constraint>\n\t</Robot>',
-                                          '<Joint name="upper_arm_link" />\n\t\t\t<Joint name="fore_arm_link" />\n\t\t\t<Joint name="wrist_1_link" />\n\t\t\t<Joint name="wrist_2_link" />\n\t\t\t<Joint name="wrist_3_link" />\n\t\t</Constraint>\n\t</Robot>'))  # fmt: skip
+    _copy_fixture(
+        tmp_path,
+        problem_edit=(
+            '<Joint name="shoulder_link" />\n\t\t\t<Joint name="upper_arm_link" />\n\t\t\t<Joint name="fore_arm_link" />\n\t\t\t<Joint name="wrist_1_link" />\n\t\t\t<Joint name="wrist_2_link" />\n\t\t\t<Joint name="wrist_3_link" />\n\t\t</Constraint>\n\t</Robot>',
+            '<Joint name="upper_arm_link" />\n\t\t\t<Joint name="fore_arm_link" />\n\t\t\t<Joint name="wrist_1_link" />\n\t\t\t<Joint name="wrist_2_link" />\n\t\t\t<Joint name="wrist_3_link" />\n\t\t</Constraint>\n\t</Robot>',
+        ),
+    )
     _expect(tmp_path / "ur5_cell.xml", "constraints 'upright' and 'workspace' share joints .* but not all of them")
 
 
@@ -294,11 +342,20 @@ def test_cli_imports_with_models_and_plans(tmp_path):
     import sys
 
     def run(*args):
-        return subprocess.run([sys.executable, "-m", "hriplan.cli", "import-kautham", *map(str, args)], capture_output=True, text=True, timeout=600)
+        return subprocess.run(
+            [sys.executable, "-m", "hriplan.cli", "import-kautham", *map(str, args)],
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
 
     done = run(UR5_CELL, "--models", MODELS, "-o", tmp_path / "cell.json", "--plan")
     assert done.returncode == 0, done.stderr
-    assert "2 constraints, group arm, 1 obstacles" in done.stdout and "ur5_cell: solved" in done.stdout and done.stderr == ""
+    assert (
+        "2 constraints, group arm, 1 obstacles" in done.stdout
+        and "ur5_cell: solved" in done.stdout
+        and done.stderr == ""
+    )
     # Without its models the robot file is missing: over +-2 pi the elbow's offset is out of range.
     bare = run(UR5_CELL, "-o", tmp_path / "bare.json")
     lines = bare.stderr.strip().splitlines()

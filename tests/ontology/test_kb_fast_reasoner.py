@@ -32,8 +32,10 @@ def example(name: str) -> Situation:
 
 
 def moved(situation: Situation, person: str, dx: float, dy: float = 0.0) -> Situation:
-    humans = [h.model_copy(update={"position": (h.position[0] + dx, h.position[1] + dy)}) if h.name == person else h
-              for h in situation.humans]  # fmt: skip
+    humans = [
+        h.model_copy(update={"position": (h.position[0] + dx, h.position[1] + dy)}) if h.name == person else h
+        for h in situation.humans
+    ]
     return situation.model_copy(update={"humans": humans})
 
 
@@ -55,14 +57,29 @@ def _variants() -> list[tuple[str, Situation]]:
     handover, hot = example("handover_can"), example("transport_hot_cup")
     return [
         ("handover closed can", with_object(handover, "can1", open=False)),
-        ("handover full and empty (inconsistent)", handover.model_copy(update={"facts": [("can1", "hasFillLevel", "Empty")]})),
+        (
+            "handover full and empty (inconsistent)",
+            handover.model_copy(update={"facts": [("can1", "hasFillLevel", "Empty")]}),
+        ),
         ("handover hot glass fact", handover.model_copy(update={"facts": [("glass1", "isHot", True)]})),
         ("hot cup, col walks away", moved(hot, "col", 1.0, 1.0)),
-        ("hot cup, col walks away, path passes col", with_object(moved(hot, "col", 1.0, 1.0), "cup1", path=[(1.2, 1.6, 1.0), (0.9, 0.9, 0.9)])),
-        ("knife handed over, knife not sharp (inconsistent)", with_object(example("handover_knife_glass"), "knife1", sharp=False)),
-        ("a can near a glass (inconsistent: isNear's range is Human)", handover.model_copy(update={"facts": [("can1", "isNear", "glass1")]})),
-        ("performed by two robots (inconsistent: their functional URDF names differ)", handover.model_copy(update={"facts": [("handover", "performedBy", "ur5")]})),
-    ]  # fmt: skip
+        (
+            "hot cup, col walks away, path passes col",
+            with_object(moved(hot, "col", 1.0, 1.0), "cup1", path=[(1.2, 1.6, 1.0), (0.9, 0.9, 0.9)]),
+        ),
+        (
+            "knife handed over, knife not sharp (inconsistent)",
+            with_object(example("handover_knife_glass"), "knife1", sharp=False),
+        ),
+        (
+            "a can near a glass (inconsistent: isNear's range is Human)",
+            handover.model_copy(update={"facts": [("can1", "isNear", "glass1")]}),
+        ),
+        (
+            "performed by two robots (inconsistent: their functional URDF names differ)",
+            handover.model_copy(update={"facts": [("handover", "performedBy", "ur5")]}),
+        ),
+    ]
 
 
 CORPUS = [(p.stem, load_situation(p)) for p in sorted(EXAMPLES_DIR.glob("*.json"))] + _task_steps() + _variants()
@@ -169,11 +186,16 @@ def test_the_threshold_is_read_from_the_ontology(tmp_path):
 def test_what_the_fast_reasoner_cannot_evaluate_is_a_clear_error(tmp_path):
     ontology = tmp_path / "hriplan.ttl"
     ontology.write_text(ONTOLOGY_PATH.read_text() + "\nhp:Cup owl:equivalentClass hp:Bowl .\n")
-    with pytest.raises(HriplanError, match=r"^the fast reasoner does not handle owl:equivalentClass on Cup in the ontology; use --reasoner pellet$"):
+    with pytest.raises(
+        HriplanError,
+        match=r"^the fast reasoner does not handle owl:equivalentClass on Cup in the ontology; use --reasoner pellet$",
+    ):
         KnowledgeBase(example("pouring"), ontology=ontology, cache=ReasoningCache(None), reasoner="fast")
     rules = tmp_path / "strings.rules"
     rules.write_text('# Needs a string built-in.\n[named] Cup(?o) ^ swrlb:startsWith("cup", "c") -> isHot(?o, true)\n')
-    with pytest.raises(HriplanError, match=r"rule 'named' uses built-in startsWith, which the fast reasoner does not evaluate"):
+    with pytest.raises(
+        HriplanError, match=r"rule 'named' uses built-in startsWith, which the fast reasoner does not evaluate"
+    ):
         KnowledgeBase(example("pouring"), rule_files=[rules], cache=ReasoningCache(None), reasoner="fast")
 
 
@@ -188,7 +210,9 @@ def test_the_cli_selects_the_reasoner(monkeypatch, tmp_path, flag, pellet_runs):
     ran: list[int] = []
     monkeypatch.setattr("hriplan.ontology.pellet.run_pellet", lambda world: ran.append(1) or run_pellet(world))
     try:
-        result = CliRunner().invoke(app, ["constraints", str(EXAMPLE_TASKS / "transport_cup_bystander.yaml"), "-q", *flag])
+        result = CliRunner().invoke(
+            app, ["constraints", str(EXAMPLE_TASKS / "transport_cup_bystander.yaml"), "-q", *flag]
+        )
     finally:
         use_reasoner("fast")
     assert len(ran) == pellet_runs
@@ -212,7 +236,9 @@ def _bearings(situation: Situation):
     for name in situation.task.carries:
         obj = situation.object(name)
         for human in situation.humans:
-            yield Measurement(name, human.name, abs(bearing(human.position, human.yaw, obj.pose.xyz[:2], human.name)), False)
+            yield Measurement(
+                name, human.name, abs(bearing(human.position, human.yaw, obj.pose.xyz[:2], human.name)), False
+            )
 
 
 def test_a_new_relation_is_a_relation_kind_a_threshold_in_the_ontology_and_a_rule(tmp_path):
@@ -220,9 +246,13 @@ def test_a_new_relation_is_a_relation_kind_a_threshold_in_the_ontology_and_a_rul
 
     ontology, rules = tmp_path / "hriplan.ttl", tmp_path / "seen.rules"
     ontology.write_text(ONTOLOGY_PATH.read_text() + FIELD_OF_VIEW)
-    rules.write_text("# What someone sees coming is handled gently.\n"
-                     "[seen_object] Task(?t) ^ movesObject(?t, ?o) ^ isInFrontOf(?o, ?h) -> isConstrainedBy(?o, ReducedVelocityFragile)\n")  # fmt: skip
-    in_front = RelationKind("object_in_front_of_human", "isInFrontOf", "FieldOfView", "hasHalfAngle", _bearings, unit="rad")
+    rules.write_text(
+        "# What someone sees coming is handled gently.\n"
+        "[seen_object] Task(?t) ^ movesObject(?t, ?o) ^ isInFrontOf(?o, ?h) -> isConstrainedBy(?o, ReducedVelocityFragile)\n"
+    )
+    in_front = RelationKind(
+        "object_in_front_of_human", "isInFrontOf", "FieldOfView", "hasHalfAngle", _bearings, unit="rad"
+    )
     hot = example("transport_hot_cup")
     expected = set()  # independently: the angle between where each person faces and each carried object
     for obj in ("cup1", "bottle1"):
@@ -233,9 +263,13 @@ def test_a_new_relation_is_a_relation_kind_a_threshold_in_the_ontology_and_a_rul
                 expected.add((obj, human.name))
     assert expected == {("cup1", "col"), ("bottle1", "col")}  # ann, facing +x, sees neither
     kinds = [NEAR_HUMAN, in_front]
-    fast = KnowledgeBase(hot, ontology=ontology, rule_files=[rules], relations=kinds, cache=ReasoningCache(None), reasoner="fast")
+    fast = KnowledgeBase(
+        hot, ontology=ontology, rule_files=[rules], relations=kinds, cache=ReasoningCache(None), reasoner="fast"
+    )
     assert {(s, o) for s, p, o in fast.assertions if p == "isInFrontOf"} == expected
-    pellet = KnowledgeBase(hot, ontology=ontology, rule_files=[rules], relations=kinds, cache=default_cache(), reasoner="pellet")
+    pellet = KnowledgeBase(
+        hot, ontology=ontology, rule_files=[rules], relations=kinds, cache=default_cache(), reasoner="pellet"
+    )
     assert derive(fast) == derive(pellet)
     (bottle,) = [v for v in derive(fast).velocity if v.anchor == "bottle1"]
     assert bottle.rules == ["seen_object", "object_in_front_of_human"]
@@ -249,9 +283,11 @@ def test_a_new_relation_is_a_relation_kind_a_threshold_in_the_ontology_and_a_rul
 def test_user_rules_with_built_ins_over_coordinates_agree_both_ways(tmp_path):
     """A user rule reading coordinates gets them asserted (and keyed); arithmetic and comparisons agree."""
     rules = tmp_path / "high.rules"
-    rules.write_text("# Whatever is carried above 0.7 m is treated as hot (a test rule).\n"
-                     "[carried_high] carries(?a, ?o) ^ hasZ(?o, ?z) ^ swrlb:add(?z2, ?z, 0.5) ^ swrlb:greaterThan(?z2, 1.2)\n"
-                     "    -> isHot(?o, true)\n")  # fmt: skip
+    rules.write_text(
+        "# Whatever is carried above 0.7 m is treated as hot (a test rule).\n"
+        "[carried_high] carries(?a, ?o) ^ hasZ(?o, ?z) ^ swrlb:add(?z2, ?z, 0.5) ^ swrlb:greaterThan(?z2, 1.2)\n"
+        "    -> isHot(?o, true)\n"
+    )
     handover = example("handover_can")  # can1 is carried at z = 0.78 m, near bob and sue
     kwargs = {"rule_files": [rules]}
     fast = KnowledgeBase(handover, cache=ReasoningCache(None), reasoner="fast", **kwargs)
@@ -261,20 +297,27 @@ def test_user_rules_with_built_ins_over_coordinates_agree_both_ways(tmp_path):
     assert fast.facts == pellet.facts and derive(fast) == derive(pellet)
     (slow,) = derive(fast).velocity
     assert (slow.kind, slow.anchor) == ("ReducedVelocityHot", "can1") and "carried_high" in slow.rules
-    lowered = with_object(handover, "can1", pose=handover.object("can1").pose.model_copy(update={"xyz": (0.45, 0.85, 0.6)}))
+    lowered = with_object(
+        handover, "can1", pose=handover.object("can1").pose.model_copy(update={"xyz": (0.45, 0.85, 0.6)})
+    )
     assert derive(KnowledgeBase(lowered, cache=ReasoningCache(None), **kwargs)).velocity == []
 
 
 def test_a_user_rule_clashing_with_a_packaged_one_fails_alike_both_ways(tmp_path):
     rules = tmp_path / "both.rules"
-    rules.write_text("# Contradicts the package rule on purpose.\n"
-                     "[also_partial] TransportingTask(?t) ^ movesObject(?t, ?o) ^ Can(?o) -> isConstrainedBy(?o, UprightPartial)\n")  # fmt: skip
+    rules.write_text(
+        "# Contradicts the package rule on purpose.\n"
+        "[also_partial] TransportingTask(?t) ^ movesObject(?t, ?o) ^ Can(?o) -> isConstrainedBy(?o, UprightPartial)\n"
+    )
     messages = []
     for reasoner, cache in (("fast", ReasoningCache(None)), ("pellet", default_cache())):
         with pytest.raises(HriplanError) as info:
             derive(KnowledgeBase(example("handover_can"), rule_files=[rules], cache=cache, reasoner=reasoner))
         messages.append(str(info.value))
-    assert messages[0] == messages[1] and "UprightFull and UprightPartial both make constraint 'upright_can1'" in messages[0]
+    assert (
+        messages[0] == messages[1]
+        and "UprightFull and UprightPartial both make constraint 'upright_can1'" in messages[0]
+    )
 
 
 @pytest.mark.parametrize("seed", range(5))

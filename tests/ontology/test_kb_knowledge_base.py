@@ -14,12 +14,12 @@ from hriplan.ontology import pellet as reasoner
 from hriplan.ontology.assertions import situation_assertions
 from hriplan.ontology.cache import ReasoningCache, default_cache_dir, reasoning_key
 from hriplan.ontology.knowledge_base import KnowledgeBase
-from hriplan.ontology.reasoners import use_reasoner
 from hriplan.ontology.pellet import InconsistentSituation
+from hriplan.ontology.reasoners import use_reasoner
+from hriplan.ontology.ruleset import load_rules
 from hriplan.ontology.situation import EXAMPLES_DIR, Situation, load_situation
 from hriplan.ontology.vocabulary import NAMESPACE, SITUATION_NAMESPACE, ontology_source
 from hriplan.robots.spatial import Pose
-from hriplan.ontology.ruleset import load_rules
 
 HP, SIT = rdflib.Namespace(NAMESPACE), rdflib.Namespace(SITUATION_NAMESPACE)
 
@@ -70,7 +70,12 @@ def test_rules_conclusions_and_the_derived_task_requirements(kb):
     assert kb.facts.get("can1", "isConstrainedBy") == ["UprightFull"]
     assert kb.facts.get("sue", "isConstrainedBy") == ["KeepOutSupervisor"]
     assert set(kb.facts.get("handover", "requiresConstraint")) == {
-        "UprightFull", "ApproachCone", "SharedWorkspaceBox", "ReceiverExclusionBox", "KeepOutSupervisor"}  # fmt: skip
+        "UprightFull",
+        "ApproachCone",
+        "SharedWorkspaceBox",
+        "ReceiverExclusionBox",
+        "KeepOutSupervisor",
+    }
     # computed from the geometry before reasoning: carried objects against NearHuman's 1.2 m
     assert kb.facts.get("can1", "isNear") == ["bob", "sue"]  # 0.74 m from bob, 0.85 m from sue
     assert kb.facts.get("glass1", "isNear") == []  # not carried
@@ -84,8 +89,11 @@ def test_turtle_export_reparses_and_holds_asserted_and_inferred_triples(kb):
     assert (SIT.handover, HP.requiresConstraint, HP.UprightFull) in graph  # inferred from a rule and a chain
     assert (SIT.can1, HP.isNear, SIT.bob) in graph  # computed from the geometry
     assert (HP.UprightFull, HP.hasTolerance, None) in graph  # the ontology travels with the facts
-    rule_names = {str(o) for s in graph.subjects(rdflib.RDF.type, rdflib.URIRef("http://www.w3.org/2003/11/swrl#Imp"))
-                  for o in graph.objects(s, rdflib.RDFS.label)}  # fmt: skip
+    rule_names = {
+        str(o)
+        for s in graph.subjects(rdflib.RDF.type, rdflib.URIRef("http://www.w3.org/2003/11/swrl#Imp"))
+        for o in graph.objects(s, rdflib.RDFS.label)
+    }
     assert {"upright_full_open_container", "define_full_open_container"} <= rule_names
     assert kb.turtle().startswith("@prefix hp: <https://hriplan.org/ontology#> .")
 
@@ -110,7 +118,9 @@ def test_the_disk_cache_serves_a_new_process(kb, handover, cache, no_java):
 
 def test_the_key_follows_the_facts_not_the_geometry(kb, handover, cache, no_java):
     people = [h.model_copy(update={"height": 1.6, "reach": {}}) for h in handover.humans]
-    tilted = [o.model_copy(update={"pose": Pose(xyz=o.pose.xyz, rpy=(0.1, 0.0, 0.0)), "size": None}) for o in handover.objects]
+    tilted = [
+        o.model_copy(update={"pose": Pose(xyz=o.pose.xyz, rpy=(0.1, 0.0, 0.0)), "size": None}) for o in handover.objects
+    ]
     same_facts = handover.model_copy(update={"humans": people, "objects": tilted})
     assert KnowledgeBase(same_facts, cache=cache).key == kb.key  # a cache hit: no JVM
     closed = handover.model_copy(update={"objects": [o.model_copy(update={"open": False}) for o in handover.objects]})
@@ -151,16 +161,24 @@ def test_an_inconsistency_is_cached_too(full_and_empty, cache, no_java):
         KnowledgeBase(full_and_empty, cache=cache)
 
 
-@pytest.mark.parametrize(("change", "message"), [
-    ({"robot": "pr2"}, "unknown robot 'pr2'; the ontology knows: madar, ur5"),
-    ({"task": {"kind": "Juggling", "arms": ["right"]}}, "task 'task' has kind 'Juggling', not a Task class"),
-    ({"task": {"kind": "Transport", "arms": ["middle"]}}, "robot 'madar' has no arm 'middle'; arms: left, right"),
-    ({"objects": [{"name": "can1", "kind": "Mug"}]}, "object 'can1' has kind 'Mug', not a PhysicalObject class"),
-    ({"humans": [{"name": "UprightFull", "role": "Bystander"}], "task": {"kind": "Transport", "arms": ["right"]}},
-     "'UprightFull' is a term of the ontology"),
-    ({"facts": [["can1", "hasColour", "red"]]}, "'hasColour' is not a property of the ontology"),
-    ({"facts": [["nobody", "isHot", True]]}, "'nobody' is neither in the situation nor an individual"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"robot": "pr2"}, "unknown robot 'pr2'; the ontology knows: madar, ur5"),
+        ({"task": {"kind": "Juggling", "arms": ["right"]}}, "task 'task' has kind 'Juggling', not a Task class"),
+        ({"task": {"kind": "Transport", "arms": ["middle"]}}, "robot 'madar' has no arm 'middle'; arms: left, right"),
+        ({"objects": [{"name": "can1", "kind": "Mug"}]}, "object 'can1' has kind 'Mug', not a PhysicalObject class"),
+        (
+            {
+                "humans": [{"name": "UprightFull", "role": "Bystander"}],
+                "task": {"kind": "Transport", "arms": ["right"]},
+            },
+            "'UprightFull' is a term of the ontology",
+        ),
+        ({"facts": [["can1", "hasColour", "red"]]}, "'hasColour' is not a property of the ontology"),
+        ({"facts": [["nobody", "isHot", True]]}, "'nobody' is neither in the situation nor an individual"),
+    ],
+)
 @pytest.mark.parametrize("reasoner", ["fast", "pellet"])
 def test_bad_situations_are_one_line_errors_before_any_reasoning(handover, change, message, reasoner, no_java):
     situation = Situation.model_validate({**handover.model_dump(), **change})
@@ -170,17 +188,31 @@ def test_bad_situations_are_one_line_errors_before_any_reasoning(handover, chang
 
 
 def test_body_part_names_must_not_collide(handover):
-    situation = Situation.model_validate({**handover.model_dump(), "objects": [{"name": "bob_head", "kind": "Cup"}],
-                                          "task": {"kind": "RobotToHumanHandover", "arms": ["right"], "human": "bob"}})  # fmt: skip
+    situation = Situation.model_validate(
+        {
+            **handover.model_dump(),
+            "objects": [{"name": "bob_head", "kind": "Cup"}],
+            "task": {"kind": "RobotToHumanHandover", "arms": ["right"], "human": "bob"},
+        }
+    )
     with pytest.raises(HriplanError, match="'bob_head' is taken by bob's head"):
         KnowledgeBase(situation, cache=ReasoningCache(None))
 
 
-@pytest.mark.parametrize(("task", "message"), [
-    ({"kind": "Transport", "arms": ["right"], "carries": {"ghost": "right"}}, "carries 'ghost', which is not among the objects"),
-    ({"kind": "Transport", "arms": ["right"], "carries": {"can1": "left"}}, "carried by arm 'left', which the task does not use"),
-    ({"kind": "Transport", "arms": ["right"], "human": "zed"}, "task human 'zed' is not among the humans"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("task", "message"),
+    [
+        (
+            {"kind": "Transport", "arms": ["right"], "carries": {"ghost": "right"}},
+            "carries 'ghost', which is not among the objects",
+        ),
+        (
+            {"kind": "Transport", "arms": ["right"], "carries": {"can1": "left"}},
+            "carried by arm 'left', which the task does not use",
+        ),
+        ({"kind": "Transport", "arms": ["right"], "human": "zed"}, "task human 'zed' is not among the humans"),
+    ],
+)
 def test_situation_references_are_checked_by_the_model(handover, task, message):
     with pytest.raises(ValidationError, match=message):
         Situation.model_validate({**handover.model_dump(), "task": task})

@@ -4,8 +4,8 @@ import pytest
 import rdflib
 from rdflib.namespace import OWL, RDF, RDFS
 
-from hriplan.ontology.vocabulary import NAMESPACE, ONTOLOGY_IRI, ONTOLOGY_PATH
 from hriplan.ontology.ruleset import load_rules
+from hriplan.ontology.vocabulary import NAMESPACE, ONTOLOGY_IRI, ONTOLOGY_PATH
 
 HP = rdflib.Namespace(NAMESPACE)
 
@@ -29,19 +29,57 @@ def test_ontology_header_has_a_stable_iri_and_version(graph):
 def test_every_class_and_property_has_a_label_and_a_comment(graph, kind):
     terms = _terms(graph, kind)
     assert terms
-    undocumented = sorted(str(t) for t in terms if graph.value(t, RDFS.label) is None or graph.value(t, RDFS.comment) is None)
+    undocumented = sorted(
+        str(t) for t in terms if graph.value(t, RDFS.label) is None or graph.value(t, RDFS.comment) is None
+    )
     assert undocumented == []
 
 
 def test_the_issue_vocabulary_is_present(graph):
     classes = {t.removeprefix(NAMESPACE) for t in _terms(graph, OWL.Class)}
     required = {
-        "RobotToHumanHandover", "HumanToRobotHandover", "Pick", "Place", "Transport", "Insertion", "Pouring", "Inspection",
-        "Can", "Cup", "Glass", "Bottle", "Bowl", "Tool", "SharpTool", "FragileObject", "HotObject", "Peg", "Hole", "Table",
-        "Human", "Receiver", "Giver", "Supervisor", "Collaborator", "Bystander", "Head", "Torso", "HumanHand",
-        "Robot", "Arm", "RobotHand", "Link", "SharedWorkspace", "HumanSafetyZone",
-        "UprightKind", "AlignmentKind", "ApproachConeKind", "WorkspaceBoxKind", "KeepOutCylinderKind", "KeepOutSphereKind",
-    }  # fmt: skip
+        "RobotToHumanHandover",
+        "HumanToRobotHandover",
+        "Pick",
+        "Place",
+        "Transport",
+        "Insertion",
+        "Pouring",
+        "Inspection",
+        "Can",
+        "Cup",
+        "Glass",
+        "Bottle",
+        "Bowl",
+        "Tool",
+        "SharpTool",
+        "FragileObject",
+        "HotObject",
+        "Peg",
+        "Hole",
+        "Table",
+        "Human",
+        "Receiver",
+        "Giver",
+        "Supervisor",
+        "Collaborator",
+        "Bystander",
+        "Head",
+        "Torso",
+        "HumanHand",
+        "Robot",
+        "Arm",
+        "RobotHand",
+        "Link",
+        "SharedWorkspace",
+        "HumanSafetyZone",
+        "UprightKind",
+        "AlignmentKind",
+        "ApproachConeKind",
+        "WorkspaceBoxKind",
+        "KeepOutCylinderKind",
+        "KeepOutSphereKind",
+    }
     assert required - classes == set()
 
 
@@ -56,7 +94,11 @@ def test_full_open_container_is_derived_from_the_same_conditions_in_ontology_and
 
 
 def test_every_derived_class_has_a_definition_rule(graph):
-    derived = {s.removeprefix(NAMESPACE) for s in _terms(graph, OWL.Class) if str(graph.value(s, RDFS.comment)).startswith("Derived (rule ")}
+    derived = {
+        s.removeprefix(NAMESPACE)
+        for s in _terms(graph, OWL.Class)
+        if str(graph.value(s, RDFS.comment)).startswith("Derived (rule ")
+    }
     defined = {r.head[0].predicate for r in load_rules() if r.name.startswith("define_")}
     assert len(derived) == 11 and derived == defined
 
@@ -68,17 +110,28 @@ def test_fill_levels_are_distinct_values_of_a_functional_property(graph):
 
 
 def test_containers_and_tools_are_disjoint(graph):
-    groups = [list(rdflib.collection.Collection(graph, graph.value(g, OWL.members))) for g in graph.subjects(RDF.type, OWL.AllDisjointClasses)]
+    groups = [
+        list(rdflib.collection.Collection(graph, graph.value(g, OWL.members)))
+        for g in graph.subjects(RDF.type, OWL.AllDisjointClasses)
+    ]
     assert any(HP.Container in g and HP.Tool in g for g in groups)
 
 
-@pytest.mark.parametrize(("kind", "prop", "value"), [
-    ("UprightFull", "hasTolerance", 0.05), ("UprightPartial", "hasTolerance", 0.1),
-    ("InsertionAlignment", "hasTolerance", 0.02), ("InsertionAlignment", "hasToleranceGradient", 0.3),
-    ("KeepOutSupervisor", "hasSeparationDistance", 0.5), ("KeepOutBystander", "hasSeparationDistance", 0.8),
-    ("ReducedVelocityFragile", "hasVelocityScale", 0.5), ("ReducedVelocityHot", "hasVelocityScale", 0.5),
-    ("ApproachCone", "hasRadius", 0.3), ("ApproachCone", "hasHeight", 0.55),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("kind", "prop", "value"),
+    [
+        ("UprightFull", "hasTolerance", 0.05),
+        ("UprightPartial", "hasTolerance", 0.1),
+        ("InsertionAlignment", "hasTolerance", 0.02),
+        ("InsertionAlignment", "hasToleranceGradient", 0.3),
+        ("KeepOutSupervisor", "hasSeparationDistance", 0.5),
+        ("KeepOutBystander", "hasSeparationDistance", 0.8),
+        ("ReducedVelocityFragile", "hasVelocityScale", 0.5),
+        ("ReducedVelocityHot", "hasVelocityScale", 0.5),
+        ("ApproachCone", "hasRadius", 0.3),
+        ("ApproachCone", "hasHeight", 0.55),
+    ],
+)
 def test_constraint_parameters_are_data_in_the_ontology(graph, kind, prop, value):
     literal = graph.value(HP[kind], HP[prop])
     assert literal is not None and literal.datatype == rdflib.namespace.XSD.decimal

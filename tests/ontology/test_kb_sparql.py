@@ -48,7 +48,9 @@ def test_ask_answers_true_and_false(kb):
 
 
 def test_construct_returns_a_graph_as_turtle_or_triples(kb):
-    result = kb.query("CONSTRUCT { ?o hp:mustStayUpright true } WHERE { ?o hp:isConstrainedBy ?k . ?k a hp:UprightKind }")
+    result = kb.query(
+        "CONSTRUCT { ?o hp:mustStayUpright true } WHERE { ?o hp:isConstrainedBy ?k . ?k a hp:UprightKind }"
+    )
     assert result.form == "CONSTRUCT" and len(result.graph) == 1
     graph = rdflib.Graph().parse(data=result.render("turtle"), format="turtle")
     assert (rdflib.URIRef("https://hriplan.org/situation#can1"), None, None) in graph
@@ -56,12 +58,15 @@ def test_construct_returns_a_graph_as_turtle_or_triples(kb):
     assert json.loads(result.render("json"))[0]["@id"] == "https://hriplan.org/situation#can1"
 
 
-@pytest.mark.parametrize(("query", "message"), [
-    ("SELECT ?x WHERE { ?x hp:isNear ?y ", r"SPARQL syntax error at line 1, column \d+: Expected"),
-    ("SELECT ?x\nWHERE { ?x hp:isNear ?y . FILTER( }", r"SPARQL syntax error at line 2, column \d+"),
-    ("SELEC ?x WHERE { }", "SPARQL syntax error at line 1, column 1"),
-    ("SELECT ?x WHERE { ?x foo:bar ?y }", "invalid SPARQL query: Unknown namespace prefix : foo"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("query", "message"),
+    [
+        ("SELECT ?x WHERE { ?x hp:isNear ?y ", r"SPARQL syntax error at line 1, column \d+: Expected"),
+        ("SELECT ?x\nWHERE { ?x hp:isNear ?y . FILTER( }", r"SPARQL syntax error at line 2, column \d+"),
+        ("SELEC ?x WHERE { }", "SPARQL syntax error at line 1, column 1"),
+        ("SELECT ?x WHERE { ?x foo:bar ?y }", "invalid SPARQL query: Unknown namespace prefix : foo"),
+    ],
+)
 def test_malformed_queries_are_one_line_errors_with_a_position(kb, query, message):
     with pytest.raises(HriplanError, match=message) as info:
         kb.query(query)

@@ -5,9 +5,9 @@ import pytest
 from hriplan import HriplanError
 from hriplan.ontology.cache import ReasoningCache
 from hriplan.ontology.knowledge_base import KnowledgeBase
+from hriplan.ontology.ruleset import Atom, Name, Var, load_rules, parse_rules
 from hriplan.ontology.situation import EXAMPLES_DIR, Situation, load_situation
 from hriplan.rules.infer import infer_constraints
-from hriplan.ontology.ruleset import Atom, Name, Var, load_rules, parse_rules
 
 GOOD = """\
 # File header: not a rationale, a blank line follows.
@@ -23,24 +23,35 @@ GOOD = """\
 
 def test_a_rule_file_parses_into_named_rules_with_rationales():
     first, second = parse_rules(GOOD, "good.rules")
-    assert (first.name, first.rationale, first.source) == ("first_rule", "Rationale, line one, and line two.", "good.rules:5")
-    assert first.body == (Atom("Can", (Var("o"),)), Atom("hasX", (Var("o"), Var("x"))), Atom("lessThan", (Var("x"), 0.5), builtin=True))
+    assert (first.name, first.rationale, first.source) == (
+        "first_rule",
+        "Rationale, line one, and line two.",
+        "good.rules:5",
+    )
+    assert first.body == (
+        Atom("Can", (Var("o"),)),
+        Atom("hasX", (Var("o"), Var("x"))),
+        Atom("lessThan", (Var("x"), 0.5), builtin=True),
+    )
     assert first.head == (Atom("isConstrainedBy", (Var("o"), Name("UprightFull"))),)
     assert second.body[1].args == (Var("h"), "Receiver") and second.body[2].args == (Var("h"), True)
     assert first.swrl() == "Can(?o), hasX(?o, ?x), lessThan(?x, 0.5) -> isConstrainedBy(?o, UprightFull)"
 
 
-@pytest.mark.parametrize(("text", "message"), [
-    ("[no_rationale] Can(?o) -> isNear(?o, ?o)", "needs a '#' comment line"),
-    ("# r\n[bad name] Can(?o) -> isNear(?o, ?o)", "must be letters"),
-    ("# r\n[two_arrows] Can(?o) -> Can(?o) -> Can(?o)", "exactly one '->'"),
-    ("# r\n[unbound] Can(?o) -> isNear(?o, ?h)", r"head variables \?h do not occur in the body"),
-    ("# r\n[bad_atom] Can ?o -> isNear(?o, ?o)", "cannot read atom"),
-    ("# r\n[arity] hasX(?o, ?x, ?y) -> Can(?o)", "classes take 1, properties 2"),
-    ("# r\n[builtin_head] Can(?o) -> swrlb:add(?o, 1, 2)", "built-ins belong in the body"),
-    ("# r\n[empty] Can(?o) ^ -> Can(?o)", "empty atom"),
-    ("just some text", "expected '# rationale'"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[no_rationale] Can(?o) -> isNear(?o, ?o)", "needs a '#' comment line"),
+        ("# r\n[bad name] Can(?o) -> isNear(?o, ?o)", "must be letters"),
+        ("# r\n[two_arrows] Can(?o) -> Can(?o) -> Can(?o)", "exactly one '->'"),
+        ("# r\n[unbound] Can(?o) -> isNear(?o, ?h)", r"head variables \?h do not occur in the body"),
+        ("# r\n[bad_atom] Can ?o -> isNear(?o, ?o)", "cannot read atom"),
+        ("# r\n[arity] hasX(?o, ?x, ?y) -> Can(?o)", "classes take 1, properties 2"),
+        ("# r\n[builtin_head] Can(?o) -> swrlb:add(?o, 1, 2)", "built-ins belong in the body"),
+        ("# r\n[empty] Can(?o) ^ -> Can(?o)", "empty atom"),
+        ("just some text", "expected '# rationale'"),
+    ],
+)
 def test_malformed_rules_are_one_line_errors_with_file_and_line(text, message):
     with pytest.raises(HriplanError, match=message) as info:
         parse_rules(text, "bad.rules")
@@ -49,10 +60,19 @@ def test_malformed_rules_are_one_line_errors_with_file_and_line(text, message):
 
 def test_package_rules_cover_the_six_situations_and_have_rationales():
     names = {r.name for r in load_rules()}
-    assert {"upright_full_open_container", "upright_partially_full_open_container", "handover_approach_cone",
-            "handover_shared_workspace", "handover_receiver_exclusion", "keep_out_supervisor", "keep_out_bystander",
-            "insertion_alignment", "sharp_end_away_from_receiver", "slow_fragile_object_near_human",
-            "slow_hot_object_near_human"} <= names  # fmt: skip
+    assert {
+        "upright_full_open_container",
+        "upright_partially_full_open_container",
+        "handover_approach_cone",
+        "handover_shared_workspace",
+        "handover_receiver_exclusion",
+        "keep_out_supervisor",
+        "keep_out_bystander",
+        "insertion_alignment",
+        "sharp_end_away_from_receiver",
+        "slow_fragile_object_near_human",
+        "slow_hot_object_near_human",
+    } <= names
     assert all(r.rationale for r in load_rules())
 
 
@@ -64,7 +84,9 @@ def test_rule_names_must_be_unique_across_files(tmp_path):
 
 
 def test_a_missing_rule_file_is_a_clear_error(tmp_path):
-    with pytest.raises(HriplanError, match=r"nothing.rules: no such file"):  # one reader for every user file (files.read_text)
+    with pytest.raises(
+        HriplanError, match=r"nothing.rules: no such file"
+    ):  # one reader for every user file (files.read_text)
         load_rules([tmp_path / "nothing.rules"])
 
 

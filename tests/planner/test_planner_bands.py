@@ -9,16 +9,16 @@ from pydantic import ValidationError
 
 from hriplan import HriplanError
 from hriplan.planner.constraints import evaluator as evaluator_module
-from hriplan.planner.search.cbirrt import BandProblem, _min_norm_step, _Search
-from hriplan.planner.constraints.evaluator import ConstraintEvaluator
-from hriplan.planner.motion import plan_motion
-from hriplan.planner.search.ompl_solver import Counters
-from hriplan.planner.options import PlanOptions
-from hriplan.planner.problem import load_problem
 from hriplan.planner.constraints.binding import bind
-from hriplan.planner.session import PlanningSession
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.slack import SlackRows
 from hriplan.planner.constraints.spec import FrameRef, SphereConstraint
+from hriplan.planner.motion import plan_motion
+from hriplan.planner.options import PlanOptions
+from hriplan.planner.problem import load_problem
+from hriplan.planner.search.cbirrt import BandProblem, _min_norm_step, _Search
+from hriplan.planner.search.ompl_solver import Counters
+from hriplan.planner.session import PlanningSession
 from hriplan.planner.validate import densify
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.spatial import Pose
@@ -65,14 +65,24 @@ def test_upright_the_tool_cannot_pass_the_post(post):
         for z in (0.06, 0.15, 0.25, 0.34):
             target = np.eye(4)
             target[:3, :3], target[:3, 3] = down, (x, 0.0, z)
-            ik = solve_ik(robot, "arm", target, free_axes=["z"], base_q=robot.configuration(problem.start),
-                          is_valid=lambda q: not checker.in_collision(q))  # fmt: skip
+            ik = solve_ik(
+                robot,
+                "arm",
+                target,
+                free_axes=["z"],
+                base_q=robot.configuration(problem.start),
+                is_valid=lambda q: not checker.in_collision(q),
+            )
             assert not ik.success, (x, z)
 
 
 def test_hybrid_with_exact_orientation_does_not_pass_the_post(post):
     problem, session = post
-    result = session.plan(problem.start, problem.goal, PlanOptions(planner="RRTConnect", space="atlas", formulation="hybrid", seed=3, time_limit=1.5))
+    result = session.plan(
+        problem.start,
+        problem.goal,
+        PlanOptions(planner="RRTConnect", space="atlas", formulation="hybrid", seed=3, time_limit=1.5),
+    )
     assert not result.solved
 
 
@@ -90,7 +100,9 @@ def test_the_default_planner_tilts_within_the_band_to_pass_the_post(name):
     points = np.array([p.positions for p in result.trajectory.points])  # the timed trajectory, as written
     for x in densify(list(points), 0.01):
         q = robot.configuration(x)
-        allowed = upright.tolerance + upright.tolerance_gradient * float(np.linalg.norm(tool_pose(robot, q).translation - p_goal))
+        allowed = upright.tolerance + upright.tolerance_gradient * float(
+            np.linalg.norm(tool_pose(robot, q).translation - p_goal)
+        )
         tilts.append(tilt(robot, q))
         assert tilts[-1] <= allowed + 1e-4
         assert on_rail(robot, q)
@@ -120,7 +132,15 @@ def _band_search(session, problem):
     robot = session.robot
     bound = bind(list(session.constraints.values()), robot, session.checker)
     evaluator = ConstraintEvaluator(robot, bound, "arm", robot.configuration(problem.start))
-    band = BandProblem(lambda x: evaluator.margins(evaluator.full(x)), evaluator.gradients, lambda x: True, robot.limits("arm"), 0.004, 0.002, 0.05)
+    band = BandProblem(
+        lambda x: evaluator.margins(evaluator.full(x)),
+        evaluator.gradients,
+        lambda x: True,
+        robot.limits("arm"),
+        0.004,
+        0.002,
+        0.05,
+    )
     return _Search(band, Counters()), evaluator
 
 
@@ -129,7 +149,13 @@ def _tilted_on_rail(session, problem, angle):
     target = np.eye(4)
     target[:3, :3] = pin.utils.rpyToMatrix(0.0, -angle, 0.0) @ Pose(rpy=(np.pi, 0.0, 0.0)).rotation()
     target[:3, 3] = (0.455, -0.3, 0.15)
-    ik = solve_ik(robot, "arm", target, base_q=robot.configuration(problem.start), is_valid=lambda q: not session.checker.in_collision(q))
+    ik = solve_ik(
+        robot,
+        "arm",
+        target,
+        base_q=robot.configuration(problem.start),
+        is_valid=lambda q: not session.checker.in_collision(q),
+    )
     assert ik.success and on_rail(robot, robot.configuration(ik.q))
     return np.array(ik.q)
 
@@ -145,7 +171,9 @@ def test_projection_moves_only_states_outside_a_band(post):
     moved = search.project(outside.copy())
     assert moved is not None and search.counters.jacobian > 0
     q = session.robot.configuration(moved)
-    assert 0.5 - 0.0045 <= tilt(session.robot, q) <= 0.5 - 0.002 and on_rail(session.robot, q)  # to the band's edge, just inside
+    assert 0.5 - 0.0045 <= tilt(session.robot, q) <= 0.5 - 0.002 and on_rail(
+        session.robot, q
+    )  # to the band's edge, just inside
 
 
 def test_kinematics_are_computed_once_per_state(post, monkeypatch):
@@ -158,6 +186,7 @@ def test_kinematics_are_computed_once_per_state(post, monkeypatch):
         def wrapped(*args):
             counts[name] += 1
             return fn(*args)
+
         return wrapped
 
     monkeypatch.setattr(evaluator_module.pin, "forwardKinematics", count("fk", fk))
@@ -175,10 +204,19 @@ def test_kinematics_are_computed_once_per_state(post, monkeypatch):
     assert np.array_equal(evaluator.margins(evaluator.full(x)), first)  # back at x: recomputed, same values
 
 
-COMBINATIONS = [(planner, space, formulation) for planner in ("CBiRRT", "RRTConnect")
-                for space in ("atlas", "tangent_bundle", "projected", "rejection") for formulation in ("hybrid", "deadzone", "slack")]  # fmt: skip
-ACCEPTED = {("CBiRRT", "projected", "deadzone"), *(("RRTConnect", s, f) for s in ("atlas", "tangent_bundle") for f in ("hybrid", "slack")),
-            ("RRTConnect", "projected", "hybrid"), ("RRTConnect", "projected", "deadzone"), *(("RRTConnect", "rejection", f) for f in ("hybrid", "deadzone", "slack"))}  # fmt: skip
+COMBINATIONS = [
+    (planner, space, formulation)
+    for planner in ("CBiRRT", "RRTConnect")
+    for space in ("atlas", "tangent_bundle", "projected", "rejection")
+    for formulation in ("hybrid", "deadzone", "slack")
+]
+ACCEPTED = {
+    ("CBiRRT", "projected", "deadzone"),
+    *(("RRTConnect", s, f) for s in ("atlas", "tangent_bundle") for f in ("hybrid", "slack")),
+    ("RRTConnect", "projected", "hybrid"),
+    ("RRTConnect", "projected", "deadzone"),
+    *(("RRTConnect", "rejection", f) for f in ("hybrid", "deadzone", "slack")),
+}
 
 
 @pytest.fixture(scope="module")
@@ -198,7 +236,9 @@ def test_every_method_plans_or_is_refused_in_one_line(planner, space, formulatio
             PlanOptions(planner=planner, space=space, formulation=formulation, seed=1, time_limit=20.0)
         message = refused.value.errors()[0]["msg"]
         assert "\n" not in message and formulation in message + planner
-        copied = PlanOptions(planner="RRTConnect").model_copy(update={"planner": planner, "space": space, "formulation": formulation})
+        copied = PlanOptions(planner="RRTConnect").model_copy(
+            update={"planner": planner, "space": space, "formulation": formulation}
+        )
         with pytest.raises(HriplanError, match="^options: "):
             plan_motion(session.robot, session.checker, specs, problem.start, problem.goal, copied, problem.group)
         return
@@ -221,12 +261,25 @@ def test_the_tool_slides_around_a_sphere_it_must_stay_out_of():
     start, goal = robot.configuration(problem.start), robot.configuration(problem.goal.values)
     middle = tool_pose(robot, (start + goal) / 2).translation
     joints = robot.group_joints()
-    session.set_constraints([SphereConstraint(id="keep_out", joints=joints, target_link="tool", region="outside", radius=0.12,
-                                              frame=FrameRef(offset=Pose(xyz=tuple(middle))))])  # fmt: skip
+    session.set_constraints(
+        [
+            SphereConstraint(
+                id="keep_out",
+                joints=joints,
+                target_link="tool",
+                region="outside",
+                radius=0.12,
+                frame=FrameRef(offset=Pose(xyz=tuple(middle))),
+            )
+        ]
+    )
     result = session.plan(problem.start, problem.goal, PlanOptions(seed=3, time_limit=20.0))
     assert result.solved, result.message
     assert result.motion.calls["jacobian"] > 0  # steps were projected out of the sphere, not rejected
-    distances = [float(np.linalg.norm(tool_pose(robot, robot.configuration(p.positions)).translation - middle)) for p in result.trajectory.points]
+    distances = [
+        float(np.linalg.norm(tool_pose(robot, robot.configuration(p.positions)).translation - middle))
+        for p in result.trajectory.points
+    ]
     assert min(distances) >= 0.12 - 1e-4
 
 
@@ -244,5 +297,7 @@ def test_slack_rows_vanish_on_lifted_states_and_have_the_right_jacobian(rng):
     assert np.all(lifted >= low) and np.all(lifted <= high)  # the start is inside every band
     for _ in range(5):
         xs = lifted + rng.normal(0.0, 0.05, len(lifted))
-        numeric = np.column_stack([(slack.function(xs + 1e-6 * e) - slack.function(xs - 1e-6 * e)) / 2e-6 for e in np.eye(len(xs))])
+        numeric = np.column_stack(
+            [(slack.function(xs + 1e-6 * e) - slack.function(xs - 1e-6 * e)) / 2e-6 for e in np.eye(len(xs))]
+        )
         assert np.allclose(slack.jacobian(xs), numeric, atol=1e-5)

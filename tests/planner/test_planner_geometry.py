@@ -1,14 +1,22 @@
 """Constraint geometry and the evaluator's analytic Jacobians against finite differences."""
 
+import functools
+
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from hriplan.planner.constraints import geometry as G
-from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.binding import bind
-from hriplan.planner.constraints.spec import (BoxConstraint, ConeConstraint, CylinderConstraint, FrameRef,
-                                  OrientationConstraint, SphereConstraint)  # fmt: skip
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.planner.constraints.spec import (
+    BoxConstraint,
+    ConeConstraint,
+    CylinderConstraint,
+    FrameRef,
+    OrientationConstraint,
+    SphereConstraint,
+)
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
@@ -44,17 +52,24 @@ def test_signed_distance_values_follow_the_semantics():
 
 def test_orientation_errors_and_their_gradients(rng):
     axis = np.array([0.0, 0.0, 1.0])
-    assert G.twist_angle(pin.exp3(np.array([0.4, 0.0, 0.0])) @ pin.exp3(np.array([0.0, 0.0, 0.3])), axis)[0] == pytest.approx(0.3)
+    assert G.twist_angle(pin.exp3(np.array([0.4, 0.0, 0.0])) @ pin.exp3(np.array([0.0, 0.0, 0.3])), axis)[
+        0
+    ] == pytest.approx(0.3)
     for _ in range(100):
         r = pin.exp3(rng.normal(size=3))
         for func in (G.rotation_angle, lambda m: G.twist_angle(m, axis)):
             grad = func(r)[1]
-            numeric = [(func(r @ pin.exp3(EPS * e))[0] - func(r @ pin.exp3(-EPS * e))[0]) / (2 * EPS) for e in np.eye(3)]
+            numeric = [
+                (func(r @ pin.exp3(EPS * e))[0] - func(r @ pin.exp3(-EPS * e))[0]) / (2 * EPS) for e in np.eye(3)
+            ]
             if func(r)[0] < 3.0:  # log3 is ill-conditioned near pi
                 assert np.allclose(numeric, grad, atol=1e-5)
         u = r[:, 0]
         grad = G.axis_angle(u, axis)[1]
-        numeric = [(G.axis_angle(pin.exp3(EPS * e) @ u, axis)[0] - G.axis_angle(pin.exp3(-EPS * e) @ u, axis)[0]) / (2 * EPS) for e in np.eye(3)]
+        numeric = [
+            (G.axis_angle(pin.exp3(EPS * e) @ u, axis)[0] - G.axis_angle(pin.exp3(-EPS * e) @ u, axis)[0]) / (2 * EPS)
+            for e in np.eye(3)
+        ]
         assert np.allclose(numeric, grad, atol=1e-6)
 
 
@@ -62,13 +77,24 @@ def test_evaluator_jacobians_match_finite_differences(madar, rng):
     joints = madar.group_joints("right_arm")
     frame = FrameRef(offset=Pose(xyz=(0.2, 0.5, 1.0), rpy=(0.1, 0.2, 0.3)))
     specs = [
-        OrientationConstraint(id="spin_y", joints=joints, target_link="right_tool", free_axes=["y"], target=Pose(rpy=(0.3, 0.2, 0.1)),
-                              tolerance=0.1, tolerance_gradient=0.2),  # fmt: skip
-        OrientationConstraint(id="full", joints=joints, target_link="right_tool", target=Pose(rpy=(0.3, 0.2, 0.1)), frame=frame),
+        OrientationConstraint(
+            id="spin_y",
+            joints=joints,
+            target_link="right_tool",
+            free_axes=["y"],
+            target=Pose(rpy=(0.3, 0.2, 0.1)),
+            tolerance=0.1,
+            tolerance_gradient=0.2,
+        ),
+        OrientationConstraint(
+            id="full", joints=joints, target_link="right_tool", target=Pose(rpy=(0.3, 0.2, 0.1)), frame=frame
+        ),
         OrientationConstraint(id="twist", joints=joints, target_link="right_tool", free_axes=["x", "y"]),
         BoxConstraint(id="box", joints=joints, target_link="right_tool", size=(0.3, 0.4, 0.5), frame=frame),
         SphereConstraint(id="sphere", joints=joints, target_link="right_tool", radius=0.3, region="outside"),
-        CylinderConstraint(id="cylinder", joints=joints, target_link="right_tool", radius=0.3, height=0.5, region="outside"),
+        CylinderConstraint(
+            id="cylinder", joints=joints, target_link="right_tool", radius=0.3, height=0.5, region="outside"
+        ),
         ConeConstraint(id="cone", joints=joints, target_link="right_tool", radius=0.2, height=0.4, frame=frame),
     ]
     bound = bind(specs, madar, CollisionChecker(madar, Scene()))
@@ -77,8 +103,11 @@ def test_evaluator_jacobians_match_finite_differences(madar, rng):
     assert evaluator.n_equality == 2 + 3 + 1
     eps = 1e-7
     for x in rng.uniform(-3, 3, (30, 6)):
-        for rows, jac, offset in ((evaluator.deadzone, evaluator.deadzone_jacobian, 10.0), (evaluator.equality, evaluator.equality_jacobian, None)):
-            f = (lambda y: rows(y, offset)) if offset is not None else rows
+        for rows, jac, offset in (
+            (evaluator.deadzone, evaluator.deadzone_jacobian, 10.0),
+            (evaluator.equality, evaluator.equality_jacobian, None),
+        ):
+            f = functools.partial(rows, offset=offset) if offset is not None else rows
             analytic = jac(x, offset) if offset is not None else jac(x)
             numeric = np.column_stack([(f(x + eps * e) - f(x - eps * e)) / (2 * eps) for e in np.eye(6)])
             good = np.abs(numeric - analytic).max(axis=1) < 1e-5

@@ -11,10 +11,10 @@ from pydantic import ValidationError
 
 from hriplan import HriplanError
 from hriplan.planner.motion import ToolGoal, plan_motion
-from hriplan.planner.search.ompl_solver import ompl_seed
 from hriplan.planner.options import PLANNERS, RANGED_PLANNERS, PlanOptions
 from hriplan.planner.problem import load_problem
 from hriplan.planner.replay import PlannedWorld
+from hriplan.planner.search.ompl_solver import ompl_seed
 from hriplan.planner.session import PlanningSession
 from hriplan.robots.spatial import Pose
 
@@ -41,9 +41,18 @@ def test_deadzone_on_a_charted_space_is_refused_up_front(problem, free_session, 
     (tmp_path / "p.json").write_text(json.dumps(data))
     with pytest.raises(HriplanError, match=r"p.json: options: the deadzone formulation cannot"):
         load_problem(tmp_path / "p.json")
-    copied = PlanOptions(planner="RRTConnect", space="atlas").model_copy(update={"formulation": "deadzone"})  # model_copy skips validation
+    copied = PlanOptions(planner="RRTConnect", space="atlas").model_copy(
+        update={"formulation": "deadzone"}
+    )  # model_copy skips validation
     with pytest.raises(HriplanError, match="^options: the deadzone formulation cannot be planned on the atlas space"):
-        plan_motion(free_session.robot, free_session.checker, list(problem.constraints.constraints), problem.start, problem.goal, copied)
+        plan_motion(
+            free_session.robot,
+            free_session.checker,
+            list(problem.constraints.constraints),
+            problem.start,
+            problem.goal,
+            copied,
+        )
 
 
 def test_a_range_for_a_planner_without_one_is_refused():
@@ -57,7 +66,9 @@ def test_a_range_for_a_planner_without_one_is_refused():
 
 
 def test_every_seed_is_its_own_reproducible_run(problem, free_session):
-    seeds = [ompl_seed(s) for s in range(-1000, 1000)] + [ompl_seed(s, attempt) for s in range(50) for attempt in (1, 2)]
+    seeds = [ompl_seed(s) for s in range(-1000, 1000)] + [
+        ompl_seed(s, attempt) for s in range(50) for attempt in (1, 2)
+    ]
     assert len(set(seeds)) == len(seeds) and min(seeds) >= 1 and max(seeds) < 2**32
     paths = {}
     for seed in (0, 1, 0):
@@ -73,7 +84,9 @@ def test_unconstrained_ur5_paths_are_shortened_until_they_stop_shrinking(problem
     """The straight joint line is 1.66 rad (blocked by the block); before, paths were 3.5-8.5 rad."""
     lengths = []
     for seed in range(5):
-        result = plan_motion(free_session.robot, free_session.checker, [], problem.start, problem.goal, PlanOptions(seed=seed))
+        result = plan_motion(
+            free_session.robot, free_session.checker, [], problem.start, problem.goal, PlanOptions(seed=seed)
+        )
         assert result.solved, result.message
         path = np.array(result.path)
         lengths.append(float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()))
@@ -86,7 +99,10 @@ def test_unconstrained_ur5_paths_are_shortened_until_they_stop_shrinking(problem
 def test_a_start_inside_its_dynamic_tolerance_is_planned(problem, goal_kind):
     """Tilted 0.15 rad: outside the static 0.1 rad, inside 0.1 + 0.5 rad/m x its distance to the
     goal; for a tool-pose goal the goal comes from IK first."""
-    constraints = [c.model_copy(update={"tolerance_gradient": 0.5}) if c.id == "upright" else c for c in problem.constraints.constraints]
+    constraints = [
+        c.model_copy(update={"tolerance_gradient": 0.5}) if c.id == "upright" else c
+        for c in problem.constraints.constraints
+    ]
     session = PlanningSession(problem.robot, problem.scene)
     session.set_constraints(constraints)
     robot = session.robot
@@ -95,7 +111,11 @@ def test_a_start_inside_its_dynamic_tolerance_is_planned(problem, goal_kind):
     tilt = float(np.arccos(-tool_z(robot, q_start)[2]))
     distance = float(np.linalg.norm(robot.frame_pose("tool", q_start)[:3, 3] - robot.frame_pose("tool", q_goal)[:3, 3]))
     assert 0.1 < tilt < 0.1 + 0.5 * distance - 0.05
-    goal = problem.goal if goal_kind == "joints" else ToolGoal(arm="arm", pose=Pose.from_matrix(robot.frame_pose("tool", q_goal)), free_axes=["z"])
+    goal = (
+        problem.goal
+        if goal_kind == "joints"
+        else ToolGoal(arm="arm", pose=Pose.from_matrix(robot.frame_pose("tool", q_goal)), free_axes=["z"])
+    )
     result = session.plan(start, goal, PlanOptions(seed=1, time_limit=20.0))
     assert result.solved, result.message
     assert result.trajectory.start["wrist_2_joint"] == pytest.approx(start["wrist_2_joint"])

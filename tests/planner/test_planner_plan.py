@@ -4,15 +4,14 @@ import numpy as np
 import pytest
 
 from hriplan import HriplanError
+from hriplan.planner.constraints.binding import bind
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.planner.constraints.spec import CylinderConstraint, FrameRef
 from hriplan.planner.motion import JointGoal, ToolGoal, plan_motion
 from hriplan.planner.options import PlanOptions
-from hriplan.planner.constraints.binding import bind
 from hriplan.planner.session import PlanningSession
-from hriplan.planner.constraints.spec import CylinderConstraint, FrameRef
 from hriplan.planner.trajectory import load_trajectory
 from hriplan.planner.validate import densify, validate_path
-from hriplan.robots.scene import Box, Obstacle
 from hriplan.robots.spatial import Pose
 
 
@@ -49,7 +48,9 @@ def test_plan_keeps_the_cup_upright_in_the_box_without_collisions(problem, sessi
     traj = result.trajectory
     times = [p.time_from_start for p in traj.points]
     assert times[0] == 0.0 and np.all(np.diff(times) > 0)
-    assert np.allclose(traj.points[-1].positions, path[-1], atol=1e-6) and np.allclose(traj.points[-1].velocities, 0, atol=1e-6)
+    assert np.allclose(traj.points[-1].positions, path[-1], atol=1e-6) and np.allclose(
+        traj.points[-1].velocities, 0, atol=1e-6
+    )
     vmax = robot.velocity_limit()
     assert np.all(np.abs([p.velocities for p in traj.points]) <= vmax * 1.001)
     for point in traj.points:
@@ -71,7 +72,9 @@ def test_trajectory_file_round_trips(problem, session, tmp_path):
 
 
 def test_same_seed_gives_the_same_path(problem, session):
-    runs = [session.plan(problem.start, problem.goal, PlanOptions(seed=5, time_limit=20.0)).motion.path for _ in range(2)]
+    runs = [
+        session.plan(problem.start, problem.goal, PlanOptions(seed=5, time_limit=20.0)).motion.path for _ in range(2)
+    ]
     assert runs[0] == runs[1]
 
 
@@ -131,14 +134,20 @@ def test_session_replans_after_perception_without_rebuilding(problem, session):
         session.update_constraint("nope", enabled=False)
 
 
-@pytest.mark.parametrize("space, formulation", [("tangent_bundle", "hybrid"), ("projected", "deadzone"), ("rejection", "hybrid")])
+@pytest.mark.parametrize(
+    "space, formulation", [("tangent_bundle", "hybrid"), ("projected", "deadzone"), ("rejection", "hybrid")]
+)
 def test_other_spaces_solve_an_open_problem(problem, session, space, formulation):
     """Without the block the problem is easy enough for every method, including the baseline.
     (Seed -2 is OMPL seed 4, the run this test has always used: projected + deadzone solves some
     seeds only.)"""
     session.move_obstacle("block", Pose(xyz=(2.0, 2.0, 0.0)))
     try:
-        result = session.plan(problem.start, problem.goal, PlanOptions(planner="RRTConnect", space=space, formulation=formulation, seed=-2, time_limit=30.0))
+        result = session.plan(
+            problem.start,
+            problem.goal,
+            PlanOptions(planner="RRTConnect", space=space, formulation=formulation, seed=-2, time_limit=30.0),
+        )
     finally:
         session.move_obstacle("block", Pose(xyz=(0.45, 0.0, 0.125)))
     assert result.solved, result.message
@@ -152,25 +161,40 @@ def test_keep_out_zone_applies_to_every_link(problem):
     start = problem.start
     q = session.robot.configuration(start)
     elbow = session.robot.frame_pose("fore_arm_link", q)[:3, 3]
-    zone = CylinderConstraint(id="person", joints=joints, target_link="tool", region="outside", radius=0.08, height=0.2,
-                              keep_out_all_links=True, frame=FrameRef(offset=Pose(xyz=tuple(elbow - (0, 0, 0.1)))))  # fmt: skip
+    zone = CylinderConstraint(
+        id="person",
+        joints=joints,
+        target_link="tool",
+        region="outside",
+        radius=0.08,
+        height=0.2,
+        keep_out_all_links=True,
+        frame=FrameRef(offset=Pose(xyz=tuple(elbow - (0, 0, 0.1)))),
+    )
     session.set_constraints([zone])
     assert session.plan(start, problem.goal).motion.status == "invalid_start"  # the elbow is inside
     session.set_constraints([zone.model_copy(update={"keep_out_all_links": False})])
     tool_only = session.plan(start, problem.goal, PlanOptions(seed=1))
     assert tool_only.solved  # only the tool is constrained
-    assert tool_only.trajectory.scene == session.checker.scene and tool_only.trajectory.start["elbow_joint"] == start["elbow_joint"]
+    assert (
+        tool_only.trajectory.scene == session.checker.scene
+        and tool_only.trajectory.start["elbow_joint"] == start["elbow_joint"]
+    )
     assert session.checker.geom_model.ngeoms == geoms_before  # zones are removed after planning
 
 
 def test_constraint_on_joints_outside_the_planned_group_is_an_error(madar):
     session = PlanningSession(madar)
-    spec = CylinderConstraint(id="c", joints=madar.group_joints("left_arm"), target_link="left_tool", radius=0.1, height=0.1)
+    spec = CylinderConstraint(
+        id="c", joints=madar.group_joints("left_arm"), target_link="left_tool", radius=0.1, height=0.1
+    )
     session.set_constraints([spec])
     with pytest.raises(HriplanError, match="outside the planned group 'right_arm'"):
         session.plan({}, JointGoal(values=[0.1] * 6), group="right_arm")
 
 
 def test_plan_motion_without_constraints_plans_in_joint_space(problem, session):
-    result = plan_motion(session.robot, session.checker, [], problem.start, problem.goal, PlanOptions(seed=1, time_limit=20.0))
+    result = plan_motion(
+        session.robot, session.checker, [], problem.start, problem.goal, PlanOptions(seed=1, time_limit=20.0)
+    )
     assert result.solved and result.space == "real_vector" and result.calls["function"] == 0

@@ -61,7 +61,9 @@ def test_left_arm_alone_plans_times_and_replays_with_the_right_arm_folded(left_a
     fresh = CollisionChecker(robot, problem.scene)
     for point in trajectory.points:
         q = robot.configuration({**problem.start, **dict(zip(trajectory.joint_names, point.positions))})
-        assert q[robot.group_indices("right_arm")] == pytest.approx([problem.start[j] for j in robot.group_joints("right_arm")])
+        assert q[robot.group_indices("right_arm")] == pytest.approx(
+            [problem.start[j] for j in robot.group_joints("right_arm")]
+        )
         assert not fresh.in_collision(q)
     world = PlannedWorld.load(trajectory)  # what the viewer, the plots and `hriplan validate` rebuild
     assert world.joint_values(world.positions[3])["right_elbow_joint"] == pytest.approx(1.2)
@@ -71,10 +73,20 @@ def test_left_arm_alone_plans_times_and_replays_with_the_right_arm_folded(left_a
 def test_time_is_a_public_stage_after_planning(handover):
     problem, session = handover
     options = problem.options.model_copy(update={"seed": 3})
-    motion = plan_motion(session.robot, session.checker, list(session.constraints.values()), problem.start, problem.goal, options, problem.group)
+    motion = plan_motion(
+        session.robot,
+        session.checker,
+        list(session.constraints.values()),
+        problem.start,
+        problem.goal,
+        options,
+        problem.group,
+    )
     assert motion.solved and motion.start == pytest.approx(problem.start, abs=1e-12)
     timed = session.time(motion, options)
-    assert timed.status == "solved" and timed.trajectory.points[-1].positions == pytest.approx(motion.path[-1], abs=1e-6)
+    assert timed.status == "solved" and timed.trajectory.points[-1].positions == pytest.approx(
+        motion.path[-1], abs=1e-6
+    )
     with pytest.raises(HriplanError, match="does not give every joint"):
         session.time(motion.model_copy(update={"start": {}}), options)
 
@@ -100,9 +112,13 @@ def test_an_arm_whose_goal_is_its_start_holds_its_pose():
     session = session_for(problem)
     robot = session.robot
     left = [robot.group_joints("both_arms").index(j) for j in robot.group_joints("left_arm")]
-    assert [problem.goal.values[j] for j in robot.group_joints("left_arm")] == [problem.start[j] for j in robot.group_joints("left_arm")]
+    assert [problem.goal.values[j] for j in robot.group_joints("left_arm")] == [
+        problem.start[j] for j in robot.group_joints("left_arm")
+    ]
     for seed in (0, 1):
-        result = session.plan(problem.start, problem.goal, problem.options.model_copy(update={"seed": seed}), problem.group)
+        result = session.plan(
+            problem.start, problem.goal, problem.options.model_copy(update={"seed": seed}), problem.group
+        )
         assert result.solved, result.message
         positions = np.array([p.positions for p in result.trajectory.points])
         assert np.abs(positions[:, left] - positions[0, left]).max() < 1e-6
@@ -124,7 +140,11 @@ def test_hriplan_plan_reports_a_timing_failure_as_a_failed_step(monkeypatch, cap
         plan(Path(__file__).parents[2] / "examples" / "handover_empty_can.yaml", output=tmp_path / "t.json", quiet=True)
     assert exit_.value.exit_code == 1
     err = capsys.readouterr().err.strip()
-    assert err.startswith("planning failed at step") and "(timing_failed): TOPP-RA found no time" in err and "\n" not in err
+    assert (
+        err.startswith("planning failed at step")
+        and "(timing_failed): TOPP-RA found no time" in err
+        and "\n" not in err
+    )
     assert not list(tmp_path.iterdir())
 
 

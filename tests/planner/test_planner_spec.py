@@ -4,7 +4,13 @@ import pytest
 
 from hriplan import HriplanError
 from hriplan.planner.constraints.binding import bind, check_groups
-from hriplan.planner.constraints.spec import BoxConstraint, ConeConstraint, ConstraintSet, FrameRef, OrientationConstraint
+from hriplan.planner.constraints.spec import (
+    BoxConstraint,
+    ConeConstraint,
+    ConstraintSet,
+    FrameRef,
+    OrientationConstraint,
+)
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
@@ -13,11 +19,34 @@ RIGHT = [f"right_{j}_joint" for j in ("shoulder_pan", "shoulder_lift", "elbow", 
 
 
 def test_constraint_set_round_trips_through_json():
-    original = ConstraintSet(constraints=[
-        OrientationConstraint(id="up", joints=RIGHT, target_link="right_tool", free_axes=["y"], target=Pose(quat_xyzw=(0, 0, 0, 1)), tolerance_gradient=0.2),
-        ConeConstraint(id="cone", joints=RIGHT, target_link="right_tool", radius=0.2, height=0.4, frame=FrameRef(entity="bob/right_hand")),
-        BoxConstraint(id="box", joints=RIGHT, target_link="right_tool", size=(1, 1, 1), region="outside", keep_out_all_links=True),
-    ])  # fmt: skip
+    original = ConstraintSet(
+        constraints=[
+            OrientationConstraint(
+                id="up",
+                joints=RIGHT,
+                target_link="right_tool",
+                free_axes=["y"],
+                target=Pose(quat_xyzw=(0, 0, 0, 1)),
+                tolerance_gradient=0.2,
+            ),
+            ConeConstraint(
+                id="cone",
+                joints=RIGHT,
+                target_link="right_tool",
+                radius=0.2,
+                height=0.4,
+                frame=FrameRef(entity="bob/right_hand"),
+            ),
+            BoxConstraint(
+                id="box",
+                joints=RIGHT,
+                target_link="right_tool",
+                size=(1, 1, 1),
+                region="outside",
+                keep_out_all_links=True,
+            ),
+        ]
+    )
     again = ConstraintSet.model_validate_json(original.model_dump_json())
     assert again == original
     assert again.constraints[1].frame.entity == "bob/right_hand" and again.constraints[0].type == "orientation"
@@ -34,7 +63,9 @@ def test_constraint_set_round_trips_through_json():
 )
 def test_bad_specifications_are_rejected(data, message):
     with pytest.raises(ValueError, match=message):
-        ConstraintSet.model_validate({"constraints": [{"id": "c", "joints": RIGHT, "target_link": "right_tool", **data}]})
+        ConstraintSet.model_validate(
+            {"constraints": [{"id": "c", "joints": RIGHT, "target_link": "right_tool", **data}]}
+        )
 
 
 def test_overlapping_joint_sets_name_both_constraints_and_the_shared_joints():
@@ -42,14 +73,28 @@ def test_overlapping_joint_sets_name_both_constraints_and_the_shared_joints():
     b = BoxConstraint(id="b", joints=RIGHT[3:], target_link="right_tool", size=(1, 1, 1))
     same = BoxConstraint(id="same", joints=RIGHT, target_link="right_tool", size=(1, 1, 1))
     assert len(check_groups([a, same])) == 1
-    with pytest.raises(HriplanError, match=r"'a' and 'b' share joints right_wrist_1_joint, right_wrist_2_joint, right_wrist_3_joint"):
+    with pytest.raises(
+        HriplanError, match=r"'a' and 'b' share joints right_wrist_1_joint, right_wrist_2_joint, right_wrist_3_joint"
+    ):
         check_groups([a, b, same])
 
 
 def test_binding_checks_chain_link_and_frame(madar):
     checker = CollisionChecker(madar, Scene())
-    bind([BoxConstraint(id="off", joints=RIGHT, target_link="right_tool", size=(1, 1, 1), enabled=False,
-                        frame=FrameRef(entity="nowhere"))], madar, checker)  # fmt: skip - disabled: skipped
+    bind(
+        [
+            BoxConstraint(
+                id="off",
+                joints=RIGHT,
+                target_link="right_tool",
+                size=(1, 1, 1),
+                enabled=False,
+                frame=FrameRef(entity="nowhere"),
+            )
+        ],
+        madar,
+        checker,
+    )  # disabled: skipped
     cases = [
         (dict(joints=[RIGHT[0], RIGHT[2]]), "contiguous chain"),
         (dict(joints=RIGHT[:3]), "does not move rigidly with the last joint"),

@@ -29,9 +29,7 @@ def _trapezoid_time(distance: float, vmax: float, amax: float) -> float:
 
 
 def _arrays(result: TimedPath) -> tuple[np.ndarray, ...]:
-    return tuple(
-        np.array(v) for v in (result.times, result.positions, result.velocities, result.accelerations)
-    )
+    return tuple(np.array(v) for v in (result.times, result.positions, result.velocities, result.accelerations))
 
 
 @pytest.mark.parametrize("scale", [1.0, 0.1])  # scale 0.1 on a 2-rad move: triangular profile

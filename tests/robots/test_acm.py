@@ -41,7 +41,11 @@ class UrdfMeshes:
         """The URDF links a part name stands for (fingers group four links; torso parts are on the base)."""
         finger = FINGER_PART.match(part)
         if finger:
-            return [l for l in self.by_link if (m := FINGER_LINK.match(l)) and m[1] == finger[1] and int(m[2]) // 4 == int(finger[2])]
+            return [
+                link
+                for link in self.by_link
+                if (m := FINGER_LINK.match(link)) and m[1] == finger[1] and int(m[2]) // 4 == int(finger[2])
+            ]
         return [part] if part in self.by_link else ["madar_base_link"]
 
     def watch(self, pairs: list[str]) -> None:
@@ -119,7 +123,11 @@ def test_base_and_upper_arm_are_checked_on_their_meshes(ur5):
 def test_no_pair_is_taken_from_an_srdf(madar):
     acm = acm_module.load_acm(madar, robot_parts(madar))
     for side in ("left_", "right_"):
-        for a, b in (("fore_arm_link", "wrist_2_link"), ("fore_arm_link", "wrist_3_link"), ("base_link", "upper_arm_link")):
+        for a, b in (
+            ("fore_arm_link", "wrist_2_link"),
+            ("fore_arm_link", "wrist_3_link"),
+            ("base_link", "upper_arm_link"),
+        ):
             assert acm.get(f"{side}{a}|{side}{b}", "checked") in ("checked", acm_module.MESH)
 
 

@@ -14,8 +14,19 @@ from hriplan.robots.scene import AttachedObject, Box, Cylinder, Obstacle, Scene,
 from hriplan.robots.spatial import Pose
 
 # Right hand forward at about (0, 0.9, 1.05), left arm folded up: collision free (checked below).
-RIGHT = dict(zip(["right_shoulder_pan_joint", "right_shoulder_lift_joint", "right_elbow_joint", "right_wrist_1_joint",
-                  "right_wrist_2_joint", "right_wrist_3_joint"], [0.788, 0.215, -0.332, -0.338, 0.585, -0.427]))  # fmt: skip
+RIGHT = dict(
+    zip(
+        [
+            "right_shoulder_pan_joint",
+            "right_shoulder_lift_joint",
+            "right_elbow_joint",
+            "right_wrist_1_joint",
+            "right_wrist_2_joint",
+            "right_wrist_3_joint",
+        ],
+        [0.788, 0.215, -0.332, -0.338, 0.585, -0.427],
+    )
+)
 CLEAR = {**RIGHT, "left_shoulder_lift_joint": -2.2, "left_elbow_joint": 1.2}
 
 
@@ -34,7 +45,9 @@ def test_arm_capsules_contain_the_ur5_meshes(madar):
             vertices = np.asarray(coal.MeshLoader().load(geom.meshPath, geom.meshScale).vertices())
             points = vertices @ geom.placement.rotation.T + geom.placement.translation
             part = parts[link]
-            assert capsule_contains(part.geometry.radius, 2 * part.geometry.halfLength, part.placement, points).all(), link
+            assert capsule_contains(part.geometry.radius, 2 * part.geometry.halfLength, part.placement, points).all(), (
+                link
+            )
 
 
 def test_acm_disables_adjacent_and_keeps_arm_against_arm(madar):
@@ -48,7 +61,10 @@ def test_acm_disables_adjacent_and_keeps_arm_against_arm(madar):
 @pytest.fixture(scope="module")
 def checker(madar):
     scene = Scene(
-        obstacles=[table(position=(0.6, 0.9), size=(0.5, 0.6, 0.04), top=0.72), Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=(3, 3, 3)))],
+        obstacles=[
+            table(position=(0.6, 0.9), size=(0.5, 0.6, 0.04), top=0.72),
+            Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=(3, 3, 3))),
+        ],
         humans=[HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)],
     )
     return CollisionChecker(madar, scene)
@@ -85,7 +101,9 @@ def test_human_distance_follows_the_person(madar, checker):
     checker.pose_human(HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2))
     near, part, body = checker.human_distance(q)
     assert near < far - 0.5 and part and body.startswith("bob/")
-    checker.pose_human(HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2, reach={"right": tuple(tool)}))
+    checker.pose_human(
+        HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2, reach={"right": tuple(tool)})
+    )
     assert checker.in_collision(q)  # the person's hand now touches the robot's hand
     assert madar.model is robot_model
     checker.pose_human(HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2))
@@ -118,7 +136,9 @@ def test_the_fixed_base_is_checked_on_its_meshes_against_obstacles():
 
     ur5 = load_robot("ur5")
     under = Pose(xyz=(0.0, 0.0, -0.39))  # top face at z = -0.01
-    checker = CollisionChecker(ur5, Scene(obstacles=[Obstacle(name="table", shape=Box(size=(0.5, 0.7, 0.76)), pose=under)]))
+    checker = CollisionChecker(
+        ur5, Scene(obstacles=[Obstacle(name="table", shape=Box(size=(0.5, 0.7, 0.76)), pose=under)])
+    )
     q = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])  # arm straight up
     assert not checker.in_collision(q)
     checker.move_obstacle("table", Pose(xyz=(0.0, 0.0, -0.37)))  # top face at z = +0.01: into the base
@@ -135,11 +155,20 @@ def pair_names(checker) -> set[tuple[str, str]]:
 def test_a_remembered_build_is_the_build_and_in_place_updates_survive_a_rebuild(madar):
     q = madar.configuration(CLEAR)
     tool = madar.frame_pose("right_tool", q)[:3, 3]
-    scene = Scene(obstacles=[Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=(3, 3, 3)))],
-                  humans=[HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)])  # fmt: skip
+    scene = Scene(
+        obstacles=[Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=(3, 3, 3)))],
+        humans=[HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)],
+    )
     checker = CollisionChecker(madar, scene)
     plain = pair_names(checker)
-    boxed = scene.model_copy(update={"obstacles": [*scene.obstacles, Obstacle(name="zone", shape=Box(size=(0.2, 0.2, 0.2)), pose=Pose(xyz=tuple(tool)))]})
+    boxed = scene.model_copy(
+        update={
+            "obstacles": [
+                *scene.obstacles,
+                Obstacle(name="zone", shape=Box(size=(0.2, 0.2, 0.2)), pose=Pose(xyz=tuple(tool))),
+            ]
+        }
+    )
     checker.set_scene(boxed)
     assert checker.in_collision(q) and pair_names(checker) == pair_names(CollisionChecker(madar, boxed))
     checker.set_scene(scene)  # back: remembered, the same pairs as built fresh

@@ -1,10 +1,9 @@
 """Fitted shapes kept on disk (robots/fit_cache.py): the same shapes, fitted once per machine."""
 
 import json
-from pathlib import Path
-
 import subprocess
 import sys
+from pathlib import Path
 
 import coal
 import numpy as np
@@ -65,7 +64,9 @@ def test_the_person_read_back_is_the_person_fitted(cache):
     assert np.array_equal(frames["head"][1].homogeneous, np.array(data["frames"]["head"][1]))
 
 
-@pytest.mark.parametrize("geometry", [coal.Capsule(0.05, 0.3), coal.Cylinder(0.4, 0.75), coal.Box(0.5, 0.08, 0.05), coal.Sphere(0.1)])
+@pytest.mark.parametrize(
+    "geometry", [coal.Capsule(0.05, 0.3), coal.Cylinder(0.4, 0.75), coal.Box(0.5, 0.08, 0.05), coal.Sphere(0.1)]
+)
 def test_each_kept_shape_comes_back_the_same(geometry):
     back = shape(json.loads(json.dumps(shape_data(geometry))))
     assert type(back) is type(geometry) and shape_data(back) == shape_data(geometry)
@@ -82,6 +83,8 @@ def test_deriving_constraints_loads_no_visual_mesh():
         "assert runner.run(plan=False).steps\n"
         "print(sorted({'visual', 'full_visual'} & set(vars(runner._robot()))))\n"
     )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=Path(__file__).parents[2], timeout=300)
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=Path(__file__).parents[2], timeout=300
+    )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"

@@ -13,7 +13,10 @@ def human():
 
 
 def lowest_point(human):
-    return min(p.translation[2] - abs(p.rotation[2, 2]) * c.length / 2 - c.radius for c, p in zip(human.capsules, human.capsule_placements()))
+    return min(
+        p.translation[2] - abs(p.rotation[2, 2]) * c.length / 2 - c.radius
+        for c, p in zip(human.capsules, human.capsule_placements())
+    )
 
 
 def test_standing_person_stands_on_the_floor_where_placed(human):

@@ -19,14 +19,24 @@ ORIGINS = [
     ((0, -0.09465, 0), (np.pi / 2, 0, 0)),
     ((0, 0.0823, 0), (np.pi / 2, np.pi, np.pi)),
 ]
-LINKS = ["base_link", "shoulder_link", "upper_arm_link", "fore_arm_link", "wrist_1_link", "wrist_2_link", "wrist_3_link"]
+LINKS = [
+    "base_link",
+    "shoulder_link",
+    "upper_arm_link",
+    "fore_arm_link",
+    "wrist_1_link",
+    "wrist_2_link",
+    "wrist_3_link",
+]
 
 
 def rot(axis, a):
     c, s = np.cos(a), np.sin(a)
-    return {"x": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
-            "y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
-            "z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])}[axis]  # fmt: skip
+    return {
+        "x": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
+        "y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
+        "z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]),
+    }[axis]
 
 
 def transform(xyz, rpy, joint=0.0):
@@ -75,7 +85,10 @@ def test_frame_jacobian_matches_finite_differences(madar, rng):
     for k in range(6):
         dq = np.zeros(6)
         dq[k] = eps
-        plus, minus = madar.frame_pose("right_tool", q + dq, "right_arm"), madar.frame_pose("right_tool", q - dq, "right_arm")
+        plus, minus = (
+            madar.frame_pose("right_tool", q + dq, "right_arm"),
+            madar.frame_pose("right_tool", q - dq, "right_arm"),
+        )
         assert np.allclose((plus[:3, 3] - minus[:3, 3]) / (2 * eps), jac[:3, k], atol=1e-6)
         omega = pin.log3(plus[:3, :3] @ minus[:3, :3].T) / (2 * eps)
         assert np.allclose(omega, jac[3:, k], atol=1e-6)
@@ -112,7 +125,9 @@ def test_tool_frame_sits_between_palm_and_fingertips(madar):
 
 def test_ur5_single_arm():
     ur5 = load_robot("ur5")
-    assert ur5.group_joints() == [f"{j}_joint" for j in ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")]
+    assert ur5.group_joints() == [
+        f"{j}_joint" for j in ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
+    ]
     assert np.allclose(ur5.frame_pose("tool", np.zeros(6)), ur5.frame_pose("wrist_3_link", np.zeros(6)))
 
 
@@ -153,14 +168,22 @@ def test_meshes_sit_where_example_robot_data_puts_them(rng):
 
     def world(model, data, geometry, q, name):
         pin.forwardKinematics(model, data, q)
-        geom = next(g for g in geometry.geometryObjects if g.name.startswith(name) and isinstance(g.geometry, coal.BVHModelBase))
+        geom = next(
+            g for g in geometry.geometryObjects if g.name.startswith(name) and isinstance(g.geometry, coal.BVHModelBase)
+        )
         vertices = np.asarray(coal.MeshLoader().load(geom.meshPath, geom.meshScale).vertices())
         placement = data.oMi[geom.parentJoint] * geom.placement
         return vertices @ placement.rotation.T + placement.translation
 
     for q in rng.uniform(-3, 3, (5, 6)):
-        for ours_name, ref_name in [("shoulder", "shoulder"), ("upper_arm", "upper_arm"), ("fore_arm", "forearm"),
-                                    ("wrist_1", "wrist_1"), ("wrist_2", "wrist_2"), ("wrist_3", "wrist_3")]:  # fmt: skip
+        for ours_name, ref_name in [
+            ("shoulder", "shoulder"),
+            ("upper_arm", "upper_arm"),
+            ("fore_arm", "forearm"),
+            ("wrist_1", "wrist_1"),
+            ("wrist_2", "wrist_2"),
+            ("wrist_3", "wrist_3"),
+        ]:
             a = world(ours.model, ours.data, ours.collision_meshes, q, ours_name)
             b = world(ref.model, ref_data, ref.collision_model, q, ref_name)
             assert np.abs(a @ turn.T - b).max() < 1e-3, ours_name
@@ -173,8 +196,13 @@ def test_a_robot_is_its_description_not_its_name(monkeypatch):
     from hriplan.planner.session import PlanningSession
     from hriplan.robots.descriptions.registry import registry as descriptions
 
-    main = descriptions.RobotDescription(name="cell_ur5", urdf=descriptions.ur5_urdf, base_link="base_link", whole_group="all",
-                                         arms={"main": descriptions.ArmDescription("", "tool", "main_arm")})  # fmt: skip
+    main = descriptions.RobotDescription(
+        name="cell_ur5",
+        urdf=descriptions.ur5_urdf,
+        base_link="base_link",
+        whole_group="all",
+        arms={"main": descriptions.ArmDescription("", "tool", "main_arm")},
+    )
     monkeypatch.setitem(descriptions.DESCRIPTIONS, "cell_ur5", main)
     robot = load_robot("cell_ur5")
     assert robot.groups.keys() == {"main_arm", "all"} and robot.default_group == "all"

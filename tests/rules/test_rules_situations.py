@@ -27,7 +27,17 @@ from hriplan.rules.explain import explain
 from hriplan.rules.geometry import bearing, box_between, rotation_with_axis
 from hriplan.rules.infer import Derivation, DerivedConstraint, derive, infer_constraints
 
-RIGHT_ARM = [f"right_{j}" for j in ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")]
+RIGHT_ARM = [
+    f"right_{j}"
+    for j in (
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    )
+]
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +67,9 @@ def constraints(derivation: Derivation) -> dict[str, DerivedConstraint]:
 
 
 def about(derivation: Derivation, anchor: str) -> list[str]:
-    return [c.kind for c in derivation.constraints if c.anchor == anchor] + [v.kind for v in derivation.velocity if v.anchor == anchor]
+    return [c.kind for c in derivation.constraints if c.anchor == anchor] + [
+        v.kind for v in derivation.velocity if v.anchor == anchor
+    ]
 
 
 # -- 1. open containers stay upright ---------------------------------------------------------
@@ -80,10 +92,15 @@ def test_a_partially_full_open_cup_gets_the_looser_tolerance_on_its_own_arm(deri
     assert cup.rules == ["upright_partially_full_open_container", "define_partially_full_open_container"]
 
 
-@pytest.mark.parametrize(("name", "anchor", "why"), [
-    ("transport_hot_cup", "bottle1", "closed"), ("handover_knife_glass", "glass4", "empty"),
-    ("transport_knife_glass", "glass6", "empty"), ("pouring", "cup5", "pouring tilts it on purpose"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("name", "anchor", "why"),
+    [
+        ("transport_hot_cup", "bottle1", "closed"),
+        ("handover_knife_glass", "glass4", "empty"),
+        ("transport_knife_glass", "glass6", "empty"),
+        ("pouring", "cup5", "pouring tilts it on purpose"),
+    ],
+)
 def test_no_upright_for_closed_or_empty_containers_or_when_pouring(derived, name, anchor, why):
     assert not [k for k in about(derived(name), anchor) if k.startswith("Upright")], why
 
@@ -101,8 +118,13 @@ def test_a_handover_approaches_the_receivers_hand_inside_a_cone_opening_towards_
     np.testing.assert_allclose(spec.frame.offset.xyz, (0.0, 0.0, 0.0), atol=1e-9)
     assert (spec.radius, spec.height) == (0.3, 0.55)
     assert cone.rules == ["handover_approach_cone", "define_receiver"]
-    assert cone.facts == ["handover is a RobotToHumanHandover", "handover has target human bob", "bob is a Human",
-                          "bob has role Receiver", "bob is a Receiver (derived)"]  # fmt: skip
+    assert cone.facts == [
+        "handover is a RobotToHumanHandover",
+        "handover has target human bob",
+        "bob is a Human",
+        "bob has role Receiver",
+        "bob is a Receiver (derived)",
+    ]
 
 
 def test_a_handover_keeps_the_tool_in_a_box_between_robot_and_receiver(derived):
@@ -123,7 +145,9 @@ def test_a_handover_keeps_robot_and_links_out_of_the_receivers_torso_and_head(de
 
 def test_with_two_arms_every_arm_gets_the_handover_constraints(derived):
     ids = set(constraints(derived("handover_knife_glass")))
-    assert {f"{arm}_{c}_bob" for arm in ("right", "left") for c in ("approach_cone", "shared_workspace", "exclusion_box")} <= ids
+    assert {
+        f"{arm}_{c}_bob" for arm in ("right", "left") for c in ("approach_cone", "shared_workspace", "exclusion_box")
+    } <= ids
 
 
 def test_no_handover_constraints_without_a_handover(derived):
@@ -139,7 +163,9 @@ def test_a_supervisor_is_kept_out_of_reach_by_the_supervisor_distance(derived):
     spec = keep_out.spec
     assert isinstance(spec, CylinderConstraint) and spec.frame.entity == "sue/base"
     assert (spec.radius, spec.height, spec.region, spec.keep_out_all_links) == (0.5, 2.0, "outside", True)
-    assert keep_out.rules == ["keep_out_supervisor", "define_supervisor"] and "sue has role Supervisor" in keep_out.facts
+    assert (
+        keep_out.rules == ["keep_out_supervisor", "define_supervisor"] and "sue has role Supervisor" in keep_out.facts
+    )
 
 
 def test_a_bystander_gets_the_larger_distance_on_both_arms(derived):
@@ -162,7 +188,14 @@ def test_a_peg_follows_the_holes_axis_with_a_tolerance_growing_from_the_goal(der
     alignment = constraints(derived("insertion_ur5"))["alignment_peg1"]
     spec = alignment.spec
     assert isinstance(spec, OrientationConstraint)
-    assert spec.joints == ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
+    assert spec.joints == [
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    ]
     assert spec.target_link == "tool" and spec.free_axes == ["z"]
     assert (spec.tolerance, spec.tolerance_gradient) == (0.02, 0.3)
     hole_axis = situation("insertion_ur5").object("hole1").pose.rotation()[:, 2]  # tilted by 0.2 rad
@@ -203,7 +236,9 @@ def test_a_hot_cup_near_a_person_halves_the_velocity(derived):
     assert hot.rules == ["slow_hot_object_near_human", "define_hot_object", "carried_object_near_human"]
     cup, col = situation("transport_hot_cup").object("cup1"), situation("transport_hot_cup").human("col")
     distance = math.dist(cup.pose.xyz[:2], col.position)  # nearness is computed from the geometry, not by a rule
-    assert {"cup1 is hot", "cup1 is near col", f"cup1 is {distance:.2f} m from col, below NearHuman 1.2 m"} <= set(hot.facts)
+    assert {"cup1 is hot", "cup1 is near col", f"cup1 is {distance:.2f} m from col, below NearHuman 1.2 m"} <= set(
+        hot.facts
+    )
 
 
 def test_a_glass_handed_over_is_fragile_near_its_receiver(derived):
@@ -224,7 +259,9 @@ def test_full_speed_when_nothing_fragile_or_hot_moves_near_someone(derived, name
 
 def test_parameters_come_from_the_ontology_file(tmp_path, cache):
     text = ONTOLOGY_PATH.read_text()
-    changed = text.replace("hp:hasIdPrefix \"upright\" ; hp:hasTolerance 0.05 ;", "hp:hasIdPrefix \"upright\" ; hp:hasTolerance 0.07 ;")
+    changed = text.replace(
+        'hp:hasIdPrefix "upright" ; hp:hasTolerance 0.05 ;', 'hp:hasIdPrefix "upright" ; hp:hasTolerance 0.07 ;'
+    )
     changed = changed.replace("hp:hasSeparationDistance 0.5 ;", "hp:hasSeparationDistance 0.9 ;")
     assert changed.count("0.07") == text.count("0.07") + 1 and "hasSeparationDistance 0.9" in changed
     ontology = tmp_path / "hriplan.ttl"
@@ -237,7 +274,9 @@ def test_parameters_come_from_the_ontology_file(tmp_path, cache):
 def test_a_parameter_the_planner_refuses_names_the_kind(tmp_path, cache):
     ontology = tmp_path / "hriplan.ttl"
     ontology.write_text(ONTOLOGY_PATH.read_text().replace("hp:hasRadius 0.3 ;", "hp:hasRadius -0.3 ;"))
-    with pytest.raises(HriplanError, match=r"constraint kind ApproachCone: radius: Input should be greater than 0 \(check its"):
+    with pytest.raises(
+        HriplanError, match=r"constraint kind ApproachCone: radius: Input should be greater than 0 \(check its"
+    ):
         infer_constraints(situation("handover_can"), ontology=ontology, cache=cache)
 
 
@@ -249,8 +288,10 @@ def test_explain_says_what_each_constraint_does_and_why(derived):
     assert "facts: transport is a Transport; transport moves cup1; cup1 is a Cup; cup1 has fill level Partial" in text
     assert "velocity scale 0.5 while moving cup1" in text and text.endswith("velocity scale for the trajectory: 0.5")
     keep_out = explain(constraints(derivation)["left_keep_out_ann"])
-    assert keep_out.splitlines()[0] == ("left_keep_out_ann (arm left): left_tool stays outside a cylinder of radius 0.8 m "
-                                        "and height 2 m standing at ann/base (and so does every robot link)")  # fmt: skip
+    assert keep_out.splitlines()[0] == (
+        "left_keep_out_ann (arm left): left_tool stays outside a cylinder of radius 0.8 m "
+        "and height 2 m standing at ann/base (and so does every robot link)"
+    )
     assert "why: A bystander does not expect the robot at all" in keep_out
 
 
@@ -262,9 +303,13 @@ def test_the_derivation_round_trips_through_json(derived):
 
 def test_two_kinds_making_the_same_constraint_is_an_error(tmp_path, cache):
     rules = tmp_path / "both.rules"
-    rules.write_text("# Contradicts the package rule on purpose.\n"
-                     "[also_partial] TransportingTask(?t) ^ movesObject(?t, ?o) ^ Can(?o) -> isConstrainedBy(?o, UprightPartial)\n")  # fmt: skip
-    with pytest.raises(HriplanError, match="UprightFull and UprightPartial both make constraint 'upright_can1' for can1"):
+    rules.write_text(
+        "# Contradicts the package rule on purpose.\n"
+        "[also_partial] TransportingTask(?t) ^ movesObject(?t, ?o) ^ Can(?o) -> isConstrainedBy(?o, UprightPartial)\n"
+    )
+    with pytest.raises(
+        HriplanError, match="UprightFull and UprightPartial both make constraint 'upright_can1' for can1"
+    ):
         infer_constraints(situation("handover_can"), rule_files=[rules], cache=cache)
 
 
@@ -289,11 +334,15 @@ def test_rotation_with_axis_is_a_rotation_with_that_column(axis, direction):
     np.testing.assert_allclose(rotation.T @ rotation, np.eye(3), atol=1e-12)
     assert np.linalg.det(rotation) == pytest.approx(1.0)
     sign = -1.0 if axis[0] == "-" else 1.0
-    np.testing.assert_allclose(rotation[:, "xyz".index(axis[1])], sign * np.array(direction) / np.linalg.norm(direction))
+    np.testing.assert_allclose(
+        rotation[:, "xyz".index(axis[1])], sign * np.array(direction) / np.linalg.norm(direction)
+    )
 
 
 def test_upright_target_for_madar_matches_the_documented_convention():
-    np.testing.assert_allclose(rotation_with_axis("+y", np.array([0.0, 0.0, 1.0])), [[-1, 0, 0], [0, 0, 1], [0, 1, 0]], atol=1e-12)
+    np.testing.assert_allclose(
+        rotation_with_axis("+y", np.array([0.0, 0.0, 1.0])), [[-1, 0, 0], [0, 0, 1], [0, 1, 0]], atol=1e-12
+    )
 
 
 def test_bearing_and_box_geometry():
@@ -308,5 +357,11 @@ def test_bearing_and_box_geometry():
 
 def test_every_example_situation_loads():
     examples = {p.stem: load_situation(p) for p in Path(EXAMPLES_DIR).glob("*.json")}
-    assert set(examples) == {"handover_can", "handover_knife_glass", "insertion_ur5", "pouring", "transport_hot_cup",
-                             "transport_knife_glass"}  # fmt: skip
+    assert set(examples) == {
+        "handover_can",
+        "handover_knife_glass",
+        "insertion_ur5",
+        "pouring",
+        "transport_hot_cup",
+        "transport_knife_glass",
+    }

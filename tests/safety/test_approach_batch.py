@@ -19,15 +19,15 @@ import pinocchio as pin
 import pytest
 
 from hriplan import HriplanError
-from hriplan.safety.approach import ApproachMonitor
-from hriplan.safety.separation import SeparationPolicy, allowed_speed, minimum_separation
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.validate import densify
-from hriplan.safety.capsule_distance import capsule_distances
-from hriplan.robots.human import HumanSpec
 from hriplan.robots.descriptions.postures import posture
+from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Scene
+from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.capsule_distance import capsule_distances
 from hriplan.safety.policy import default_policy
+from hriplan.safety.separation import SeparationPolicy, allowed_speed, minimum_separation
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
 
@@ -61,7 +61,18 @@ def _random_capsules(n: int) -> dict[str, np.ndarray]:
     crossing = np.arange(n) % 50 == 0  # axes meeting at the midpoint of the second
     c1[crossing] = c2[crossing] + (rng.uniform(-0.1, 0.1, crossing.sum()))[:, None] * a1[crossing]
     h1[crossing] = 0.2
-    return {"c1": c1, "a1": a1, "h1": h1, "r1": r1, "c2": c2, "a2": a2, "h2": h2, "r2": r2, "kind": kind, "crossing": crossing}
+    return {
+        "c1": c1,
+        "a1": a1,
+        "h1": h1,
+        "r1": r1,
+        "c2": c2,
+        "a2": a2,
+        "h2": h2,
+        "r2": r2,
+        "kind": kind,
+        "crossing": crossing,
+    }
 
 
 def _segment_distance(point: np.ndarray, centre: np.ndarray, axis: np.ndarray, half: float) -> float:
@@ -75,14 +86,23 @@ def test_capsule_distances_equal_coal_on_random_pairs_in_one_batch():
     request, overlapping = coal.DistanceRequest(), 0
     for i in range(len(d)):
         result = coal.DistanceResult()
-        coal.distance(coal.Capsule(pairs["r1"][i], 2 * pairs["h1"][i]), coal.Transform3s(_frame(pairs["a1"][i]), pairs["c1"][i]),
-                      coal.Capsule(pairs["r2"][i], 2 * pairs["h2"][i]), coal.Transform3s(_frame(pairs["a2"][i]), pairs["c2"][i]),
-                      request, result)  # fmt: skip
+        coal.distance(
+            coal.Capsule(pairs["r1"][i], 2 * pairs["h1"][i]),
+            coal.Transform3s(_frame(pairs["a1"][i]), pairs["c1"][i]),
+            coal.Capsule(pairs["r2"][i], 2 * pairs["h2"][i]),
+            coal.Transform3s(_frame(pairs["a2"][i]), pairs["c2"][i]),
+            request,
+            result,
+        )
         assert d[i] == pytest.approx(result.min_distance, abs=1e-6), i
         overlapping += d[i] < 0.0
         # Witness points: on each capsule's surface and |d| apart (parallel axes have many such pairs).
-        assert _segment_distance(p1[i], pairs["c1"][i], pairs["a1"][i], pairs["h1"][i]) == pytest.approx(pairs["r1"][i], abs=1e-9)
-        assert _segment_distance(p2[i], pairs["c2"][i], pairs["a2"][i], pairs["h2"][i]) == pytest.approx(pairs["r2"][i], abs=1e-9)
+        assert _segment_distance(p1[i], pairs["c1"][i], pairs["a1"][i], pairs["h1"][i]) == pytest.approx(
+            pairs["r1"][i], abs=1e-9
+        )
+        assert _segment_distance(p2[i], pairs["c2"][i], pairs["a2"][i], pairs["h2"][i]) == pytest.approx(
+            pairs["r2"][i], abs=1e-9
+        )
         assert np.linalg.norm(p2[i] - p1[i]) == pytest.approx(abs(d[i]), abs=1e-9)
         if pairs["kind"][i] != 1 and not pairs["crossing"][i]:  # unique closest points: coal's
             np.testing.assert_allclose(p1[i], result.getNearestPoint1(), atol=1e-6)
@@ -93,18 +113,35 @@ def test_capsule_distances_equal_coal_on_random_pairs_in_one_batch():
 
 def test_capsule_distances_broadcast_one_capsule_against_many():
     pairs = _random_capsules(40)
-    one = capsule_distances(pairs["c1"][:1], pairs["a1"][:1], pairs["h1"][0], pairs["r1"][0],
-                            pairs["c2"], pairs["a2"], pairs["h2"], pairs["r2"])  # fmt: skip
+    one = capsule_distances(
+        pairs["c1"][:1],
+        pairs["a1"][:1],
+        pairs["h1"][0],
+        pairs["r1"][0],
+        pairs["c2"],
+        pairs["a2"],
+        pairs["h2"],
+        pairs["r2"],
+    )
     for i in range(40):
-        single = capsule_distances(pairs["c1"][0], pairs["a1"][0], pairs["h1"][0], pairs["r1"][0],
-                                   pairs["c2"][i], pairs["a2"][i], pairs["h2"][i], pairs["r2"][i])  # fmt: skip
+        single = capsule_distances(
+            pairs["c1"][0],
+            pairs["a1"][0],
+            pairs["h1"][0],
+            pairs["r1"][0],
+            pairs["c2"][i],
+            pairs["a2"][i],
+            pairs["h2"][i],
+            pairs["r2"][i],
+        )
         for batch, alone in zip(one, single):
             np.testing.assert_allclose(batch[i], alone, atol=1e-15)
 
 
 # -- the monitor against the per-point computation it replaced ---------------------------------
-def _reference(session: PlanningSession, policy: SeparationPolicy, group: str, q0: np.ndarray, x: np.ndarray,
-               dx: np.ndarray) -> list[tuple] | str:  # fmt: skip
+def _reference(
+    session: PlanningSession, policy: SeparationPolicy, group: str, q0: np.ndarray, x: np.ndarray, dx: np.ndarray
+) -> list[tuple] | str:
     """Per person (separation, body separation, allowed, approach, scale, part, capsule) at one
     point, or the S_0 error message: coal closest points, Jacobian velocities."""
     robot, checker = session.robot, session.checker
@@ -137,14 +174,25 @@ def _reference(session: PlanningSession, policy: SeparationPolicy, group: str, q
         stopped = [row for row in values if row[2] <= 0.0]
         if stopped:
             d, _, _, _, k = min(stopped, key=lambda row: row[0])
-            return (f"{pairs.parts[k]} passes {d:.3f} m from {person.name}/{pairs.capsules[k]}, inside the minimum "
-                    f"protective separation {minimum_separation(policy.robot, person):.3f} m of ISO/TS 15066 "
-                    f"(the robot would have to stand still there)")  # fmt: skip
+            return (
+                f"{pairs.parts[k]} passes {d:.3f} m from {person.name}/{pairs.capsules[k]}, inside the minimum "
+                f"protective separation {minimum_separation(policy.robot, person):.3f} m of ISO/TS 15066 "
+                f"(the robot would have to stand still there)"
+            )
         binding = min(values, key=lambda row: row[2] - row[1])
         scale = min((row[2] / row[1] for row in values if row[1] > 0.0), default=math.inf)
         body = min((row[0] for row in values if not row[3]), default=math.inf)
-        rows.append((min(row[0] for row in values), body, binding[2], binding[1], scale, pairs.parts[binding[4]],
-                     pairs.capsules[binding[4]]))  # fmt: skip
+        rows.append(
+            (
+                min(row[0] for row in values),
+                body,
+                binding[2],
+                binding[1],
+                scale,
+                pairs.parts[binding[4]],
+                pairs.capsules[binding[4]],
+            )
+        )
     return rows
 
 
@@ -196,8 +244,10 @@ def _right_arm_sweep(session: PlanningSession) -> tuple[np.ndarray, np.ndarray, 
 
 
 def test_the_batched_monitor_follows_every_person_and_their_moves():
-    people = [HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi), HumanSpec(name="ann", position=(0.9, 1.5), yaw=-1.6,
-              reach={"left": (0.95, 1.1, 1.1)})]  # fmt: skip
+    people = [
+        HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi),
+        HumanSpec(name="ann", position=(0.9, 1.5), yaw=-1.6, reach={"left": (0.95, 1.1, 1.1)}),
+    ]
     session = PlanningSession("madar", Scene(humans=people), hands={"right": "open"})
     policy = default_policy("madar", people, {"sam": "Supervisor", "ann": "Giver"})
     q0, xs, dxs = _right_arm_sweep(session)
@@ -218,7 +268,9 @@ def test_a_part_inside_the_minimum_separation_raises_the_per_point_message(hando
     strict = policy.model_copy(update={"robot": robot})
     references = [_reference(session, strict, group, q0, x, dx) for x, dx in zip(xs, dxs)]
     stops = [r for r in references if isinstance(r, str)]
-    assert 0 < len(stops) < len(references) and not isinstance(references[0], str)  # the first stop is found, not the first row
+    assert 0 < len(stops) < len(references) and not isinstance(
+        references[0], str
+    )  # the first stop is found, not the first row
     monitor = ApproachMonitor(session.robot, session.checker, strict, group, q0)
     with pytest.raises(HriplanError) as raised:
         monitor.speed_scale(xs, dxs)
@@ -227,7 +279,10 @@ def test_a_part_inside_the_minimum_separation_raises_the_per_point_message(hando
 
 def test_the_first_point_inside_s0_is_reported_whichever_person_it_is():
     """Policy order sam, ben; the path reaches ben's S_0 (point 8) before sam's (point 13)."""
-    people = [HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi), HumanSpec(name="ben", position=(0.3, 1.5), yaw=-math.pi / 2)]
+    people = [
+        HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi),
+        HumanSpec(name="ben", position=(0.3, 1.5), yaw=-math.pi / 2),
+    ]
     session = PlanningSession("madar", Scene(humans=people), hands={"right": "open"})
     policy = default_policy("madar", people, {"sam": "Supervisor", "ben": "Bystander"})
     strict = policy.model_copy(update={"robot": policy.robot.model_copy(update={"position_uncertainty": 0.2})})
@@ -245,7 +300,7 @@ def test_the_monitor_does_not_query_every_pair_through_coal_point_by_point(hando
     through coal, read from Python: the former route) is not used."""
     session, policy, group, q0, xs, dxs = handover
 
-    def refused(*_):  # noqa: ANN202
+    def refused(*_):
         raise AssertionError("person_pairs called by the monitor")
 
     monkeypatch.setattr(session.checker, "person_pairs", refused)

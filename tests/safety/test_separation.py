@@ -17,11 +17,22 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
+from meshcat.commands import SetObject
 from PIL import Image
 
 from hriplan import HriplanError
-from hriplan.safety.approach import ApproachMonitor
+from hriplan.cli.summary import separation_phrase
 from hriplan.planner.motion import JointGoal
+from hriplan.planner.replay import PlannedWorld
+from hriplan.planner.session import PlanningSession
+from hriplan.planner.timing import time_parameterize
+from hriplan.robots.descriptions.postures import posture
+from hriplan.robots.human import Human, HumanSpec
+from hriplan.robots.model import load_robot
+from hriplan.robots.robot_geometry import robot_parts
+from hriplan.robots.scene import Scene
+from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.policy import default_policy
 from hriplan.safety.separation import (
     ContactRegion,
     PersonSeparation,
@@ -33,26 +44,20 @@ from hriplan.safety.separation import (
     protective_separation,
     ssm_speed_limit,
 )
-from hriplan.planner.session import PlanningSession
-from hriplan.planner.timing import time_parameterize
-from hriplan.robots.human import Human, HumanSpec
-from hriplan.robots.model import load_robot
-from hriplan.robots.descriptions.postures import posture
-from hriplan.robots.robot_geometry import robot_parts
-from hriplan.robots.scene import Scene
-from hriplan.safety.policy import default_policy
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
-from hriplan.cli.summary import separation_phrase
-from hriplan.planner.replay import PlannedWorld
 from hriplan.viewer.plots import write_plots
 from hriplan.viewer.scene import build_drawing
-from meshcat.commands import SetObject
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 ROBOT = RobotStopping(reaction_time=0.1, stopping_time=0.2, position_uncertainty=0.02, moving_mass=10.0)
-HAND = ContactRegion(region="HandFingerRegion", capsules=["right_hand"], spring_constant=75_000.0, effective_mass=0.6,
-                     transient_force=280.0)  # fmt: skip
+HAND = ContactRegion(
+    region="HandFingerRegion",
+    capsules=["right_hand"],
+    spring_constant=75_000.0,
+    effective_mass=0.6,
+    transient_force=280.0,
+)
 WALKER = PersonSeparation(name="p", approach_speed=1.6, intrusion=0.1, sensor_uncertainty=0.05)
 
 
@@ -86,14 +91,19 @@ def test_parameters_come_from_the_ontology_per_role():
     assert policy.robot == ROBOT
     ann, ben = policy.person("ann"), policy.person("ben")
     assert (ann.role, ann.approach_speed, ann.sensor_uncertainty) == ("Giver", 0.5, 0.05)
-    assert {c.region: c.capsules for c in ann.contact} == {"HandFingerRegion": ["left_hand"], "LowerArmRegion": ["left_lowerarm"]}
+    assert {c.region: c.capsules for c in ann.contact} == {
+        "HandFingerRegion": ["left_hand"],
+        "LowerArmRegion": ["left_lowerarm"],
+    }
     hand = next(c for c in ann.contact if c.region == "HandFingerRegion")
     assert (hand.spring_constant, hand.effective_mass, hand.transient_force) == (75_000.0, 0.6, 280.0)
     assert (ben.role, ben.approach_speed, ben.contact) == ("Bystander", 1.6, [])
 
 
 def test_person_distances_are_to_the_bare_body_and_follow_the_person():
-    session = PlanningSession("madar", Scene(humans=[HumanSpec(name="kim", position=(1.2, 0.6), margin=0.2)]), hands={"right": "open"})
+    session = PlanningSession(
+        "madar", Scene(humans=[HumanSpec(name="kim", position=(1.2, 0.6), margin=0.2)]), hands={"right": "open"}
+    )
     q = session.robot.configuration(posture("madar", "ready"))
     near = session.checker.person_pairs(q, "kim").distance.min()
     # The collision distance is to the capsules grown by the 0.2 m margin; separation is to the body.
@@ -111,8 +121,16 @@ def test_bad_roles_are_clear_errors():
 
 
 # -- an independent check of timed motions ---------------------------------------------------
-def _independent_worst(robot_name: str, hands: dict, scene: Scene, start: dict, joint_names: list[str],
-                       positions: np.ndarray, velocities: np.ndarray, policy: SeparationPolicy) -> tuple[float, float]:  # fmt: skip
+def _independent_worst(
+    robot_name: str,
+    hands: dict,
+    scene: Scene,
+    start: dict,
+    joint_names: list[str],
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    policy: SeparationPolicy,
+) -> tuple[float, float]:
     """(worst allowed - actual speed towards a person, worst body separation - S_0) over every
     sample, moving robot part and person capsule, from coal, pinocchio and the formulas."""
     robot = load_robot(robot_name, hands or None)
@@ -134,9 +152,15 @@ def _independent_worst(robot_name: str, hands: dict, scene: Scene, start: dict, 
     for spec in scene.humans:
         human = Human(spec)
         person = policy.person(spec.name)
-        s0 = person.approach_speed * (policy.robot.reaction_time + policy.robot.stopping_time) + person.intrusion \
-            + person.sensor_uncertainty + policy.robot.position_uncertainty  # fmt: skip
-        caps = [(c.name, coal.Capsule(c.radius, c.length), m) for c, m in zip(human.capsules, human.capsule_placements())]
+        s0 = (
+            person.approach_speed * (policy.robot.reaction_time + policy.robot.stopping_time)
+            + person.intrusion
+            + person.sensor_uncertainty
+            + policy.robot.position_uncertainty
+        )
+        caps = [
+            (c.name, coal.Capsule(c.radius, c.length), m) for c, m in zip(human.capsules, human.capsule_placements())
+        ]
         people.append((person, s0, caps))
     index = [model.joints[model.getJointId(j)].idx_q for j in joint_names]
     h = 1e-6
@@ -155,8 +179,14 @@ def _independent_worst(robot_name: str, hands: dict, scene: Scene, start: dict, 
             for (_, _, geometry), m_now, m_later in zip(parts, now, later):
                 for name, capsule, placement in caps:
                     result = coal.DistanceResult()
-                    d = coal.distance(geometry, coal.Transform3s(m_now.rotation, m_now.translation), capsule,
-                                      coal.Transform3s(placement.rotation, placement.translation), coal.DistanceRequest(), result)  # fmt: skip
+                    d = coal.distance(
+                        geometry,
+                        coal.Transform3s(m_now.rotation, m_now.translation),
+                        capsule,
+                        coal.Transform3s(placement.rotation, placement.translation),
+                        coal.DistanceRequest(),
+                        result,
+                    )
                     p_robot, p_person = result.getNearestPoint1(), result.getNearestPoint2()
                     velocity = (m_later.act(m_now.actInv(p_robot)) - p_robot) / h
                     region = next((c for c in person.contact if name in c.capsules), None)
@@ -187,8 +217,15 @@ def test_the_demo_keeps_the_speed_limit_near_the_giver_at_every_sample(demo):
         assert policy is not None and policy.person("alice").role == "Giver"
         points = traj.points
         worst_speed, worst_gap = _independent_worst(
-            traj.robot, traj.hands, traj.scene, traj.start, traj.joint_names,
-            np.array([p.positions for p in points]), np.array([p.velocities for p in points]), policy)  # fmt: skip
+            traj.robot,
+            traj.hands,
+            traj.scene,
+            traj.start,
+            traj.joint_names,
+            np.array([p.positions for p in points]),
+            np.array([p.velocities for p in points]),
+            policy,
+        )
         assert worst_speed >= -0.02, f"{step.name}: {worst_speed:.4f} m/s over the allowed speed"
         assert worst_gap > 0.0, f"{step.name}: a moving part is {-worst_gap:.3f} m inside the minimum separation"
         trace = traj.report.separation[0]
@@ -206,7 +243,11 @@ def test_the_demo_keeps_the_speed_limit_near_the_giver_at_every_sample(demo):
 def test_the_viewer_marks_where_the_limit_held_the_robot(demo):
     def slowed_paths(trajectory):
         drawing = build_drawing(PlannedWorld.load(trajectory))
-        return [c.path.lower() for c in drawing.commands if isinstance(c, SetObject) and "slowed_near_people" in c.path.lower()]
+        return [
+            c.path.lower()
+            for c in drawing.commands
+            if isinstance(c, SetObject) and "slowed_near_people" in c.path.lower()
+        ]
 
     assert slowed_paths(demo.steps[1].trajectory) and not slowed_paths(demo.steps[0].trajectory)
 
@@ -218,7 +259,9 @@ def test_the_separation_figure_is_drawn_per_person(demo, tmp_path):
     assert min(pixels.shape[:2]) > 300 and len(np.unique(pixels.reshape(-1, 3), axis=0)) > 20
 
 
-@pytest.mark.parametrize("example", ["handover_full_can_receiver", "handover_scissors", "transport_cup_bystander", "peg_in_hole_supervised"])
+@pytest.mark.parametrize(
+    "example", ["handover_full_can_receiver", "handover_scissors", "transport_cup_bystander", "peg_in_hole_supervised"]
+)
 def test_examples_keep_the_speed_limit_at_every_sample(example):
     outcome = TaskRunner(load_task(EXAMPLES / f"{example}.yaml"), EXAMPLES).run()
     assert outcome.solved, [s.message for s in outcome.steps]
@@ -226,8 +269,15 @@ def test_examples_keep_the_speed_limit_at_every_sample(example):
         traj = step.trajectory
         points = traj.points
         worst_speed, worst_gap = _independent_worst(
-            traj.robot, traj.hands, traj.scene, traj.start, traj.joint_names,
-            np.array([p.positions for p in points]), np.array([p.velocities for p in points]), step.derivation.separation)  # fmt: skip
+            traj.robot,
+            traj.hands,
+            traj.scene,
+            traj.start,
+            traj.joint_names,
+            np.array([p.positions for p in points]),
+            np.array([p.velocities for p in points]),
+            step.derivation.separation,
+        )
         assert worst_speed >= -0.02 and worst_gap > 0.0, (step.name, worst_speed, worst_gap)
 
 
@@ -263,10 +313,19 @@ def test_a_motion_near_a_person_is_slower_and_keeps_the_limit():
     start = dict(zip(robot.joint_names, q0))
     scene = Scene(humans=[person])
     names = robot.group_joints("right_arm")
-    worst_free, _ = _independent_worst("madar", {"right": "open"}, scene, start, names,
-                                       np.array(free.positions), np.array(free.velocities), policy)  # fmt: skip
-    worst, gap = _independent_worst("madar", {"right": "open"}, scene, start, names,
-                                    np.array(limited.positions), np.array(limited.velocities), policy)  # fmt: skip
+    worst_free, _ = _independent_worst(
+        "madar", {"right": "open"}, scene, start, names, np.array(free.positions), np.array(free.velocities), policy
+    )
+    worst, gap = _independent_worst(
+        "madar",
+        {"right": "open"},
+        scene,
+        start,
+        names,
+        np.array(limited.positions),
+        np.array(limited.velocities),
+        policy,
+    )
     assert worst_free < -0.1  # unconstrained, the arm would come at the supervisor too fast
     assert worst >= -0.02 and gap > 0.0
 
@@ -291,11 +350,20 @@ def test_a_task_passing_too_close_to_a_collaborator_fails_in_one_line(tmp_path):
     task = tmp_path / "close.yaml"
     task.write_text(text.replace("{name: dana, role: Bystander, position: [1.5, 0.4], yaw: 3.1416}", near))
     assert near in task.read_text()
-    result = subprocess.run([sys.executable, "-m", "hriplan.cli", "plan", str(task), "-o", str(tmp_path / "t.json")],
-                            capture_output=True, text=True, cwd=tmp_path)  # fmt: skip
+    result = subprocess.run(
+        [sys.executable, "-m", "hriplan.cli", "plan", str(task), "-o", str(tmp_path / "t.json")],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
     assert result.returncode == 1 and "Traceback" not in result.stderr
     failure = result.stderr.strip().splitlines()[-1]
     # she stands within S_0 of the arm's start: refused before planning (before: after planning, by the timing)
-    assert failure.startswith("planning failed at step carry") and "(invalid_start): " in failure and " - dana/" in failure
-    assert "is inside a person's minimum separation of ISO/TS 15066" in failure and "(minimum separation 0.310 m)" in failure
+    assert (
+        failure.startswith("planning failed at step carry") and "(invalid_start): " in failure and " - dana/" in failure
+    )
+    assert (
+        "is inside a person's minimum separation of ISO/TS 15066" in failure
+        and "(minimum separation 0.310 m)" in failure
+    )
     assert not list(tmp_path.glob("t*.json"))

@@ -1,17 +1,16 @@
 """The planner keeps ISO/TS 15066's minimum separation S_0 (planner/separation_zones.py)."""
 
-import numpy as np
 import pytest
 
-from hriplan.safety.separation import minimum_separation
 from hriplan.planner.motion import with_keep_out
-from hriplan.safety.zones import ZONE_SLACK, separation_zones
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.postures import posture
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.model import load_robot
-from hriplan.robots.descriptions.postures import posture
 from hriplan.robots.scene import Scene
 from hriplan.safety.policy import default_policy
+from hriplan.safety.separation import minimum_separation
+from hriplan.safety.zones import ZONE_SLACK, separation_zones
 
 
 @pytest.fixture(scope="module")
@@ -36,14 +35,19 @@ def test_a_bystander_beside_the_left_arm_binds_the_left_arm_only(robot):
     q = robot.configuration(posture("madar", "ready"))
     assert not checker.in_collision(q) and left_arm_clearance(robot, checker, q, "dana") < 0.55
     with with_keep_out(checker, [], separation_zones(checker, robot, policy, "right_arm", q)):
-        zone_pairs = [(checker.geom_model.geometryObjects[p.first], checker.geom_model.geometryObjects[p.second])
-                      for p in checker.geom_model.collisionPairs if "zone" in (checker.kind[p.first], checker.kind[p.second])]  # fmt: skip
+        zone_pairs = [
+            (checker.geom_model.geometryObjects[p.first], checker.geom_model.geometryObjects[p.second])
+            for p in checker.geom_model.collisionPairs
+            if "zone" in (checker.kind[p.first], checker.kind[p.second])
+        ]
         others = {b.name if "minimum separation" in a.name else a.name for a, b in zone_pairs}
         assert others and all(name.startswith("right_") for name in others)
         assert not checker.in_collision(q)  # the fixed torso and the still left arm do not count
     with with_keep_out(checker, [], separation_zones(checker, robot, policy, "left_arm", q)):
         contacts = checker.contacts(q)
-        assert any(c.b == "dana/middle_thorax (minimum separation 0.550 m)" or c.a.startswith("dana/") for c in contacts)
+        assert any(
+            c.b == "dana/middle_thorax (minimum separation 0.550 m)" or c.a.startswith("dana/") for c in contacts
+        )
         assert all(c.a.startswith("left_") for c in contacts)
     assert not checker.in_collision(q) and checker.zones is None  # gone after the block
 

@@ -53,15 +53,22 @@ def _seconds(stamp: dict) -> float:
 
 def check_joint_trajectory(ros: dict, trajectory: dict) -> None:
     """The ROS message carries the file's motion exactly, and its velocities integrate to its positions."""
-    assert set(ros) == {"header", "joint_names", "points"} and ros["header"] == {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ""}
+    assert set(ros) == {"header", "joint_names", "points"} and ros["header"] == {
+        "stamp": {"sec": 0, "nanosec": 0},
+        "frame_id": "",
+    }
     assert ros["joint_names"] == trajectory["joint_names"] and len(ros["points"]) == len(trajectory["points"]) > 2
     times = np.array([_seconds(p["time_from_start"]) for p in ros["points"]])
-    assert np.allclose(times, [p["time_from_start"] for p in trajectory["points"]], atol=1e-9) and np.all(np.diff(times) > 0)
+    assert np.allclose(times, [p["time_from_start"] for p in trajectory["points"]], atol=1e-9) and np.all(
+        np.diff(times) > 0
+    )
     q = np.array([p["positions"] for p in ros["points"]])
     v = np.array([p["velocities"] for p in ros["points"]])
     assert q.shape == v.shape == (len(times), len(ros["joint_names"])) and all(p["effort"] == [] for p in ros["points"])
     assert all(len(p["accelerations"]) == len(ros["joint_names"]) for p in ros["points"])
-    integrated = q[0] + np.concatenate([np.zeros((1, q.shape[1])), np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(times)[:, None], axis=0)])
+    integrated = q[0] + np.concatenate(
+        [np.zeros((1, q.shape[1])), np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(times)[:, None], axis=0)]
+    )
     assert np.abs(integrated - q).max() < 0.02 * max(np.ptp(q, axis=0).max(), 1e-3)
 
 
@@ -70,12 +77,17 @@ def test_a_yaml_task_is_planned_validated_and_given_as_joint_trajectories(client
     assert response.status_code == 200, response.text
     body = response.json()
     assert body["task"] == "handover_full_can" and body["solved"] is True
-    assert [s["name"] for s in body["steps"]] == ["take_can", "place_can"] and set(body["joint_trajectories"]) == {"take_can", "place_can"}
+    assert [s["name"] for s in body["steps"]] == ["take_can", "place_can"] and set(body["joint_trajectories"]) == {
+        "take_can",
+        "place_can",
+    }
     for step in body["steps"]:
         check_joint_trajectory(body["joint_trajectories"][step["name"]], step["trajectory"])
         trajectory = TrajectoryFile.model_validate(step["trajectory"])
         assert PlannedWorld.load(trajectory).validate().valid  # the replay validator, not the planner's own result
-        assert {c["spec"]["id"] for c in step["trajectory"]["constraints"]} == {c["spec"]["id"] for c in step["derivation"]["constraints"]}
+        assert {c["spec"]["id"] for c in step["trajectory"]["constraints"]} == {
+            c["spec"]["id"] for c in step["derivation"]["constraints"]
+        }
 
 
 def test_constraints_and_explain_answer_the_same_for_json_and_yaml(client):
@@ -94,10 +106,16 @@ def test_constraints_and_explain_answer_the_same_for_json_and_yaml(client):
 
 def test_a_planning_problem_is_solved_and_a_failure_is_a_200_with_its_reason(client):
     solved = client.post("/solve", params={"ros": "true"}, json=PROBLEM).json()
-    assert solved["solved"] is True and solved["status"] == "solved" and solved["trajectory"]["schema"] == "hriplan.trajectory"
+    assert (
+        solved["solved"] is True
+        and solved["status"] == "solved"
+        and solved["trajectory"]["schema"] == "hriplan.trajectory"
+    )
     check_joint_trajectory(solved["joint_trajectory"], solved["trajectory"])
     names = solved["trajectory"]["joint_names"]
-    assert solved["trajectory"]["points"][0]["positions"] == pytest.approx([PROBLEM["start"][j] for j in names], abs=1e-9)
+    assert solved["trajectory"]["points"][0]["positions"] == pytest.approx(
+        [PROBLEM["start"][j] for j in names], abs=1e-9
+    )
     failed = client.post("/solve", json=slow_problem(0.5))
     assert failed.status_code == 200
     assert failed.json()["solved"] is False and failed.json()["message"].startswith("planning failed (timeout): ")
@@ -105,8 +123,16 @@ def test_a_planning_problem_is_solved_and_a_failure_is_a_200_with_its_reason(cli
 
 
 def test_a_session_follows_perception_updates_and_plans_against_them(client):
-    created = client.post("/sessions", json={"id": "cell", "robot": "madar", "hands": PROBLEM["hands"], "scene": PROBLEM["scene"],
-                                             "constraints": PROBLEM["constraints"]})  # fmt: skip
+    created = client.post(
+        "/sessions",
+        json={
+            "id": "cell",
+            "robot": "madar",
+            "hands": PROBLEM["hands"],
+            "scene": PROBLEM["scene"],
+            "constraints": PROBLEM["constraints"],
+        },
+    )
     assert created.status_code == 201, created.text
     assert client.post("/sessions", json={"id": "cell"}).status_code == 409
     request = {k: PROBLEM[k] for k in ("start", "goal", "options", "group")}
@@ -131,13 +157,22 @@ def test_a_session_follows_perception_updates_and_plans_against_them(client):
     assert gone.status_code == 404 and gone.json() == {"error": "no session 'cell'", "field": None}
 
 
-@pytest.mark.parametrize(("path", "body", "status", "error", "field"), [
-    ("/constraints", {"steps": [{}]}, 422, "steps.0: Value error, a step has either `goal` or `goals`", "steps.0"),
-    ("/constraints", {"robot": "r2d2", "steps": [{"goal": {"joints": {}}}]}, 422, "robot: Input should be 'madar' or 'ur5'", "robot"),
-    ("/solve", {"goal": {"type": "joints", "values": []}}, 422, "start: Field required", "start"),
-    ("/solve", {**PROBLEM, "robot": "r2d2"}, 400, "unknown robot 'r2d2'; known robots: madar, ur5", None),
-    ("/sessions", {"robot": "madar", "hands": {"right": "fist"}}, 400, "unknown hand posture", None),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("path", "body", "status", "error", "field"),
+    [
+        ("/constraints", {"steps": [{}]}, 422, "steps.0: Value error, a step has either `goal` or `goals`", "steps.0"),
+        (
+            "/constraints",
+            {"robot": "r2d2", "steps": [{"goal": {"joints": {}}}]},
+            422,
+            "robot: Input should be 'madar' or 'ur5'",
+            "robot",
+        ),
+        ("/solve", {"goal": {"type": "joints", "values": []}}, 422, "start: Field required", "start"),
+        ("/solve", {**PROBLEM, "robot": "r2d2"}, 400, "unknown robot 'r2d2'; known robots: madar, ur5", None),
+        ("/sessions", {"robot": "madar", "hands": {"right": "fist"}}, 400, "unknown hand posture", None),
+    ],
+)
 def test_errors_are_one_json_line_with_the_right_status(client, path, body, status, error, field):
     response = client.post(path, json=body)
     assert response.status_code == status and response.headers["content-type"] == "application/json"
@@ -168,7 +203,9 @@ def test_a_worker_killed_mid_plan_fails_only_its_request_and_is_replaced(server,
     slow.join(30)
     assert other.status_code == 200
     crashed = results["slow"]
-    assert crashed.status_code == 500 and crashed.json()["error"].startswith("the worker serving this request died (exit code -9)")
+    assert crashed.status_code == 500 and crashed.json()["error"].startswith(
+        "the worker serving this request died (exit code -9)"
+    )
     after = wait_for_workers(server, 2)
     assert busy[0] not in after and set(before) - {busy[0]} <= set(after)
     assert client.post("/solve", json=PROBLEM).json()["solved"]
@@ -211,7 +248,9 @@ def test_mixed_concurrent_requests_never_mix_up_answers(server):
                 if not body.get("solved"):
                     return False, body
                 first = dict(zip(body["trajectory"]["joint_names"], body["trajectory"]["points"][0]["positions"]))
-                return first["right_shoulder_pan_joint"] == pytest.approx(problem["start"]["right_shoulder_pan_joint"], abs=1e-9), {}
+                return first["right_shoulder_pan_joint"] == pytest.approx(
+                    problem["start"]["right_shoulder_pan_joint"], abs=1e-9
+                ), {}
             answer = c.get("/sparql", params={"query": f'SELECT ?tag WHERE {{ BIND("tag{k}" AS ?tag) }}'}).json()
             return [b["tag"]["value"] for b in answer["results"]["bindings"]] == [f"tag{k}"], answer
 

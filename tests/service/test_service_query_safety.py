@@ -2,11 +2,11 @@
 the rules `hriplan query` and the HTTP endpoint share (ontology/sparql.py)."""
 
 import csv
-import subprocess
-import sys
 import http.server
 import io
 import json
+import subprocess
+import sys
 import threading
 import time
 import xml.etree.ElementTree as ET
@@ -27,15 +27,18 @@ def graph() -> rdflib.Graph:
     return rdflib.Graph().parse(data=ontology_source(None).ntriples, format="nt")
 
 
-@pytest.mark.parametrize("update", [
-    "INSERT DATA { hp:a hp:b hp:c }",
-    "DELETE WHERE { ?s ?p ?o }",
-    "PREFIX ex: <http://example.org/> DELETE { ?s ?p ?o } INSERT { ?s ?p 1 } WHERE { ?s ?p ?o }",
-    "LOAD <http://127.0.0.1:9/data.ttl>",
-    "CLEAR ALL",
-    "DROP GRAPH <http://example.org/g>",
-    "CREATE GRAPH <http://example.org/g>",
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "update",
+    [
+        "INSERT DATA { hp:a hp:b hp:c }",
+        "DELETE WHERE { ?s ?p ?o }",
+        "PREFIX ex: <http://example.org/> DELETE { ?s ?p ?o } INSERT { ?s ?p 1 } WHERE { ?s ?p ?o }",
+        "LOAD <http://127.0.0.1:9/data.ttl>",
+        "CLEAR ALL",
+        "DROP GRAPH <http://example.org/g>",
+        "CREATE GRAPH <http://example.org/g>",
+    ],
+)
 def test_updates_are_refused_by_name_and_the_graph_is_unchanged(graph, update):
     before = len(graph)
     with pytest.raises(HriplanError, match="^updates are not supported"):
@@ -46,12 +49,12 @@ def test_updates_are_refused_by_name_and_the_graph_is_unchanged(graph, update):
 class _Recorder(http.server.BaseHTTPRequestHandler):
     hits: list[str] = []
 
-    def do_GET(self) -> None:  # noqa: N802 - http.server's name
+    def do_GET(self) -> None:
         _Recorder.hits.append(self.path)
         self.send_response(200)
         self.end_headers()
 
-    def log_message(self, *args) -> None:  # noqa: ANN002
+    def log_message(self, *args) -> None:
         pass
 
 
@@ -66,13 +69,19 @@ def listener():
     server.shutdown()
 
 
-@pytest.mark.parametrize(("template", "message"), [
-    ("SELECT * WHERE { SERVICE <{url}/sparql> { ?s ?p ?o } }", "^SERVICE is not supported"),
-    ("SELECT * WHERE { ?x a hp:Can . OPTIONAL { SERVICE SILENT <{url}/s> { ?x ?p ?o } } }", "^SERVICE is not supported"),
-    ("SELECT * FROM <{url}/data.ttl> WHERE { ?s ?p ?o }", "^FROM and FROM NAMED are not supported"),
-    ("SELECT * FROM NAMED <{url}/g.ttl> WHERE { GRAPH ?g { ?s ?p ?o } }", "^FROM and FROM NAMED are not supported"),
-    ("ASK FROM <file:///etc/passwd> { ?s ?p ?o }", "^FROM and FROM NAMED are not supported"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("template", "message"),
+    [
+        ("SELECT * WHERE { SERVICE <{url}/sparql> { ?s ?p ?o } }", "^SERVICE is not supported"),
+        (
+            "SELECT * WHERE { ?x a hp:Can . OPTIONAL { SERVICE SILENT <{url}/s> { ?x ?p ?o } } }",
+            "^SERVICE is not supported",
+        ),
+        ("SELECT * FROM <{url}/data.ttl> WHERE { ?s ?p ?o }", "^FROM and FROM NAMED are not supported"),
+        ("SELECT * FROM NAMED <{url}/g.ttl> WHERE { GRAPH ?g { ?s ?p ?o } }", "^FROM and FROM NAMED are not supported"),
+        ("ASK FROM <file:///etc/passwd> { ?s ?p ?o }", "^FROM and FROM NAMED are not supported"),
+    ],
+)
 def test_nothing_outside_the_graph_is_fetched_or_read(graph, listener, template, message):
     with pytest.raises(HriplanError, match=message):
         run_query(graph, template.replace("{url}", listener))
@@ -99,7 +108,9 @@ def test_default_limits_apply_without_being_asked(graph):
     assert QueryLimits() == QueryLimits(time_limit=10.0, row_limit=10_000)
     assert len(graph) < 10_000 < len(graph) ** 2
     # ~940 000 rows: the default row limit stops it, or on a loaded machine the default time limit first.
-    with pytest.raises(HriplanError, match=r"^the query (answers more than 10000 rows|ran past its time limit of 10 s)"):
+    with pytest.raises(
+        HriplanError, match=r"^the query (answers more than 10000 rows|ran past its time limit of 10 s)"
+    ):
         run_query(graph, "SELECT * WHERE { ?a ?b ?c . ?d ?e ?f }")
 
 
@@ -120,9 +131,14 @@ def test_protocol_syntaxes_carry_the_same_rows(graph):
 
 def test_the_command_line_follows_the_same_rules():
     def query(text: str) -> subprocess.CompletedProcess:
-        return subprocess.run([sys.executable, "-m", "hriplan.cli", "query", text], capture_output=True, text=True, timeout=120)
+        return subprocess.run(
+            [sys.executable, "-m", "hriplan.cli", "query", text], capture_output=True, text=True, timeout=120
+        )
 
     update = query("INSERT DATA { hp:a hp:b hp:c }")
-    assert update.returncode == 2 and update.stderr == "error: updates are not supported: the knowledge base is read-only\n"
+    assert (
+        update.returncode == 2
+        and update.stderr == "error: updates are not supported: the knowledge base is read-only\n"
+    )
     service = query("SELECT * WHERE { SERVICE <http://127.0.0.1:9/s> { ?s ?p ?o } }")
     assert service.returncode == 2 and service.stderr.startswith("error: SERVICE is not supported")

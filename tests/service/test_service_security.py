@@ -22,8 +22,10 @@ TOKEN = "s3cret-token-for-tests"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
 TASK = yaml.safe_load((ROOT / "examples" / "handover_empty_can.yaml").read_text())
 PROBLEM = json.loads((ROOT / "benchmarks" / "scenarios" / "b_madar_handover.json").read_text())
-RULE = ("# Any can is carried upright, full or not (a test rule).\n"
-        "[upright_any_can] TransportingTask(?t) ^ movesObject(?t, ?o) ^ Can(?o) -> isConstrainedBy(?o, UprightPartial)\n")  # fmt: skip
+RULE = (
+    "# Any can is carried upright, full or not (a test rule).\n"
+    "[upright_any_can] TransportingTask(?t) ^ movesObject(?t, ?o) ^ Can(?o) -> isConstrainedBy(?o, UprightPartial)\n"
+)
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +38,18 @@ def rules_dir(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def server(rules_dir):
-    args = ("--workers", "1", "--token", TOKEN, "--request-time-limit", "8", "--body-limit", "8192", "--rules-dir", str(rules_dir))
+    args = (
+        "--workers",
+        "1",
+        "--token",
+        TOKEN,
+        "--request-time-limit",
+        "8",
+        "--body-limit",
+        "8192",
+        "--rules-dir",
+        str(rules_dir),
+    )
     with running_server(*args, token=TOKEN) as url:
         yield url
 
@@ -49,14 +62,22 @@ def client(server):
 
 def serve(*args: str) -> subprocess.CompletedProcess:
     env = {"PYTHONPATH": str(SRC), "PATH": "/usr/bin:/bin"}
-    return subprocess.run([sys.executable, "-m", "hriplan.cli", "serve", *args], env=env, capture_output=True, text=True, timeout=60)
+    return subprocess.run(
+        [sys.executable, "-m", "hriplan.cli", "serve", *args], env=env, capture_output=True, text=True, timeout=60
+    )
 
 
 def test_binding_off_loopback_needs_a_token():
     refused = serve("--host", "0.0.0.0", "--port", "0")
-    assert refused.returncode == 2 and refused.stderr.strip() == "error: binding to 0.0.0.0 (not loopback) needs a bearer token: --token or HRIPLAN_TOKEN"
+    assert (
+        refused.returncode == 2
+        and refused.stderr.strip()
+        == "error: binding to 0.0.0.0 (not loopback) needs a bearer token: --token or HRIPLAN_TOKEN"
+    )
     short = serve("--token", "abc", "--port", "0")
-    assert short.returncode == 2 and short.stderr.startswith("error: --token: String should have at least 16 characters")
+    assert short.returncode == 2 and short.stderr.startswith(
+        "error: --token: String should have at least 16 characters"
+    )
 
 
 def test_every_route_needs_the_token(server, client):
@@ -72,20 +93,30 @@ def test_every_route_needs_the_token(server, client):
 def test_bodies_over_the_limit_are_413_declared_or_streamed(server):
     big = b'{"steps": [' + b" " * 9000 + b"]}"
     declared = httpx.post(f"{server}/constraints", content=big, headers={**AUTH, "content-type": "application/json"})
-    streamed = httpx.post(f"{server}/constraints", content=iter([big[:5000], big[5000:]]), headers={**AUTH, "content-type": "application/json"})
+    streamed = httpx.post(
+        f"{server}/constraints",
+        content=iter([big[:5000], big[5000:]]),
+        headers={**AUTH, "content-type": "application/json"},
+    )
     assert declared.status_code == streamed.status_code == 413
     assert streamed.json()["error"] == "the request body is larger than the limit of 8192 bytes"
 
 
 def test_rule_files_come_only_from_the_configured_folder(client):
     plain = client.post("/constraints", json=TASK).json()
-    assert plain["steps"][0]["derivation"]["constraints"] and "UprightPartial" not in {c["kind"] for c in plain["steps"][0]["derivation"]["constraints"]}
+    assert plain["steps"][0]["derivation"]["constraints"] and "UprightPartial" not in {
+        c["kind"] for c in plain["steps"][0]["derivation"]["constraints"]
+    }
     ruled = client.post("/constraints", json={**TASK, "rule_files": ["cans.rules"]})
     assert ruled.status_code == 200, ruled.text
     upright = [c for c in ruled.json()["steps"][0]["derivation"]["constraints"] if c["kind"] == "UprightPartial"]
     assert [c["rules"][0] for c in upright] == ["upright_any_can"]
     outside = "is outside the server's rules folder; name a file in it"
-    for name, message in [("../outside.rules", outside), ("/etc/passwd", outside), ("missing.rules", "is not in the server's rules folder")]:
+    for name, message in [
+        ("../outside.rules", outside),
+        ("/etc/passwd", outside),
+        ("missing.rules", "is not in the server's rules folder"),
+    ]:
         refused = client.post("/constraints", json={**TASK, "rule_files": [name]})
         assert refused.status_code == 400 and refused.json()["error"] == f"rule file {name!r} {message}"
 
@@ -96,15 +127,24 @@ def test_mesh_shapes_which_name_server_files_are_refused_everywhere(client):
     task["objects"][0]["shape"] = mesh
     problem = copy.deepcopy(PROBLEM)
     problem["scene"]["obstacles"].append({"name": "m", "shape": mesh})
-    for path, body in [("/constraints", task), ("/solve", problem), ("/sessions", {"scene": {"obstacles": [{"name": "m", "shape": mesh}]}})]:
+    for path, body in [
+        ("/constraints", task),
+        ("/solve", problem),
+        ("/sessions", {"scene": {"obstacles": [{"name": "m", "shape": mesh}]}}),
+    ]:
         response = client.post(path, json=body)
-        assert response.status_code == 400 and response.json()["error"].startswith("mesh shapes name a file on the server")
+        assert response.status_code == 400 and response.json()["error"].startswith(
+            "mesh shapes name a file on the server"
+        )
 
 
 def test_yaml_aliases_are_refused(client):
     bomb = "a: &a [x, x, x]\nb: &b [*a, *a, *a]\nc: [*b, *b, *b]\nsteps: []\n"
     response = client.post("/constraints", content=bomb, headers={"content-type": "application/yaml"})
-    assert response.status_code == 400 and response.json()["error"] == "body: line 2: not valid YAML (aliases are not accepted in request bodies)"
+    assert (
+        response.status_code == 400
+        and response.json()["error"] == "body: line 2: not valid YAML (aliases are not accepted in request bodies)"
+    )
 
 
 def test_a_request_past_its_time_limit_is_504_and_its_worker_is_replaced(server, client):
@@ -115,7 +155,10 @@ def test_a_request_past_its_time_limit_is_504_and_its_worker_is_replaced(server,
         if constraint["type"] == "orientation":
             constraint["tolerance"] = 0.002
     response = client.post("/solve", json=slow)
-    assert response.status_code == 504 and response.json()["error"] == "the request ran past its time limit of 8 s and was stopped"
+    assert (
+        response.status_code == 504
+        and response.json()["error"] == "the request ran past its time limit of 8 s and was stopped"
+    )
     (after,) = wait_for_workers(server, 1, AUTH)
     assert after != before
 

@@ -55,7 +55,10 @@ def test_select_is_the_same_rows_in_json_xml_csv_and_tsv(server):
     assert {"UprightFull", "UprightPartial", "InsertionAlignment"} <= set(from_json)
     document = endpoint(url, TOLERANCES, XML).queryAndConvert()  # a parsed DOM
     from_xml = [u.firstChild.data.removeprefix(HP) for u in document.getElementsByTagName("uri")]
-    from_csv = [row[0].removeprefix(HP) for row in list(csv.reader(io.StringIO(endpoint(url, TOLERANCES, CSV).queryAndConvert().decode())))[1:]]
+    from_csv = [
+        row[0].removeprefix(HP)
+        for row in list(csv.reader(io.StringIO(endpoint(url, TOLERANCES, CSV).queryAndConvert().decode())))[1:]
+    ]
     tsv = endpoint(url, TOLERANCES, TSV).queryAndConvert().decode().splitlines()
     from_tsv = [line.split("\t")[0].strip("<>").removeprefix(HP) for line in tsv[1:]]
     assert tsv[0] == "?kind\t?tol" and from_json == from_xml == from_csv == from_tsv
@@ -89,18 +92,29 @@ def test_a_stored_tasks_graph_answers_per_step_as_the_rules_derived(server, stor
         answer = kinds(endpoint(url, REQUIRED, JSON).queryAndConvert()["results"]["bindings"])
         assert answer == sorted({c["kind"] for c in derived["steps"][index]["derivation"]["constraints"]})
     first = endpoint(f"{server}/tasks/{stored['id']}/sparql", REQUIRED, JSON).queryAndConvert()
-    assert kinds(first["results"]["bindings"]) == ["ApproachCone", "ReceiverExclusionBox", "SharedWorkspaceBox", "UprightFull"]
+    assert kinds(first["results"]["bindings"]) == [
+        "ApproachCone",
+        "ReceiverExclusionBox",
+        "SharedWorkspaceBox",
+        "UprightFull",
+    ]
     assert httpx.get(f"{server}/tasks/{stored['id']}/steps/nap/sparql", params={"query": REQUIRED}).status_code == 404
-    assert httpx.get(f"{server}/tasks/nope/sparql", params={"query": REQUIRED}).json() == {"error": "no stored task 'nope'", "field": None}
+    assert httpx.get(f"{server}/tasks/nope/sparql", params={"query": REQUIRED}).json() == {
+        "error": "no stored task 'nope'",
+        "field": None,
+    }
 
 
-@pytest.mark.parametrize(("query", "message"), [
-    ("INSERT DATA { hp:a hp:b hp:c }", "updates are not supported"),
-    ("CLEAR ALL", "updates are not supported"),
-    ("SELECT * WHERE { SERVICE <http://127.0.0.1:9/sparql> { ?s ?p ?o } }", "SERVICE is not supported"),
-    ("SELECT * FROM <file:///etc/passwd> WHERE { ?s ?p ?o }", "FROM and FROM NAMED are not supported"),
-    ("SELECT ?x WHERE { ?x hp:isNear ", "SPARQL syntax error at line 1"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("query", "message"),
+    [
+        ("INSERT DATA { hp:a hp:b hp:c }", "updates are not supported"),
+        ("CLEAR ALL", "updates are not supported"),
+        ("SELECT * WHERE { SERVICE <http://127.0.0.1:9/sparql> { ?s ?p ?o } }", "SERVICE is not supported"),
+        ("SELECT * FROM <file:///etc/passwd> WHERE { ?s ?p ?o }", "FROM and FROM NAMED are not supported"),
+        ("SELECT ?x WHERE { ?x hp:isNear ", "SPARQL syntax error at line 1"),
+    ],
+)
 def test_refused_queries_are_400_with_the_reason(server, query, message):
     with pytest.raises(QueryBadFormed, match=message):
         endpoint(f"{server}/sparql", query, JSON).queryAndConvert()
@@ -110,7 +124,9 @@ def test_update_requests_and_other_datasets_are_refused(server):
     url = f"{server}/sparql"
     update = httpx.post(url, content="CLEAR ALL", headers={"content-type": "application/sparql-update"})
     form = httpx.post(url, data={"update": "INSERT DATA { hp:a hp:b hp:c }"})
-    assert update.status_code == form.status_code == 400 and update.json()["error"].startswith("updates are not supported")
+    assert update.status_code == form.status_code == 400 and update.json()["error"].startswith(
+        "updates are not supported"
+    )
     dataset = httpx.get(url, params={"query": TOLERANCES, "default-graph-uri": "http://example.org/g"})
     assert dataset.status_code == 400 and "default-graph-uri" in dataset.json()["error"]
     assert httpx.post(url, content=TOLERANCES, headers={"content-type": "text/plain"}).status_code == 415
@@ -124,15 +140,28 @@ def test_the_service_description_says_what_is_offered(server):
     service = rdflib.URIRef(f"{server}/sparql")
     assert (service, rdflib.RDF.type, sd.Service) in graph and (service, sd.endpoint, service) in graph
     assert (service, sd.supportedLanguage, sd.SPARQL11Query) in graph
-    assert {str(f).rsplit("/", 1)[1] for f in graph.objects(service, sd.resultFormat)} >= {"SPARQL_Results_JSON", "SPARQL_Results_TSV", "Turtle"}
+    assert {str(f).rsplit("/", 1)[1] for f in graph.objects(service, sd.resultFormat)} >= {
+        "SPARQL_Results_JSON",
+        "SPARQL_Results_TSV",
+        "Turtle",
+    }
 
 
 def test_limits_give_clear_errors(server):
     timed_out = httpx.get(f"{server}/sparql", params={"query": CROSS_JOIN})
-    assert timed_out.status_code == 504 and timed_out.json()["error"].startswith("the query ran past its time limit of 1 s")
+    assert timed_out.status_code == 504 and timed_out.json()["error"].startswith(
+        "the query ran past its time limit of 1 s"
+    )
     too_many = httpx.get(f"{server}/sparql", params={"query": "SELECT * WHERE { ?s ?p ?o }"})  # ~1000 triples
     assert too_many.status_code == 400 and "more than 100 rows (the row limit)" in too_many.json()["error"]
-    assert len(httpx.get(f"{server}/sparql", params={"query": "SELECT * WHERE { ?s ?p ?o } LIMIT 100"}).json()["results"]["bindings"]) == 100
+    assert (
+        len(
+            httpx.get(f"{server}/sparql", params={"query": "SELECT * WHERE { ?s ?p ?o } LIMIT 100"}).json()["results"][
+                "bindings"
+            ]
+        )
+        == 100
+    )
 
 
 def test_a_sparql_bomb_does_not_hold_up_planning_beyond_its_time_limit(server):
@@ -143,8 +172,12 @@ def test_a_sparql_bomb_does_not_hold_up_planning_beyond_its_time_limit(server):
         began = time.monotonic()
         client.post("/solve", json=problem)
         alone = time.monotonic() - began
-        bombs = [threading.Thread(target=httpx.get, args=(f"{server}/sparql",), kwargs={"params": {"query": CROSS_JOIN}, "timeout": 30})
-                 for _ in range(2)]  # fmt: skip
+        bombs = [
+            threading.Thread(
+                target=httpx.get, args=(f"{server}/sparql",), kwargs={"params": {"query": CROSS_JOIN}, "timeout": 30}
+            )
+            for _ in range(2)
+        ]
         for bomb in bombs:
             bomb.start()
         time.sleep(0.2)

@@ -11,20 +11,20 @@ from pathlib import Path
 from hriplan.sweeps.worker import run_variant
 
 
-def _log(path, variant) -> Path:  # noqa: ANN001
+def _log(path, variant) -> Path:
     path = Path(path)
     with open(path / "calls.log", "a") as f:
         f.write(variant.key + "\n")
     return path
 
 
-def counting(log, variant, plan):  # noqa: ANN001, ANN201
+def counting(log, variant, plan):
     """The real worker, logging each call (to count what a rerun plans)."""
     _log(log, variant)
     return run_variant(variant, plan)
 
 
-def dies_on_seed_7(log, variant, plan):  # noqa: ANN001, ANN201
+def dies_on_seed_7(log, variant, plan):
     """The worker process dies whenever it runs the variant with seed 7; the others take 3 s, so
     one is still running on the other worker when it dies (and goes down with a local pool)."""
     _log(log, variant)
@@ -34,7 +34,7 @@ def dies_on_seed_7(log, variant, plan):  # noqa: ANN001, ANN201
     return run_variant(variant, plan)
 
 
-def dies_once_on_seed_7(log, variant, plan):  # noqa: ANN001, ANN201
+def dies_once_on_seed_7(log, variant, plan):
     """Dies the first time it runs seed 7 (a marker file remembers), then works."""
     path = _log(log, variant)
     marker = path / "died"

@@ -36,20 +36,26 @@ def test_lists_json_and_grids():
     assert parse_vary("humans.bob.position=[0.1|0.3, 1.5]").grid() == [[0.1, 1.5], [0.3, 1.5]]
 
 
-@pytest.mark.parametrize("text", ["planning.seed", "=1,2", "planning.seed=3:1:1", "planning.seed=1:2:0", "humans.b.position=[1:2:1"])
+@pytest.mark.parametrize(
+    "text", ["planning.seed", "=1,2", "planning.seed=3:1:1", "planning.seed=1:2:0", "humans.b.position=[1:2:1"]
+)
 def test_malformed_vary_is_an_error(text):
     with pytest.raises(HriplanError):
         parse_vary(text)
 
 
 def test_cross_product_sets_the_named_fields_of_validated_tasks():
-    variants = expand(GIVE, [parse_vary("humans.bob.position=[0.0:0.1:0.1, 1.45]"), parse_vary("objects.can.fill_level=Full,Empty")])
+    variants = expand(
+        GIVE, [parse_vary("humans.bob.position=[0.0:0.1:0.1, 1.45]"), parse_vary("objects.can.fill_level=Full,Empty")]
+    )
     assert len(variants) == 4 and len({v.key for v in variants}) == 4
     got = {(v.task.humans[0].position, v.task.objects[0].fill_level) for v in variants}
     assert got == {((0.0, 1.45), "Full"), ((0.0, 1.45), "Empty"), ((0.1, 1.45), "Full"), ((0.1, 1.45), "Empty")}
     # everything not varied is the base task's; keys are stable from one expansion to the next
     assert all(v.task.planning.seed == 1 and v.task.scene.tables[0].top == 0.72 for v in variants)
-    again = expand(GIVE, [parse_vary("humans.bob.position=[0.0:0.1:0.1, 1.45]"), parse_vary("objects.can.fill_level=Full,Empty")])
+    again = expand(
+        GIVE, [parse_vary("humans.bob.position=[0.0:0.1:0.1, 1.45]"), parse_vary("objects.can.fill_level=Full,Empty")]
+    )
     assert [v.key for v in again] == [v.key for v in variants]
 
 
@@ -68,12 +74,15 @@ def test_random_draws_are_reproducible_and_inside_the_ranges():
     assert [v.key for v in expand(GIVE, dims, samples=12, seed=6)] != [v.key for v in first]
 
 
-@pytest.mark.parametrize(("vary", "message"), [
-    ("humans.zed.position=1", "no item 'zed' in the list (names: bob)"),
-    ("humans.bob.positon=1", "no field 'positon'"),
-    ("objects.can.fill_level=Brimming", "variant objects.can.fill_level=\"Brimming\": objects.0.fill_level"),
-    ("humans.bob.role=Nobody", "variant humans.bob.role=\"Nobody\": humans.0.role"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("vary", "message"),
+    [
+        ("humans.zed.position=1", "no item 'zed' in the list (names: bob)"),
+        ("humans.bob.positon=1", "no field 'positon'"),
+        ("objects.can.fill_level=Brimming", 'variant objects.can.fill_level="Brimming": objects.0.fill_level'),
+        ("humans.bob.role=Nobody", 'variant humans.bob.role="Nobody": humans.0.role'),
+    ],
+)
 def test_bad_paths_and_values_name_the_problem(vary, message):
     with pytest.raises(HriplanError, match=None) as info:
         expand(GIVE, [parse_vary(vary)])
@@ -108,10 +117,21 @@ def test_store_parts_compact_dedupe_and_resume_keys(tmp_path):
 
 def test_separation_per_person_from_traces_or_the_closest_pair():
     old = SimpleNamespace(min_human_distance=0.21, closest_pair=("right_hand_finger_1", "bob/right_hand"))
-    assert separation_columns(old, ["ann", "bob"]) == {"min_separation.ann": None, "min_separation.bob": 0.21, "ssm_worst_margin": None}
-    traces = [SimpleNamespace(person="ann", min_separation=0.8, worst_margin=0.3), SimpleNamespace(person="bob", min_separation=0.2, worst_margin=-0.1)]
+    assert separation_columns(old, ["ann", "bob"]) == {
+        "min_separation.ann": None,
+        "min_separation.bob": 0.21,
+        "ssm_worst_margin": None,
+    }
+    traces = [
+        SimpleNamespace(person="ann", min_separation=0.8, worst_margin=0.3),
+        SimpleNamespace(person="bob", min_separation=0.2, worst_margin=-0.1),
+    ]
     new = SimpleNamespace(min_human_distance=0.2, closest_pair=("x", "bob/torso"), separation=traces)
-    assert separation_columns(new, ["ann", "bob"]) == {"min_separation.ann": 0.8, "min_separation.bob": 0.2, "ssm_worst_margin": -0.1}
+    assert separation_columns(new, ["ann", "bob"]) == {
+        "min_separation.ann": 0.8,
+        "min_separation.bob": 0.2,
+        "ssm_worst_margin": -0.1,
+    }
 
 
 def test_a_planned_row_reproduces_a_direct_plan_of_its_task():
@@ -127,7 +147,9 @@ def test_a_planned_row_reproduces_a_direct_plan_of_its_task():
     assert row["path_length"] == pytest.approx(report.path_length, rel=1e-9)
     assert row["duration"] == pytest.approx(report.duration, rel=1e-9)
     assert row["min_separation.bob"] == pytest.approx(report.min_human_distance) and report.min_human_distance > 0
-    assert row["constraint_kinds"].split(",") == sorted({c.kind for c in direct.derivation.constraints} | {v.kind for v in direct.derivation.velocity})
+    assert row["constraint_kinds"].split(",") == sorted(
+        {c.kind for c in direct.derivation.constraints} | {v.kind for v in direct.derivation.velocity}
+    )
     # independent of the planner's report: the joint-space length of the trajectory's points
     points = [p.positions for p in direct.trajectory.points]
     length = sum(sum((a - b) ** 2 for a, b in zip(p, q)) ** 0.5 for p, q in zip(points, points[1:]))
@@ -152,9 +174,18 @@ def test_report_maps_success_and_separation_over_the_varied_position(tmp_path):
 
     store = ResultStore(tmp_path)
     for i, (x, y) in enumerate([(0.0, 1.2), (0.0, 1.4), (0.2, 1.2), (0.2, 1.4)]):
-        common = {"key": f"k{i}", "vary.humans.bob.position.0": x, "vary.humans.bob.position.1": y, "vary.planning.seed": 1}
-        store.add([common | {"step_index": 0, "status": "solved", "min_separation.bob": 0.30 + i},
-                   common | {"step_index": 1, "status": "solved" if i != 3 else "timeout", "min_separation.bob": 0.25 + i}])
+        common = {
+            "key": f"k{i}",
+            "vary.humans.bob.position.0": x,
+            "vary.humans.bob.position.1": y,
+            "vary.planning.seed": 1,
+        }
+        store.add(
+            [
+                common | {"step_index": 0, "status": "solved", "min_separation.bob": 0.30 + i},
+                common | {"step_index": 1, "status": "solved" if i != 3 else "timeout", "min_separation.bob": 0.25 + i},
+            ]
+        )
     store.compact()
     records = {r["key"]: r for r in per_variant(read_results(tmp_path))}
     assert [records[f"k{i}"]["success"] for i in range(4)] == [True, True, True, False]

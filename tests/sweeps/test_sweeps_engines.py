@@ -11,11 +11,11 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the helpers, for spawned workers too
 
-import sweeps_helpers as helpers  # noqa: E402
+import sweeps_helpers as helpers
 
-from hriplan.sweeps.engines import LocalEngine, RayEngine  # noqa: E402
-from hriplan.sweeps.run import run_sweep  # noqa: E402
-from hriplan.sweeps.variants import expand, parse_vary  # noqa: E402
+from hriplan.sweeps.engines import LocalEngine, RayEngine
+from hriplan.sweeps.run import run_sweep
+from hriplan.sweeps.variants import expand, parse_vary
 
 ray = pytest.importorskip("ray")
 
@@ -58,7 +58,15 @@ def test_ray_and_local_give_the_same_results(tmp_path, ray_runtime):
     # some positions leave the can out of alice's reach: those variants are errors with the reason
     assert {r["status"] for r in local.values()} == {"derived", "error", "solved"}
     for k, row in local.items():
-        for column in ("status", "reason", "constraint_kinds", "velocity_scale", "path_length", "duration", "min_separation.bob"):
+        for column in (
+            "status",
+            "reason",
+            "constraint_kinds",
+            "velocity_scale",
+            "path_length",
+            "duration",
+            "min_separation.bob",
+        ):
             assert row.get(column) == remote[k].get(column), (k, column)
     planned_rows = [r for r in local.values() if r["status"] == "solved"]
     assert len(planned_rows) == 2 and all(r["path_length"] > 0 for r in planned_rows)
@@ -70,7 +78,14 @@ def test_ray_and_local_give_the_same_results(tmp_path, ray_runtime):
 def test_rerun_skips_finished_variants_and_widening_runs_only_the_new(tmp_path, log_dir):
     def sweep(seeds: str) -> int:
         variants = expand(GIVE, [parse_vary(f"planning.seed={seeds}")])
-        return run_sweep(variants, tmp_path / "s", LocalEngine(2), plan=False, work=partial(helpers.counting, log_dir), progress=False).ran
+        return run_sweep(
+            variants,
+            tmp_path / "s",
+            LocalEngine(2),
+            plan=False,
+            work=partial(helpers.counting, log_dir),
+            progress=False,
+        ).ran
 
     assert sweep("1,2") == 2 and len(helpers.calls(log_dir)) == 2
     assert sweep("1,2") == 0 and len(helpers.calls(log_dir)) == 2
@@ -82,7 +97,9 @@ def test_rerun_skips_finished_variants_and_widening_runs_only_the_new(tmp_path, 
 def test_a_dying_worker_is_retried_once_then_recorded(tmp_path, log_dir, engine, request):
     engine = LocalEngine(2) if engine == "local" else request.getfixturevalue("ray_runtime")
     variants = expand(GIVE, [parse_vary("planning.seed=6:8:1")])
-    summary = run_sweep(variants, tmp_path / "s", engine, plan=False, work=partial(helpers.dies_on_seed_7, log_dir), progress=False)
+    summary = run_sweep(
+        variants, tmp_path / "s", engine, plan=False, work=partial(helpers.dies_on_seed_7, log_dir), progress=False
+    )
     rows = list(_by_key(tmp_path / "s").values())
     dead = [r for r in rows if r["status"] == "worker_died"]
     assert len(dead) == 1 and '"seed":7' in dead[0]["task"] and "died on each of 2 attempts" in dead[0]["reason"]
@@ -93,7 +110,14 @@ def test_a_dying_worker_is_retried_once_then_recorded(tmp_path, log_dir, engine,
 
 def test_a_worker_that_dies_once_is_retried_and_its_variant_kept(tmp_path, log_dir):
     variants = expand(GIVE, [parse_vary("planning.seed=6:8:1")])
-    run_sweep(variants, tmp_path / "s", LocalEngine(2), plan=False, work=partial(helpers.dies_once_on_seed_7, log_dir), progress=False)
+    run_sweep(
+        variants,
+        tmp_path / "s",
+        LocalEngine(2),
+        plan=False,
+        work=partial(helpers.dies_once_on_seed_7, log_dir),
+        progress=False,
+    )
     assert sorted(r["status"] for r in _by_key(tmp_path / "s").values()) == ["derived"] * 3
 
 
@@ -103,7 +127,9 @@ def test_batch_from_the_command_line_then_its_report(tmp_path):
     from hriplan.cli.main import app
 
     out = tmp_path / "b"
-    result = CliRunner().invoke(app, ["batch", str(GIVE), str(TAKE), "-o", str(out), "--derive-only", "--workers", "1", "-q"])
+    result = CliRunner().invoke(
+        app, ["batch", str(GIVE), str(TAKE), "-o", str(out), "--derive-only", "--workers", "1", "-q"]
+    )
     assert result.exit_code == 0, result.output
     assert result.output.startswith("2 variants: 2 run, 0 already done; 2 succeeded in every step")
     rows = _by_key(out)
@@ -112,7 +138,9 @@ def test_batch_from_the_command_line_then_its_report(tmp_path):
     again = CliRunner().invoke(app, ["batch", str(GIVE), str(TAKE), "-o", str(out), "--derive-only", "-q"])
     assert again.output.startswith("2 variants: 0 run, 2 already done")
     assert CliRunner().invoke(app, ["sweep", "--report", str(out)]).exit_code == 0
-    assert (out / "variants.png").stat().st_size > 5_000 and "2 variants, 2 succeeded" in (out / "report.html").read_text()
+    assert (out / "variants.png").stat().st_size > 5_000 and "2 variants, 2 succeeded" in (
+        out / "report.html"
+    ).read_text()
 
 
 def test_ctrl_c_stops_keeps_what_is_done_and_a_rerun_resumes(tmp_path):
@@ -121,8 +149,20 @@ def test_ctrl_c_stops_keeps_what_is_done_and_a_rerun_resumes(tmp_path):
     import subprocess
 
     out = tmp_path / "s"
-    command = [sys.executable, "-m", "hriplan.cli", "sweep", str(GIVE), "--vary", "planning.seed=1:40:1", "-o", str(out),
-               "--derive-only", "--workers", "1"]  # fmt: skip
+    command = [
+        sys.executable,
+        "-m",
+        "hriplan.cli",
+        "sweep",
+        str(GIVE),
+        "--vary",
+        "planning.seed=1:40:1",
+        "-o",
+        str(out),
+        "--derive-only",
+        "--workers",
+        "1",
+    ]
     env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
     process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     first = process.stderr.readline()  # the first progress line: one variant is done
@@ -133,5 +173,7 @@ def test_ctrl_c_stops_keeps_what_is_done_and_a_rerun_resumes(tmp_path):
     kept = int(err.split("interrupted: ")[1].split()[0])
     assert 1 <= kept < 40 and len(_by_key(out)) == kept and not list((out / "parts").glob("*"))
     rerun = subprocess.run(command + ["-q"], env=env, capture_output=True, text=True, timeout=600)
-    assert rerun.returncode == 0 and rerun.stdout.startswith(f"40 variants: {40 - kept} run, {kept} already done"), rerun.stdout
+    assert rerun.returncode == 0 and rerun.stdout.startswith(f"40 variants: {40 - kept} run, {kept} already done"), (
+        rerun.stdout
+    )
     assert len(_by_key(out)) == 40

@@ -17,8 +17,19 @@ from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
 
 DATA = Path(__file__).parents[1] / "data" / "people"
-RIGHT = dict(zip(["right_shoulder_pan_joint", "right_shoulder_lift_joint", "right_elbow_joint", "right_wrist_1_joint",
-                  "right_wrist_2_joint", "right_wrist_3_joint"], [0.788, 0.215, -0.332, -0.338, 0.585, -0.427]))  # fmt: skip
+RIGHT = dict(
+    zip(
+        [
+            "right_shoulder_pan_joint",
+            "right_shoulder_lift_joint",
+            "right_elbow_joint",
+            "right_wrist_1_joint",
+            "right_wrist_2_joint",
+            "right_wrist_3_joint",
+        ],
+        [0.788, 0.215, -0.332, -0.338, 0.585, -0.427],
+    )
+)
 CLEAR = {**RIGHT, "left_shoulder_lift_joint": -2.2, "left_elbow_joint": 1.2}
 
 
@@ -39,7 +50,11 @@ def test_pick_then_place_lifts_the_cup_off_the_table_straight_up(tmp_path):
     task = DATA / "pick_cup_then_place.yaml"
     runner = TaskRunner(load_task(task))
     outcome = runner.run()
-    assert [(s.name, s.status) for s in outcome.steps] == [("pick", "solved"), ("pick_lift", "solved"), ("place", "solved")]
+    assert [(s.name, s.status) for s in outcome.steps] == [
+        ("pick", "solved"),
+        ("pick_lift", "solved"),
+        ("place", "solved"),
+    ]
     pick, lift, place = outcome.steps
     robot = runner.session.robot
     bottoms = object_bottoms(robot, lift.trajectory, "cup")
@@ -51,15 +66,25 @@ def test_pick_then_place_lifts_the_cup_off_the_table_straight_up(tmp_path):
     assert not place.trajectory.scene.attached[0].resting_on
     # the steps join: every joint where the pick ends is where the lift starts, and so on
     for before, after in ((pick, lift), (lift, place)):
-        end = dict(before.trajectory.start) | dict(zip(before.trajectory.joint_names, before.trajectory.points[-1].positions))
+        end = dict(before.trajectory.start) | dict(
+            zip(before.trajectory.joint_names, before.trajectory.points[-1].positions)
+        )
         assert all(abs(after.trajectory.start[j] - v) < 1e-9 for j, v in end.items())
     # the independent validator (from the written file) accepts the lift
     path = tmp_path / "lift.json"
     lift.trajectory.save(path)
-    checked = subprocess.run([sys.executable, "-m", "hriplan.cli", "validate", str(path), "-q"], capture_output=True, text=True)
+    checked = subprocess.run(
+        [sys.executable, "-m", "hriplan.cli", "validate", str(path), "-q"], capture_output=True, text=True
+    )
     assert checked.returncode == 0, checked.stdout + checked.stderr
-    again = subprocess.run([sys.executable, "-m", "hriplan.cli", "validate", str(path), "--task", str(task), "-q"], capture_output=True, text=True)
-    assert again.returncode == 2 and again.stderr.strip().splitlines()[-1].startswith("error: step 'pick_lift' is the lift after task step 'pick'")
+    again = subprocess.run(
+        [sys.executable, "-m", "hriplan.cli", "validate", str(path), "--task", str(task), "-q"],
+        capture_output=True,
+        text=True,
+    )
+    assert again.returncode == 2 and again.stderr.strip().splitlines()[-1].startswith(
+        "error: step 'pick_lift' is the lift after task step 'pick'"
+    )
     assert json.loads(path.read_text())["step"] == "pick_lift"
 
 
@@ -74,7 +99,14 @@ def test_a_lift_into_something_above_fails_with_the_reason():
     assert np.allclose(risen, tool + [0.0, 0.0, LIFT], atol=1e-5)
     # a ball just clear of the hand above it, found by stepping it up 1 cm at a time
     for height in np.arange(0.0, 0.4, 0.01):
-        above = CollisionChecker(robot, Scene(obstacles=[Obstacle(name="ball", shape=Sphere(radius=0.03), pose=Pose(xyz=tuple(tool + [0, 0, height])))]))
+        above = CollisionChecker(
+            robot,
+            Scene(
+                obstacles=[
+                    Obstacle(name="ball", shape=Sphere(radius=0.03), pose=Pose(xyz=tuple(tool + [0, 0, height])))
+                ]
+            ),
+        )
         if not above.in_collision(q):
             break
     assert not above.in_collision(q) and height > 0.0

@@ -13,9 +13,15 @@ import numpy as np
 import pytest
 import yaml
 
+from hriplan.planner.constraints.spec import (
+    BoxConstraint,
+    ConeConstraint,
+    CylinderConstraint,
+    OrientationConstraint,
+    SphereConstraint,
+)
 from hriplan.planner.replay import PlannedWorld
 from hriplan.robots.spatial import Pose
-from hriplan.planner.constraints.spec import BoxConstraint, ConeConstraint, CylinderConstraint, OrientationConstraint, SphereConstraint
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
 
@@ -36,14 +42,25 @@ def test_the_corpus_is_complete_and_varied():
 
 
 def _properties(obj) -> set[str]:
-    return {p for p, on in (("hot", obj.hot), ("fragile", obj.kind == "Glass"), ("sharp", obj.kind in ("Knife", "Scissors")),
-                            ("full", obj.fill_level == "Full")) if on}  # fmt: skip
+    return {
+        p
+        for p, on in (
+            ("hot", obj.hot),
+            ("fragile", obj.kind == "Glass"),
+            ("sharp", obj.kind in ("Knife", "Scissors")),
+            ("full", obj.fill_level == "Full"),
+        )
+        if on
+    }
 
 
 @pytest.mark.parametrize("name", TASKS)
 def test_each_situation_derives_the_expected_constraints_per_step(name):
     outcome = TaskRunner(load_task(DATA / f"{name}.yaml")).run(plan=False)
-    derived = {s.name: sorted({c.kind for c in s.derivation.constraints} | {v.kind for v in s.derivation.velocity}) for s in outcome.steps}
+    derived = {
+        s.name: sorted({c.kind for c in s.derivation.constraints} | {v.kind for v in s.derivation.velocity})
+        for s in outcome.steps
+    }
     assert derived == EXPECTED[name]["steps"]
 
 
@@ -53,11 +70,23 @@ def link_origins(robot, q: np.ndarray, arms: list[str]) -> np.ndarray:
 
     pin.framesForwardKinematics(robot.model, robot.data, q)
     prefixes = tuple(robot.arms[a][0] for a in arms)
-    return np.array([robot.data.oMf[i].translation for i, f in enumerate(robot.model.frames)
-                     if f.type == pin.FrameType.BODY and f.name.startswith(prefixes)])  # fmt: skip
+    return np.array(
+        [
+            robot.data.oMf[i].translation
+            for i, f in enumerate(robot.model.frames)
+            if f.type == pin.FrameType.BODY and f.name.startswith(prefixes)
+        ]
+    )
 
 
-def violation(spec, frame: np.ndarray, points: np.ndarray, rotation: np.ndarray | None, grasp_z: np.ndarray, goal: np.ndarray | None) -> float:
+def violation(
+    spec,
+    frame: np.ndarray,
+    points: np.ndarray,
+    rotation: np.ndarray | None,
+    grasp_z: np.ndarray,
+    goal: np.ndarray | None,
+) -> float:
     """How far the worst point breaks the constraint (<= 0 holds), by its own geometry."""
     local = (points - frame[:3, 3]) @ frame[:3, :3]
     if isinstance(spec, OrientationConstraint):
@@ -90,11 +119,22 @@ def check_independently(robot, trajectory) -> None:
             keep_out = getattr(c.spec, "keep_out_all_links", False)
             points = np.vstack([tool[:3, 3], link_origins(robot, q, [arm])]) if keep_out else tool[:3, 3][None]
             goal = None if c.goal_position is None else np.array(c.goal_position)
-            worst = violation(c.spec, c.frame_in_world.matrix(), points, tool[:3, :3], grasps.get(arm, np.array([0.0, 1.0, 0.0])), goal)
-            assert worst <= SLACK, f"{trajectory.step}: {c.spec.id} broken by {worst:.4f} at t={point.time_from_start:.2f}"
+            worst = violation(
+                c.spec,
+                c.frame_in_world.matrix(),
+                points,
+                tool[:3, :3],
+                grasps.get(arm, np.array([0.0, 1.0, 0.0])),
+                goal,
+            )
+            assert worst <= SLACK, (
+                f"{trajectory.step}: {c.spec.id} broken by {worst:.4f} at t={point.time_from_start:.2f}"
+            )
 
 
-@pytest.mark.skipif(os.environ.get("HRIPLAN_CORPUS") != "plan", reason="planning the whole corpus takes minutes: HRIPLAN_CORPUS=plan")
+@pytest.mark.skipif(
+    os.environ.get("HRIPLAN_CORPUS") != "plan", reason="planning the whole corpus takes minutes: HRIPLAN_CORPUS=plan"
+)
 @pytest.mark.parametrize("name", TASKS)
 def test_each_situation_plans_and_every_trajectory_holds_its_constraints(name):
     expected = EXPECTED[name]
@@ -102,7 +142,10 @@ def test_each_situation_plans_and_every_trajectory_holds_its_constraints(name):
     outcome = runner.run()
     if "refused" in expected:
         failed = next(s for s in outcome.steps if s.status != "solved")
-        assert (failed.status, expected["refused"]["says"] in failed.message) == (expected["refused"]["status"], True), failed.message
+        assert (failed.status, expected["refused"]["says"] in failed.message) == (
+            expected["refused"]["status"],
+            True,
+        ), failed.message
         return
     if expected.get("plans", True) is not True:
         assert not outcome.solved, f"{name} plans now: drop its `plans` entry from expected.yaml"
@@ -116,11 +159,28 @@ def test_each_situation_plans_and_every_trajectory_holds_its_constraints(name):
 
 
 def test_the_independent_check_sees_a_broken_keep_out_and_a_tilted_cup():
-    keep_out = CylinderConstraint(id="k", joints=["j"], target_link="right_tool", region="outside", keep_out_all_links=True, radius=0.5, height=2.0)
+    keep_out = CylinderConstraint(
+        id="k",
+        joints=["j"],
+        target_link="right_tool",
+        region="outside",
+        keep_out_all_links=True,
+        radius=0.5,
+        height=2.0,
+    )
     inside, outside = np.array([[0.3, 0.0, 1.0]]), np.array([[0.6, 0.0, 1.0]])
     assert violation(keep_out, np.eye(4), inside, None, np.zeros(3), None) == pytest.approx(0.2)
     assert violation(keep_out, np.eye(4), outside, None, np.zeros(3), None) < 0.0
-    upright = OrientationConstraint(id="u", joints=["j"], target_link="right_tool", target={"rpy": (-np.pi / 2, 0.0, 0.0)}, tolerance=0.05, free_axes=["y"])
+    upright = OrientationConstraint(
+        id="u",
+        joints=["j"],
+        target_link="right_tool",
+        target={"rpy": (-np.pi / 2, 0.0, 0.0)},
+        tolerance=0.05,
+        free_axes=["y"],
+    )
     tilted = Pose(rpy=(-np.pi / 2 + 0.2, 0.0, 0.0)).rotation()
     # the target puts the grasp axis (tool +y) up; tilted by 0.2 rad it is 0.15 beyond the tolerance
-    assert violation(upright, np.eye(4), inside, tilted, np.array([0.0, 1.0, 0.0]), None) == pytest.approx(0.15, abs=1e-6)
+    assert violation(upright, np.eye(4), inside, tilted, np.array([0.0, 1.0, 0.0]), None) == pytest.approx(
+        0.15, abs=1e-6
+    )

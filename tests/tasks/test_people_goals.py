@@ -16,13 +16,27 @@ def cache(tmp_path_factory) -> ReasoningCache:
 
 
 def two_pegs(left_target_kind: str = "Hole") -> Situation:
-    return Situation.model_validate({
-        "task": {"name": "insert", "kind": "Insertion", "arms": ["right", "left"],
-                 "carries": {"peg_r": "right", "peg_l": "left"}, "targets": {"peg_r": "hole_r", "peg_l": "hole_l"}},
-        "objects": [{"name": "peg_r", "kind": "Peg"}, {"name": "peg_l", "kind": "Peg"},
-                    {"name": "hole_r", "kind": "Hole", "pose": {"xyz": [0.2, 0.8, 0.75], "rpy": [0.3, 0.0, 0.0]}},
-                    {"name": "hole_l", "kind": left_target_kind, "pose": {"xyz": [-0.2, 0.8, 0.75], "rpy": [0.0, -0.4, 0.0]}}],
-    })
+    return Situation.model_validate(
+        {
+            "task": {
+                "name": "insert",
+                "kind": "Insertion",
+                "arms": ["right", "left"],
+                "carries": {"peg_r": "right", "peg_l": "left"},
+                "targets": {"peg_r": "hole_r", "peg_l": "hole_l"},
+            },
+            "objects": [
+                {"name": "peg_r", "kind": "Peg"},
+                {"name": "peg_l", "kind": "Peg"},
+                {"name": "hole_r", "kind": "Hole", "pose": {"xyz": [0.2, 0.8, 0.75], "rpy": [0.3, 0.0, 0.0]}},
+                {
+                    "name": "hole_l",
+                    "kind": left_target_kind,
+                    "pose": {"xyz": [-0.2, 0.8, 0.75], "rpy": [0.0, -0.4, 0.0]},
+                },
+            ],
+        }
+    )
 
 
 def test_each_peg_is_aligned_with_its_own_hole(cache):
@@ -43,9 +57,13 @@ def test_a_peg_whose_target_is_a_cup_gets_no_insertion_alignment(cache):
 
 
 def test_a_situation_with_one_target_applies_it_to_its_carried_object():
-    situation = Situation.model_validate({
-        "robot": "ur5", "task": {"kind": "Insertion", "arms": ["arm"], "carries": {"peg": "arm"}, "target": "hole"},
-        "objects": [{"name": "peg", "kind": "Peg"}, {"name": "hole", "kind": "Hole"}]})
+    situation = Situation.model_validate(
+        {
+            "robot": "ur5",
+            "task": {"kind": "Insertion", "arms": ["arm"], "carries": {"peg": "arm"}, "target": "hole"},
+            "objects": [{"name": "peg", "kind": "Peg"}, {"name": "hole", "kind": "Hole"}],
+        }
+    )
     assert situation.task.goal_targets() == {"peg": "hole"}
 
 
@@ -68,10 +86,29 @@ def test_a_person_hands_with_the_hand_they_reach_out():
     from hriplan.tasks.model import TaskFile
     from hriplan.tasks.task_state import TaskState
 
-    task = TaskFile.model_validate({
-        "robot": "madar", "objects": [{"name": "can", "kind": "Can", "held_by": "left", "shape": {"type": "cylinder", "radius": 0.033, "height": 0.12}}],
-        "humans": [{"name": "eve", "role": "Receiver", "position": [-0.5, 1.5], "yaw": -1.5708, "reach": {"left": [-0.45, 1.1, 1.05]}}],
-        "steps": [{"goal": {"hand_over": "can", "to": "eve"}}]})  # fmt: skip
+    task = TaskFile.model_validate(
+        {
+            "robot": "madar",
+            "objects": [
+                {
+                    "name": "can",
+                    "kind": "Can",
+                    "held_by": "left",
+                    "shape": {"type": "cylinder", "radius": 0.033, "height": 0.12},
+                }
+            ],
+            "humans": [
+                {
+                    "name": "eve",
+                    "role": "Receiver",
+                    "position": [-0.5, 1.5],
+                    "yaw": -1.5708,
+                    "reach": {"left": [-0.45, 1.1, 1.05]},
+                }
+            ],
+            "steps": [{"goal": {"hand_over": "can", "to": "eve"}}],
+        }
+    )
     assert task.humans[0].hand == "left"
     state = TaskState.initial(task)
     state.grasps["can"] = Grasp("SideGrasp", "+y")

@@ -19,17 +19,31 @@ DATA = Path(__file__).parents[1] / "data" / "people"
 
 @pytest.fixture(scope="module")
 def facts():
-    situation = Situation.model_validate({
-        "task": {"kind": "Transport", "arms": ["right"], "carries": {"knife": "right"}},
-        "objects": [{"name": "knife", "kind": "Knife"}, {"name": "cup", "kind": "Cup", "fill_level": "Full", "open": True},
-                    {"name": "bowl", "kind": "Bowl", "fill_level": "Empty"}, {"name": "peg", "kind": "Peg"},
-                    {"name": "screwdriver", "kind": "Screwdriver"}]})
+    situation = Situation.model_validate(
+        {
+            "task": {"kind": "Transport", "arms": ["right"], "carries": {"knife": "right"}},
+            "objects": [
+                {"name": "knife", "kind": "Knife"},
+                {"name": "cup", "kind": "Cup", "fill_level": "Full", "open": True},
+                {"name": "bowl", "kind": "Bowl", "fill_level": "Empty"},
+                {"name": "peg", "kind": "Peg"},
+                {"name": "screwdriver", "kind": "Screwdriver"},
+            ],
+        }
+    )
     return KnowledgeBase(situation).facts
 
 
-@pytest.mark.parametrize("obj, names", [("knife", ["HandleGrasp"]), ("cup", ["SideGrasp", "UpperSideGrasp"]),
-                                        ("bowl", ["SideGrasp", "TopGrasp"]),
-                                        ("peg", ["SideGrasp"]), ("screwdriver", ["HandleGrasp", "SideGrasp"])])
+@pytest.mark.parametrize(
+    "obj, names",
+    [
+        ("knife", ["HandleGrasp"]),
+        ("cup", ["SideGrasp", "UpperSideGrasp"]),
+        ("bowl", ["SideGrasp", "TopGrasp"]),
+        ("peg", ["SideGrasp"]),
+        ("screwdriver", ["HandleGrasp", "SideGrasp"]),
+    ],
+)
 def test_the_rules_allow_the_grasps_a_person_would_use_in_order(facts, obj, names):
     assert [g.name for g in allowed_grasps(facts, obj, "madar_right", "+y")] == names
 
@@ -77,10 +91,23 @@ def test_a_rule_cannot_require_a_grasp_the_kind_does_not_afford(tmp_path):
     # Before: a required grasp replaced the afforded ones, so a full open bowl got every grasp any
     # rule names; now the rules restrict what the kind affords, and nothing left is an error.
     rules = tmp_path / "top.rules"
-    rules.write_text("# A test rule: a grasp a peg does not afford.\n[peg_from_the_top]\n    Peg(?o) -> requiresGrasp(?o, TopGrasp)\n")
-    situation = Situation.model_validate({"task": {"kind": "Transport", "arms": ["right"], "carries": {"peg": "right"}},
-                                          "objects": [{"name": "peg", "kind": "Peg"}, {"name": "bowl", "kind": "Bowl", "fill_level": "Full", "open": True}]})  # fmt: skip
+    rules.write_text(
+        "# A test rule: a grasp a peg does not afford.\n[peg_from_the_top]\n    Peg(?o) -> requiresGrasp(?o, TopGrasp)\n"
+    )
+    situation = Situation.model_validate(
+        {
+            "task": {"kind": "Transport", "arms": ["right"], "carries": {"peg": "right"}},
+            "objects": [
+                {"name": "peg", "kind": "Peg"},
+                {"name": "bowl", "kind": "Bowl", "fill_level": "Full", "open": True},
+            ],
+        }
+    )
     facts = KnowledgeBase(situation, rule_files=[str(rules)]).facts
-    with pytest.raises(HriplanError, match="no grasp of peg is allowed: the rules require TopGrasp, its kind affords SideGrasp"):
+    with pytest.raises(
+        HriplanError, match="no grasp of peg is allowed: the rules require TopGrasp, its kind affords SideGrasp"
+    ):
         allowed_grasps(facts, "peg", "madar_right", "+y")
-    assert [g.name for g in allowed_grasps(facts, "bowl", "madar_right", "+y")] == ["SideGrasp"]  # full and open: not from the top
+    assert [g.name for g in allowed_grasps(facts, "bowl", "madar_right", "+y")] == [
+        "SideGrasp"
+    ]  # full and open: not from the top

@@ -5,8 +5,8 @@ from collections import Counter
 from hriplan.planner.motion import ToolGoal
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.session import PlanningSession
-from hriplan.robots.ik import rejection_message
 from hriplan.robots.descriptions.postures import posture
+from hriplan.robots.ik import rejection_message
 from hriplan.robots.scene import Scene, table
 from hriplan.robots.spatial import Pose
 
@@ -23,5 +23,7 @@ def test_an_ik_goal_in_a_table_names_what_collides_and_what_would_help():
 
 def test_the_rejection_message_counts_reasons_and_hints_for_each_kind():
     message = rejection_message(10, Counter({"collides: right_palm - table": 7, "violates upright_cup": 3}))
-    assert message.startswith("all 10 solutions are rejected: collides: right_palm - table (7 of 10), violates upright_cup (3 of 10)")
+    assert message.startswith(
+        "all 10 solutions are rejected: collides: right_palm - table (7 of 10), violates upright_cup (3 of 10)"
+    )
     assert "higher above a table" in message and "orientation the violated constraint allows" in message

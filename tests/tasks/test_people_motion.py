@@ -5,7 +5,6 @@ Checks read the written trajectories with their own geometry, not the planner's 
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from hriplan.planner.constraints.spec import ConeConstraint
 from hriplan.robots.collision import CollisionChecker
@@ -25,13 +24,27 @@ def run(path: Path, plan: bool = True):
 
 def tool_positions(robot, trajectory, arm: str = "right") -> np.ndarray:
     """World positions of an arm's tool frame at every trajectory point (I2: start + group joints)."""
-    return np.array([robot.frame_pose(robot.tool_frame(arm), robot.configuration(dict(trajectory.start) | dict(zip(trajectory.joint_names, p.positions))))[:3, 3]
-                     for p in trajectory.points])  # fmt: skip
+    return np.array(
+        [
+            robot.frame_pose(
+                robot.tool_frame(arm),
+                robot.configuration(dict(trajectory.start) | dict(zip(trajectory.joint_names, p.positions))),
+            )[:3, 3]
+            for p in trajectory.points
+        ]
+    )
 
 
 def tool_rotations(robot, trajectory, arm: str = "right") -> np.ndarray:
-    return np.array([robot.frame_pose(robot.tool_frame(arm), robot.configuration(dict(trajectory.start) | dict(zip(trajectory.joint_names, p.positions))))[:3, :3]
-                     for p in trajectory.points])  # fmt: skip
+    return np.array(
+        [
+            robot.frame_pose(
+                robot.tool_frame(arm),
+                robot.configuration(dict(trajectory.start) | dict(zip(trajectory.joint_names, p.positions))),
+            )[:3, :3]
+            for p in trajectory.points
+        ]
+    )
 
 
 def test_a_held_object_is_where_the_hand_is():
@@ -71,7 +84,12 @@ def test_a_seated_receiver_is_approached_inside_a_cone_aimed_at_the_start():
     (step,) = outcome.steps
     assert step.status == "solved", step.message  # before: invalid_start, 0.04 outside the cone
     cone = next(c for c in step.trajectory.constraints if isinstance(c.spec, ConeConstraint))
-    outside = inside_cone(tool_positions(runner.session.robot, step.trajectory), cone.frame_in_world.matrix(), cone.spec.radius, cone.spec.height)
+    outside = inside_cone(
+        tool_positions(runner.session.robot, step.trajectory),
+        cone.frame_in_world.matrix(),
+        cone.spec.radius,
+        cone.spec.height,
+    )
     assert outside.max() <= 1e-4
     # the cone still opens from bob's palm towards the robot (-y), within the ontology's 1 rad
     axis = cone.frame_in_world.rotation()[:, 2]
@@ -112,7 +130,11 @@ def mesh_separation(robot, trajectory, person: str, contact: tuple[str, ...]) ->
 
     spec = next(h for h in trajectory.scene.humans if h.name == person)
     human = Human(spec)
-    capsules = [(c.name, coal.Capsule(c.radius, c.length), p) for c, p in zip(human.capsules, human.capsule_placements()) if c.name not in contact]
+    capsules = [
+        (c.name, coal.Capsule(c.radius, c.length), p)
+        for c, p in zip(human.capsules, human.capsule_placements())
+        if c.name not in contact
+    ]
     meshes = robot.collision_meshes
     moving = [g for g in meshes.geometryObjects if robot.model.names[g.parentJoint] in trajectory.joint_names]
     data, gdata = robot.model.createData(), meshes.createData()
@@ -127,8 +149,14 @@ def mesh_separation(robot, trajectory, person: str, contact: tuple[str, ...]) ->
         for where, shape in placed:
             for name, capsule, at in capsules:
                 result = coal.DistanceResult()
-                coal.distance(shape, coal.Transform3s(where.rotation, where.translation), capsule,
-                              coal.Transform3s(at.rotation, at.translation), coal.DistanceRequest(), result)  # fmt: skip
+                coal.distance(
+                    shape,
+                    coal.Transform3s(where.rotation, where.translation),
+                    capsule,
+                    coal.Transform3s(at.rotation, at.translation),
+                    coal.DistanceRequest(),
+                    result,
+                )
                 best = min(best, (result.min_distance, name))
     return best
 
@@ -160,10 +188,22 @@ def test_the_can_in_the_givers_hand_is_in_the_scene_and_only_the_taking_hand_may
     names = checker.geom_model.geometryObjects
     pairs = {(names[p.first].name, names[p.second].name) for p in checker.geom_model.collisionPairs}
     with_can = {a if b == "coke_can" else b for a, b in pairs if "coke_can" in (a, b)}
-    assert {"right_fore_arm_link", "right_upper_arm_link", "left_hand_palm_link"} <= with_can  # fixed parts: decided once on meshes
+    assert {
+        "right_fore_arm_link",
+        "right_upper_arm_link",
+        "left_hand_palm_link",
+    } <= with_can  # fixed parts: decided once on meshes
     assert not any(n.startswith("right_hand_") for n in with_can)  # the taking hand closes on it
-    untouched = CollisionChecker(robot, take.scene.model_copy(update={"obstacles": [o.model_copy(update={"touched_by": None}) for o in take.scene.obstacles]}))
-    pairs = {(untouched.geom_model.geometryObjects[p.first].name, untouched.geom_model.geometryObjects[p.second].name) for p in untouched.geom_model.collisionPairs}
+    untouched = CollisionChecker(
+        robot,
+        take.scene.model_copy(
+            update={"obstacles": [o.model_copy(update={"touched_by": None}) for o in take.scene.obstacles]}
+        ),
+    )
+    pairs = {
+        (untouched.geom_model.geometryObjects[p.first].name, untouched.geom_model.geometryObjects[p.second].name)
+        for p in untouched.geom_model.collisionPairs
+    }
     assert any("coke_can" in pair and any(n.startswith("right_hand") for n in pair) for pair in pairs)
 
 
@@ -171,13 +211,19 @@ def test_a_full_glass_is_picked_from_the_side_above_the_table_lifted_brought_int
     # Before: the side grasp around the glass's middle put the hand into the table, and a start far
     # to the side of bob's line of sight was refused by the approach cone (invalid_start).
     runner, outcome = run(DATA / "pick_full_glass_hand_over.yaml")
-    assert [(s.name, s.status) for s in outcome.steps] == [("pick", "solved"), ("pick_lift", "solved"),
-                                                           ("hand_over_prepare", "solved"), ("hand_over", "solved")]  # fmt: skip
+    assert [(s.name, s.status) for s in outcome.steps] == [
+        ("pick", "solved"),
+        ("pick_lift", "solved"),
+        ("hand_over_prepare", "solved"),
+        ("hand_over", "solved"),
+    ]
     pick, lift, prepare, hand_over = (s.trajectory for s in outcome.steps)
     robot = runner.session.robot
     (glass,) = lift.scene.attached
     # held 4 cm (40% of its 10 cm) above its middle, its axis along the tool's y
-    assert np.allclose(glass.grasp.xyz, (0.0, -0.04, 0.0), atol=1e-9) and np.allclose(glass.grasp.rotation()[:, 2], (0, 1, 0))
+    assert np.allclose(glass.grasp.xyz, (0.0, -0.04, 0.0), atol=1e-9) and np.allclose(
+        glass.grasp.rotation()[:, 2], (0, 1, 0)
+    )
     # the preparatory motion keeps the glass upright (ontology: 0.1 rad) and ends inside the cone;
     # the handover stays inside it throughout, by the cone's own geometry
     for trajectory in (prepare, hand_over):
@@ -186,5 +232,7 @@ def test_a_full_glass_is_picked_from_the_side_above_the_table_lifted_brought_int
     cone = next(c for c in hand_over.constraints if isinstance(c.spec, ConeConstraint))
     frame = cone.frame_in_world.matrix()
     assert "approach_cone_bob" not in {c.spec.id for c in prepare.constraints}
-    assert inside_cone(tool_positions(robot, prepare)[:1], frame, cone.spec.radius, cone.spec.height)[0] > 0.1  # started far outside
+    assert (
+        inside_cone(tool_positions(robot, prepare)[:1], frame, cone.spec.radius, cone.spec.height)[0] > 0.1
+    )  # started far outside
     assert inside_cone(tool_positions(robot, hand_over), frame, cone.spec.radius, cone.spec.height).max() <= 1e-4

@@ -16,12 +16,16 @@ def cache(tmp_path_factory) -> ReasoningCache:
 
 def knife_past(role: str, target: str | None = None, kind: str = "Transport") -> Situation:
     """MADAR's right arm carries a knife; dana (role given) waits at 0.9 m, eve takes things."""
-    return Situation.model_validate({
-        "task": {"name": "carry", "kind": kind, "arms": ["right"], "carries": {"knife": "right"}, "human": target},
-        "objects": [{"name": "knife", "kind": "Knife"}],
-        "humans": [{"name": "dana", "role": role, "position": [0.6, 0.7], "yaw": 3.14},
-                   {"name": "eve", "role": "Receiver", "position": [0.0, 1.45], "yaw": -1.5708}],
-    })
+    return Situation.model_validate(
+        {
+            "task": {"name": "carry", "kind": kind, "arms": ["right"], "carries": {"knife": "right"}, "human": target},
+            "objects": [{"name": "knife", "kind": "Knife"}],
+            "humans": [
+                {"name": "dana", "role": role, "position": [0.6, 0.7], "yaw": 3.14},
+                {"name": "eve", "role": "Receiver", "position": [0.0, 1.45], "yaw": -1.5708},
+            ],
+        }
+    )
 
 
 def by_anchor(derivation, anchor: str) -> list:
@@ -49,8 +53,10 @@ def test_the_counterpart_keeps_the_body_exclusion_and_the_other_receiver_is_kept
     assert [c.kind for c in by_anchor(derivation, "dana")] == ["KeepOutWaitingPartner"]
 
 
-@pytest.mark.parametrize("role, kind", [("Bystander", "KeepOutBystander"), ("Supervisor", "KeepOutSupervisor"),
-                                        ("Collaborator", "HeadKeepOutSphere")])
+@pytest.mark.parametrize(
+    "role, kind",
+    [("Bystander", "KeepOutBystander"), ("Supervisor", "KeepOutSupervisor"), ("Collaborator", "HeadKeepOutSphere")],
+)
 def test_every_other_role_keeps_its_own_protection(cache, role, kind):
     derivation = derive(KnowledgeBase(knife_past(role), cache=cache))
     assert [c.kind for c in by_anchor(derivation, "dana")] == [kind]

@@ -23,7 +23,9 @@ def test_rules_decide_differently_per_example():
     empty = derived("handover_empty_can")["hand_over"]
     assert {"upright_can", "approach_cone_bob", "shared_workspace_bob", "exclusion_box_bob"} <= set(full)
     assert "upright_can" not in empty and "approach_cone_bob" in empty  # an empty can cannot spill
-    assert full["upright_can"].spec.tolerance < derived("transport_cup_bystander")["carry"]["upright_cup"].spec.tolerance
+    assert (
+        full["upright_can"].spec.tolerance < derived("transport_cup_bystander")["carry"]["upright_cup"].spec.tolerance
+    )
     bystander = derived("transport_cup_bystander")["carry"]["keep_out_dana"].spec
     assert bystander.region == "outside" and bystander.keep_out_all_links and bystander.frame.entity == "dana/base"
     scissors = derived("handover_scissors")
@@ -39,7 +41,10 @@ def test_rules_decide_differently_per_example():
 def test_hot_object_near_a_person_slows_the_trajectory():
     outcome = TaskRunner(load_task(EXAMPLES / "handover_hot_coffee.yaml")).run(plan=False)
     assert outcome.steps[0].derivation.velocity_scale == 0.5
-    assert TaskRunner(load_task(EXAMPLES / "handover_empty_can.yaml")).run(plan=False).steps[0].derivation.velocity_scale == 1.0
+    assert (
+        TaskRunner(load_task(EXAMPLES / "handover_empty_can.yaml")).run(plan=False).steps[0].derivation.velocity_scale
+        == 1.0
+    )
 
 
 def test_provenance_names_rules_and_facts():
@@ -74,7 +79,10 @@ def test_handover_task_plans_both_steps_and_every_trajectory_validates():
     [
         ("steps: []", "steps: List should have at least 1 item"),
         ("robot: pr2\nsteps: [{goal: {joints: {}}}]", "robot: Input should be 'madar' or 'ur5'"),
-        ("objects: [{name: cup, kind: Cup}]\nsteps: [{goal: {grasp: mug}}]", "steps.0: grasp 'mug' is not among the objects"),
+        (
+            "objects: [{name: cup, kind: Cup}]\nsteps: [{goal: {grasp: mug}}]",
+            "steps.0: grasp 'mug' is not among the objects",
+        ),
         ("steps: [{goal: {joints: {}}, goals: [{joints: {}}]}]", "a step has either `goal` or `goals`"),
         ("steps: [{goal: {joints: {}}}\n", "line 2: not valid YAML"),
     ],
@@ -89,7 +97,9 @@ def test_bad_task_files_are_one_line_errors(tmp_path, text, message):
 
 def test_unknown_ontology_class_or_arm_is_reported(tmp_path):
     path = tmp_path / "task.yaml"
-    path.write_text("objects: [{name: thing, kind: Teapot, held_by: right}]\nsteps: [{goal: {place: thing, at: {xyz: [0.4, 0.7, 0.9]}}}]")
+    path.write_text(
+        "objects: [{name: thing, kind: Teapot, held_by: right}]\nsteps: [{goal: {place: thing, at: {xyz: [0.4, 0.7, 0.9]}}}]"
+    )
     with pytest.raises(HriplanError, match="Teapot"):
         TaskRunner(load_task(path)).run(plan=False)
 

@@ -22,11 +22,11 @@ from meshcat.commands import SetObject, SetTransform
 from PIL import Image
 
 from hriplan.planner.problem import load_problem
+from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.viewer import write_plots, write_task_viewer, write_viewer
 from hriplan.viewer.scene import build_drawing
-from hriplan.planner.replay import PlannedWorld
 
 SCENARIO = Path(__file__).parents[2] / "benchmarks" / "scenarios" / "b_madar_handover.json"
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -52,10 +52,16 @@ class Browser:
     """Headless Chromium on `--remote-debugging-pipe` (fd 3 in, fd 4 out); keeps every event."""
 
     FLAGS = (
-        "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync",
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
         "--enable-unsafe-swiftshader",  # WebGL on the CPU, without a deprecation message
-    )  # fmt: skip
+    )
 
     def __init__(self, width: int = 1280, height: int = 800) -> None:
         self.profile = tempfile.TemporaryDirectory(prefix="hriplan-chromium-")
@@ -64,10 +70,20 @@ class Browser:
         # Chromium's ends above 9, so that bash's `3<&` and `4>&` cannot overwrite one another.
         to_chrome, from_chrome = (_above_nine(fd) for fd in (to_chrome, from_chrome))
         self.process = subprocess.Popen(
-            ["bash", "-c", f'exec "$0" "$@" 3<&{to_chrome} 4>&{from_chrome}', CHROMIUM, *self.FLAGS,
-             f"--user-data-dir={self.profile.name}", "--remote-debugging-pipe", "about:blank"],
-            pass_fds=(to_chrome, from_chrome), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )  # fmt: skip
+            [
+                "bash",
+                "-c",
+                f'exec "$0" "$@" 3<&{to_chrome} 4>&{from_chrome}',
+                CHROMIUM,
+                *self.FLAGS,
+                f"--user-data-dir={self.profile.name}",
+                "--remote-debugging-pipe",
+                "about:blank",
+            ],
+            pass_fds=(to_chrome, from_chrome),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
         os.close(to_chrome)
         os.close(from_chrome)
         self._buffer, self._id, self.events = b"", 0, []
@@ -200,9 +216,11 @@ def test_viewer_opens_offline_draws_the_scene_and_animates(browser, viewer_file,
     # The scene is drawn: many colours, and much of the picture changes when the plan's content is hidden.
     colours = np.unique((first // 8).reshape(-1, 3), axis=0)
     assert len(colours) > 300
-    browser.evaluate("['robot', 'people', 'scene', 'constraints', 'tool_paths'].forEach(p => "
-                     "{ viewer.scene_tree.find([p]).object.visible = false; }); viewer.set_dirty();"
-                     "new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")  # fmt: skip
+    browser.evaluate(
+        "['robot', 'people', 'scene', 'constraints', 'tool_paths'].forEach(p => "
+        "{ viewer.scene_tree.find([p]).object.visible = false; }); viewer.set_dirty();"
+        "new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))"
+    )
     empty = browser.screenshot(tmp_path / "empty.png")
     assert (np.abs(first - empty).sum(axis=2) > 40).mean() > 0.05
 
@@ -234,8 +252,11 @@ def test_viewer_shows_every_constraint_with_its_geometry(trajectory, viewer_file
         for c in drawing.commands
         if isinstance(c, SetTransform) and c.path.lower() == "/constraints/approach_cone/0"
     )
-    cone = next(c.object.lower()["geometries"][0] for c in drawing.commands
-                if isinstance(c, SetObject) and c.path.lower() == "/constraints/approach_cone/0")  # fmt: skip
+    cone = next(
+        c.object.lower()["geometries"][0]
+        for c in drawing.commands
+        if isinstance(c, SetObject) and c.path.lower() == "/constraints/approach_cone/0"
+    )
     assert cone["radiusBottom"] == 0.0 and cone["radiusTop"] == pytest.approx(0.3)
     half = cone["height"] / 2
     assert np.allclose(local @ [0, -half, 0, 1], [0, 0, 0, 1]) and np.allclose(local @ [0, half, 0, 1], [0, 0, 0.55, 1])
@@ -260,9 +281,12 @@ def test_plots_one_real_figure_each(trajectory, tmp_path):
     ]
     assert all(_is_real_png(p) for p in paths)
 
-    alone = trajectory.model_copy(update={
-        "scene": trajectory.scene.model_copy(update={"humans": []}),
-        "constraints": [c for c in trajectory.constraints if "/" not in c.spec.frame.entity]})  # fmt: skip
+    alone = trajectory.model_copy(
+        update={
+            "scene": trajectory.scene.model_copy(update={"humans": []}),
+            "constraints": [c for c in trajectory.constraints if "/" not in c.spec.frame.entity],
+        }
+    )
     assert [p.name for p in write_plots(alone, tmp_path / "alone")] == [
         "joint_positions.png",
         "joint_velocities.png",
@@ -316,10 +340,16 @@ def test_joint_plots_are_scaled_to_each_joints_motion(trajectory):
 def test_one_volume_per_place_however_many_constraints_share_it(trajectory):
     """A keep-out bound for each arm is the same volume: drawn once, listed twice."""
     keep_out = next(c for c in trajectory.constraints if c.spec.type != "orientation")
-    twin = keep_out.model_copy(update={"spec": keep_out.spec.model_copy(update={"id": "twin", "target_link": "right_wrist_3_link"})})
+    twin = keep_out.model_copy(
+        update={"spec": keep_out.spec.model_copy(update={"id": "twin", "target_link": "right_wrist_3_link"})}
+    )
     doubled = trajectory.model_copy(update={"constraints": [*trajectory.constraints, twin]})
     drawing = build_drawing(PlannedWorld.load(doubled))
-    drawn = {c.path.lower().split("/")[2] for c in drawing.commands if isinstance(c, SetObject) and "/constraints/" in c.path.lower()}
+    drawn = {
+        c.path.lower().split("/")[2]
+        for c in drawing.commands
+        if isinstance(c, SetObject) and "/constraints/" in c.path.lower()
+    }
     assert keep_out.spec.id.lower() in drawn and "twin" not in drawn
 
 
@@ -336,8 +366,10 @@ def test_a_task_is_one_page_with_a_step_selector(browser, trajectory, tmp_path):
     url = page.resolve().as_uri()
     browser.page("Page.navigate", url=f"{url}#step=1&t=0")
     browser.wait_for("document.body && document.body.dataset.shownTime === '0'")
-    shown = browser.evaluate("[document.getElementById('hriplan-step').value, "
-                             "[...document.querySelectorAll('.hriplan-step-legend')].map(l => l.hidden)]")  # fmt: skip
+    shown = browser.evaluate(
+        "[document.getElementById('hriplan-step').value, "
+        "[...document.querySelectorAll('.hriplan-step-legend')].map(l => l.hidden)]"
+    )
     assert shown == ["1", [True, False]]
     assert browser.problems() == []
 

@@ -30,7 +30,7 @@ def clear_errors(func: F) -> F:
     """Turn a user error into `error: ...` and exit code 2 instead of a traceback."""
 
     @functools.wraps(func)
-    def wrapper(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+    def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
         except HriplanError as exc:
@@ -40,7 +40,7 @@ def clear_errors(func: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
-def _interrupted(signum: int, frame: object) -> None:  # noqa: ARG001 - a signal handler's signature
+def _interrupted(signum: int, frame: object) -> None:
     """Ctrl-C: drop what is half written and leave now (long C++ stages would not see an exception)."""
     remove_partial_outputs()
     sys.stderr.write("interrupted\n")
@@ -51,8 +51,14 @@ def _interrupted(signum: int, frame: object) -> None:  # noqa: ARG001 - a signal
 class OneLineErrors(TyperGroup):
     """The root command: usage errors as one line, Ctrl-C as exit 130 with nothing half written."""
 
-    def main(self, args: Sequence[str] | None = None, prog_name: str | None = None, complete_var: str | None = None,
-             standalone_mode: bool = True, **extra: Any) -> Any:  # noqa: ANN401 - click's signature
+    def main(
+        self,
+        args: Sequence[str] | None = None,
+        prog_name: str | None = None,
+        complete_var: str | None = None,
+        standalone_mode: bool = True,
+        **extra: Any,
+    ) -> Any:
         on_main_thread = threading.current_thread() is threading.main_thread()
         previous = signal.signal(signal.SIGINT, _interrupted) if on_main_thread else None
         try:

@@ -10,15 +10,17 @@ import typer
 
 from hriplan import HriplanError, __version__
 from hriplan.cli.errors import OneLineErrors, clear_errors
+from hriplan.cli.serve import serve
 from hriplan.cli.sweeps import SWEEP_COMMANDS
 from hriplan.cli.tasks import TASK_COMMANDS
-from hriplan.cli.serve import serve
 from hriplan.cli.view import plot, view
 
-app = typer.Typer(cls=OneLineErrors, no_args_is_help=True, add_completion=False, rich_markup_mode=None,
-                  pretty_exceptions_enable=False)
+app = typer.Typer(
+    cls=OneLineErrors, no_args_is_help=True, add_completion=False, rich_markup_mode=None, pretty_exceptions_enable=False
+)
 robot_app = typer.Typer(help="Inspect the robot models.", no_args_is_help=True, rich_markup_mode=None)
 app.add_typer(robot_app, name="robot")
+
 
 def _version(value: bool) -> None:
     if value:
@@ -28,7 +30,9 @@ def _version(value: bool) -> None:
 
 @app.callback()
 def main(
-    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")] = False,
+    version: Annotated[
+        bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")
+    ] = False,
 ) -> None:
     """Safe human-robot collaboration planning: constraints derived from an ontology and rules,
     planned on a constrained OMPL planner, validated and timed.
@@ -87,7 +91,10 @@ def robot_info(name: RobotName = None, hand: HandOption = []) -> None:  # noqa: 
 @clear_errors
 def robot_urdf(
     name: Annotated[str, typer.Argument(help="madar or ur5.", show_default=False)],
-    mesh_dir: Annotated[Path | None, typer.Option("--mesh-dir", help="Write mesh paths into this copy of example-robot-data's robots/ folder.")] = None,
+    mesh_dir: Annotated[
+        Path | None,
+        typer.Option("--mesh-dir", help="Write mesh paths into this copy of example-robot-data's robots/ folder."),
+    ] = None,
 ) -> None:
     """Print the assembled robot as URDF, meshes as package://example-robot-data/robots/... URIs.
 

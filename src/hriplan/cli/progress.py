@@ -13,7 +13,7 @@ import typer
 Progress = Callable[[str], None]
 
 
-def _silent(message: str) -> None:  # noqa: ARG001 - the quiet progress ignores every message
+def _silent(message: str) -> None:
     return None
 
 
@@ -35,8 +35,13 @@ def progress(quiet: bool) -> Iterator[Progress]:
     from rich.progress import SpinnerColumn, TextColumn, TimeElapsedColumn
 
     started = time.monotonic()
-    with Live(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
-              console=Console(stderr=True), transient=True) as live:  # fmt: skip
+    with Live(
+        SpinnerColumn(),
+        TextColumn("{task.description}"),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    ) as live:
         stage = live.add_task("starting", total=None)
 
         def update(message: str) -> None:

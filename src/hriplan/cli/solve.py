@@ -7,12 +7,12 @@ from pathlib import Path
 import typer
 
 from hriplan.cli.outputs import file_output
+from hriplan.cli.summary import separation_phrase
 from hriplan.planner.motion import JointGoal
 from hriplan.planner.problem import load_problem
 from hriplan.planner.session import PlanningSession
 from hriplan.safety.policy import default_policy
 from hriplan.tasks.joints import check_joint_values
-from hriplan.cli.summary import separation_phrase
 
 
 def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_json: bool) -> int:
@@ -48,7 +48,9 @@ def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_jso
         spec = constraint.spec
         lines.append(f"  {spec.id:28s} {spec.type:12s} worst margin {report.max_violation[spec.id]:+.4f} (<= 0 kept)")
     if report.min_human_distance is not None:
-        lines.append(f"closest approach to a person: {report.min_human_distance:.3f} m ({' - '.join(report.closest_pair)})")
+        lines.append(
+            f"closest approach to a person: {report.min_human_distance:.3f} m ({' - '.join(report.closest_pair)})"
+        )
     lines += [f"speed and separation: {separation_phrase(trace)}" for trace in report.separation]
     if output is not None:
         lines.append(f"trajectory written to {output}")

@@ -14,16 +14,20 @@ import typer
 
 from hriplan import HriplanError
 
-Output = Annotated[Path | None, typer.Option("-o", "--output", help="Results directory (results.parquet; rerun to resume).")]
+Output = Annotated[
+    Path | None, typer.Option("-o", "--output", help="Results directory (results.parquet; rerun to resume).")
+]
 Format = Annotated[Literal["parquet", "csv"], typer.Option("--format", help="csv: also write results.csv.")]
-EngineName = Annotated[Literal["local", "ray"], typer.Option("--engine", help="local: worker processes; ray: Ray actors.")]
+EngineName = Annotated[
+    Literal["local", "ray"], typer.Option("--engine", help="local: worker processes; ray: Ray actors.")
+]
 Workers = Annotated[int | None, typer.Option("--workers", help="Worker processes / actors (default: one per core).")]
 RayAddress = Annotated[str | None, typer.Option("--ray-address", help="Join this Ray cluster (implies --engine ray).")]
 DeriveOnly = Annotated[bool, typer.Option("--derive-only", help="Derive the constraints only, do not plan.")]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress.")]
 
 
-def _engine(engine: str, workers: int | None, address: str | None):  # noqa: ANN202
+def _engine(engine: str, workers: int | None, address: str | None):
     from hriplan.sweeps.engines import LocalEngine, RayEngine
 
     if workers is not None and workers < 1:
@@ -37,7 +41,7 @@ def _engine(engine: str, workers: int | None, address: str | None):  # noqa: ANN
     return LocalEngine(workers)
 
 
-def _run(variants, output: Path, output_format: str, engine, derive_only: bool, quiet: bool) -> None:  # noqa: ANN001
+def _run(variants, output: Path, output_format: str, engine, derive_only: bool, quiet: bool) -> None:
     import signal
 
     from hriplan.sweeps.run import SweepInterrupted, run_sweep
@@ -46,7 +50,9 @@ def _run(variants, output: Path, output_format: str, engine, derive_only: bool, 
     # so here Ctrl-C is Python's KeyboardInterrupt, not the CLI's immediate exit.
     signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
-        summary = run_sweep(variants, output, engine, plan=not derive_only, csv=output_format == "csv", progress=not quiet)
+        summary = run_sweep(
+            variants, output, engine, plan=not derive_only, csv=output_format == "csv", progress=not quiet
+        )
     except SweepInterrupted as exc:
         typer.echo(str(exc), err=True)
         raise typer.Exit(130) from None
@@ -55,7 +61,10 @@ def _run(variants, output: Path, output_format: str, engine, derive_only: bool, 
 
 def sweep(
     task: Annotated[Path | None, typer.Argument(help="The task file to vary.")] = None,
-    vary: Annotated[list[str], typer.Option("--vary", help="PATH=VALUES: a,b,c | JSON list | LOW:HIGH:STEP | [RANGE, RANGE] (repeatable).")] = [],  # noqa: B006
+    vary: Annotated[
+        list[str],
+        typer.Option("--vary", help="PATH=VALUES: a,b,c | JSON list | LOW:HIGH:STEP | [RANGE, RANGE] (repeatable)."),
+    ] = [],  # noqa: B006
     output: Output = None,
     samples: Annotated[int | None, typer.Option("--samples", help="Random draws instead of the cross product.")] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the random draws.")] = 0,
@@ -64,7 +73,9 @@ def sweep(
     workers: Workers = None,
     ray_address: RayAddress = None,
     derive_only: DeriveOnly = False,
-    report: Annotated[Path | None, typer.Option("--report", help="Draw the maps of a finished sweep's directory (no planning).")] = None,
+    report: Annotated[
+        Path | None, typer.Option("--report", help="Draw the maps of a finished sweep's directory (no planning).")
+    ] = None,
     quiet: Quiet = False,
 ) -> None:
     """Plan every variant of a task (the cross product of --vary, or --samples draws) into a table."""

@@ -14,17 +14,19 @@ from typing import Annotated, Literal
 import typer
 
 from hriplan import HriplanError
-from hriplan.ontology.reasoners import Reasoner, use_reasoner
 from hriplan.cli.outputs import directory_output, file_output
 from hriplan.cli.progress import progress
+from hriplan.ontology.reasoners import Reasoner, use_reasoner
 
 TaskArgument = Annotated[Path, typer.Argument(help="A task file (YAML or JSON).", show_default=False)]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress messages.")]
 Verbose = Annotated[bool, typer.Option("--verbose", "-v", help="More detail: rules and facts, constraint calls.")]
-ReasonerOption = Annotated[Reasoner, typer.Option(callback=use_reasoner, help="fast: the rules in process; pellet: the reference.")]
+ReasonerOption = Annotated[
+    Reasoner, typer.Option(callback=use_reasoner, help="fast: the rules in process; pellet: the reference.")
+]
 
 
-def load_checked_task(task_path: Path, seed: int | None = None, project_start: bool | None = None):  # noqa: ANN201
+def load_checked_task(task_path: Path, seed: int | None = None, project_start: bool | None = None):
     """The task file, its joint values checked against the robot, with the command line's overrides."""
     from hriplan.tasks.joints import check_task_joints
     from hriplan.tasks.load import load_task
@@ -37,27 +39,31 @@ def load_checked_task(task_path: Path, seed: int | None = None, project_start: b
     return task
 
 
-def _runner(task_path: Path, report: Callable[[str], None], task=None):  # noqa: ANN001, ANN202
+def _runner(task_path: Path, report: Callable[[str], None], task=None):
     from hriplan.tasks.pipeline import TaskRunner
 
     return TaskRunner(task or load_checked_task(task_path), task_path.parent, report)
 
 
-def load_for_task(trajectory: Path, task: Path | None, quiet: bool = True):  # noqa: ANN201
+def load_for_task(trajectory: Path, task: Path | None, quiet: bool = True):
     """A trajectory file, with its step's constraints and scene taken from `task` if given."""
     from hriplan.planner.trajectory import load_trajectory
     from hriplan.tasks.joints import check_joint_values
     from hriplan.tasks.pipeline import against_task
 
     plan_file = load_trajectory(trajectory)
-    check_joint_values(dict(zip(plan_file.joint_names, plan_file.points[0].positions)), plan_file.robot, f"{trajectory}: joint_names")
+    check_joint_values(
+        dict(zip(plan_file.joint_names, plan_file.points[0].positions)), plan_file.robot, f"{trajectory}: joint_names"
+    )
     if task is None:
         return plan_file
     with progress(quiet) as report:
         return against_task(plan_file, _runner(task, report))
 
 
-TaskOption = Annotated[Path | None, typer.Option("--task", help="Take the constraints, reasons and scene from this task file.")]
+TaskOption = Annotated[
+    Path | None, typer.Option("--task", help="Take the constraints, reasons and scene from this task file.")
+]
 
 
 def _step_path(output: Path, step: str, several: bool) -> Path:
@@ -66,24 +72,39 @@ def _step_path(output: Path, step: str, several: bool) -> Path:
 
 def plan(
     task: TaskArgument,
-    output: Annotated[Path | None, typer.Option("-o", "--output", help="Trajectory file (default out/TASK.json; several steps: NAME.STEP.json).")] = None,
+    output: Annotated[
+        Path | None,
+        typer.Option("-o", "--output", help="Trajectory file (default out/TASK.json; several steps: NAME.STEP.json)."),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the outcome as JSON.")] = False,
-    html: Annotated[Path | None, typer.Option("--html", help="Also write the 3D viewer of the whole task (one page, a step selector).")] = None,
+    html: Annotated[
+        Path | None,
+        typer.Option("--html", help="Also write the 3D viewer of the whole task (one page, a step selector)."),
+    ] = None,
     plots: Annotated[Path | None, typer.Option("--plots", help="Also write figures into this directory.")] = None,
-    seed: Annotated[int | None, typer.Option("--seed", help="Planner seed (overrides the task's planning.seed).")] = None,
-    project_start: Annotated[bool, typer.Option("--project-start", help="Move a start that violates a constraint onto it first (as planning.project_start).")] = False,
+    seed: Annotated[
+        int | None, typer.Option("--seed", help="Planner seed (overrides the task's planning.seed).")
+    ] = None,
+    project_start: Annotated[
+        bool,
+        typer.Option(
+            "--project-start", help="Move a start that violates a constraint onto it first (as planning.project_start)."
+        ),
+    ] = False,
     quiet: Quiet = False,
     verbose: Verbose = False,
     reasoner: ReasonerOption = "fast",
 ) -> None:
     """Run the pipeline: derive each step's constraints, plan, validate, time, write trajectories."""
-    from hriplan.tasks.model import step_name
     from hriplan.cli.summary import summarize
+    from hriplan.tasks.model import step_name
 
     loaded = load_checked_task(task, seed, project_start or None)
     output = file_output(output or Path("out") / f"{loaded.name}.json")
     several = len(loaded.steps) > 1
-    paths = {step_name(s, k): file_output(_step_path(output, step_name(s, k), several)) for k, s in enumerate(loaded.steps)}
+    paths = {
+        step_name(s, k): file_output(_step_path(output, step_name(s, k), several)) for k, s in enumerate(loaded.steps)
+    }
     if html is not None:
         file_output(html, "--html")
     if plots is not None:
@@ -103,8 +124,9 @@ def plan(
         raise typer.Exit(1)
 
 
-def _write_outcome(outcome, output: Path, paths: dict[str, Path], html: Path | None, plots: Path | None,
-                   report: Callable[[str], None]) -> list[Path]:  # noqa: ANN001 - a TaskOutcome
+def _write_outcome(
+    outcome, output: Path, paths: dict[str, Path], html: Path | None, plots: Path | None, report: Callable[[str], None]
+) -> list[Path]:
     """Write the solved steps' trajectories, and the viewer page and figures if asked for. A step
     the pipeline adds (a preparatory motion, a lift after a pick) is written beside its task step's file."""
     written = []
@@ -129,7 +151,7 @@ def _write_outcome(outcome, output: Path, paths: dict[str, Path], html: Path | N
     return written
 
 
-def _json(outcome, written: list[Path]) -> dict:  # noqa: ANN001
+def _json(outcome, written: list[Path]) -> dict:
     steps = []
     for s in outcome.steps:
         entry = s.model_dump(mode="json", include={"name", "kind", "arms", "status", "message", "derivation"})
@@ -138,8 +160,12 @@ def _json(outcome, written: list[Path]) -> dict:  # noqa: ANN001
     return {"task": outcome.task, "solved": outcome.solved, "steps": steps, "files": [str(p) for p in written]}
 
 
-def constraints(task: TaskArgument, as_json: Annotated[bool, typer.Option("--json", help="Print the derivation as JSON.")] = False,
-                quiet: Quiet = False, reasoner: ReasonerOption = "fast") -> None:  # fmt: skip
+def constraints(
+    task: TaskArgument,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the derivation as JSON.")] = False,
+    quiet: Quiet = False,
+    reasoner: ReasonerOption = "fast",
+) -> None:
     """What each step would have to respect, with one-line reasons (no planning)."""
     from hriplan.cli.summary import constraint_lines
 
@@ -166,11 +192,19 @@ def explain(task: TaskArgument, quiet: Quiet = False, reasoner: ReasonerOption =
 
 
 def query(
-    sparql: Annotated[str | None, typer.Argument(help="A SPARQL 1.1 query (prefixes hp:, rdf:, rdfs:, owl:, xsd: are predefined).")] = None,
+    sparql: Annotated[
+        str | None, typer.Argument(help="A SPARQL 1.1 query (prefixes hp:, rdf:, rdfs:, owl:, xsd: are predefined).")
+    ] = None,
     file: Annotated[Path | None, typer.Option("--file", help="Read the query from a .rq file.")] = None,
-    task: Annotated[Path | None, typer.Option("--task", help="Query this task's knowledge base (else the ontology alone).")] = None,
-    step: Annotated[str | None, typer.Option("--step", help="Only this step's situation (default: every step, a `step` column).")] = None,
-    output_format: Annotated[Literal["table", "json", "csv", "turtle"], typer.Option("--format", help="turtle: CONSTRUCT results.")] = "table",
+    task: Annotated[
+        Path | None, typer.Option("--task", help="Query this task's knowledge base (else the ontology alone).")
+    ] = None,
+    step: Annotated[
+        str | None, typer.Option("--step", help="Only this step's situation (default: every step, a `step` column).")
+    ] = None,
+    output_format: Annotated[
+        Literal["table", "json", "csv", "turtle"], typer.Option("--format", help="turtle: CONSTRUCT results.")
+    ] = "table",
     quiet: Quiet = False,
 ) -> None:
     """Query the knowledge base (asserted + inferred facts) with SPARQL."""
@@ -203,7 +237,9 @@ def validate(
     world = PlannedWorld.load(plan_file)
     result = world.validate()
     for check in result.constraints:
-        typer.echo(f"{check.id:32s} worst margin {check.max_violation:+.4f} {'kept' if check.satisfied else 'VIOLATED'}")
+        typer.echo(
+            f"{check.id:32s} worst margin {check.max_violation:+.4f} {'kept' if check.satisfied else 'VIOLATED'}"
+        )
     typer.echo(f"collision: {result.collision or 'none'}; checked {result.states_checked} states")
     speed = None
     if plan_file.report.separation and plan_file.scene.humans:  # timed for people: re-check it, by their roles
@@ -220,10 +256,20 @@ def validate(
 
 def import_kautham(
     problem: Annotated[Path, typer.Argument(help="A Kautham problem file (XML).", show_default=False)],
-    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the hriplan problem here (JSON).")] = None,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Write the hriplan problem here (JSON).")
+    ] = None,
     plan_it: Annotated[bool, typer.Option("--plan", help="Also plan it (as `hriplan solve`).")] = False,
-    rpy: Annotated[Literal["kautham", "urdf"], typer.Option(help="How to read <Origin rpy>: Kautham's Rx Ry Rz, or URDF.")] = "kautham",
-    models: Annotated[list[Path] | None, typer.Option("--models", help="A folder with Kautham's robot, obstacle and controls files, like its demos/models (repeatable).")] = None,
+    rpy: Annotated[
+        Literal["kautham", "urdf"], typer.Option(help="How to read <Origin rpy>: Kautham's Rx Ry Rz, or URDF.")
+    ] = "kautham",
+    models: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--models",
+            help="A folder with Kautham's robot, obstacle and controls files, like its demos/models (repeatable).",
+        ),
+    ] = None,
 ) -> None:
     """Convert a Kautham problem (robot, obstacles, constraints, controls, query) to hriplan's problem format, and plan it."""
     from hriplan.cli.solve import solve_problem_file

@@ -34,6 +34,8 @@ def portable_urdf(urdf: str, mesh_dir: Path | None = None) -> str:
     for mesh in root.iter("mesh"):
         filename = mesh.get("filename", "")
         if filename.startswith(installed):
-            relative = filename[len(installed):]
-            mesh.set("filename", str(mesh_dir.resolve() / relative) if mesh_dir is not None else PACKAGE_PREFIX + relative)
+            relative = filename[len(installed) :]
+            mesh.set(
+                "filename", str(mesh_dir.resolve() / relative) if mesh_dir is not None else PACKAGE_PREFIX + relative
+            )
     return ET.tostring(root, encoding="unicode")

@@ -14,7 +14,9 @@ from hriplan.cli.outputs import directory_output, file_output
 from hriplan.cli.progress import progress
 from hriplan.cli.tasks import Quiet, TaskOption, load_for_task
 
-TrajectoryArgument = Annotated[Path, typer.Argument(help="A trajectory file written by `hriplan plan` or `solve -o`.", show_default=False)]
+TrajectoryArgument = Annotated[
+    Path, typer.Argument(help="A trajectory file written by `hriplan plan` or `solve -o`.", show_default=False)
+]
 
 
 def view(

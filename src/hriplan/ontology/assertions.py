@@ -15,7 +15,6 @@ from collections.abc import Sequence
 
 from hriplan import HriplanError
 from hriplan.ontology.ruleset import Rule, read_predicates
-
 from hriplan.ontology.situation import Situation, SituationHuman
 
 Assertion = tuple[str, str, bool | int | float | str]
@@ -41,12 +40,21 @@ def situation_assertions(situation: Situation, rules: Sequence[Rule] = ()) -> li
         facts += [(obj.name, TYPE, obj.kind), *_position(obj.name, obj.pose.xyz)]
         if obj.fill_level is not None:
             facts.append((obj.name, "hasFillLevel", obj.fill_level))
-        for prop, value in (("isOpen", obj.open), ("isSharp", obj.sharp), ("isFragile", obj.fragile), ("isHot", obj.hot)):
+        for prop, value in (
+            ("isOpen", obj.open),
+            ("isSharp", obj.sharp),
+            ("isFragile", obj.fragile),
+            ("isHot", obj.hot),
+        ):
             if value is not None:
                 facts.append((obj.name, prop, value))
     for human in situation.humans:
-        facts += [(human.name, TYPE, "Human"), (human.name, "hasRole", human.role),
-                  (human.name, "hasYaw", float(human.yaw)), *_position(human.name, (*human.position, 0.0))]  # fmt: skip
+        facts += [
+            (human.name, TYPE, "Human"),
+            (human.name, "hasRole", human.role),
+            (human.name, "hasYaw", float(human.yaw)),
+            *_position(human.name, (*human.position, 0.0)),
+        ]
     if situation.task.human is not None:
         facts += _body(situation, situation.human(situation.task.human))
     read = read_predicates(rules)
@@ -62,8 +70,11 @@ def _body(situation: Situation, human: SituationHuman) -> list[Assertion]:
         individual = body_part_individual(human.name, part)
         if individual in names:
             raise HriplanError(f"the name {individual!r} is taken by {human.name}'s {part}; rename it")
-        facts += [(individual, TYPE, cls), (individual, "hasFrameName", f"{human.name}/{part}"),
-                  (human.name, "hasBodyPart", individual)]  # fmt: skip
+        facts += [
+            (individual, TYPE, cls),
+            (individual, "hasFrameName", f"{human.name}/{part}"),
+            (human.name, "hasBodyPart", individual),
+        ]
     return [*facts, (human.name, "hasActiveHand", body_part_individual(human.name, f"{human.hand}_hand"))]
 
 

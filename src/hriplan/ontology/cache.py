@@ -20,10 +20,9 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
-from hriplan.ontology.ruleset import Rule
-
 from hriplan.ontology.assertions import Assertion
 from hriplan.ontology.facts import Facts
+from hriplan.ontology.ruleset import Rule
 
 FORMAT_VERSION = 2  # bump when what is cached changes meaning
 MEMORY_ENTRIES = 256
@@ -73,8 +72,10 @@ class ReasoningCache:
         self._remember(key, reasoning, ntriples)
         if self.directory is None:
             return
-        record = {"inconsistency": reasoning.inconsistency,
-                  "facts": reasoning.facts.model_dump(mode="json") if reasoning.facts else None}  # fmt: skip
+        record = {
+            "inconsistency": reasoning.inconsistency,
+            "facts": reasoning.facts.model_dump(mode="json") if reasoning.facts else None,
+        }
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
             if ntriples is not None:

@@ -9,9 +9,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from hriplan import HriplanError
-from hriplan.ontology.ruleset import Name, Rule
-
 from hriplan.ontology.assertions import TYPE, Assertion, arm_individual
+from hriplan.ontology.ruleset import Name, Rule
 from hriplan.ontology.schema import Schema
 from hriplan.ontology.situation import Situation
 
@@ -37,13 +36,17 @@ def _check_situation(schema: Schema, situation: Situation) -> None:
         _check_kind(schema, "object", obj.name, obj.kind, "PhysicalObject")
     for name in [situation.task.name, *(o.name for o in situation.objects), *(h.name for h in situation.humans)]:
         if name in schema.terms:
-            raise HriplanError(f"the name {name!r} is a term of the ontology; give the situation's {name!r} another name")
+            raise HriplanError(
+                f"the name {name!r} is a term of the ontology; give the situation's {name!r} another name"
+            )
 
 
 def _check_kind(schema: Schema, what: str, name: str, kind: str, root: str) -> None:
     if not schema.is_subclass(kind, root):
-        raise HriplanError(f"{what} {name!r} has kind {kind!r}, not a {root} class of the ontology; "
-                           f"known: {', '.join(schema.descendants(root))}")  # fmt: skip
+        raise HriplanError(
+            f"{what} {name!r} has kind {kind!r}, not a {root} class of the ontology; "
+            f"known: {', '.join(schema.descendants(root))}"
+        )
 
 
 def _check_rule(schema: Schema, rule: Rule) -> None:
@@ -75,4 +78,6 @@ def _check_assertions(schema: Schema, assertions: Sequence[Assertion]) -> None:
             raise HriplanError(f"fact {fact}: {prop!r} is not a property of the ontology")
         for name in [subject, value] if prop in schema.object_properties else [subject]:
             if not (isinstance(name, str) and (name in own or name in schema.individuals.types)):
-                raise HriplanError(f"fact {fact}: {name!r} is neither in the situation nor an individual of the ontology")
+                raise HriplanError(
+                    f"fact {fact}: {name!r} is neither in the situation nor an individual of the ontology"
+                )

@@ -34,7 +34,9 @@ class Facts(BaseModel):
         """The single value of a functional property; missing data is a clear error."""
         values = self.get(individual, prop)
         if not values:
-            raise HriplanError(f"the knowledge base has no {prop} for {individual}; add it to the ontology or the situation")
+            raise HriplanError(
+                f"the knowledge base has no {prop} for {individual}; add it to the ontology or the situation"
+            )
         return values[0]
 
     def number(self, individual: str, prop: str) -> float:

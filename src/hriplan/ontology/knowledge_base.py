@@ -17,8 +17,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hriplan.ontology.ruleset import Rule, load_rules, read_predicates
-
 from hriplan.ontology.assertions import Assertion, situation_assertions
 from hriplan.ontology.cache import Reasoning, ReasoningCache, default_cache, reasoning_key
 from hriplan.ontology.checks import check_input
@@ -26,6 +24,7 @@ from hriplan.ontology.facts import Facts
 from hriplan.ontology.reasoners import InconsistentSituation, Reasoner, default_reasoner
 from hriplan.ontology.relations import RELATIONS, ComputedRelation, RelationKind, compute_relations
 from hriplan.ontology.rule_engine import reason
+from hriplan.ontology.ruleset import Rule, load_rules, read_predicates
 from hriplan.ontology.schema import Schema, load_schema
 from hriplan.ontology.situation import Situation
 from hriplan.ontology.vocabulary import PREFIXES, OntologySource, ontology_source
@@ -46,17 +45,25 @@ class KnowledgeBase:
     Raises HriplanError for bad input, InconsistentSituation for a contradiction.
     """
 
-    def __init__(self, situation: Situation, *, rule_files: Sequence[str | Path] = (), ontology: str | Path | None = None,
-                 cache: ReasoningCache | None = None, reasoner: Reasoner | None = None,
-                 relations: Sequence[RelationKind] = RELATIONS) -> None:  # fmt: skip
+    def __init__(
+        self,
+        situation: Situation,
+        *,
+        rule_files: Sequence[str | Path] = (),
+        ontology: str | Path | None = None,
+        cache: ReasoningCache | None = None,
+        reasoner: Reasoner | None = None,
+        relations: Sequence[RelationKind] = RELATIONS,
+    ) -> None:
         self.situation = situation
         self.reasoner: Reasoner = reasoner or default_reasoner()
         self.rules: tuple[Rule, ...] = load_rules(rule_files)
         self._source: OntologySource = ontology_source(ontology)
         self.schema: Schema = load_schema(self._source)
         read = read_predicates(self.rules)
-        self.relations: list[ComputedRelation] = compute_relations(situation, self.schema.individuals,
-                                                                   [k for k in relations if k.predicate in read])  # fmt: skip
+        self.relations: list[ComputedRelation] = compute_relations(
+            situation, self.schema.individuals, [k for k in relations if k.predicate in read]
+        )
         assertions = situation_assertions(situation, self.rules) + [r.assertion for r in self.relations]
         self.assertions: list[Assertion] = sorted(set(assertions), key=repr)
         self._cache = cache if cache is not None else default_cache()
@@ -77,14 +84,16 @@ class KnowledgeBase:
     def _reason_fast(self) -> Reasoning:
         """The rules in process; what it cannot settle (a contradiction) goes to Pellet."""
         facts = reason(self.schema, self.rules, self.assertions)
-        reasoning = Reasoning(facts=facts) if facts is not None else self._cache.get(self._pellet_key) or self._reason_pellet()
+        reasoning = (
+            Reasoning(facts=facts) if facts is not None else self._cache.get(self._pellet_key) or self._reason_pellet()
+        )
         self._cache.put(self.key, reasoning)
         return reasoning
 
     def _reason_pellet(self) -> Reasoning:
         """Build the World, run Pellet (the JVM start) and cache what it concluded."""
-        from hriplan.ontology.pellet import dump_ntriples, extract_facts, run_pellet
         from hriplan.ontology.owl_world import build_world
+        from hriplan.ontology.pellet import dump_ntriples, extract_facts, run_pellet
 
         world = build_world(self._source, self.rules, self.assertions)
         try:

@@ -14,9 +14,8 @@ import owlready2
 from owlready2 import ObjectPropertyClass
 
 from hriplan import HriplanError
-from hriplan.ontology.ruleset import Rule
-
 from hriplan.ontology.assertions import TYPE, Assertion
+from hriplan.ontology.ruleset import Rule
 from hriplan.ontology.vocabulary import (
     NAMESPACE,
     ONTOLOGY_IRI,

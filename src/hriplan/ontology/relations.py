@@ -68,7 +68,9 @@ def horizontal_distances(situation: Situation) -> Iterator[Measurement]:
         obj = situation.object(name)
         points = np.array([obj.pose.xyz, *obj.path], dtype=float)[:, :2]
         for human in situation.humans:
-            yield Measurement(name, human.name, closest_approach(points, np.array(human.position, dtype=float)), bool(obj.path))
+            yield Measurement(
+                name, human.name, closest_approach(points, np.array(human.position, dtype=float)), bool(obj.path)
+            )
 
 
 def closest_approach(points: np.ndarray, target: np.ndarray) -> float:
@@ -81,20 +83,30 @@ def closest_approach(points: np.ndarray, target: np.ndarray) -> float:
     return float(np.min(np.linalg.norm(start + along[:, None] * segment - target, axis=1)))
 
 
-NEAR_HUMAN = RelationKind(name="carried_object_near_human", predicate="isNear", criterion="NearHuman",
-                          threshold="hasDistance", measure=horizontal_distances)  # fmt: skip
+NEAR_HUMAN = RelationKind(
+    name="carried_object_near_human",
+    predicate="isNear",
+    criterion="NearHuman",
+    threshold="hasDistance",
+    measure=horizontal_distances,
+)
 RELATIONS: tuple[RelationKind, ...] = (NEAR_HUMAN,)
 
 
-def compute_relations(situation: Situation, ontology: Facts, kinds: Sequence[RelationKind] = RELATIONS) -> list[ComputedRelation]:
+def compute_relations(
+    situation: Situation, ontology: Facts, kinds: Sequence[RelationKind] = RELATIONS
+) -> list[ComputedRelation]:
     """The relations that hold in the situation, each with its measurement against its threshold."""
     found = []
     for kind in kinds:
         threshold = ontology.number(kind.criterion, kind.threshold)
         for m in kind.measure(situation):
             if math.isfinite(m.value) and kind.holds(m.value, threshold):
-                where = (f"comes within {m.value:.2f} {kind.unit} of {m.other} along its path" if m.along_path
-                         else f"is {m.value:.2f} {kind.unit} from {m.other}")  # fmt: skip
+                where = (
+                    f"comes within {m.value:.2f} {kind.unit} of {m.other} along its path"
+                    if m.along_path
+                    else f"is {m.value:.2f} {kind.unit} from {m.other}"
+                )
                 words = f"{m.subject} {where}, {kind.comparison} {kind.criterion} {threshold:g} {kind.unit}"
                 found.append(ComputedRelation((m.subject, kind.predicate, m.other), kind.name, words))
     return found

@@ -17,11 +17,10 @@ import functools
 from collections.abc import Iterable, Sequence
 
 from hriplan import HriplanError
-from hriplan.ontology.rule_matching import EVALUATED, constant, same_value, solutions
-from hriplan.ontology.ruleset import Rule, Var
-
 from hriplan.ontology.assertions import TYPE, Assertion
 from hriplan.ontology.facts import Facts, Value
+from hriplan.ontology.rule_matching import EVALUATED, constant, same_value, solutions
+from hriplan.ontology.ruleset import Rule, Var
 from hriplan.ontology.schema import Schema
 
 MAX_ROUNDS = 100
@@ -100,20 +99,26 @@ class _Store:
         return other
 
     def facts(self) -> Facts:
-        return Facts(types={i: sorted(t) for i, t in self.types.items()},
-                     values={i: {p: sorted(vs, key=repr) for p, vs in v.items()} for i, v in self.values.items()},
-                     labels=self.schema.individuals.labels)  # fmt: skip
+        return Facts(
+            types={i: sorted(t) for i, t in self.types.items()},
+            values={i: {p: sorted(vs, key=repr) for p, vs in v.items()} for i, v in self.values.items()},
+            labels=self.schema.individuals.labels,
+        )
 
 
 def check_supported(schema: Schema, rules: Sequence[Rule]) -> None:
     """Refuse what this reasoner does not evaluate, naming it (Pellet does: --reasoner pellet)."""
     if schema.unsupported:
-        raise HriplanError(f"the fast reasoner does not handle {schema.unsupported[0]} in the ontology; use --reasoner pellet")
+        raise HriplanError(
+            f"the fast reasoner does not handle {schema.unsupported[0]} in the ontology; use --reasoner pellet"
+        )
     for rule in rules:
         for atom in rule.body:
             if atom.builtin and atom.predicate not in EVALUATED:
-                raise HriplanError(f"{rule.source}: rule {rule.name!r} uses built-in {atom.predicate}, which the fast "
-                                   "reasoner does not evaluate; use --reasoner pellet")  # fmt: skip
+                raise HriplanError(
+                    f"{rule.source}: rule {rule.name!r} uses built-in {atom.predicate}, which the fast "
+                    "reasoner does not evaluate; use --reasoner pellet"
+                )
 
 
 def reason(schema: Schema, rules: Sequence[Rule], assertions: Sequence[Assertion]) -> Facts | None:

@@ -12,17 +12,23 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import Protocol
 
 from hriplan.ontology.facts import Value
-
 from hriplan.ontology.ruleset import Atom, Name, Term, Var
 
 Binding = dict[str, Value]
 ARITHMETIC: dict[str, Callable[[float, float], float]] = {
-    "add": operator.add, "subtract": operator.sub, "multiply": operator.mul, "divide": operator.truediv,
-}  # fmt: skip
+    "add": operator.add,
+    "subtract": operator.sub,
+    "multiply": operator.mul,
+    "divide": operator.truediv,
+}
 COMPARISONS: dict[str, Callable[[Value, Value], bool]] = {
-    "lessThan": operator.lt, "lessThanOrEqual": operator.le, "greaterThan": operator.gt,
-    "greaterThanOrEqual": operator.ge, "equal": operator.eq, "notEqual": operator.ne,
-}  # fmt: skip
+    "lessThan": operator.lt,
+    "lessThanOrEqual": operator.le,
+    "greaterThan": operator.gt,
+    "greaterThanOrEqual": operator.ge,
+    "equal": operator.eq,
+    "notEqual": operator.ne,
+}
 EVALUATED = frozenset(ARITHMETIC) | frozenset(COMPARISONS)
 
 

@@ -145,7 +145,9 @@ def parse_rules(text: str, filename: str = "<rules>") -> list[Rule]:
         elif stripped.startswith("["):
             entry = (number, [stripped])
         else:
-            raise HriplanError(f"{filename}:{number}: expected '# rationale' or '[rule_name] body -> head', got {stripped[:40]!r}")
+            raise HriplanError(
+                f"{filename}:{number}: expected '# rationale' or '[rule_name] body -> head', got {stripped[:40]!r}"
+            )
     if entry is not None:
         rules.append(_entry(entry, comments, filename))
     return rules
@@ -182,7 +184,9 @@ def _rule(name: str, rationale: str, text: str, source: str) -> Rule:
         raise HriplanError(f"{where}: built-ins belong in the body, not the head")
     unbound = set().union(*(a.variables() for a in head)) - set().union(*(a.variables() for a in body))
     if unbound:
-        raise HriplanError(f"{where}: head variables {', '.join('?' + v for v in sorted(unbound))} do not occur in the body")
+        raise HriplanError(
+            f"{where}: head variables {', '.join('?' + v for v in sorted(unbound))} do not occur in the body"
+        )
     return Rule(name, rationale, body, head, source)
 
 

@@ -23,9 +23,13 @@ from hriplan.ontology.facts import Facts, Value
 from hriplan.ontology.vocabulary import NAMESPACE, OntologySource
 
 DATA_TYPES: dict[str, tuple[type, ...]] = {
-    str(XSD.boolean): (bool,), str(XSD.string): (str,), str(XSD.integer): (int,),
-    str(XSD.decimal): (int, float), str(XSD.double): (int, float), str(XSD.float): (int, float),
-}  # fmt: skip
+    str(XSD.boolean): (bool,),
+    str(XSD.string): (str,),
+    str(XSD.integer): (int,),
+    str(XSD.decimal): (int, float),
+    str(XSD.double): (int, float),
+    str(XSD.float): (int, float),
+}
 
 
 @dataclass(eq=False)  # compared (and cached on) by identity: one per ontology version
@@ -158,7 +162,9 @@ class _Reader:
             values: dict[str, list[Value]] = {}
             for prop, value in graph.predicate_objects(individual):
                 if _own(prop) and _local(prop) in schema.object_properties | schema.data_properties:
-                    values.setdefault(_local(prop), []).append(_local(value) if isinstance(value, rdflib.URIRef) else _value(value))
+                    values.setdefault(_local(prop), []).append(
+                        _local(value) if isinstance(value, rdflib.URIRef) else _value(value)
+                    )
             facts.values[name] = values
         for subject, label in graph.subject_objects(RDFS.label):
             name = _local(subject) if _own(subject) else None

@@ -113,14 +113,18 @@ class Situation(BaseModel):
             if obj not in objects:
                 raise ValueError(f"task carries {obj!r}, which is not among the objects")
             if arm not in task.arms:
-                raise ValueError(f"{obj!r} is carried by arm {arm!r}, which the task does not use ({', '.join(task.arms)})")
+                raise ValueError(
+                    f"{obj!r} is carried by arm {arm!r}, which the task does not use ({', '.join(task.arms)})"
+                )
         if task.human is not None and task.human not in humans:
             raise ValueError(f"task human {task.human!r} is not among the humans")
         if task.target is not None and task.target not in objects:
             raise ValueError(f"task target {task.target!r} is not among the objects")
         for obj, target in task.targets.items():
             if obj not in task.carries or target not in objects:
-                raise ValueError(f"task targets: {obj!r} -> {target!r} needs a carried object and an object of the situation")
+                raise ValueError(
+                    f"task targets: {obj!r} -> {target!r} needs a carried object and an object of the situation"
+                )
         return self
 
     def object_names(self) -> set[str]:

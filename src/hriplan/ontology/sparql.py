@@ -29,7 +29,6 @@ from rdflib.plugins.sparql.sparql import Query
 from rdflib.query import Result
 
 from hriplan import HriplanError
-
 from hriplan.ontology.vocabulary import PREFIXES
 
 QueryFormat = Literal["table", "json", "csv", "turtle"]
@@ -54,18 +53,24 @@ class QueryTimeout(HriplanError):
 class QueryResult:
     """One query's answer: rows (SELECT), a boolean (ASK) or a graph (CONSTRUCT, DESCRIBE)."""
 
-    def __init__(self, result: Result, namespaces: rdflib.namespace.NamespaceManager, row_limit: int = QueryLimits().row_limit) -> None:
+    def __init__(
+        self, result: Result, namespaces: rdflib.namespace.NamespaceManager, row_limit: int = QueryLimits().row_limit
+    ) -> None:
         self._result = result
         self._namespaces = namespaces
         self.form: str = result.type
         self.variables: list[str] = [str(v) for v in result.vars or []] if self.form == "SELECT" else []
-        self.rows: list[tuple[rdflib.term.Node | None, ...]] = list(islice(result, row_limit + 1)) if self.form == "SELECT" else []
+        self.rows: list[tuple[rdflib.term.Node | None, ...]] = (
+            list(islice(result, row_limit + 1)) if self.form == "SELECT" else []
+        )
         self.answer: bool | None = bool(result.askAnswer) if self.form == "ASK" else None
         self.graph: rdflib.Graph | None = result.graph if self.form in ("CONSTRUCT", "DESCRIBE") else None
         size = len(self.rows) if self.graph is None else len(self.graph)
         if size > row_limit:
             unit = "rows" if self.graph is None else "triples"
-            raise HriplanError(f"the query answers more than {row_limit} {unit} (the row limit); add a LIMIT or narrow it")
+            raise HriplanError(
+                f"the query answers more than {row_limit} {unit} (the row limit); add a LIMIT or narrow it"
+            )
         if self.form == "SELECT":
             self._result.bindings = [dict(zip(result.vars, row)) for row in self.rows]  # serialize the rows kept
 
@@ -75,7 +80,9 @@ class QueryResult:
         if self.graph is not None:
             return self._render_graph(fmt)
         if fmt == "turtle":
-            raise HriplanError(f"turtle is for CONSTRUCT and DESCRIBE results; a {self.form} result renders as table, json or csv")
+            raise HriplanError(
+                f"turtle is for CONSTRUCT and DESCRIBE results; a {self.form} result renders as table, json or csv"
+            )
         if fmt == "json":
             return self._result.serialize(format="json").decode()
         if self.answer is not None:
@@ -100,7 +107,11 @@ class QueryResult:
         if syntax == "csv":
             return self.render("csv")
         header = ["?" + v for v in self.variables] if self.answer is None else ["?boolean"]
-        rows = [[t.n3() if t is not None else "" for t in row] for row in self.rows] if self.answer is None else [[str(self.answer).lower()]]
+        rows = (
+            [[t.n3() if t is not None else "" for t in row] for row in self.rows]
+            if self.answer is None
+            else [[str(self.answer).lower()]]
+        )
         return "\n".join("\t".join(line) for line in [header, *rows]) + "\n"
 
     def _render_graph(self, fmt: QueryFormat) -> str:
@@ -112,7 +123,11 @@ class QueryResult:
         if fmt == "json":
             return self.graph.serialize(format="json-ld")
         triples = sorted([self._short(t) for t in triple] for triple in self.graph)
-        return _csv([["subject", "predicate", "object"], *triples]) if fmt == "csv" else _table(["subject", "predicate", "object"], triples)
+        return (
+            _csv([["subject", "predicate", "object"], *triples])
+            if fmt == "csv"
+            else _table(["subject", "predicate", "object"], triples)
+        )
 
     def _short(self, term: rdflib.term.Node | None) -> str:
         if term is None:
@@ -131,7 +146,7 @@ def run_query(graph: rdflib.Graph, text: str, limits: QueryLimits | None = None)
         return QueryResult(guarded.query(query), graph.namespace_manager, limits.row_limit)
     except HriplanError:
         raise
-    except Exception as exc:  # noqa: BLE001 - evaluation errors come from deep inside rdflib
+    except Exception as exc:
         raise HriplanError(f"SPARQL query failed: {exc}") from None
 
 
@@ -145,7 +160,7 @@ def prepare_query(text: str) -> Query:
         if _is_update(text):
             raise HriplanError(UPDATES_REFUSED) from None
         raise HriplanError(f"SPARQL syntax error at line {exc.lineno}, column {exc.col}: {exc.msg}") from None
-    except Exception as exc:  # noqa: BLE001 - rdflib reports e.g. unknown prefixes with a bare Exception
+    except Exception as exc:
         raise HriplanError(f"invalid SPARQL query: {exc}") from None
     if query.algebra.get("datasetClause"):
         raise HriplanError("FROM and FROM NAMED are not supported: the dataset is fixed and nothing is fetched")
@@ -157,7 +172,7 @@ def prepare_query(text: str) -> Query:
 def _is_update(text: str) -> bool:
     try:
         parseUpdate(text)
-    except Exception:  # noqa: BLE001 - not an update either: the query's own syntax error stands
+    except Exception:
         return False
     return True
 
@@ -179,7 +194,7 @@ class _DeadlineGraph(rdflib.Graph):
         super().__init__(store=graph.store, identifier=graph.identifier, namespace_manager=graph.namespace_manager)
         self._deadline, self._time_limit = deadline, time_limit
 
-    def triples(self, triple, *args, **kwargs) -> Iterator:  # noqa: ANN001, ANN002, ANN003 - rdflib's signature
+    def triples(self, triple, *args, **kwargs) -> Iterator:
         for count, found in enumerate(super().triples(triple, *args, **kwargs)):
             if count % 256 == 0:
                 self._check()

@@ -75,6 +75,6 @@ def _parse(path: Path, digest: str) -> rdflib.Graph:
     graph = rdflib.Graph()
     try:
         graph.parse(path, format="turtle")
-    except Exception as exc:  # noqa: BLE001 - rdflib raises its parsers' own exception types
+    except Exception as exc:
         raise HriplanError(f"{path}: not valid Turtle: {str(exc).splitlines()[0]}") from None
     return graph

@@ -18,22 +18,21 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan import HriplanError
+from hriplan.planner.constraints.binding import BoundConstraint, bind, set_goal_positions
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.planner.constraints.keep_out import keep_out_obstacles
+from hriplan.planner.constraints.projection import project
+from hriplan.planner.constraints.slack import SlackRows
+from hriplan.planner.constraints.spec import Axis, ConstraintSpec
+from hriplan.planner.options import PlanOptions, check_options
+from hriplan.planner.search.arm_shortcut import arm_subgroups, straighten_arms
+from hriplan.planner.validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
 from hriplan.robots.collision import ZONE_NAMING, CollisionChecker, SeparationZones
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import JointValues, Robot
 from hriplan.robots.spatial import Pose
-
-from hriplan.planner.search.arm_shortcut import arm_subgroups, straighten_arms
-from hriplan.planner.constraints.evaluator import ConstraintEvaluator
-from hriplan.planner.constraints.keep_out import keep_out_obstacles
-from hriplan.planner.options import PlanOptions, check_options
-from hriplan.planner.constraints.projection import project
-from hriplan.planner.constraints.binding import BoundConstraint, bind, set_goal_positions
 from hriplan.safety.separation import SeparationPolicy
 from hriplan.safety.zones import separation_zones
-from hriplan.planner.constraints.slack import SlackRows
-from hriplan.planner.constraints.spec import Axis, ConstraintSpec
-from hriplan.planner.validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
 
 if TYPE_CHECKING:
     from hriplan.planner.search.cbirrt import BandProblem
@@ -44,7 +43,9 @@ PLANNING_MARGIN = 2e-3
 SPARSE_FIRST = 16
 # Dead-zone rows project this far inside a band, so a projected state is valid for planning.
 BAND_OFFSET = 2 * PLANNING_MARGIN
-Status = Literal["solved", "invalid_start", "invalid_goal", "unreachable_goal", "timeout", "invalid_path", "planner_error"]
+Status = Literal[
+    "solved", "invalid_start", "invalid_goal", "unreachable_goal", "timeout", "invalid_path", "planner_error"
+]
 
 
 class JointGoal(BaseModel):
@@ -87,7 +88,9 @@ class MotionResult(BaseModel):
 class _Problem:
     """The pieces one planning call shares: evaluator, checker and the validity policy."""
 
-    def __init__(self, robot: Robot, checker: CollisionChecker, bound: list[BoundConstraint], group: str, q: np.ndarray):
+    def __init__(
+        self, robot: Robot, checker: CollisionChecker, bound: list[BoundConstraint], group: str, q: np.ndarray
+    ):
         self.robot, self.checker, self.group = robot, checker, group
         self.evaluator = ConstraintEvaluator(robot, bound, group, q)
 
@@ -103,14 +106,14 @@ class _Problem:
         return ", ".join(f"{c.a} - {c.b}" for c in self.checker.contacts(self.evaluator.full(x)))
 
     def collision_message(self, what: str, x: np.ndarray) -> str:
-        """"start is in collision: ...", or, if only people's minimum separations are entered, that."""
+        """ "start is in collision: ...", or, if only people's minimum separations are entered, that."""
         contacts = self.checker.contacts(self.evaluator.full(x))
         listed = ", ".join(f"{c.a} - {c.b}" for c in contacts)
         if contacts and all(ZONE_NAMING in c.a + c.b for c in contacts):
             return f"{what} is inside a person's minimum separation of ISO/TS 15066 (the robot would have to stand still): {listed}"
         return f"{what} is in collision: {listed}"
 
-    def validity(self, limit: float):  # noqa: ANN201
+    def validity(self, limit: float):
         """State validity for planning: collision free and every margin <= limit."""
         evaluator, checker = self.evaluator, self.checker
         has_constraints = bool(evaluator.constraints)
@@ -125,7 +128,9 @@ class _Problem:
 
 
 @contextlib.contextmanager
-def with_keep_out(checker: CollisionChecker, bound: list[BoundConstraint], separation: SeparationZones | None = None) -> Iterator[None]:
+def with_keep_out(
+    checker: CollisionChecker, bound: list[BoundConstraint], separation: SeparationZones | None = None
+) -> Iterator[None]:
     """The checker with the keep-out zones of `bound` added as obstacles and the people's
     `separation` zones (separation_zones.py), for the block's duration (one build)."""
     zones = keep_out_obstacles(bound)
@@ -145,7 +150,9 @@ def _check_group(robot: Robot, bound: list[BoundConstraint], group: str) -> None
     for c in bound:
         outside = [j for j in c.spec.joints if j not in planned]
         if outside:
-            raise HriplanError(f"constraint {c.id!r} uses joints outside the planned group {group!r}: {', '.join(outside)}")
+            raise HriplanError(
+                f"constraint {c.id!r} uses joints outside the planned group {group!r}: {', '.join(outside)}"
+            )
 
 
 def plan_motion(
@@ -169,8 +176,13 @@ def plan_motion(
     bound = bind(constraints, robot, checker)
     _check_group(robot, bound, group)
     full_start = dict(zip(robot.joint_names, q_start.tolist()))
-    result = lambda status, message: MotionResult(status=status, message=message, group=group, joint_names=joint_names, start=full_start)  # noqa: E731
-    separation = None if safety is None or not checker.humans else separation_zones(checker, robot, safety, group, q_start)
+
+    def result(status: str, message: str) -> MotionResult:
+        return MotionResult(status=status, message=message, group=group, joint_names=joint_names, start=full_start)
+
+    separation = (
+        None if safety is None or not checker.humans else separation_zones(checker, robot, safety, group, q_start)
+    )
     with with_keep_out(checker, bound, separation):
         problem = _Problem(robot, checker, bound, group, q_start)
         x_start = robot.group_values(q_start, group)
@@ -184,14 +196,26 @@ def plan_motion(
         moved = 0.0
         if problem.describe_violations(x_start):
             if not options.project_start:
-                return result("invalid_start", f"start violates {problem.describe_violations(x_start)} (set project_start to move it onto the constraints)")
-            projected = project(x_start, lambda x: problem.evaluator.deadzone(x, PLANNING_MARGIN), lambda x: problem.evaluator.deadzone_jacobian(x, PLANNING_MARGIN))
+                return result(
+                    "invalid_start",
+                    f"start violates {problem.describe_violations(x_start)} (set project_start to move it onto the constraints)",
+                )
+            projected = project(
+                x_start,
+                lambda x: problem.evaluator.deadzone(x, PLANNING_MARGIN),
+                lambda x: problem.evaluator.deadzone_jacobian(x, PLANNING_MARGIN),
+            )
             if projected is None or checker.in_collision(problem.evaluator.full(projected)):
-                return result("invalid_start", f"start violates {problem.describe_violations(x_start)} and cannot be projected onto the constraints")
+                return result(
+                    "invalid_start",
+                    f"start violates {problem.describe_violations(x_start)} and cannot be projected onto the constraints",
+                )
             moved, x_start = float(np.abs(projected - x_start).max()), projected
         outcome = _search(problem, options, x_start, x_goal)
         planned_start = dict(zip(robot.joint_names, problem.evaluator.full(x_start).tolist()))
-        return outcome.model_copy(update={"group": group, "joint_names": joint_names, "start_moved": moved, "start": planned_start})
+        return outcome.model_copy(
+            update={"group": group, "joint_names": joint_names, "start_moved": moved, "start": planned_start}
+        )
 
 
 def _set_goal_positions(problem: _Problem, x_goal: np.ndarray) -> None:
@@ -203,13 +227,19 @@ def _resolve_goal(problem: _Problem, goal: Goal, x_start: np.ndarray) -> np.ndar
     blank = {"group": group, "joint_names": []}
     if isinstance(goal, JointGoal):
         base = problem.evaluator.full(x_start)
-        q_goal = robot.configuration(goal.values, base=base) if isinstance(goal.values, dict) else robot.configuration(goal.values, group, base=base)
+        q_goal = (
+            robot.configuration(goal.values, base=base)
+            if isinstance(goal.values, dict)
+            else robot.configuration(goal.values, group, base=base)
+        )
         x_goal = robot.group_values(q_goal, group)
         _set_goal_positions(problem, x_goal)
         if problem.checker.in_collision(q_goal):
             return MotionResult(status="invalid_goal", message=problem.collision_message("goal", x_goal), **blank)
         if problem.describe_violations(x_goal):
-            return MotionResult(status="invalid_goal", message=f"goal violates {problem.describe_violations(x_goal)}", **blank)
+            return MotionResult(
+                status="invalid_goal", message=f"goal violates {problem.describe_violations(x_goal)}", **blank
+            )
         return x_goal
     arm_group = robot.arm_group(goal.arm)
     if not set(robot.group_joints(arm_group)) <= set(robot.group_joints(group)):
@@ -223,19 +253,30 @@ def _resolve_goal(problem: _Problem, goal: Goal, x_start: np.ndarray) -> np.ndar
 
     def why_invalid(q: np.ndarray) -> list[str]:
         x = robot.group_values(q, group)
-        return [f"collides: {c.a} - {c.b}" for c in problem.checker.contacts(q)] + \
-            [f"violates {v.split(' by ')[0]}" for v in problem.describe_violations(x).split(", ") if v]
+        return [f"collides: {c.a} - {c.b}" for c in problem.checker.contacts(q)] + [
+            f"violates {v.split(' by ')[0]}" for v in problem.describe_violations(x).split(", ") if v
+        ]
 
-    ik = solve_ik(robot, goal.arm, goal.pose.matrix(), free_axes=goal.free_axes, base_q=base,
-                  reference=robot.group_values(base, arm_group), is_valid=valid, why_invalid=why_invalid)  # fmt: skip
+    ik = solve_ik(
+        robot,
+        goal.arm,
+        goal.pose.matrix(),
+        free_axes=goal.free_axes,
+        base_q=base,
+        reference=robot.group_values(base, arm_group),
+        is_valid=valid,
+        why_invalid=why_invalid,
+    )
     if not ik.success:
-        return MotionResult(status="unreachable_goal", message=f"no valid IK solution for the goal pose: {ik.message}", **blank)
+        return MotionResult(
+            status="unreachable_goal", message=f"no valid IK solution for the goal pose: {ik.message}", **blank
+        )
     x_goal = robot.group_values(robot.configuration(ik.q, arm_group, base=base), group)
     _set_goal_positions(problem, x_goal)
     return x_goal
 
 
-def _rows(problem: _Problem, options: PlanOptions):  # noqa: ANN202
+def _rows(problem: _Problem, options: PlanOptions):
     """(function, jacobian, count) for the manifold, or None to plan in the plain joint space."""
     evaluator = problem.evaluator
     if options.space == "rejection" or not evaluator.constraints:
@@ -243,13 +284,17 @@ def _rows(problem: _Problem, options: PlanOptions):  # noqa: ANN202
     if options.formulation == "slack":
         return None  # the slack rows live on an augmented space: see _solve
     if options.formulation == "deadzone":
-        return (lambda x: evaluator.deadzone(x, BAND_OFFSET), lambda x: evaluator.deadzone_jacobian(x, BAND_OFFSET), len(evaluator.constraints))
+        return (
+            lambda x: evaluator.deadzone(x, BAND_OFFSET),
+            lambda x: evaluator.deadzone_jacobian(x, BAND_OFFSET),
+            len(evaluator.constraints),
+        )
     if evaluator.n_equality == 0:
         return None
     return evaluator.equality, evaluator.equality_jacobian, evaluator.n_equality
 
 
-def _onto_manifold(problem: _Problem, rows, x: np.ndarray, step: float) -> np.ndarray | None:  # noqa: ANN001
+def _onto_manifold(problem: _Problem, rows, x: np.ndarray, step: float) -> np.ndarray | None:
     """Project an end onto the manifold if it is not on it; None if the move there is invalid."""
     if rows is None or np.abs(rows[0](x)).max(initial=0.0) <= 1e-6:
         return x
@@ -261,19 +306,29 @@ def _onto_manifold(problem: _Problem, rows, x: np.ndarray, step: float) -> np.nd
 
 def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal: np.ndarray) -> MotionResult:
     rows = _rows(problem, options)
-    inside = options.space != "rejection" and (options.formulation in ("hybrid", "slack") or options.planner == "CBiRRT")
+    inside = options.space != "rejection" and (
+        options.formulation in ("hybrid", "slack") or options.planner == "CBiRRT"
+    )
     limit = -PLANNING_MARGIN if inside else 0.0
     is_valid = problem.validity(limit)
     blank = {"group": problem.group, "joint_names": []}
     ends = [_onto_manifold(problem, rows, x, options.validation_step) for x in (x_start, x_goal)]
     if ends[0] is None:
-        return MotionResult(status="invalid_start", message="the start cannot be moved onto the constraint manifold validly", **blank)
+        return MotionResult(
+            status="invalid_start", message="the start cannot be moved onto the constraint manifold validly", **blank
+        )
     if ends[1] is None:
-        return MotionResult(status="invalid_goal", message="the goal cannot be moved onto the constraint manifold validly", **blank)
+        return MotionResult(
+            status="invalid_goal", message="the goal cannot be moved onto the constraint manifold validly", **blank
+        )
     for name, x in (("start", ends[0]), ("goal", ends[1])):
         if not is_valid(x):
             status = "invalid_start" if name == "start" else "invalid_goal"
-            reason = problem.describe_violations(x) or problem.describe_collisions(x) or f"within {PLANNING_MARGIN} of a constraint boundary"
+            reason = (
+                problem.describe_violations(x)
+                or problem.describe_collisions(x)
+                or f"within {PLANNING_MARGIN} of a constraint boundary"
+            )
             return MotionResult(status=status, message=f"{name} is not valid for planning: {reason}", **blank)
     started = time.perf_counter()
     last_message = ""
@@ -292,21 +347,45 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             if run.message.startswith("OMPL:"):
                 break
             continue
-        for states in [s for s in (run.states, run.unsimplified) if s]:  # if a shortcut cut a corner: the planner's own path
+        for states in [
+            s for s in (run.states, run.unsimplified) if s
+        ]:  # if a shortcut cut a corner: the planner's own path
             waypoints = _dedupe([x_start, *states, x_goal])
             validation = validate_path(problem.evaluator, problem.checker, waypoints, options.validation_step)
             if validation.valid:
                 waypoints, validation = _straighten_arms(problem, options, waypoints, validation, limit)
-                return MotionResult(status="solved", group=problem.group, joint_names=[], path=[w.tolist() for w in waypoints],
-                                    validation=validation, planning_time=time.perf_counter() - started, space=run.space, calls=calls)  # fmt: skip
+                return MotionResult(
+                    status="solved",
+                    group=problem.group,
+                    joint_names=[],
+                    path=[w.tolist() for w in waypoints],
+                    validation=validation,
+                    planning_time=time.perf_counter() - started,
+                    space=run.space,
+                    calls=calls,
+                )
             last_message = f"planner path failed dense validation ({validation.message}); re-planning"
-    status = "planner_error" if last_message.startswith("OMPL:") else "invalid_path" if "dense validation" in last_message else "timeout"
-    return MotionResult(status=status, message=last_message or "time limit reached", group=problem.group, joint_names=[],
-                        planning_time=time.perf_counter() - started, calls=calls, space=options.space)  # fmt: skip
+    status = (
+        "planner_error"
+        if last_message.startswith("OMPL:")
+        else "invalid_path"
+        if "dense validation" in last_message
+        else "timeout"
+    )
+    return MotionResult(
+        status=status,
+        message=last_message or "time limit reached",
+        group=problem.group,
+        joint_names=[],
+        planning_time=time.perf_counter() - started,
+        calls=calls,
+        space=options.space,
+    )
 
 
-def _straighten_arms(problem: _Problem, options: PlanOptions, waypoints: list[np.ndarray], validation: PathValidation,
-                     limit: float) -> tuple[list[np.ndarray], PathValidation]:  # fmt: skip
+def _straighten_arms(
+    problem: _Problem, options: PlanOptions, waypoints: list[np.ndarray], validation: PathValidation, limit: float
+) -> tuple[list[np.ndarray], PathValidation]:
     """Arm-wise shortcuts of a validated path (see arm_shortcut): an arm is straightened only if
     every dense state stays collision free with every margin <= `limit`, as planned states are."""
     arms = arm_subgroups(problem.robot, problem.group)
@@ -324,7 +403,9 @@ def _straighten_arms(problem: _Problem, options: PlanOptions, waypoints: list[np
     straightened = _dedupe(straightened)
     again = validate_path(problem.evaluator, problem.checker, straightened, options.validation_step)
     return (straightened, again) if again.valid else (waypoints, validation)
-def _solve(problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_valid, rows, attempt: int):  # noqa: ANN001, ANN202
+
+
+def _solve(problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_valid, rows, attempt: int):
     """One search (re-plan number `attempt`) by the chosen method: hriplan's CBiRRT, OMPL on slack
     variables, or OMPL. OMPL and the band planner load only when a motion is planned."""
     from hriplan.planner.search.ompl_solver import ompl_seed, solve_with_ompl
@@ -337,8 +418,15 @@ def _solve(problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_v
         return plan_in_bands(_band_problem(problem, options), ends[0], ends[1], options.time_limit, seed)
     if options.formulation == "slack" and options.space != "rejection" and problem.evaluator.constraints:
         slack, n = SlackRows(problem.evaluator), problem.evaluator.n
-        run = solve_with_ompl(options, slack.bounds(bounds), slack.lift(ends[0]), slack.lift(ends[1]),
-                              lambda xs: is_valid(xs[:n]), (slack.function, slack.jacobian, slack.k), attempt)  # fmt: skip
+        run = solve_with_ompl(
+            options,
+            slack.bounds(bounds),
+            slack.lift(ends[0]),
+            slack.lift(ends[1]),
+            lambda xs: is_valid(xs[:n]),
+            (slack.function, slack.jacobian, slack.k),
+            attempt,
+        )
         run.states = [s[:n] for s in run.states]
         run.unsimplified = [s[:n] for s in run.unsimplified]
         return run
@@ -349,8 +437,16 @@ def _band_problem(problem: _Problem, options: PlanOptions) -> BandProblem:
     from hriplan.planner.search.cbirrt import BandProblem
 
     evaluator, checker = problem.evaluator, problem.checker
-    return BandProblem(lambda x: evaluator.margins(evaluator.full(x)), evaluator.gradients, lambda x: not checker.in_collision(evaluator.full(x)),
-                       problem.robot.limits(problem.group), BAND_OFFSET, PLANNING_MARGIN, options.delta, bool(evaluator.constraints))  # fmt: skip
+    return BandProblem(
+        lambda x: evaluator.margins(evaluator.full(x)),
+        evaluator.gradients,
+        lambda x: not checker.in_collision(evaluator.full(x)),
+        problem.robot.limits(problem.group),
+        BAND_OFFSET,
+        PLANNING_MARGIN,
+        options.delta,
+        bool(evaluator.constraints),
+    )
 
 
 def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:

@@ -8,14 +8,35 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hriplan import HriplanError
 
-from hriplan import HriplanError
-
 PLANNERS = (
-    "CBiRRT", "RRTConnect", "RRT", "BKPIECE1", "KPIECE1", "LBKPIECE1", "PRM", "PRMstar", "RRTstar",
-    "BITstar", "AORRTC", "FMT", "BFMT", "InformedRRTstar", "SORRTstar",
-)  # fmt: skip
+    "CBiRRT",
+    "RRTConnect",
+    "RRT",
+    "BKPIECE1",
+    "KPIECE1",
+    "LBKPIECE1",
+    "PRM",
+    "PRMstar",
+    "RRTstar",
+    "BITstar",
+    "AORRTC",
+    "FMT",
+    "BFMT",
+    "InformedRRTstar",
+    "SORRTstar",
+)
 # Planners with a range (maximum motion length) setting; on the others `range` would be ignored.
-RANGED_PLANNERS = ("RRTConnect", "RRT", "BKPIECE1", "KPIECE1", "LBKPIECE1", "RRTstar", "AORRTC", "InformedRRTstar", "SORRTstar")
+RANGED_PLANNERS = (
+    "RRTConnect",
+    "RRT",
+    "BKPIECE1",
+    "KPIECE1",
+    "LBKPIECE1",
+    "RRTstar",
+    "AORRTC",
+    "InformedRRTstar",
+    "SORRTstar",
+)
 Space = Literal["atlas", "tangent_bundle", "projected", "rejection"]
 Formulation = Literal["hybrid", "deadzone", "slack"]
 
@@ -74,11 +95,15 @@ def option_conflict(options: PlanOptions) -> str | None:
     """Why these options cannot work together (one line), or None. The one place that knows:
     PlanOptions validates with it, and `check_options` re-checks copies made with model_copy."""
     if options.planner == "CBiRRT" and (options.space, options.formulation) != ("projected", "deadzone"):
-        return (f"planner CBiRRT plans with space 'projected' and formulation 'deadzone', not {options.space!r} and "
-                f"{options.formulation!r}; choose an OMPL planner (e.g. RRTConnect) for those")  # fmt: skip
+        return (
+            f"planner CBiRRT plans with space 'projected' and formulation 'deadzone', not {options.space!r} and "
+            f"{options.formulation!r}; choose an OMPL planner (e.g. RRTConnect) for those"
+        )
     if options.formulation == "deadzone" and options.space in ("atlas", "tangent_bundle"):
-        return (f"the deadzone formulation cannot be planned on the {options.space} space (its rows have no tangent "
-                "space inside a band to chart); use space 'projected', or formulation 'hybrid' or 'slack'")  # fmt: skip
+        return (
+            f"the deadzone formulation cannot be planned on the {options.space} space (its rows have no tangent "
+            "space inside a band to chart); use space 'projected', or formulation 'hybrid' or 'slack'"
+        )
     if options.formulation == "slack" and options.space == "projected":
         return "formulation 'slack' is for the atlas and tangent_bundle spaces; use 'deadzone' on the projected space"
     if options.range is not None and options.planner not in RANGED_PLANNERS:

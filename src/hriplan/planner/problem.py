@@ -11,11 +11,10 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan.files import load_model
-from hriplan.robots.scene import Scene
-
+from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.planner.motion import Goal
 from hriplan.planner.options import PlanOptions
-from hriplan.planner.constraints.spec import ConstraintSet
+from hriplan.robots.scene import Scene
 
 
 class PlanningProblem(BaseModel):

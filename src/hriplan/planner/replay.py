@@ -13,15 +13,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from hriplan import HriplanError
-from hriplan.safety.approach import ApproachMonitor
+from hriplan.planner.constraints.binding import BoundConstraint, bind, set_goal_positions
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.motion import with_keep_out
-from hriplan.planner.constraints.binding import BoundConstraint, bind, set_goal_positions
-from hriplan.safety.separation import SPEED_LIMIT_SLACK, SeparationPolicy
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.planner.validate import PathValidation, validate_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot, load_robot
+from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.separation import SPEED_LIMIT_SLACK, SeparationPolicy
 
 
 @dataclass(frozen=True)
@@ -111,12 +111,20 @@ class PlannedWorld:
             return SpeedCheck(kept=False, message=str(exc))
         k = int(np.argmin(scales))
         if scales[k] >= 1.0 - SPEED_LIMIT_SLACK:
-            return SpeedCheck(kept=True, message=f"at most {1 / scales[k]:.0%} of the speed allowed towards anyone"
-                              if np.isfinite(scales[k]) else "no moving part approaches a person")  # fmt: skip
+            return SpeedCheck(
+                kept=True,
+                message=f"at most {1 / scales[k]:.0%} of the speed allowed towards anyone"
+                if np.isfinite(scales[k])
+                else "no moving part approaches a person",
+            )
         sample = min(monitor.samples(self.positions[k], velocities[k]), key=lambda s: s.scale)  # the person who binds
-        return SpeedCheck(kept=False, message=(
-            f"{1 / scales[k]:.2f}x the speed allowed towards {sample.capsule} ({sample.part}, {sample.separation:.3f} m away) "
-            f"at t={self.times[k]:.2f} s"))  # fmt: skip
+        return SpeedCheck(
+            kept=False,
+            message=(
+                f"{1 / scales[k]:.2f}x the speed allowed towards {sample.capsule} ({sample.part}, {sample.separation:.3f} m away) "
+                f"at t={self.times[k]:.2f} s"
+            ),
+        )
 
     def validate(self, step: float = 0.01) -> PathValidation:
         """Dense validation of the timed points, as the planner validated its path."""

@@ -17,24 +17,23 @@ import numpy as np
 from pydantic import BaseModel, model_validator
 
 from hriplan import HriplanError
+from hriplan.planner.constraints.binding import bind, set_goal_positions
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec
+from hriplan.planner.motion import Goal, MotionResult, Status, plan_motion, with_keep_out
+from hriplan.planner.options import PlanOptions
+from hriplan.planner.search.ompl_solver import ompl_seed
+from hriplan.planner.separation_report import separation_report
+from hriplan.planner.timing import time_parameterize
+from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
+from hriplan.planner.validate import densify, validate_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.model import JointValues, Robot, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
-
 from hriplan.safety.approach import ApproachMonitor
-from hriplan.planner.constraints.evaluator import ConstraintEvaluator
-from hriplan.planner.motion import Goal, MotionResult, Status, plan_motion, with_keep_out
-from hriplan.planner.search.ompl_solver import ompl_seed
-from hriplan.planner.options import PlanOptions
-from hriplan.planner.constraints.binding import bind, set_goal_positions
 from hriplan.safety.separation import SeparationPolicy
-from hriplan.planner.separation_report import separation_report
-from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec
-from hriplan.planner.timing import time_parameterize
-from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
-from hriplan.planner.validate import densify, validate_path
 
 # Knot spacing handed to the time parameteriser, then a denser retry if re-validation fails.
 TIMING_STEPS = (0.05, 0.01)
@@ -73,7 +72,9 @@ class PlanResult(BaseModel):
 class PlanningSession:
     """A robot in a scene, ready to plan constrained motions again and again."""
 
-    def __init__(self, robot: str | Robot = "madar", scene: Scene | None = None, hands: dict[str, str] | None = None) -> None:
+    def __init__(
+        self, robot: str | Robot = "madar", scene: Scene | None = None, hands: dict[str, str] | None = None
+    ) -> None:
         self.robot = robot if isinstance(robot, Robot) else load_robot(robot, hands)
         self.checker = CollisionChecker(self.robot, scene or Scene())
         self.constraints: dict[str, ConstraintSpec] = {}
@@ -101,8 +102,14 @@ class PlanningSession:
         self.constraints[constraint_id] = type(spec).model_validate({**spec.model_dump(), **changes})
 
     # -- planning ------------------------------------------------------------------------
-    def plan(self, start: JointValues, goal: Goal, options: PlanOptions | None = None, group: str | None = None,
-             safety: SeparationPolicy | None = None) -> PlanResult:  # fmt: skip
+    def plan(
+        self,
+        start: JointValues,
+        goal: Goal,
+        options: PlanOptions | None = None,
+        group: str | None = None,
+        safety: SeparationPolicy | None = None,
+    ) -> PlanResult:
         """Plan, validate densely, time-parameterise and re-validate the timed path.
 
         With `safety`, the motion is timed to keep ISO/TS 15066 speed and separation from the
@@ -113,14 +120,22 @@ class PlanningSession:
             remaining = options.time_limit - (perf_counter() - started)
             if retry and remaining <= 0.0:
                 break
-            run = options if retry == 0 else options.model_copy(update={"time_limit": remaining, "seed": _retry_seed(options.seed, retry)})
-            motion = plan_motion(self.robot, self.checker, list(self.constraints.values()), start, goal, run, group, safety)
+            run = (
+                options
+                if retry == 0
+                else options.model_copy(update={"time_limit": remaining, "seed": _retry_seed(options.seed, retry)})
+            )
+            motion = plan_motion(
+                self.robot, self.checker, list(self.constraints.values()), start, goal, run, group, safety
+            )
             result = self.time(motion, options, safety)
             if result.status != "timing_failed":
                 break
         return result
 
-    def time(self, motion: MotionResult, options: PlanOptions | None = None, safety: SeparationPolicy | None = None) -> PlanResult:
+    def time(
+        self, motion: MotionResult, options: PlanOptions | None = None, safety: SeparationPolicy | None = None
+    ) -> PlanResult:
         """Time a planned motion and validate the timed samples against the session's constraints
         and scene, every joint outside the planned group at the motion's start. With `safety`,
         the timing keeps ISO/TS 15066 speed and separation from the scene's people."""
@@ -129,14 +144,20 @@ class PlanningSession:
             return PlanResult(status=motion.status, motion=motion, message=motion.message)
         missing = [j for j in self.robot.joint_names if j not in motion.start]
         if missing:
-            raise HriplanError(f"the motion's start does not give every joint of {self.robot.name!r} (missing {missing[0]!r})")
+            raise HriplanError(
+                f"the motion's start does not give every joint of {self.robot.name!r} (missing {missing[0]!r})"
+            )
         bound = bind(list(self.constraints.values()), self.robot, self.checker)
         path = np.array(motion.path)
         q0 = self.robot.configuration(motion.start)
         evaluator = ConstraintEvaluator(self.robot, bound, motion.group, q0)
         set_goal_positions(self.robot, bound, evaluator.full(path[-1]))
         scene = self.checker.scene
-        monitor = None if safety is None or not scene.humans else ApproachMonitor(self.robot, self.checker, safety, motion.group, q0)
+        monitor = (
+            None
+            if safety is None or not scene.humans
+            else ApproachMonitor(self.robot, self.checker, safety, motion.group, q0)
+        )
         with with_keep_out(self.checker, bound):
             timed, check, message = self._time_and_check(path, evaluator, motion.group, options, monitor)
         if timed is None:
@@ -147,8 +168,14 @@ class PlanningSession:
             trajectory = trajectory.model_copy(update={"report": report})
         return PlanResult(status="solved", motion=motion, trajectory=trajectory)
 
-    def _time_and_check(self, path: np.ndarray, evaluator: ConstraintEvaluator, group: str, options: PlanOptions,
-                        monitor: ApproachMonitor | None = None):  # noqa: ANN202 fmt: skip
+    def _time_and_check(
+        self,
+        path: np.ndarray,
+        evaluator: ConstraintEvaluator,
+        group: str,
+        options: PlanOptions,
+        monitor: ApproachMonitor | None = None,
+    ):
         """TOPP-RA on the validated path (slowed near people by `monitor`), then dense validation."""
         velocity = self.robot.velocity_limit(group)
         acceleration = np.full(len(velocity), options.acceleration_limit)
@@ -156,18 +183,25 @@ class PlanningSession:
         for step in TIMING_STEPS:
             knots = densify(list(path), step)
             try:
-                timed = time_parameterize(knots, velocity, acceleration, velocity_scale=options.velocity_scale,
-                                          speed_scale=None if monitor is None else monitor.speed_scale)  # fmt: skip
+                timed = time_parameterize(
+                    knots,
+                    velocity,
+                    acceleration,
+                    velocity_scale=options.velocity_scale,
+                    speed_scale=None if monitor is None else monitor.speed_scale,
+                )
             except HriplanError as exc:
                 message = str(exc)
                 continue
-            check = validate_path(evaluator, self.checker, np.array(timed.positions), options.validation_step, human_distance=True)
+            check = validate_path(
+                evaluator, self.checker, np.array(timed.positions), options.validation_step, human_distance=True
+            )
             if check.valid:
                 return timed, check, ""
             message = f"the timed trajectory left the validated path: {check.message}"
         return None, None, message
 
-    def _file(self, motion, bound, timed, check, options, scene, q0) -> TrajectoryFile:  # noqa: ANN001
+    def _file(self, motion, bound, timed, check, options, scene, q0) -> TrajectoryFile:
         path = np.array(motion.path)
         report = TrajectoryReport(
             status="solved",
@@ -189,10 +223,21 @@ class PlanningSession:
             for t, p, v, a in zip(timed.times, timed.positions, timed.velocities, timed.accelerations)
         ]
         constraints = [
-            ResolvedConstraint(spec=c.spec, frame_in_world=Pose.from_se3(c.frame),
-                               goal_position=None if c.p_goal is None else c.p_goal.tolist())  # fmt: skip
+            ResolvedConstraint(
+                spec=c.spec,
+                frame_in_world=Pose.from_se3(c.frame),
+                goal_position=None if c.p_goal is None else c.p_goal.tolist(),
+            )
             for c in bound
         ]
         start = dict(zip(self.robot.joint_names, q0.tolist()))
-        return TrajectoryFile(robot=self.robot.name, hands=self.robot.hand_postures, joint_names=motion.joint_names, start=start,
-                              scene=self.checker.scene, points=points, constraints=constraints, report=report)  # fmt: skip
+        return TrajectoryFile(
+            robot=self.robot.name,
+            hands=self.robot.hand_postures,
+            joint_names=motion.joint_names,
+            start=start,
+            scene=self.checker.scene,
+            points=points,
+            constraints=constraints,
+            report=report,
+        )

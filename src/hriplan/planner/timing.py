@@ -20,7 +20,6 @@ import toppra.constraint
 from pydantic import BaseModel, ConfigDict
 
 from hriplan import HriplanError
-
 from hriplan.safety.separation import SPEED_LIMIT_SLACK
 
 # TOPP-RA logs every solve at INFO and a failure at WARNING; we report failures ourselves.
@@ -140,7 +139,9 @@ def time_parameterize(
     )
 
 
-def _path_speed_limit(path: toppra.SplineInterpolator, s: np.ndarray, speed_scale: SpeedScale) -> tuple[np.ndarray, np.ndarray]:
+def _path_speed_limit(
+    path: toppra.SplineInterpolator, s: np.ndarray, speed_scale: SpeedScale
+) -> tuple[np.ndarray, np.ndarray]:
     """(arc lengths, path-speed limit there), sampled every _SPEED_LIMIT_SPACING along the path."""
     at = np.linspace(s[0], s[-1], int(np.ceil((s[-1] - s[0]) / _SPEED_LIMIT_SPACING)) + 1)
     return at, np.asarray(speed_scale(path(at), path(at, 1)), dtype=float)
@@ -152,7 +153,7 @@ def _retimed(
     vmax: np.ndarray,
     amax: np.ndarray,
     limit: tuple[tuple[np.ndarray, np.ndarray], float] | None,
-):  # noqa: ANN202 - toppra's trajectory type is not public
+):
     """TOPP-RA under the joint limits (and a path-speed limit times a factor), grid refined."""
     constraints = [
         toppra.constraint.JointVelocityConstraint(vmax),
@@ -162,7 +163,9 @@ def _retimed(
     ]
     if limit is not None:
         (at, sd_max), factor = limit
-        constraints.append(toppra.constraint.JointVelocityConstraintVarying(_varying_limits(path, vmax, at, factor * sd_max)))
+        constraints.append(
+            toppra.constraint.JointVelocityConstraintVarying(_varying_limits(path, vmax, at, factor * sd_max))
+        )
     grid = _gridpoints(path, s, vmax, amax)
     for refinement in range(_REFINEMENTS + 1):
         algorithm = toppra.algorithm.TOPPRA(
@@ -185,7 +188,7 @@ def _retimed(
     return trajectory
 
 
-def _varying_limits(path: toppra.SplineInterpolator, vmax: np.ndarray, at: np.ndarray, sd_max: np.ndarray):  # noqa: ANN202
+def _varying_limits(path: toppra.SplineInterpolator, vmax: np.ndarray, at: np.ndarray, sd_max: np.ndarray):
     """TOPP-RA's vlim(s): joint j within |q'_j(s)| times the smallest path-speed limit within a
     grid spacing of s (so the limit holds between gridpoints too), and within vmax_j. The 1e-9
     keeps joints with q'_j ~ 0 feasible; the joint with the largest |q'_j| binds the path speed."""
@@ -261,9 +264,7 @@ def _deviation(path: toppra.SplineInterpolator, s: np.ndarray, knots: np.ndarray
     return float(np.max(np.abs(path(at.ravel()).reshape(linear.shape) - linear)))
 
 
-def _gridpoints(
-    path: toppra.SplineInterpolator, s: np.ndarray, vmax: np.ndarray, amax: np.ndarray
-) -> np.ndarray:
+def _gridpoints(path: toppra.SplineInterpolator, s: np.ndarray, vmax: np.ndarray, amax: np.ndarray) -> np.ndarray:
     """Initial TOPP-RA gridpoints, placed so that `_overshooting` rarely finds anything to refine.
 
     Between gridpoints TOPP-RA keeps the path acceleration u constant and x = sd^2 linear in s.

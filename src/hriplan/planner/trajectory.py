@@ -13,10 +13,9 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hriplan.files import load_model
+from hriplan.planner.constraints.spec import ConstraintSpec
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
-
-from hriplan.planner.constraints.spec import ConstraintSpec
 
 SCHEMA = "hriplan.trajectory"
 SCHEMA_VERSION = 1
@@ -97,7 +96,7 @@ class TrajectoryFile(BaseModel):
     report: TrajectoryReport
 
     @model_validator(mode="after")
-    def _a_motion(self) -> "TrajectoryFile":
+    def _a_motion(self) -> TrajectoryFile:
         """At least two points, one value per joint each, times from 0 strictly increasing."""
         if len(self.points) < 2:
             raise ValueError(f"a trajectory needs at least 2 points, got {len(self.points)}")
@@ -109,8 +108,10 @@ class TrajectoryFile(BaseModel):
             raise ValueError(f"points.0: time_from_start is {self.points[0].time_from_start}, a trajectory starts at 0")
         for k in range(1, len(self.points)):
             if self.points[k].time_from_start <= self.points[k - 1].time_from_start:
-                raise ValueError(f"points.{k}: time_from_start {self.points[k].time_from_start} does not come after "
-                                 f"{self.points[k - 1].time_from_start} (times must increase)")  # fmt: skip
+                raise ValueError(
+                    f"points.{k}: time_from_start {self.points[k].time_from_start} does not come after "
+                    f"{self.points[k - 1].time_from_start} (times must increase)"
+                )
         return self
 
     def save(self, path: str | Path) -> None:

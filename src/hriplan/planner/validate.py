@@ -12,9 +12,8 @@ from collections.abc import Sequence
 import numpy as np
 from pydantic import BaseModel
 
-from hriplan.robots.collision import CollisionChecker
-
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.robots.collision import CollisionChecker
 
 VALIDATION_TOLERANCE = 1e-4
 DISTANCE_SAMPLES = 150
@@ -70,7 +69,11 @@ def validate_path(
         ConstraintCheck(id=c.id, max_violation=float(w), satisfied=bool(w <= VALIDATION_TOLERANCE))
         for c, w in zip(evaluator.constraints, worst)
     ]
-    sample = dense[np.unique(np.linspace(0, len(dense) - 1, min(len(dense), DISTANCE_SAMPLES)).astype(int))] if human_distance else []
+    sample = (
+        dense[np.unique(np.linspace(0, len(dense) - 1, min(len(dense), DISTANCE_SAMPLES)).astype(int))]
+        if human_distance
+        else []
+    )
     distances = [checker.human_distance(evaluator.full(x)) for x in sample]
     best = min(distances, key=lambda d: d[0]) if distances else (float("inf"), "", "")
     violated = [c.id for c in checks if not c.satisfied]

@@ -38,7 +38,10 @@ def _key(robot: Robot, parts: tuple[RobotPart, ...], samples: int) -> str:
 
 def _shape_key(geometry: object) -> tuple:
     attrs = ("radius", "halfLength", "halfSide")
-    return (type(geometry).__name__, *(np.round(np.atleast_1d(getattr(geometry, a)), 6).tolist() for a in attrs if hasattr(geometry, a)))
+    return (
+        type(geometry).__name__,
+        *(np.round(np.atleast_1d(getattr(geometry, a)), 6).tolist() for a in attrs if hasattr(geometry, a)),
+    )
 
 
 def adjacent(robot: Robot, a: RobotPart, b: RobotPart) -> bool:
@@ -56,7 +59,9 @@ def two_apart(robot: Robot, a: RobotPart, b: RobotPart) -> bool:
     return parents.get(parents.get(a.link, "")) == b.link or parents.get(parents.get(b.link, "")) == a.link
 
 
-def compute_acm(robot: Robot, parts: tuple[RobotPart, ...], samples: int = DEFAULT_SAMPLES, seed: int = 0) -> dict[str, str]:
+def compute_acm(
+    robot: Robot, parts: tuple[RobotPart, ...], samples: int = DEFAULT_SAMPLES, seed: int = 0
+) -> dict[str, str]:
     """Pairs not checked on their fitted parts, as {"a|b": reason}: adjacent, never or mesh."""
     disabled: dict[str, str] = {}
     geom_model = pin.GeometryModel()

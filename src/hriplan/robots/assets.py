@@ -25,4 +25,4 @@ def asset(relative: str) -> Path:
 def resolve_package_uri(uri: str) -> str:
     """Turn `package://example-robot-data/robots/X` into an absolute path."""
     prefix = "package://example-robot-data/robots/"
-    return str(asset(uri[len(prefix):])) if uri.startswith(prefix) else uri
+    return str(asset(uri[len(prefix) :])) if uri.startswith(prefix) else uri

@@ -19,7 +19,9 @@ def frame_with_z(axis: np.ndarray) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def _capsule_along(pts: np.ndarray, centre: np.ndarray, axis: np.ndarray, padding: float) -> tuple[float, float, pin.SE3]:
+def _capsule_along(
+    pts: np.ndarray, centre: np.ndarray, axis: np.ndarray, padding: float
+) -> tuple[float, float, pin.SE3]:
     rot = frame_with_z(axis)
     local = (pts - centre) @ rot
     across = (local[:, :2].min(axis=0) + local[:, :2].max(axis=0)) / 2.0

@@ -18,14 +18,12 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan import HriplanError
-
 from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import Robot
 from hriplan.robots.robot_geometry import part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
-
 
 # How a separation zone is named in contacts and messages: "bob/left_upperleg (minimum separation 0.225 m)".
 ZONE_NAMING = "minimum separation"
@@ -60,8 +58,23 @@ class PersonPairs:
 
 
 # What a build of the scene sets, remembered for the last few builds.
-_BUILT = ("kind", "_touched_by", "_resting", "_human_slots", "humans", "_zone_slots", "geom_model", "geom_data", "_broadphase",
-          "_fixed_contacts", "_index", "_distance_model", "_distance_data", "_distance_slots", "_person_models")
+_BUILT = (
+    "kind",
+    "_touched_by",
+    "_resting",
+    "_human_slots",
+    "humans",
+    "_zone_slots",
+    "geom_model",
+    "geom_data",
+    "_broadphase",
+    "_fixed_contacts",
+    "_index",
+    "_distance_model",
+    "_distance_data",
+    "_distance_slots",
+    "_person_models",
+)
 _REMEMBERED_BUILDS = 8
 
 
@@ -85,7 +98,9 @@ class CollisionChecker:
     def _robot_objects(self) -> list[tuple[pin.GeometryObject, str]]:
         """The robot's parts, then the URDF shapes of the parts the ACM checks on meshes: the
         same in every scene, so built once (with their kinds)."""
-        objects = [(pin.GeometryObject(part.name, part.joint, part.placement, part.geometry), "robot") for part in self.parts]
+        objects = [
+            (pin.GeometryObject(part.name, part.joint, part.placement, part.geometry), "robot") for part in self.parts
+        ]
         meshed = {name for pair, reason in self.acm.items() if reason == MESH for name in pair.split("|")}
         for part in self.parts:
             if part.name in meshed:
@@ -108,8 +123,15 @@ class CollisionChecker:
     def _build(self) -> None:
         """The geometry and pairs of the scene and zones, or the remembered ones of an earlier build
         (planning adds and removes keep-out and separation zones around every call)."""
-        key = (self.scene.model_dump_json(), None if self.zones is None else
-               (sorted(self.zones.moving_joints), sorted((p, sorted(d.items())) for p, d in self.zones.distances.items())))  # fmt: skip
+        key = (
+            self.scene.model_dump_json(),
+            None
+            if self.zones is None
+            else (
+                sorted(self.zones.moving_joints),
+                sorted((p, sorted(d.items())) for p, d in self.zones.distances.items()),
+            ),
+        )
         key = repr(key)
         if key in self._builds:
             vars(self).update(self._builds.pop(key))
@@ -141,7 +163,11 @@ class CollisionChecker:
             gm.addGeometryObject(pin.GeometryObject(obstacle.name, 0, obstacle.pose.se3(), obstacle.shape.geometry()))
             self.kind.append("obstacle")
         self._human_slots: dict[str, list[int]] = {}
-        kept = {h.name: self.humans[h.name] for h in scene.humans if h.name in self.humans and self.humans[h.name].spec.height == h.height}
+        kept = {
+            h.name: self.humans[h.name]
+            for h in scene.humans
+            if h.name in self.humans and self.humans[h.name].spec.height == h.height
+        }
         self.humans = {}
         for spec in scene.humans:
             human = kept.get(spec.name) or Human(spec)
@@ -150,7 +176,9 @@ class CollisionChecker:
             slots = []
             for capsule, placement in zip(human.capsules, human.capsule_placements()):
                 geometry = coal.Capsule(capsule.radius + spec.margin, capsule.length)
-                slots.append(gm.addGeometryObject(pin.GeometryObject(f"{spec.name}/{capsule.name}", 0, placement, geometry)))
+                slots.append(
+                    gm.addGeometryObject(pin.GeometryObject(f"{spec.name}/{capsule.name}", 0, placement, geometry))
+                )
                 self.kind.append("human")
             self._human_slots[spec.name] = slots
         self._zone_slots = self._add_zones(gm)
@@ -202,18 +230,27 @@ class CollisionChecker:
         """Per person: robot parts and carried objects against the person's bare capsules (no
         margin: separation is measured to the body), for speed and separation monitoring."""
         movers = [i for i, k in enumerate(self.kind) if k == "robot" or k.startswith("attached:")]
-        self._person_models: dict[str, tuple[pin.GeometryModel, pin.GeometryData, list[str], np.ndarray, list[str]]] = {}
+        self._person_models: dict[
+            str, tuple[pin.GeometryModel, pin.GeometryData, list[str], np.ndarray, list[str]]
+        ] = {}
         for name, human in self.humans.items():
             pm = pin.GeometryModel()
             for i in movers:
                 pm.addGeometryObject(pin.GeometryObject(self.geom_model.geometryObjects[i]))
             for capsule, placement in zip(human.capsules, human.capsule_placements()):
-                k = pm.addGeometryObject(pin.GeometryObject(capsule.name, 0, placement, coal.Capsule(capsule.radius, capsule.length)))
+                k = pm.addGeometryObject(
+                    pin.GeometryObject(capsule.name, 0, placement, coal.Capsule(capsule.radius, capsule.length))
+                )
                 for a in range(len(movers)):
                     pm.addCollisionPair(pin.CollisionPair(a, k))
             objects, pairs = pm.geometryObjects, pm.collisionPairs
-            self._person_models[name] = (pm, pm.createData(), [objects[p.first].name for p in pairs],
-                                         np.array([objects[p.first].parentJoint for p in pairs]), [objects[p.second].name for p in pairs])  # fmt: skip
+            self._person_models[name] = (
+                pm,
+                pm.createData(),
+                [objects[p.first].name for p in pairs],
+                np.array([objects[p.first].parentJoint for p in pairs]),
+                [objects[p.second].name for p in pairs],
+            )
 
     def _checked(self, i: int, j: int) -> bool:
         ki, kj = self.kind[i], self.kind[j]
@@ -239,7 +276,11 @@ class CollisionChecker:
                 continue
             # A carried object touches its own hand and wrist by design, and so does an object
             # the hand is closing on.
-            arm = k.split(":", 1)[1] if k.startswith("attached:") else self._touched_by.get(self.geom_model.geometryObjects[this].name)
+            arm = (
+                k.split(":", 1)[1]
+                if k.startswith("attached:")
+                else self._touched_by.get(self.geom_model.geometryObjects[this].name)
+            )
             if arm is not None:
                 return not self._on_hand(other, arm)
         return True
@@ -281,7 +322,9 @@ class CollisionChecker:
         where = coal.Transform3s(other.placement.rotation, other.placement.translation)
         for shape in part_collision_shapes(self.robot, self.parts[part]):
             placement = coal.Transform3s(shape.placement.rotation, shape.placement.translation)
-            if coal.collide(shape.geometry, placement, other.geometry, where, coal.CollisionRequest(), coal.CollisionResult()):
+            if coal.collide(
+                shape.geometry, placement, other.geometry, where, coal.CollisionRequest(), coal.CollisionResult()
+            ):
                 self._fixed_contacts.add((part, obstacle))
                 return True
         return False
@@ -293,7 +336,13 @@ class CollisionChecker:
             raise HriplanError(f"the scene has no obstacle {name!r}")
         self._builds.clear()  # the current build changes in place
         self.geom_model.geometryObjects[i].placement = pose.se3()
-        self.scene = self.scene.model_copy(update={"obstacles": [o.model_copy(update={"pose": pose}) if o.name == name else o for o in self.scene.obstacles]})
+        self.scene = self.scene.model_copy(
+            update={
+                "obstacles": [
+                    o.model_copy(update={"pose": pose}) if o.name == name else o for o in self.scene.obstacles
+                ]
+            }
+        )
         fixed = [p for p, part in enumerate(self.parts) if part.joint == 0]
         before = {p for p, o in self._fixed_contacts if o == i}
         self._fixed_contacts -= {(p, i) for p in before}
@@ -308,7 +357,9 @@ class CollisionChecker:
         self._people_models.clear()
         human = self.humans[spec.name]
         human.pose(spec)
-        self.scene = self.scene.model_copy(update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]})
+        self.scene = self.scene.model_copy(
+            update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]}
+        )
         for slot, placement in zip(self._human_slots[spec.name], human.capsule_placements()):
             self.geom_model.geometryObjects[slot].placement = placement
             self._distance_model.geometryObjects[self._distance_slots[slot]].placement = placement

@@ -18,17 +18,29 @@ from example_robot_data.human import HumanLoader
 from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan import HriplanError
-
 from hriplan.robots.assets import resolve_package_uri
 from hriplan.robots.bounding import fit_box, fit_capsule
 from hriplan.robots.fit_cache import cached_fit, se3, se3_data
 
 Side = Literal["left", "right"]
 SEGMENTS = (
-    "middle_pelvis", "middle_abdomen", "middle_thorax", "middle_head",
-    "left_upperarm", "left_lowerarm", "left_hand", "right_upperarm", "right_lowerarm", "right_hand",
-    "left_upperleg", "left_lowerleg", "left_foot", "right_upperleg", "right_lowerleg", "right_foot",
-)  # fmt: skip
+    "middle_pelvis",
+    "middle_abdomen",
+    "middle_thorax",
+    "middle_head",
+    "left_upperarm",
+    "left_lowerarm",
+    "left_hand",
+    "right_upperarm",
+    "right_lowerarm",
+    "right_hand",
+    "left_upperleg",
+    "left_lowerleg",
+    "left_foot",
+    "right_upperleg",
+    "right_lowerleg",
+    "right_foot",
+)
 REACH_JOINTS = ("shoulder_Z", "shoulder_X", "shoulder_Y", "elbow_Z", "elbow_Y")
 POSTURE_JOINTS = {
     "standing": {},
@@ -76,7 +88,9 @@ def _loaded(height: float | None) -> tuple[pin.Model, tuple[HumanCapsule, ...], 
     data = cached_fit("human", (FIT_RULES, height, DEFAULT_WEIGHT), lambda: _fitted(height))
     model = pin.Model()
     model.loadFromString(data["model"])
-    capsules = tuple(HumanCapsule(c["name"], c["joint"], c["radius"], c["length"], se3(c["placement"])) for c in data["capsules"])
+    capsules = tuple(
+        HumanCapsule(c["name"], c["joint"], c["radius"], c["length"], se3(c["placement"])) for c in data["capsules"]
+    )
     frames = {name: (joint, se3(placement)) for name, (joint, placement) in data["frames"].items()}
     return model, capsules, frames
 
@@ -107,10 +121,18 @@ def _fitted(height: float | None) -> dict:
     frames = {"head": "middle_head", "torso": "middle_thorax", "left_hand": "left_hand", "right_hand": "right_hand"}
     return {
         "model": model.saveToString(),
-        "capsules": [{"name": c.name, "joint": c.joint, "radius": c.radius, "length": c.length, "placement": se3_data(c.placement)}
-                     for c in capsules],
+        "capsules": [
+            {
+                "name": c.name,
+                "joint": c.joint,
+                "radius": c.radius,
+                "length": c.length,
+                "placement": se3_data(c.placement),
+            }
+            for c in capsules
+        ],
         "frames": {name: (named[segment][0], se3_data(named[segment][1])) for name, segment in frames.items()},
-    }  # fmt: skip
+    }
 
 
 # A seed still this far from the target (m) after this many steps is not converging (it swings
@@ -217,7 +239,9 @@ class Human:
 
     def _point_jacobian(self, q: np.ndarray, joint: int, point: np.ndarray) -> np.ndarray:
         """World-aligned linear Jacobian of a point fixed in a joint's frame."""
-        local = pin.SE3(np.eye(3), point).toActionMatrixInverse() @ pin.computeJointJacobian(self.model, self.data, q, joint)
+        local = pin.SE3(np.eye(3), point).toActionMatrixInverse() @ pin.computeJointJacobian(
+            self.model, self.data, q, joint
+        )
         return self.data.oMi[joint].rotation @ local[:3]
 
     # -- world geometry -------------------------------------------------------------------

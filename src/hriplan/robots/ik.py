@@ -19,7 +19,6 @@ import ur_analytic_ik
 from pydantic import BaseModel
 
 from hriplan import HriplanError
-
 from hriplan.robots.collision import ZONE_NAMING
 from hriplan.robots.model import Robot
 
@@ -98,9 +97,7 @@ def _spin(axis: int, angle: float) -> np.ndarray:
     return spin
 
 
-def _branches(
-    arm: _Arm, target: np.ndarray, axis: int | None, samples: int
-) -> tuple[np.ndarray, np.ndarray]:
+def _branches(arm: _Arm, target: np.ndarray, axis: int | None, samples: int) -> tuple[np.ndarray, np.ndarray]:
     """Every analytic solution (rows, angles in (-pi, pi]) and the exact tool pose each reaches;
     with a free axis, the target spun about it at `samples` evenly spaced angles."""
     if samples < 1:
@@ -250,8 +247,10 @@ def rejection_message(n: int, reasons: Counter) -> str:
     top = ", ".join(f"{reason} ({count} of {n})" for reason, count in reasons.most_common(3))
     hints = []
     if any(ZONE_NAMING in r for r in reasons):
-        hints.append("meet the person farther from the body parts named (ISO/TS 15066 minimum separation; contact is "
-                     "allowed only at their contact regions)")
+        hints.append(
+            "meet the person farther from the body parts named (ISO/TS 15066 minimum separation; contact is "
+            "allowed only at their contact regions)"
+        )
     if any(r.startswith("collides") and ZONE_NAMING not in r for r in reasons):
         hints.append("move the goal away from what collides (e.g. higher above a table) or hold the object another way")
     if any(r.startswith("violates") for r in reasons):
@@ -271,9 +270,19 @@ def solve_two_arms(
     nearest valid solution: the arms must not only reach but also clear each other."""
     (arm_a, target_a, free_a), (arm_b, target_b, free_b) = first, second
     group_a, group_b = robot.arm_group(arm_a), robot.arm_group(arm_b)
-    for values in ik_solutions(robot, arm_a, target_a, free_a, reference=robot.group_values(base_q, group_a), base_q=base_q):
+    for values in ik_solutions(
+        robot, arm_a, target_a, free_a, reference=robot.group_values(base_q, group_a), base_q=base_q
+    ):
         q = robot.configuration(values, group_a, base=base_q)
-        res = solve_ik(robot, arm_b, target_b, free_axes=free_b, base_q=q, reference=robot.group_values(base_q, group_b), is_valid=is_valid)
+        res = solve_ik(
+            robot,
+            arm_b,
+            target_b,
+            free_axes=free_b,
+            base_q=q,
+            reference=robot.group_values(base_q, group_b),
+            is_valid=is_valid,
+        )
         if res.success:
             return robot.configuration(res.q, group_b, base=q)
     return None

@@ -15,11 +15,10 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan import HriplanError
-
 from hriplan.robots.descriptions.allegro import HAND_POSTURES, hand_joint_name, posture_values
 from hriplan.robots.descriptions.registry import DESCRIPTIONS, RobotDescription, description_of
-from hriplan.robots.spatial import Pose
 from hriplan.robots.descriptions.ur5_arm import joint_names
+from hriplan.robots.spatial import Pose
 
 JointValues = Mapping[str, float] | Sequence[float] | np.ndarray
 
@@ -60,7 +59,9 @@ class Robot:
         self._q_locked = self.full_configuration({})
         arm_joints = {j for arm in self.description.arms.values() for j in joint_names(arm.prefix)}
         self._locked = [j for j in range(1, self.full_model.njoints) if self.full_model.names[j] not in arm_joints]
-        self.model, self.collision_meshes = pin.buildReducedModel(self.full_model, self.full_collision, self._locked, self._q_locked)
+        self.model, self.collision_meshes = pin.buildReducedModel(
+            self.full_model, self.full_collision, self._locked, self._q_locked
+        )
         self.data = self.model.createData()
         self.joint_names = [self.model.names[j] for j in range(1, self.model.njoints)]
         self.groups = _groups(self.description, self.joint_names)
@@ -145,7 +146,9 @@ class Robot:
     def velocity_limit(self, group: str | None = None) -> np.ndarray:
         return self.model.velocityLimit[self._vindex[self._group(group)]].copy()
 
-    def configuration(self, values: JointValues, group: str | None = None, base: np.ndarray | None = None) -> np.ndarray:
+    def configuration(
+        self, values: JointValues, group: str | None = None, base: np.ndarray | None = None
+    ) -> np.ndarray:
         """Full planning configuration from a dict of joint values or a vector in group order.
 
         Joints not named keep their value in `base` (default: zeros)."""

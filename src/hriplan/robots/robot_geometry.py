@@ -68,12 +68,22 @@ FIT_RULES = "capsules on collision + hand visual meshes per link group; palm box
 def _parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:
     """The fitted parts, from the disk cache (fit_cache.py) when this robot was fitted before."""
     key = (FIT_RULES, robot.urdf, robot.spec.hand_postures, padding)
-    fitted = cached_fit(f"parts-{robot.name}", key, lambda: {"parts": [_part_data(p) for p in _fitted_parts(robot, padding)]})
-    return tuple(RobotPart(p["name"], p["link"], p["joint"], shape(p["shape"]), se3(p["placement"])) for p in fitted["parts"])
+    fitted = cached_fit(
+        f"parts-{robot.name}", key, lambda: {"parts": [_part_data(p) for p in _fitted_parts(robot, padding)]}
+    )
+    return tuple(
+        RobotPart(p["name"], p["link"], p["joint"], shape(p["shape"]), se3(p["placement"])) for p in fitted["parts"]
+    )
 
 
 def _part_data(part: RobotPart) -> dict:
-    return {"name": part.name, "link": part.link, "joint": part.joint, "shape": shape_data(part.geometry), "placement": se3_data(part.placement)}
+    return {
+        "name": part.name,
+        "link": part.link,
+        "joint": part.joint,
+        "shape": shape_data(part.geometry),
+        "placement": se3_data(part.placement),
+    }
 
 
 def _fitted_parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:

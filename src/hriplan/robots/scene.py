@@ -13,9 +13,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hriplan import HriplanError
-
-from hriplan.robots.spatial import Pose
 from hriplan.robots.human import HumanSpec
+from hriplan.robots.spatial import Pose
 
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 
@@ -122,7 +121,7 @@ class Scene(BaseModel):
     humans: list[HumanSpec] = Field(default_factory=list)
 
     @model_validator(mode="after")
-    def _unique_names(self) -> "Scene":
+    def _unique_names(self) -> Scene:
         names = [o.name for o in self.obstacles] + [a.name for a in self.attached] + [h.name for h in self.humans]
         duplicates = sorted({n for n in names if names.count(n) > 1})
         if duplicates:
@@ -130,7 +129,11 @@ class Scene(BaseModel):
         return self
 
 
-def table(name: str = "table", size: tuple[float, float, float] = (0.8, 1.2, 0.04), top: float = 0.75,
-          position: tuple[float, float] = (0.8, 0.0)) -> Obstacle:  # fmt: skip
+def table(
+    name: str = "table",
+    size: tuple[float, float, float] = (0.8, 1.2, 0.04),
+    top: float = 0.75,
+    position: tuple[float, float] = (0.8, 0.0),
+) -> Obstacle:
     """A table top as a box whose upper face is at height `top`."""
     return Obstacle(name=name, shape=Box(size=size), pose=Pose(xyz=(position[0], position[1], top - size[2] / 2)))

@@ -32,12 +32,12 @@ class Pose(BaseModel):
 
     @field_validator("xyz", "rpy")
     @classmethod
-    def _check_finite(cls, v):  # noqa: ANN001, ANN206 - pydantic hook
+    def _check_finite(cls, v):
         return None if v is None else _finite(v, "pose values")
 
     @field_validator("quat_xyzw")
     @classmethod
-    def _check_unit(cls, v):  # noqa: ANN001, ANN206 - pydantic hook
+    def _check_unit(cls, v):
         if v is None:
             return v
         _finite(v, "quaternion")
@@ -47,7 +47,7 @@ class Pose(BaseModel):
         return tuple(c / norm for c in v)
 
     @model_validator(mode="after")
-    def _one_orientation(self) -> "Pose":
+    def _one_orientation(self) -> Pose:
         if self.quat_xyzw is not None and self.rpy is not None:
             raise ValueError("give the orientation as quat_xyzw or rpy, not both")
         return self
@@ -67,12 +67,12 @@ class Pose(BaseModel):
         return self.se3().homogeneous
 
     @classmethod
-    def from_se3(cls, placement: pin.SE3) -> "Pose":
+    def from_se3(cls, placement: pin.SE3) -> Pose:
         q = pin.Quaternion(placement.rotation)
         return cls(xyz=tuple(placement.translation), quat_xyzw=(q.x, q.y, q.z, q.w))
 
     @classmethod
-    def from_matrix(cls, matrix: np.ndarray) -> "Pose":
+    def from_matrix(cls, matrix: np.ndarray) -> Pose:
         return cls.from_se3(pin.SE3(np.asarray(matrix, dtype=float)))
 
 
@@ -81,6 +81,6 @@ def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return pin.rpy.rpyToMatrix(roll, pitch, yaw)
 
 
-def se3_from(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> pin.SE3:  # noqa: ANN001
+def se3_from(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> pin.SE3:
     """A placement from URDF-style xyz and rpy."""
     return pin.SE3(rpy_matrix(*rpy), np.array(xyz, dtype=float))

@@ -10,7 +10,7 @@ def _fmt(values: Sequence[float]) -> str:
     return " ".join(repr(float(v)) for v in values)
 
 
-def origin(parent: ET.Element, xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> ET.Element:  # noqa: ANN001
+def origin(parent: ET.Element, xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> ET.Element:
     return ET.SubElement(parent, "origin", xyz=_fmt(xyz), rpy=_fmt(rpy))
 
 
@@ -24,8 +24,8 @@ def joint(
     kind: str,
     parent: str,
     child: str,
-    xyz=(0.0, 0.0, 0.0),  # noqa: ANN001
-    rpy=(0.0, 0.0, 0.0),  # noqa: ANN001
+    xyz=(0.0, 0.0, 0.0),
+    rpy=(0.0, 0.0, 0.0),
     axis: Sequence[float] | None = None,
     limit: dict[str, float] | None = None,
 ) -> ET.Element:
@@ -44,8 +44,8 @@ def shape(
     link_el: ET.Element,
     role: str,
     geometry: tuple[str, dict[str, str]],
-    xyz=(0.0, 0.0, 0.0),  # noqa: ANN001
-    rpy=(0.0, 0.0, 0.0),  # noqa: ANN001
+    xyz=(0.0, 0.0, 0.0),
+    rpy=(0.0, 0.0, 0.0),
     name: str | None = None,
 ) -> ET.Element:
     """Add a <visual> or <collision> with one geometry, e.g. ("box", {"size": "1 1 1"})."""

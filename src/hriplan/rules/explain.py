@@ -11,7 +11,6 @@ from hriplan.planner.constraints.spec import (
     OrientationConstraint,
     SphereConstraint,
 )
-
 from hriplan.rules.infer import Derivation, Derived, DerivedConstraint, DerivedVelocityScale
 
 
@@ -26,13 +25,15 @@ def explain(item: Derivation | Derived) -> str:
     else:
         assert isinstance(item, DerivedVelocityScale)
         title = f"velocity scale {item.value:g} while moving {item.anchor}"
-    return "\n".join([
-        title,
-        f"  kind: {item.kind}, about {item.anchor}",
-        f"  why: {item.reason}",
-        f"  rules: {', '.join(item.rules) or 'none'}",
-        f"  facts: {'; '.join(item.facts) or 'none'}",
-    ])  # fmt: skip
+    return "\n".join(
+        [
+            title,
+            f"  kind: {item.kind}, about {item.anchor}",
+            f"  why: {item.reason}",
+            f"  rules: {', '.join(item.rules) or 'none'}",
+            f"  facts: {'; '.join(item.facts) or 'none'}",
+        ]
+    )
 
 
 def describe(spec: ConstraintSpec) -> str:
@@ -40,8 +41,12 @@ def describe(spec: ConstraintSpec) -> str:
     where = _frame(spec.frame)
     if isinstance(spec, OrientationConstraint):
         free = f", free to spin about its {'/'.join(spec.free_axes)} axis" if spec.free_axes else ""
-        growth = f", widening by {spec.tolerance_gradient:g} rad per metre from the goal" if spec.tolerance_gradient else ""
-        return f"{spec.target_link} stays within {spec.tolerance:g} rad of its target orientation in {where}{free}{growth}"
+        growth = (
+            f", widening by {spec.tolerance_gradient:g} rad per metre from the goal" if spec.tolerance_gradient else ""
+        )
+        return (
+            f"{spec.target_link} stays within {spec.tolerance:g} rad of its target orientation in {where}{free}{growth}"
+        )
     if isinstance(spec, BoxConstraint):
         shape = f"a {' x '.join(f'{s:.2f}' for s in spec.size)} m box centred at {where}"
     elif isinstance(spec, SphereConstraint):

@@ -55,8 +55,16 @@ def bearing(person_xy: tuple[float, float], person_yaw: float, target_xy: tuple[
     return math.atan2(math.sin(angle), math.cos(angle))
 
 
-def box_between(robot_xy: tuple[float, float], person_xy: tuple[float, float], behind_robot: float,
-                before_person: float, width: float, bottom: float, top: float, who: str) -> tuple[Pose, tuple[float, float, float]]:  # fmt: skip
+def box_between(
+    robot_xy: tuple[float, float],
+    person_xy: tuple[float, float],
+    behind_robot: float,
+    before_person: float,
+    width: float,
+    bottom: float,
+    top: float,
+    who: str,
+) -> tuple[Pose, tuple[float, float, float]]:
     """A box along the line from the robot's base to a person: from `behind_robot` behind the
     base to `before_person` short of the person's body axis, between heights bottom and top."""
     dx, dy = person_xy[0] - robot_xy[0], person_xy[1] - robot_xy[1]

@@ -17,12 +17,11 @@ from hriplan import HriplanError
 from hriplan.ontology.cache import ReasoningCache
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation
-from hriplan.safety.separation import SeparationPolicy
 from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec
-
 from hriplan.rules.instantiate import Arm, Context, Form, anchored_arms, form_of
 from hriplan.rules.provenance import Provenance
 from hriplan.safety.policy import situation_policy
+from hriplan.safety.separation import SeparationPolicy
 
 CONSTRAINED_BY = "isConstrainedBy"
 
@@ -72,8 +71,13 @@ def derive(kb: KnowledgeBase) -> Derivation:
     owners: dict[str, str] = {}
     for anchor, kind in _requirements(kb):
         support = provenance.why(anchor, CONSTRAINED_BY, kind)
-        why = {"kind": kind, "anchor": anchor, "rules": support.rules, "facts": support.facts,
-               "reason": " ".join(rationale[r] for r in support.direct) or f"{kind} applies to {anchor}"}  # fmt: skip
+        why = {
+            "kind": kind,
+            "anchor": anchor,
+            "rules": support.rules,
+            "facts": support.facts,
+            "reason": " ".join(rationale[r] for r in support.direct) or f"{kind} applies to {anchor}",
+        }
         form = form_of(kb.facts, kind)
         if form is None:
             scale = ctx.param(kind, "hasVelocityScale")
@@ -85,10 +89,14 @@ def derive(kb: KnowledgeBase) -> Derivation:
             cid = f"{kb.facts.one(kind, 'hasIdPrefix')}_{anchor}"
             cid = f"{arm.name}_{cid}" if several_arms else cid
             if cid in owners:
-                raise HriplanError(f"{owners[cid]} and {kind} both make constraint {cid!r} for {anchor}; "
-                                   "the rules require two kinds of the same constraint on one thing")  # fmt: skip
+                raise HriplanError(
+                    f"{owners[cid]} and {kind} both make constraint {cid!r} for {anchor}; "
+                    "the rules require two kinds of the same constraint on one thing"
+                )
             owners[cid] = kind
-            derivation.constraints.append(DerivedConstraint(arm=arm.name, spec=_make(form, ctx, kind, anchor, arm, cid), **why))
+            derivation.constraints.append(
+                DerivedConstraint(arm=arm.name, spec=_make(form, ctx, kind, anchor, arm, cid), **why)
+            )
     derivation.constraints.sort(key=lambda c: c.spec.id)
     return derivation
 
@@ -99,8 +107,10 @@ def _make(form: Form, ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) 
         return form.make(ctx, kind, anchor, arm, cid)
     except ValidationError as exc:
         first = exc.errors()[0]
-        raise HriplanError(f"constraint kind {kind}: {'.'.join(str(p) for p in first['loc'])}: {first['msg']} "
-                           "(check its parameters in the ontology)") from None  # fmt: skip
+        raise HriplanError(
+            f"constraint kind {kind}: {'.'.join(str(p) for p in first['loc'])}: {first['msg']} "
+            "(check its parameters in the ontology)"
+        ) from None
 
 
 def _requirements(kb: KnowledgeBase) -> list[tuple[str, str]]:
@@ -109,7 +119,12 @@ def _requirements(kb: KnowledgeBase) -> list[tuple[str, str]]:
     return [(a, str(kind)) for a in anchors for kind in kb.facts.get(a, CONSTRAINED_BY)]
 
 
-def infer_constraints(situation: Situation, *, rule_files: Sequence[str | Path] = (), ontology: str | Path | None = None,
-                      cache: ReasoningCache | None = None) -> list[DerivedConstraint]:  # fmt: skip
+def infer_constraints(
+    situation: Situation,
+    *,
+    rule_files: Sequence[str | Path] = (),
+    ontology: str | Path | None = None,
+    cache: ReasoningCache | None = None,
+) -> list[DerivedConstraint]:
     """The planner constraints a situation requires, with their provenance."""
     return derive(KnowledgeBase(situation, rule_files=rule_files, ontology=ontology, cache=cache)).constraints

@@ -31,7 +31,6 @@ from hriplan.planner.constraints.spec import (
 )
 from hriplan.robots.human import HELD_OBJECT_OFFSET, Human, HumanSpec
 from hriplan.robots.spatial import Pose
-
 from hriplan.rules.geometry import angle_between, bearing, box_between, rotation_pose, rotation_with_axis
 
 SIGNED_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
@@ -69,9 +68,15 @@ class Context:
         tool_link = str(facts.one(individual, "hasToolLink"))
         axis = str(facts.one(individual, "hasObjectAxisInTool"))
         if axis not in SIGNED_AXES:
-            raise HriplanError(f"arm {individual} has object axis {axis!r} in the ontology; use one of {', '.join(SIGNED_AXES)}")
-        return Arm(name=str(facts.one(individual, "hasArmName")), joints=[str(facts.one(str(j), "hasUrdfName")) for j in joints],
-                   tool=str(facts.one(tool_link, "hasUrdfName")), object_axis=axis)  # fmt: skip
+            raise HriplanError(
+                f"arm {individual} has object axis {axis!r} in the ontology; use one of {', '.join(SIGNED_AXES)}"
+            )
+        return Arm(
+            name=str(facts.one(individual, "hasArmName")),
+            joints=[str(facts.one(str(j), "hasUrdfName")) for j in joints],
+            tool=str(facts.one(tool_link, "hasUrdfName")),
+            object_axis=axis,
+        )
 
     def robot_xy(self) -> tuple[float, float]:
         x, y, _ = self.situation.robot_base.xyz
@@ -123,15 +128,21 @@ def _pointing_away(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> 
     return _orientation(ctx, kind, ctx.situation.object(anchor), arm, cid, away, FrameRef(entity=f"{human.name}/base"))
 
 
-def _orientation(ctx: Context, kind: str, obj: SituationObject, arm: Arm, cid: str, direction: np.ndarray,
-                 frame: FrameRef) -> OrientationConstraint:  # fmt: skip
+def _orientation(
+    ctx: Context, kind: str, obj: SituationObject, arm: Arm, cid: str, direction: np.ndarray, frame: FrameRef
+) -> OrientationConstraint:
     """The held object's z axis (a signed tool axis) along `direction`, spin about it free."""
     axis = obj.grasp_axis or arm.object_axis
     return OrientationConstraint(
-        id=cid, joints=arm.joints, target_link=arm.tool, frame=frame,
-        target=rotation_pose(rotation_with_axis(axis, direction)), free_axes=[axis[1]],
-        tolerance=ctx.param(kind, "hasTolerance"), tolerance_gradient=ctx.param(kind, "hasToleranceGradient"),
-    )  # fmt: skip
+        id=cid,
+        joints=arm.joints,
+        target_link=arm.tool,
+        frame=frame,
+        target=rotation_pose(rotation_with_axis(axis, direction)),
+        free_axes=[axis[1]],
+        tolerance=ctx.param(kind, "hasTolerance"),
+        tolerance_gradient=ctx.param(kind, "hasToleranceGradient"),
+    )
 
 
 def _approach_cone(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
@@ -158,34 +169,71 @@ def _approach_cone(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> 
             stretch = max(1.0, (HELD_OBJECT_OFFSET + distance) * (1.0 + CONE_START_MARGIN) / height)
             radius, height = radius * stretch, height * stretch
     opening = Pose.from_se3(pin.SE3(rotation_with_axis("+z", axis), apex))
-    return ConeConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=FrameRef(entity=hand, offset=opening),
-                          region="inside", radius=radius, height=height)  # fmt: skip
+    return ConeConstraint(
+        id=cid,
+        joints=arm.joints,
+        target_link=arm.tool,
+        frame=FrameRef(entity=hand, offset=opening),
+        region="inside",
+        radius=radius,
+        height=height,
+    )
 
 
 def _workspace_box(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
     human = ctx.situation.human(anchor)
-    pose, size = box_between(ctx.robot_xy(), human.position, ctx.param(kind, "hasRobotMargin"),
-                             ctx.param(kind, "hasHumanClearance"), ctx.param(kind, "hasWidth"),
-                             ctx.param(kind, "hasBottomHeight"), ctx.param(kind, "hasTopHeight"), anchor)  # fmt: skip
-    return BoxConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=FrameRef(offset=pose), region="inside", size=size)
+    pose, size = box_between(
+        ctx.robot_xy(),
+        human.position,
+        ctx.param(kind, "hasRobotMargin"),
+        ctx.param(kind, "hasHumanClearance"),
+        ctx.param(kind, "hasWidth"),
+        ctx.param(kind, "hasBottomHeight"),
+        ctx.param(kind, "hasTopHeight"),
+        anchor,
+    )
+    return BoxConstraint(
+        id=cid, joints=arm.joints, target_link=arm.tool, frame=FrameRef(offset=pose), region="inside", size=size
+    )
 
 
 def _exclusion_box(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
     frame = FrameRef(entity=f"{anchor}/torso", offset=Pose(xyz=(0.0, 0.0, ctx.param(kind, "hasVerticalOffset"))))
     size = (ctx.param(kind, "hasDepth"), ctx.param(kind, "hasWidth"), ctx.param(kind, "hasHeight"))
-    return BoxConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=frame, region="outside",
-                         keep_out_all_links=True, size=size)  # fmt: skip
+    return BoxConstraint(
+        id=cid,
+        joints=arm.joints,
+        target_link=arm.tool,
+        frame=frame,
+        region="outside",
+        keep_out_all_links=True,
+        size=size,
+    )
 
 
 def _keep_out_cylinder(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
-    return CylinderConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=FrameRef(entity=f"{anchor}/base"),
-                              region="outside", keep_out_all_links=True,
-                              radius=ctx.param(kind, "hasSeparationDistance"), height=ctx.param(kind, "hasHeight"))  # fmt: skip
+    return CylinderConstraint(
+        id=cid,
+        joints=arm.joints,
+        target_link=arm.tool,
+        frame=FrameRef(entity=f"{anchor}/base"),
+        region="outside",
+        keep_out_all_links=True,
+        radius=ctx.param(kind, "hasSeparationDistance"),
+        height=ctx.param(kind, "hasHeight"),
+    )
 
 
 def _keep_out_sphere(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
-    return SphereConstraint(id=cid, joints=arm.joints, target_link=arm.tool, frame=FrameRef(entity=f"{anchor}/head"),
-                            region="outside", keep_out_all_links=True, radius=ctx.param(kind, "hasSeparationDistance"))  # fmt: skip
+    return SphereConstraint(
+        id=cid,
+        joints=arm.joints,
+        target_link=arm.tool,
+        frame=FrameRef(entity=f"{anchor}/head"),
+        region="outside",
+        keep_out_all_links=True,
+        radius=ctx.param(kind, "hasSeparationDistance"),
+    )
 
 
 FORMS: dict[str, Form] = {
@@ -207,5 +255,7 @@ def form_of(facts: Facts, kind: str) -> Form | None:
     for cls, form in FORMS.items():
         if facts.is_a(kind, cls):
             return form
-    raise HriplanError(f"constraint kind {kind} has no planner form: make it an individual of one of "
-                       f"{', '.join([*FORMS, VELOCITY_KIND])}")  # fmt: skip
+    raise HriplanError(
+        f"constraint kind {kind} has no planner form: make it an individual of one of "
+        f"{', '.join([*FORMS, VELOCITY_KIND])}"
+    )

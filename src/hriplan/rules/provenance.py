@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 from hriplan.ontology.assertions import TYPE, Assertion
 from hriplan.ontology.facts import Facts, Value
 from hriplan.ontology.relations import ComputedRelation
-
 from hriplan.ontology.rule_matching import Binding, resolve, solutions, unify
 from hriplan.ontology.ruleset import Atom, Rule
 
@@ -43,8 +42,13 @@ class Support:
 class Provenance:
     """Explains facts of one reasoned situation with its rules."""
 
-    def __init__(self, rules: Sequence[Rule], facts: Facts, assertions: Sequence[Assertion],
-                 computed: Sequence[ComputedRelation] = ()) -> None:  # fmt: skip
+    def __init__(
+        self,
+        rules: Sequence[Rule],
+        facts: Facts,
+        assertions: Sequence[Assertion],
+        computed: Sequence[ComputedRelation] = (),
+    ) -> None:
         self.rules = rules
         self.facts = facts
         self.computed = {c.assertion: c for c in computed}
@@ -54,10 +58,10 @@ class Provenance:
     def why(self, subject: str, predicate: str, value: Value | None = None, depth: int = 0) -> Support:
         """Support of predicate(subject, value), or of the class fact predicate(subject) if value is None."""
         support = Support()
-        for rule, solutions in self._matches(subject, predicate, value):
+        for rule, bindings in self._matches(subject, predicate, value):
             support.direct.append(rule.name)
             support.add(Support(rules=[rule.name]))
-            for solution in solutions:
+            for solution in bindings:
                 for atom in rule.body:
                     support.add(self._atom_support(atom, solution, depth))
         return support

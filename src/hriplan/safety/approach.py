@@ -22,7 +22,6 @@ from hriplan import HriplanError
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
 from hriplan.safety.person_distance import PersonDistances
-
 from hriplan.safety.separation import PersonSeparation, SeparationPolicy, allowed_speeds, minimum_separation
 
 # Below this separation (m) the direction to the person is undefined: the part's whole speed counts.
@@ -48,7 +47,9 @@ class ApproachMonitor:
     Serves one scene: samples are memoised by state (the report re-reads the timing's final
     check), while the pair geometry is rebuilt whenever the checker rebuilds a person's model."""
 
-    def __init__(self, robot: Robot, checker: CollisionChecker, policy: SeparationPolicy, group: str, base: np.ndarray) -> None:
+    def __init__(
+        self, robot: Robot, checker: CollisionChecker, policy: SeparationPolicy, group: str, base: np.ndarray
+    ) -> None:
         self.robot, self.checker, self.policy, self.group = robot, checker, policy, group
         self.base = np.asarray(base, dtype=float)
         missing = [name for name in checker.humans if policy.person(name) is None]
@@ -105,7 +106,9 @@ class ApproachMonitor:
             self._distances[person.name] = cached
         return cached
 
-    def _person(self, person: PersonSeparation, qs: np.ndarray, dqs: np.ndarray) -> tuple[list[PersonSample], tuple[int, str] | None]:
+    def _person(
+        self, person: PersonSeparation, qs: np.ndarray, dqs: np.ndarray
+    ) -> tuple[list[PersonSample], tuple[int, str] | None]:
         """One person's sample at each state, or the first state with a moved part inside S_0 and why."""
         distances, contact = self._pairs(person)
         pairs = distances.at(qs, dqs)
@@ -120,16 +123,21 @@ class ApproachMonitor:
         if stopped.any():
             n = int(np.flatnonzero(stopped.any(axis=1))[0])
             k = int(np.flatnonzero(stopped[n])[np.argmin(distance[n, stopped[n]])])
-            return [], (n, f"{pairs.parts[k]} passes {distance[n, k]:.3f} m from {person.name}/{pairs.capsules[k]}, inside the "
-                           f"minimum protective separation {minimum_separation(self.policy.robot, person):.3f} m of ISO/TS 15066 "
-                           f"(the robot would have to stand still there)")  # fmt: skip
+            return [], (
+                n,
+                f"{pairs.parts[k]} passes {distance[n, k]:.3f} m from {person.name}/{pairs.capsules[k]}, inside the "
+                f"minimum protective separation {minimum_separation(self.policy.robot, person):.3f} m of ISO/TS 15066 "
+                f"(the robot would have to stand still there)",
+            )
         binding = np.argmin(allowed - approach, axis=1)
         closing = approach > 0.0
         scale = np.min(np.where(closing, allowed / np.where(closing, approach, 1.0), np.inf), axis=1)
         body = np.min(np.where(contact, np.inf, distance), axis=1)
         at = np.arange(len(qs))
-        samples = [PersonSample(float(d), float(b), float(a), float(r), float(s), pairs.parts[k], pairs.capsules[k])
-                   for d, b, a, r, s, k in zip(distance.min(axis=1), body, allowed[at, binding], approach[at, binding],
-                                               scale, binding)]  # fmt: skip
+        samples = [
+            PersonSample(float(d), float(b), float(a), float(r), float(s), pairs.parts[k], pairs.capsules[k])
+            for d, b, a, r, s, k in zip(
+                distance.min(axis=1), body, allowed[at, binding], approach[at, binding], scale, binding
+            )
+        ]
         return samples, None
-

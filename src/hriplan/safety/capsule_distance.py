@@ -41,9 +41,15 @@ def segment_parameters(d1: np.ndarray, d2: np.ndarray, r: np.ndarray) -> tuple[n
 
 
 def capsule_distances(
-    centre1: np.ndarray, axis1: np.ndarray, half1: np.ndarray, radius1: np.ndarray,
-    centre2: np.ndarray, axis2: np.ndarray, half2: np.ndarray, radius2: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    centre1: np.ndarray,
+    axis1: np.ndarray,
+    half1: np.ndarray,
+    radius1: np.ndarray,
+    centre2: np.ndarray,
+    axis2: np.ndarray,
+    half2: np.ndarray,
+    radius2: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Capsules given by centre and unit axis (..., 3), half length and radius (...), broadcast
     against each other: (signed distance (...), witness point on capsule 1, on capsule 2 (..., 3))."""
     half1, half2 = np.asarray(half1, dtype=float)[..., None], np.asarray(half2, dtype=float)[..., None]

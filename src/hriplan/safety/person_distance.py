@@ -75,7 +75,9 @@ class PersonDistances:
         velocity = linear + np.cross(angular, robot_point - origin[:, self._frame])
         return StatePairs(self.parts, self.capsules, distance, robot_point, person_point, velocity)
 
-    def _walk(self, qs: np.ndarray, dqs: np.ndarray, out: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    def _walk(
+        self, qs: np.ndarray, dqs: np.ndarray, out: tuple[np.ndarray, np.ndarray, np.ndarray]
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Per state: the carrying joints' placements (N, F, 4, 4) and local twists (N, F, 6)
         returned, the non-capsule rows measured by coal into `out` (distance, robot, person point)."""
         frames, twists = np.empty((len(qs), len(self._frames), 4, 4)), np.empty((len(qs), len(self._frames), 6))
@@ -105,12 +107,21 @@ class PersonDistances:
         slot = self._slot[self._capsule_rows]
         person_centre = np.array([m.translation for m in person])[slot]
         person_axis = np.array([m.rotation[:, 2] for m in person])[slot]
-        return capsule_distances(centre[:, self._robot_capsule], axis[:, self._robot_capsule], self._robot_half,
-                                 self._robot_radius, person_centre, person_axis, self._person_half[self._capsule_rows],
-                                 self._person_radius[self._capsule_rows])  # fmt: skip
+        return capsule_distances(
+            centre[:, self._robot_capsule],
+            axis[:, self._robot_capsule],
+            self._robot_half,
+            self._robot_radius,
+            person_centre,
+            person_axis,
+            self._person_half[self._capsule_rows],
+            self._person_radius[self._capsule_rows],
+        )
 
 
-def _coal_model(source: pin.GeometryModel, pairs: list[tuple[int, int]]) -> tuple[pin.GeometryModel, pin.GeometryData, dict[int, int]]:
+def _coal_model(
+    source: pin.GeometryModel, pairs: list[tuple[int, int]]
+) -> tuple[pin.GeometryModel, pin.GeometryData, dict[int, int]]:
     """The pairs' geometries copied from `source` into a model of their own, pairs in the given
     order; with the copy index of every person capsule (static: placed afresh per batch)."""
     model, index = pin.GeometryModel(), {}

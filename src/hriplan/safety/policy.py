@@ -40,21 +40,31 @@ def separation_policy(facts: Facts, robot: str, people: Iterable[tuple[str, str,
             raise HriplanError(f"the ontology has no SeparationParameters for role {role!r} (person {name})")
         individual = by_role[role]
         contact = [_region(facts, str(r), side) for r in facts.get(individual, "offersContactWith")]
-        persons.append(PersonSeparation(
-            name=name, role=role, approach_speed=facts.number(individual, "hasApproachSpeed"),
-            intrusion=facts.number(individual, "hasIntrusionDistance"),
-            sensor_uncertainty=facts.number(individual, "hasSensorUncertainty"), contact=contact))  # fmt: skip
+        persons.append(
+            PersonSeparation(
+                name=name,
+                role=role,
+                approach_speed=facts.number(individual, "hasApproachSpeed"),
+                intrusion=facts.number(individual, "hasIntrusionDistance"),
+                sensor_uncertainty=facts.number(individual, "hasSensorUncertainty"),
+                contact=contact,
+            )
+        )
     return SeparationPolicy(robot=stopping, people=persons)
 
 
 def situation_policy(facts: Facts, situation: Situation) -> SeparationPolicy:
     """The policy for a reasoned situation: its robot, every person by their role and hand."""
-    return separation_policy(facts, _robot_individual(facts, situation.robot), [(h.name, h.role, h.hand) for h in situation.humans])
+    return separation_policy(
+        facts, _robot_individual(facts, situation.robot), [(h.name, h.role, h.hand) for h in situation.humans]
+    )
 
 
 def _robot_individual(facts: Facts, urdf_name: str) -> str:
     """The ontology's individual for a robot (by its URDF name)."""
-    robots = [i for i, types in facts.types.items() if "Robot" in types and urdf_name in map(str, facts.get(i, "hasUrdfName"))]
+    robots = [
+        i for i, types in facts.types.items() if "Robot" in types and urdf_name in map(str, facts.get(i, "hasUrdfName"))
+    ]
     if not robots:
         raise HriplanError(f"the ontology describes no robot {urdf_name!r} (no Robot with hasUrdfName {urdf_name!r})")
     return robots[0]
@@ -70,8 +80,9 @@ def _region(facts: Facts, region: str, side: str) -> ContactRegion:
     )
 
 
-def default_policy(robot: str, people: Iterable[HumanSpec], roles: Mapping[str, str] | None = None,
-                   ontology: str | Path | None = None) -> SeparationPolicy:  # fmt: skip
+def default_policy(
+    robot: str, people: Iterable[HumanSpec], roles: Mapping[str, str] | None = None, ontology: str | Path | None = None
+) -> SeparationPolicy:
     """The policy of a bare planning problem from the ontology's values: each person by their
     role in `roles` (else a bystander), handing with the hand they reach out (else the right)."""
     roles = dict(roles or {})
@@ -80,7 +91,10 @@ def default_policy(robot: str, people: Iterable[HumanSpec], roles: Mapping[str, 
     if unknown:
         raise HriplanError(f"roles name {', '.join(unknown)}, who is not in the scene")
     source = ontology_source(ontology)
-    handing = [(p.name, roles.get(p.name, DEFAULT_ROLE), next(iter(p.reach), "right") if len(p.reach) == 1 else "right") for p in people]
+    handing = [
+        (p.name, roles.get(p.name, DEFAULT_ROLE), next(iter(p.reach), "right") if len(p.reach) == 1 else "right")
+        for p in people
+    ]
     facts = _asserted_facts(source.path, source.digest)
     return separation_policy(facts, _robot_individual(facts, robot), handing)
 

@@ -137,8 +137,14 @@ def allowed_speed(robot: RobotStopping, person: PersonSeparation, separation: fl
     return float(allowed_speeds(robot, person, np.array([separation]), [capsule])[0])
 
 
-def allowed_speeds(robot: RobotStopping, person: PersonSeparation, separations: np.ndarray, capsules: Sequence[str]) -> np.ndarray:
+def allowed_speeds(
+    robot: RobotStopping, person: PersonSeparation, separations: np.ndarray, capsules: Sequence[str]
+) -> np.ndarray:
     """`allowed_speed` for many part-capsule pairs at once (timing evaluates thousands)."""
-    caps = {c: contact_speed_limit(robot, person, person.contact_region(c)) for c in set(capsules) if person.contact_region(c)}
+    caps = {
+        c: contact_speed_limit(robot, person, person.contact_region(c))
+        for c in set(capsules)
+        if person.contact_region(c)
+    }
     floor = np.array([caps.get(c, 0.0) for c in capsules])  # 0: SSM alone
     return np.maximum(_ssm(robot, person, np.asarray(separations, dtype=float)), floor)

@@ -16,7 +16,6 @@ import numpy as np
 
 from hriplan.robots.collision import CollisionChecker, SeparationZones
 from hriplan.robots.model import Robot
-
 from hriplan.safety.separation import SeparationPolicy, minimum_separation
 
 # Beyond S_0, for the timed motion's rounding of the planned path (m); never past the start,
@@ -25,7 +24,9 @@ ZONE_SLACK = 0.005
 START_CLEARANCE = 1e-4
 
 
-def separation_zones(checker: CollisionChecker, robot: Robot, policy: SeparationPolicy, group: str, q_start: np.ndarray) -> SeparationZones:
+def separation_zones(
+    checker: CollisionChecker, robot: Robot, policy: SeparationPolicy, group: str, q_start: np.ndarray
+) -> SeparationZones:
     """Per person of the scene in `policy`: S_0 (+ slack) around every capsule outside their
     contact regions. The slack is cut where the start already lies within it, so a start that
     the timing accepts (outside S_0) is a valid start for planning."""
@@ -42,7 +43,8 @@ def separation_zones(checker: CollisionChecker, robot: Robot, policy: Separation
         for capsule, distance in zip(np.array(pairs.capsules)[moved], pairs.distance[moved]):
             at_start[capsule] = min(at_start.get(capsule, np.inf), float(distance))
         distances[name] = {
-            capsule.name: s0 + float(np.clip(at_start.get(capsule.name, np.inf) - s0 - START_CLEARANCE, 0.0, ZONE_SLACK))
+            capsule.name: s0
+            + float(np.clip(at_start.get(capsule.name, np.inf) - s0 - START_CLEARANCE, 0.0, ZONE_SLACK))
             for capsule in checker.humans[name].capsules
             if person.contact_region(capsule.name) is None
         }

@@ -22,23 +22,32 @@ from starlette.exceptions import HTTPException
 from starlette.middleware.cors import CORSMiddleware
 
 from hriplan import HriplanError, __version__
-from hriplan.planner.problem import PlanningProblem
 from hriplan.planner.constraints.spec import ConstraintSet
+from hriplan.planner.problem import PlanningProblem
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Mesh, Obstacle, Scene
-from hriplan.tasks.model import TaskFile
-from hriplan.tasks.pipeline import TaskOutcome, step_name
-
 from hriplan.service.config import ServiceConfig
 from hriplan.service.errors import RequestError, error_response
 from hriplan.service.guard import Guard
-from hriplan.service.schemas import (ErrorBody, ExplainResponse, PlanResponse, SessionCreate, SessionPlanRequest, SessionState, StoredTask,
-                      TaskPlanResponse)  # fmt: skip
+from hriplan.service.schemas import (
+    ErrorBody,
+    ExplainResponse,
+    PlanResponse,
+    SessionCreate,
+    SessionPlanRequest,
+    SessionState,
+    StoredTask,
+    TaskPlanResponse,
+)
 from hriplan.service.sparql_protocol import add_sparql_routes
 from hriplan.service.workers import Busy, PoolError, WorkerPool
+from hriplan.tasks.model import TaskFile
+from hriplan.tasks.pipeline import TaskOutcome, step_name
 
 JSON_OR_YAML = {"requestBody": {"content": {"application/yaml": {"schema": {"$ref": "#/components/schemas/TaskFile"}}}}}
-ERRORS: dict[int | str, dict[str, Any]] = {code: {"model": ErrorBody} for code in (400, 404, 409, 413, 422, 500, 503, 504)}
+ERRORS: dict[int | str, dict[str, Any]] = {
+    code: {"model": ErrorBody} for code in (400, 404, 409, 413, 422, 500, 503, 504)
+}
 
 
 def _walk(value: Any) -> Iterator[Any]:
@@ -57,7 +66,9 @@ def _walk(value: Any) -> Iterator[Any]:
 def refuse_server_files(model: BaseModel) -> None:
     """Nothing in a request may name a file on the server: mesh shapes do, so they are refused."""
     if any(isinstance(v, Mesh) for v in _walk(model)):
-        raise HriplanError("mesh shapes name a file on the server, which the service never reads; use a box, cylinder, sphere, capsule or cone")
+        raise HriplanError(
+            "mesh shapes name a file on the server, which the service never reads; use a box, cylinder, sphere, capsule or cone"
+        )
 
 
 def _rules_dir(task: TaskFile, config: ServiceConfig) -> str | None:
@@ -83,13 +94,18 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
     tasks: dict[str, dict[str, Any]] = {}
 
     @asynccontextmanager
-    async def lifespan(_: FastAPI):  # noqa: ANN202
+    async def lifespan(_: FastAPI):
         await pool.start()
         yield
         await pool.close()
 
-    app = FastAPI(title="hriplan", version=__version__, lifespan=lifespan, responses=ERRORS,
-                  description="Safe human-robot collaboration planning: derive constraints with the rules, plan, query.")  # fmt: skip
+    app = FastAPI(
+        title="hriplan",
+        version=__version__,
+        lifespan=lifespan,
+        responses=ERRORS,
+        description="Safe human-robot collaboration planning: derive constraints with the rules, plan, query.",
+    )
 
     @app.exception_handler(RequestValidationError)
     async def invalid(_: Request, exc: RequestValidationError) -> Response:
@@ -168,7 +184,9 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         try:
             scene = Scene.model_validate(changes.pop("scene")) if "scene" in changes else state.scene
         except ValidationError as exc:
-            raise RequestError(409, f"the session's scene would conflict: {exc.errors()[0]['msg'].removeprefix('Value error, ')}") from None
+            raise RequestError(
+                409, f"the session's scene would conflict: {exc.errors()[0]['msg'].removeprefix('Value error, ')}"
+            ) from None
         sessions[state.id] = state.model_copy(update={**changes, "scene": scene, "version": state.version + 1})
         return sessions[state.id]
 
@@ -235,7 +253,9 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         return update(session(session_id), constraints=constraints)
 
     @app.post("/sessions/{session_id}/plan", response_model=PlanResponse, tags=["sessions"])
-    async def plan_in_session(request: Request, session_id: str, body: SessionPlanRequest, ros: bool = False) -> Response:
+    async def plan_in_session(
+        request: Request, session_id: str, body: SessionPlanRequest, ros: bool = False
+    ) -> Response:
         """Plan one motion against the session's scene and constraints as they are now."""
         state = session(session_id)
         payload = {"state": state.model_dump(mode="json"), "request": body.model_dump(mode="json"), "ros": ros}
@@ -269,6 +289,10 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
 
     app.add_middleware(Guard, body_limit=config.body_limit, token=config.token)
     if config.cors_origins:
-        app.add_middleware(CORSMiddleware, allow_origins=config.cors_origins, allow_methods=["GET", "POST", "PUT", "DELETE"],
-                           allow_headers=["Authorization", "Content-Type"])  # fmt: skip
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=config.cors_origins,
+            allow_methods=["GET", "POST", "PUT", "DELETE"],
+            allow_headers=["Authorization", "Content-Type"],
+        )
     return app

@@ -16,11 +16,15 @@ class ServiceConfig(BaseModel):
     port: int = Field(default=8000, ge=0, le=65535)
     workers: int = Field(default=2, ge=1, le=64)
     queue_limit: int = Field(default=32, ge=0, description="Requests that may wait for a worker; more get 503.")
-    request_time_limit: float = Field(default=120.0, gt=0.0, description="Seconds a request may take, waiting included.")
+    request_time_limit: float = Field(
+        default=120.0, gt=0.0, description="Seconds a request may take, waiting included."
+    )
     body_limit: int = Field(default=1 << 20, gt=0, description="Bytes a request body may have.")
     token: str | None = Field(default=None, min_length=16, description="Bearer token every request must carry.")
     cors_origins: list[str] = Field(default_factory=list, description="Origins allowed by CORS (none: CORS off).")
-    rules_dir: Path | None = Field(default=None, description="The only folder `rule_files` of a task may name files in.")
+    rules_dir: Path | None = Field(
+        default=None, description="The only folder `rule_files` of a task may name files in."
+    )
     query: QueryLimits = Field(default_factory=QueryLimits)
     max_sessions: int = Field(default=64, ge=1)
     max_tasks: int = Field(default=64, ge=1)

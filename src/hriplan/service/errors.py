@@ -15,5 +15,7 @@ class RequestError(HriplanError):
         self.status = status
 
 
-def error_response(status: int, message: str, field: str | None = None, headers: dict[str, str] | None = None) -> JSONResponse:
+def error_response(
+    status: int, message: str, field: str | None = None, headers: dict[str, str] | None = None
+) -> JSONResponse:
     return JSONResponse({"error": message, "field": field}, status_code=status, headers=headers)

@@ -10,7 +10,6 @@ from __future__ import annotations
 import hmac
 import json
 
-
 import yaml
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -20,29 +19,38 @@ YAML_TYPES = ("application/yaml", "application/x-yaml", "text/yaml", "text/x-yam
 class _NoAliases(yaml.SafeLoader):
     """YAML without anchors and aliases: a few bytes of aliases can expand to gigabytes."""
 
-    def compose_node(self, parent, index):  # noqa: ANN001, ANN201 - PyYAML's signature
+    def compose_node(self, parent, index):
         if self.check_event(yaml.AliasEvent):
             event = self.peek_event()
-            raise yaml.MarkedYAMLError(problem="aliases are not accepted in request bodies", problem_mark=event.start_mark)
+            raise yaml.MarkedYAMLError(
+                problem="aliases are not accepted in request bodies", problem_mark=event.start_mark
+            )
         return super().compose_node(parent, index)
 
 
 def yaml_to_json(body: bytes) -> bytes:
     """A YAML document as JSON bytes; a ValueError says where it is not valid YAML."""
     try:
-        data = yaml.load(body.decode("utf-8"), Loader=_NoAliases)  # noqa: S506 - a SafeLoader subclass
+        data = yaml.load(body.decode("utf-8"), Loader=_NoAliases)
     except UnicodeDecodeError:
         raise ValueError("body: not UTF-8 text") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
-        raise ValueError(f"body: line {mark.line + 1 if mark else '?'}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+        raise ValueError(
+            f"body: line {mark.line + 1 if mark else '?'}: not valid YAML ({getattr(exc, 'problem', exc)})"
+        ) from None
     return json.dumps(data).encode()
 
 
 async def _refuse(send: Send, status: int, message: str, headers: list[tuple[bytes, bytes]] = ()) -> None:  # type: ignore[assignment]
     body = json.dumps({"error": message, "field": None}).encode()
-    await send({"type": "http.response.start", "status": status,
-                "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()), *headers]})  # fmt: skip
+    await send(
+        {
+            "type": "http.response.start",
+            "status": status,
+            "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()), *headers],
+        }
+    )
     await send({"type": "http.response.body", "body": body})
 
 
@@ -56,7 +64,12 @@ class Guard:
             return
         headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope["headers"]}
         if self.token is not None and not self._authorised(headers.get("authorization", "")):
-            await _refuse(send, 401, "a bearer token is required (Authorization: Bearer TOKEN)", [(b"www-authenticate", b"Bearer")])
+            await _refuse(
+                send,
+                401,
+                "a bearer token is required (Authorization: Bearer TOKEN)",
+                [(b"www-authenticate", b"Bearer")],
+            )
             return
         declared = headers.get("content-length", "")
         if declared.isdigit() and int(declared) > self.body_limit:
@@ -78,8 +91,11 @@ class Guard:
             except ValueError as exc:
                 await _refuse(send, 400, str(exc))
                 return
-            scope = dict(scope, headers=[(k, v) for k, v in scope["headers"] if k.lower() not in (b"content-type", b"content-length")]
-                         + [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())])  # fmt: skip
+            scope = dict(
+                scope,
+                headers=[(k, v) for k, v in scope["headers"] if k.lower() not in (b"content-type", b"content-length")]
+                + [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())],
+            )
         await self.app(scope, _replay(bytes(body), receive), send)
 
     def _authorised(self, header: str) -> bool:
@@ -99,5 +115,3 @@ def _replay(body: bytes, receive: Receive) -> Receive:
         return await receive()
 
     return replayed
-
-

@@ -19,15 +19,20 @@ from hriplan.ontology.sparql import QueryLimits, prepare_query, run_query
 from hriplan.planner.problem import PlanningProblem
 from hriplan.planner.session import PlanningSession, PlanResult
 from hriplan.rules.explain import explain
-from hriplan.tasks.knowledge import _ontology_graph
-from hriplan.tasks.model import TaskFile
-from hriplan.tasks.pipeline import TaskRunner
-
 from hriplan.service.errors import RequestError
 from hriplan.service.negotiation import choose
 from hriplan.service.ros import joint_trajectory
-from hriplan.service.schemas import ExplainResponse, PlanResponse, SessionPlanRequest, SessionState, StepExplanation, TaskPlanResponse
-
+from hriplan.service.schemas import (
+    ExplainResponse,
+    PlanResponse,
+    SessionPlanRequest,
+    SessionState,
+    StepExplanation,
+    TaskPlanResponse,
+)
+from hriplan.tasks.knowledge import _ontology_graph
+from hriplan.tasks.model import TaskFile
+from hriplan.tasks.pipeline import TaskRunner
 
 Reply = tuple[str, str]  # (body, media type)
 JSON = "application/json"
@@ -48,23 +53,36 @@ def derive(payload: dict[str, Any]) -> Reply:
 
 def explain_task(payload: dict[str, Any]) -> Reply:
     outcome = _runner(payload).run(plan=False)
-    steps = [StepExplanation(name=s.name, kind=s.kind, arms=s.arms, explanation=explain(s.derivation)) for s in outcome.steps]
+    steps = [
+        StepExplanation(name=s.name, kind=s.kind, arms=s.arms, explanation=explain(s.derivation)) for s in outcome.steps
+    ]
     return ExplainResponse(task=outcome.task, steps=steps).model_dump_json(), JSON
 
 
 def plan_task(payload: dict[str, Any]) -> Reply:
     outcome = _runner(payload).run(plan=True)
-    ros = {s.name: joint_trajectory(s.trajectory) for s in outcome.steps if s.trajectory is not None} if payload.get("ros") else {}
+    ros = (
+        {s.name: joint_trajectory(s.trajectory) for s in outcome.steps if s.trajectory is not None}
+        if payload.get("ros")
+        else {}
+    )
     response = TaskPlanResponse(task=outcome.task, steps=outcome.steps, solved=outcome.solved, joint_trajectories=ros)
     return response.model_dump_json(by_alias=True), JSON
 
 
 def _plan_response(result: PlanResult, ros: bool) -> Reply:
     # A motion that was planned but could not be timed and re-validated: "timing_failed", the planner's name for it.
-    status = "solved" if result.solved else result.motion.status if result.motion.status != "solved" else "timing_failed"
+    status = (
+        "solved" if result.solved else result.motion.status if result.motion.status != "solved" else "timing_failed"
+    )
     message = "" if result.solved else f"planning failed ({status}): {result.message}"
-    response = PlanResponse(solved=result.solved, status=status, message=message, trajectory=result.trajectory,
-                            joint_trajectory=joint_trajectory(result.trajectory) if ros and result.trajectory else None)  # fmt: skip
+    response = PlanResponse(
+        solved=result.solved,
+        status=status,
+        message=message,
+        trajectory=result.trajectory,
+        joint_trajectory=joint_trajectory(result.trajectory) if ros and result.trajectory else None,
+    )
     return response.model_dump_json(by_alias=True), JSON
 
 
@@ -72,7 +90,9 @@ def solve(payload: dict[str, Any]) -> Reply:
     problem = PlanningProblem.model_validate(payload["problem"])
     session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
     session.set_constraints(problem.constraints)
-    return _plan_response(session.plan(problem.start, problem.goal, problem.options, problem.group), bool(payload.get("ros")))
+    return _plan_response(
+        session.plan(problem.start, problem.goal, problem.options, problem.group), bool(payload.get("ros"))
+    )
 
 
 def _session(state: SessionState) -> PlanningSession:
@@ -97,10 +117,12 @@ def check_session(payload: dict[str, Any]) -> Reply:
 def plan_in_session(payload: dict[str, Any]) -> Reply:
     session = _session(SessionState.model_validate(payload["state"]))
     request = SessionPlanRequest.model_validate(payload["request"])
-    return _plan_response(session.plan(request.start, request.goal, request.options, request.group), bool(payload.get("ros")))
+    return _plan_response(
+        session.plan(request.start, request.goal, request.options, request.group), bool(payload.get("ros"))
+    )
 
 
-def _task_graph(payload: dict[str, Any]):  # noqa: ANN202 - an rdflib graph
+def _task_graph(payload: dict[str, Any]):
     key = hashlib.sha256(json.dumps([payload["task"], payload.get("rules_dir")], sort_keys=True).encode()).hexdigest()
     if key not in _task_bases:
         runner = _runner(payload)
@@ -126,5 +148,12 @@ def sparql(payload: dict[str, Any]) -> Reply:
     return result.serialize(syntax), media
 
 
-JOBS = {"constraints": derive, "explain": explain_task, "plan": plan_task, "solve": solve, "session_check": check_session,
-        "session_plan": plan_in_session, "sparql": sparql}  # fmt: skip
+JOBS = {
+    "constraints": derive,
+    "explain": explain_task,
+    "plan": plan_task,
+    "solve": solve,
+    "session_check": check_session,
+    "session_plan": plan_in_session,
+    "sparql": sparql,
+}

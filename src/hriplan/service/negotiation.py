@@ -20,8 +20,16 @@ GRAPH_TYPES: dict[str, tuple[str, ...]] = {
     "json-ld": ("application/ld+json", "application/json", "application/x-json+ld"),
     "nt": ("application/n-triples", "text/plain"),
 }
-FORMAT_NAMES = {"json": ("json", "json-ld"), "xml": ("xml", None), "csv": ("csv", None), "tsv": ("tsv", None),
-                "turtle": (None, "turtle"), "json-ld": (None, "json-ld"), "jsonld": (None, "json-ld"), "nt": (None, "nt")}  # fmt: skip
+FORMAT_NAMES = {
+    "json": ("json", "json-ld"),
+    "xml": ("xml", None),
+    "csv": ("csv", None),
+    "tsv": ("tsv", None),
+    "turtle": (None, "turtle"),
+    "json-ld": (None, "json-ld"),
+    "jsonld": (None, "json-ld"),
+    "nt": (None, "nt"),
+}
 
 
 class NotAcceptable(HriplanError):

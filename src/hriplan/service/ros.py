@@ -49,6 +49,13 @@ def duration(seconds: float) -> Duration:
 
 def joint_trajectory(trajectory: TrajectoryFile) -> JointTrajectory:
     """The planned group's joints and timed points; the header is left empty (stamp 0: start on receipt)."""
-    points = [JointTrajectoryPoint(positions=p.positions, velocities=p.velocities, accelerations=p.accelerations,
-                                   time_from_start=duration(p.time_from_start)) for p in trajectory.points]  # fmt: skip
+    points = [
+        JointTrajectoryPoint(
+            positions=p.positions,
+            velocities=p.velocities,
+            accelerations=p.accelerations,
+            time_from_start=duration(p.time_from_start),
+        )
+        for p in trajectory.points
+    ]
     return JointTrajectory(joint_names=trajectory.joint_names, points=points)

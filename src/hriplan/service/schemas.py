@@ -5,14 +5,13 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.planner.motion import Goal
 from hriplan.planner.options import PlanOptions
-from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.robots.scene import Scene
-from hriplan.tasks.pipeline import StepOutcome
-
 from hriplan.service.ros import JointTrajectory
+from hriplan.tasks.pipeline import StepOutcome
 
 SessionId = str
 
@@ -31,7 +30,9 @@ class PlanResponse(BaseModel):
     status: str
     message: str = ""
     trajectory: TrajectoryFile | None = None
-    joint_trajectory: JointTrajectory | None = Field(default=None, description="With ?ros=true: the trajectory as a ROS JointTrajectory.")
+    joint_trajectory: JointTrajectory | None = Field(
+        default=None, description="With ?ros=true: the trajectory as a ROS JointTrajectory."
+    )
 
 
 class TaskPlanResponse(BaseModel):
@@ -40,7 +41,9 @@ class TaskPlanResponse(BaseModel):
     task: str
     steps: list[StepOutcome]
     solved: bool
-    joint_trajectories: dict[str, JointTrajectory] = Field(default_factory=dict, description="With ?ros=true: per solved step.")
+    joint_trajectories: dict[str, JointTrajectory] = Field(
+        default_factory=dict, description="With ?ros=true: per solved step."
+    )
 
 
 class StepExplanation(BaseModel):
@@ -60,7 +63,9 @@ class SessionCreate(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    id: SessionId | None = Field(default=None, pattern=r"^[A-Za-z0-9_.-]{1,64}$", description="Chosen by the client, else generated.")
+    id: SessionId | None = Field(
+        default=None, pattern=r"^[A-Za-z0-9_.-]{1,64}$", description="Chosen by the client, else generated."
+    )
     robot: str = "madar"
     hands: dict[str, str] = Field(default_factory=dict)
     scene: Scene = Field(default_factory=Scene)

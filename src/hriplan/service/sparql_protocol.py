@@ -14,13 +14,20 @@ import rdflib
 from fastapi import FastAPI, Request, Response
 
 from hriplan.ontology.sparql import UPDATES_REFUSED
-
 from hriplan.service.errors import RequestError
 from hriplan.service.negotiation import GRAPH_TYPES, RESULT_TYPES, choose
 
 SD = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
 FORMATS = rdflib.Namespace("http://www.w3.org/ns/formats/")
-FORMAT_IRIS = ("SPARQL_Results_JSON", "SPARQL_Results_XML", "SPARQL_Results_CSV", "SPARQL_Results_TSV", "Turtle", "JSON-LD", "N-Triples")
+FORMAT_IRIS = (
+    "SPARQL_Results_JSON",
+    "SPARQL_Results_XML",
+    "SPARQL_Results_CSV",
+    "SPARQL_Results_TSV",
+    "Turtle",
+    "JSON-LD",
+    "N-Triples",
+)
 FORM = "application/x-www-form-urlencoded"
 QUERY = "application/sparql-query"
 
@@ -46,7 +53,9 @@ async def _parameters(request: Request) -> dict[str, list[str]]:
     if "update" in params:
         raise RequestError(400, UPDATES_REFUSED)
     if "default-graph-uri" in params or "named-graph-uri" in params:
-        raise RequestError(400, "default-graph-uri and named-graph-uri are not supported: each endpoint's dataset is fixed")
+        raise RequestError(
+            400, "default-graph-uri and named-graph-uri are not supported: each endpoint's dataset is fixed"
+        )
     if len(params.get("query", [])) > 1:
         raise RequestError(400, "give one query per request")
     return params
@@ -67,8 +76,15 @@ def service_description(endpoint: str, accept: str | None) -> Response:
     graph.add((dataset, rdflib.RDF.type, SD.Dataset))
     graph.add((dataset, SD.defaultGraph, default))
     graph.add((default, rdflib.RDF.type, SD.Graph))
-    graph.add((service, rdflib.RDFS.comment, rdflib.Literal(
-        "Read-only: updates, SERVICE and FROM are refused; queries stop at a time limit and a row limit.")))  # fmt: skip
+    graph.add(
+        (
+            service,
+            rdflib.RDFS.comment,
+            rdflib.Literal(
+                "Read-only: updates, SERVICE and FROM are refused; queries stop at a time limit and a row limit."
+            ),
+        )
+    )
     syntax, media = choose(True, accept)
     return Response(graph.serialize(format=syntax), media_type=media)
 
@@ -81,9 +97,15 @@ def add_sparql_routes(app: FastAPI, run: Run, task: TaskLookup) -> None:
     async def answer(request: Request, target: dict[str, Any]) -> Response:
         params = await _parameters(request)
         if "query" not in params:
-            return service_description(str(request.url.remove_query_params(list(request.query_params))), request.headers.get("accept"))
-        payload = {**target, "query": params["query"][0], "accept": request.headers.get("accept"),
-                   "format": (params.get("format") or params.get("output") or [None])[0]}  # fmt: skip
+            return service_description(
+                str(request.url.remove_query_params(list(request.query_params))), request.headers.get("accept")
+            )
+        payload = {
+            **target,
+            "query": params["query"][0],
+            "accept": request.headers.get("accept"),
+            "format": (params.get("format") or params.get("output") or [None])[0],
+        }
         return await run(request, payload)
 
     @app.get("/sparql", tags=["sparql"], openapi_extra=doc)

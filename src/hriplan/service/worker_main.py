@@ -20,7 +20,6 @@ def serve(conn: Connection) -> None:
     """Answer requests until the server closes the pipe."""
     from hriplan import HriplanError
     from hriplan.ontology.sparql import QueryTimeout
-
     from hriplan.service.errors import RequestError
     from hriplan.service.jobs import JOBS
     from hriplan.service.negotiation import NotAcceptable
@@ -42,7 +41,7 @@ def serve(conn: Connection) -> None:
             reply = ("error", 504, str(exc))
         except HriplanError as exc:
             reply = ("error", 400, str(exc))
-        except Exception as exc:  # noqa: BLE001 - the request fails, the worker lives on
+        except Exception as exc:
             traceback.print_exc(file=sys.stderr)
             reply = ("error", 500, f"internal error while serving {kind} ({type(exc).__name__}); see the server log")
         conn.send(reply)

@@ -99,10 +99,18 @@ class WorkerPool:
         task.add_done_callback(self._starting.discard)
 
     def status(self) -> dict[str, Any]:
-        return {"workers": [{"pid": w.process.pid, "ready": w.ready, "busy": w.busy} for w in self.workers], "in_flight": self._in_flight}
+        return {
+            "workers": [{"pid": w.process.pid, "ready": w.ready, "busy": w.busy} for w in self.workers],
+            "in_flight": self._in_flight,
+        }
 
-    async def run(self, kind: str, payload: dict[str, Any], time_limit: float,
-                  disconnected: Callable[[], Awaitable[bool]] | None = None) -> tuple:  # fmt: skip
+    async def run(
+        self,
+        kind: str,
+        payload: dict[str, Any],
+        time_limit: float,
+        disconnected: Callable[[], Awaitable[bool]] | None = None,
+    ) -> tuple:
         """A worker's reply ("ok", body, media) or ("error", status, message); PoolError otherwise."""
         if self._in_flight >= self.size + self.queue_limit:
             raise Busy(f"all {self.size} workers are busy and {self.queue_limit} requests are waiting; retry shortly")
@@ -112,8 +120,9 @@ class WorkerPool:
         finally:
             self._in_flight -= 1
 
-    async def _run(self, job: tuple[str, dict[str, Any]], time_limit: float,
-                   disconnected: Callable[[], Awaitable[bool]] | None) -> tuple:  # fmt: skip
+    async def _run(
+        self, job: tuple[str, dict[str, Any]], time_limit: float, disconnected: Callable[[], Awaitable[bool]] | None
+    ) -> tuple:
         loop = asyncio.get_running_loop()
         deadline = loop.time() + time_limit
         try:
@@ -124,7 +133,9 @@ class WorkerPool:
         call = loop.run_in_executor(self._threads, worker.call, job)
         watch = asyncio.ensure_future(_until_disconnected(disconnected))
         try:
-            done, _ = await asyncio.wait({call, watch}, timeout=max(deadline - loop.time(), 0.0), return_when=asyncio.FIRST_COMPLETED)
+            done, _ = await asyncio.wait(
+                {call, watch}, timeout=max(deadline - loop.time(), 0.0), return_when=asyncio.FIRST_COMPLETED
+            )
         except asyncio.CancelledError:  # the server is shutting down or the handler was cancelled
             self._replace(worker)
             raise
@@ -137,7 +148,9 @@ class WorkerPool:
                 worker.process.join(1)
                 code = worker.process.exitcode
                 self._replace(worker)
-                raise WorkerCrashed(f"the worker serving this request died (exit code {code}); it has been replaced") from None
+                raise WorkerCrashed(
+                    f"the worker serving this request died (exit code {code}); it has been replaced"
+                ) from None
             worker.busy = False
             self._idle.put_nowait(worker)
             return reply

@@ -31,7 +31,10 @@ class Engine(Protocol):
 
 
 def _error_rows(variant: Variant, exc: BaseException) -> list[Row]:
-    return [variant_columns(variant) | {"step": "", "step_index": -1, "status": "error", "reason": f"{type(exc).__name__}: {exc}"}]
+    return [
+        variant_columns(variant)
+        | {"step": "", "step_index": -1, "status": "error", "reason": f"{type(exc).__name__}: {exc}"}
+    ]
 
 
 def _outcome(variant: Variant, future: Future) -> list[Row]:
@@ -135,11 +138,18 @@ class RayEngine:
         else:
             _single_threaded_blas()
             threads = {k: os.environ[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
-            env = {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)} | threads  # workers import what the driver does
+            env = {
+                "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)
+            } | threads  # workers import what the driver does
             # Ray resolves 127.0.0.1 to the node's address by design (ray-project/ray#26293): its
             # services listen there, not on loopback; no dashboard is started.
-            ray.init(num_cpus=self.workers or os.cpu_count(), include_dashboard=False, runtime_env={"env_vars": env},
-                     logging_level="ERROR", log_to_driver=False)  # fmt: skip
+            ray.init(
+                num_cpus=self.workers or os.cpu_count(),
+                include_dashboard=False,
+                runtime_env={"env_vars": env},
+                logging_level="ERROR",
+                log_to_driver=False,
+            )
         return ray, True
 
     def run(self, variants: list[Variant], plan: bool, deliver: Deliver, work: Work = run_variant) -> None:

@@ -16,10 +16,10 @@ import matplotlib
 import numpy as np
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-from hriplan.sweeps.results import Row, read_results  # noqa: E402
-from hriplan.sweeps.run import succeeded  # noqa: E402
+from hriplan.sweeps.results import Row, read_results
+from hriplan.sweeps.run import succeeded
 
 VARY = "vary."
 
@@ -36,8 +36,16 @@ def per_variant(rows: list[Row]) -> list[dict]:
     records = []
     for key, steps in by_key.items():
         separations = [v for r in steps for c, v in r.items() if c.startswith("min_separation.") and v is not None]
-        varied = {c[len(VARY):]: v for c, v in steps[0].items() if c.startswith(VARY)}
-        records.append({"key": key, "source": Path(steps[0].get("source") or key).name, "varied": varied, "success": succeeded(steps), "separation": min(separations, default=None)})
+        varied = {c[len(VARY) :]: v for c, v in steps[0].items() if c.startswith(VARY)}
+        records.append(
+            {
+                "key": key,
+                "source": Path(steps[0].get("source") or key).name,
+                "varied": varied,
+                "success": succeeded(steps),
+                "separation": min(separations, default=None),
+            }
+        )
     return records
 
 
@@ -53,7 +61,7 @@ def _cells(records: list[dict], axes: list[str]) -> dict[tuple, tuple[float, flo
     return cells
 
 
-def _panel(figure, ax, cells: dict, axes: list[str], value: int, **style) -> None:  # noqa: ANN001, ANN003
+def _panel(figure, ax, cells: dict, axes: list[str], value: int, **style) -> None:
     """One value of the cells over the axes: a grid of cells when the points form one, else dots."""
     points = [p for p in cells if cells[p][value] is not None]
     if not points:
@@ -93,7 +101,11 @@ def _same_units(axes: list[str]) -> bool:
 def _draw_bars(records: list[dict], path: Path) -> None:
     figure, ax = plt.subplots(figsize=(max(6, 0.4 * len(records)), 4), constrained_layout=True)
     labels = [", ".join(f"{k}={v}" for k, v in r["varied"].items()) or r["source"] for r in records]
-    ax.bar(range(len(records)), [r["separation"] or 0.0 for r in records], color=["tab:green" if r["success"] else "tab:red" for r in records])
+    ax.bar(
+        range(len(records)),
+        [r["separation"] or 0.0 for r in records],
+        color=["tab:green" if r["success"] else "tab:red" for r in records],
+    )
     ax.set_xticks(range(len(records)), labels, rotation=60, ha="right", fontsize=7)
     ax.set_ylabel("closest approach to a person (m); red: failed")
     figure.savefig(path, dpi=110)
@@ -121,9 +133,11 @@ def write_report(directory: Path) -> Path:
         f"<td>{_metres(r['separation'])}</td></tr>"
         for r in records
     )
-    page = (f"<!doctype html><html><head><meta charset='utf-8'><title>sweep {html.escape(directory.name)}</title></head><body>"
-            f"<h1>Sweep {html.escape(directory.name)}</h1><p>{len(records)} variants, {solved} succeeded in every step.</p>"
-            f"<img src='{image.name}' style='max-width:100%'><table border='1'><tr><th>varied</th><th>success</th>"
-            f"<th>closest approach (m)</th></tr>{rows}</table></body></html>")  # fmt: skip
+    page = (
+        f"<!doctype html><html><head><meta charset='utf-8'><title>sweep {html.escape(directory.name)}</title></head><body>"
+        f"<h1>Sweep {html.escape(directory.name)}</h1><p>{len(records)} variants, {solved} succeeded in every step.</p>"
+        f"<img src='{image.name}' style='max-width:100%'><table border='1'><tr><th>varied</th><th>success</th>"
+        f"<th>closest approach (m)</th></tr>{rows}</table></body></html>"
+    )
     (directory / "report.html").write_text(page)
     return directory / "report.html"

@@ -34,9 +34,11 @@ class SweepSummary(BaseModel):
     results: str
 
     def text(self) -> str:
-        lines = [f"{self.variants} variants: {self.ran} run, {self.skipped} already done; "
-                 f"{self.solved} succeeded in every step ({self.wall_time:.1f} s)",  # fmt: skip
-                 "step rows: " + ", ".join(f"{n} {s}" for s, n in sorted(self.statuses.items()))]
+        lines = [
+            f"{self.variants} variants: {self.ran} run, {self.skipped} already done; "
+            f"{self.solved} succeeded in every step ({self.wall_time:.1f} s)",
+            "step rows: " + ", ".join(f"{n} {s}" for s, n in sorted(self.statuses.items())),
+        ]
         lines += [f"  {n} x {reason}" for reason, n in self.reasons.items()]
         return "\n".join(lines + [f"results: {self.results}"])
 
@@ -56,13 +58,27 @@ def summarize(rows: list[Row], keys: set[str], skipped: int, ran: int, wall: flo
     for r in mine:
         by_key.setdefault(r["key"], []).append(r)
     failed = Counter(_pattern(r["reason"] or r["status"]) for r in mine if r["status"] not in ("solved", "derived"))
-    return SweepSummary(variants=len(keys), skipped=skipped, ran=ran, solved=sum(succeeded(v) for v in by_key.values()),
-                        statuses=dict(Counter(r["status"] for r in mine)), reasons=dict(failed.most_common(3)),
-                        wall_time=wall, results=str(results))  # fmt: skip
+    return SweepSummary(
+        variants=len(keys),
+        skipped=skipped,
+        ran=ran,
+        solved=sum(succeeded(v) for v in by_key.values()),
+        statuses=dict(Counter(r["status"] for r in mine)),
+        reasons=dict(failed.most_common(3)),
+        wall_time=wall,
+        results=str(results),
+    )
 
 
-def run_sweep(variants: list[Variant], directory: Path, engine: Engine | None = None, plan: bool = True,
-              csv: bool = False, work: Work = run_variant, progress: bool = True) -> SweepSummary:  # fmt: skip
+def run_sweep(
+    variants: list[Variant],
+    directory: Path,
+    engine: Engine | None = None,
+    plan: bool = True,
+    csv: bool = False,
+    work: Work = run_variant,
+    progress: bool = True,
+) -> SweepSummary:
     """Run the variants not yet in `directory`, writing rows as they arrive; compact at the end."""
     began = time.monotonic()
     store = ResultStore(directory)
@@ -88,4 +104,6 @@ def run_sweep(variants: list[Variant], directory: Path, engine: Engine | None = 
         if bar is not None:
             bar.close()
     results = store.compact(csv)
-    return summarize(store.rows(), {v.key for v in variants}, len(variants) - len(todo), len(todo), time.monotonic() - began, results)
+    return summarize(
+        store.rows(), {v.key for v in variants}, len(variants) - len(todo), len(todo), time.monotonic() - began, results
+    )

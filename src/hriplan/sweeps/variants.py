@@ -22,7 +22,6 @@ import numpy as np
 from pydantic import BaseModel, ValidationError
 
 from hriplan import HriplanError
-from hriplan.files import read_data
 from hriplan.tasks.model import TaskFile
 
 
@@ -123,7 +122,9 @@ def parse_vary(text: str) -> Dimension:
             return Dimension(path=path, components=[Component(values=data)])
         if not spec.endswith("]"):
             raise HriplanError(f"--vary {path}: a grid is [RANGE, RANGE, ...], got {spec!r}")
-        return Dimension(path=path, components=[_component(p.strip(), path) for p in spec[1:-1].split(",")], vector=True)
+        return Dimension(
+            path=path, components=[_component(p.strip(), path) for p in spec[1:-1].split(",")], vector=True
+        )
     return Dimension(path=path, components=[_component(spec, path)])
 
 

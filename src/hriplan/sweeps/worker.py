@@ -16,7 +16,6 @@ import time
 from typing import Any
 
 from hriplan import HriplanError
-
 from hriplan.sweeps.variants import Variant
 
 Row = dict[str, Any]
@@ -80,18 +79,33 @@ def run_variant(variant: Variant, plan: bool = True) -> list[Row]:
     except HriplanError as exc:
         timing = {"wall_time": time.perf_counter() - began, "cpu_time": time.process_time() - cpu}
         return [base | {"step": "", "step_index": -1, "status": "error", "reason": str(exc)} | timing]
-    timing = {"wall_time": time.perf_counter() - began, "cpu_time": time.process_time() - cpu}  # per variant (all its steps)
+    timing = {
+        "wall_time": time.perf_counter() - began,
+        "cpu_time": time.process_time() - cpu,
+    }  # per variant (all its steps)
     people = [h.name for h in variant.task.humans]
     rows = []
     for index, step in enumerate(outcome.steps):
         report = step.trajectory.report if step.trajectory is not None else None
         kinds = {c.kind for c in step.derivation.constraints} | {v.kind for v in step.derivation.velocity}
-        rows.append(base | {
-            "step": step.name, "step_index": index, "kind": step.kind, "status": step.status, "reason": step.message,
-            "constraint_kinds": ",".join(sorted(kinds)), "velocity_scale": step.derivation.velocity_scale,
-            "planning_time": report.planning_time if report else None, "path_length": report.path_length if report else None,
-            "duration": report.duration if report else None, "min_human_distance": report.min_human_distance if report else None,
-        } | separation_columns(report, people) | timing)  # fmt: skip
+        rows.append(
+            base
+            | {
+                "step": step.name,
+                "step_index": index,
+                "kind": step.kind,
+                "status": step.status,
+                "reason": step.message,
+                "constraint_kinds": ",".join(sorted(kinds)),
+                "velocity_scale": step.derivation.velocity_scale,
+                "planning_time": report.planning_time if report else None,
+                "path_length": report.path_length if report else None,
+                "duration": report.duration if report else None,
+                "min_human_distance": report.min_human_distance if report else None,
+            }
+            | separation_columns(report, people)
+            | timing
+        )
     return rows
 
 

@@ -17,10 +17,9 @@ from hriplan.planner.motion import Goal as MotionGoal
 from hriplan.planner.motion import JointGoal, ToolGoal
 from hriplan.robots.bounding import frame_with_z
 from hriplan.robots.spatial import Pose
-
-from hriplan.tasks.model import GraspGoal, HandOverGoal, InsertGoal, JointsGoal, PlaceGoal, TakeGoal, ToolPoseGoal
-from hriplan.tasks.model import Goal as TaskGoal
 from hriplan.tasks.grasps import object_length
+from hriplan.tasks.model import Goal as TaskGoal
+from hriplan.tasks.model import GraspGoal, HandOverGoal, InsertGoal, JointsGoal, PlaceGoal, TakeGoal, ToolPoseGoal
 from hriplan.tasks.task_state import TaskState, handover_point
 
 # The planned motion stops short of contact; the last centimetres (setting an object down, pushing

@@ -53,10 +53,14 @@ def allowed_grasps(facts: Facts, obj: str, arm_individual: str, usual_axis: str)
     required, afforded = set(map(str, facts.get(obj, "requiresGrasp"))), set(map(str, facts.get(obj, "affordsGrasp")))
     if not afforded | required:
         return [Grasp("usual", usual_axis)]
-    names = required & afforded if required and afforded else required or afforded  # rules restrict what the kind affords
+    names = (
+        required & afforded if required and afforded else required or afforded
+    )  # rules restrict what the kind affords
     if not names:
-        raise HriplanError(f"no grasp of {obj} is allowed: the rules require {', '.join(sorted(required))}, "
-                           f"its kind affords {', '.join(sorted(afforded))}")
+        raise HriplanError(
+            f"no grasp of {obj} is allowed: the rules require {', '.join(sorted(required))}, "
+            f"its kind affords {', '.join(sorted(afforded))}"
+        )
     grasps = sorted((str(n) for n in names), key=lambda n: (facts.number(n, "hasPreference"), n))
     found = [Grasp(n, str(facts.one(n, "hasGraspAxis")), facts.number(n, "hasGraspOffset")) for n in grasps]
     for g in found:

@@ -11,7 +11,6 @@ from collections.abc import Mapping
 from hriplan import HriplanError
 from hriplan.robots.descriptions.registry import description_of
 from hriplan.robots.descriptions.ur5_arm import joint_names
-
 from hriplan.tasks.model import TaskFile, step_name
 
 LIMIT_TOLERANCE = 1e-9  # rad: values written from a limit may round just past it

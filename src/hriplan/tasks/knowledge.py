@@ -11,7 +11,6 @@ from hriplan import HriplanError
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.sparql import QueryResult, run_query
 from hriplan.ontology.vocabulary import PREFIXES, ontology_source
-
 from hriplan.tasks.pipeline import TaskRunner
 
 
@@ -39,8 +38,9 @@ def query_every_step(runner: TaskRunner, text: str) -> QueryResult:
     combined.bindings = [
         {rdflib.Variable("step"): rdflib.Literal(step)}
         | {rdflib.Variable(v): term for v, term in zip(answer.variables, row) if term is not None}
-        for step, answer in answers.items() for row in answer.rows
-    ]  # fmt: skip
+        for step, answer in answers.items()
+        for row in answer.rows
+    ]
     return QueryResult(combined, next(iter(runner.knowledge_bases.values())).graph.namespace_manager)
 
 

@@ -18,7 +18,6 @@ from hriplan.planner.validate import densify
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import Robot
-
 from hriplan.tasks.goals import PLACE_CLEARANCE
 
 LIFT = PLACE_CLEARANCE
@@ -41,8 +40,7 @@ def lift_path(robot: Robot, checker: CollisionChecker, arm: str, q_grasp: np.nda
     target = tool.copy()
     target[2, 3] += LIFT
     x_grasp = robot.group_values(q_grasp, group)
-    ik = solve_ik(robot, arm, target, base_q=q_grasp, reference=x_grasp,
-                  is_valid=lambda q: not checker.in_collision(q))  # fmt: skip
+    ik = solve_ik(robot, arm, target, base_q=q_grasp, reference=x_grasp, is_valid=lambda q: not checker.in_collision(q))
     if not ik.success:
         return None, f"no valid IK solution {LIFT} m above the grasp: {ik.message}"
     x_lift = np.asarray(ik.q, dtype=float)

@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 from hriplan.files import load_model
-
 from hriplan.tasks.model import TaskFile
 
 

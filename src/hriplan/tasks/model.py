@@ -15,8 +15,8 @@ from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, Validatio
 
 from hriplan.files import error_location
 from hriplan.ontology.situation import FillLevel, Name, Role
-from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
 from hriplan.planner.constraints.spec import Axis
+from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
 from hriplan.robots.human import HumanSpec, Side
 from hriplan.robots.scene import Obstacle, Shape
 from hriplan.robots.spatial import Pose
@@ -40,12 +40,16 @@ class TaskObject(_Strict):
     fragile: bool | None = None
     hot: bool | None = None
     pose: Pose = Field(default_factory=Pose, description="World pose (ignored while a person or the robot holds it).")
-    shape: Shape | None = Field(default=None, description="Collision shape (centred); none: the object is not an obstacle.")
+    shape: Shape | None = Field(
+        default=None, description="Collision shape (centred); none: the object is not an obstacle."
+    )
     held_by: str | None = Field(default=None, description="A robot arm holding it at the start.")
-    in_hand_of: Name | None = Field(default=None, description="A person holding it at the start (in their active hand).")
+    in_hand_of: Name | None = Field(
+        default=None, description="A person holding it at the start (in their active hand)."
+    )
 
     @model_validator(mode="after")
-    def _one_holder(self) -> "TaskObject":
+    def _one_holder(self) -> TaskObject:
         if self.held_by and self.in_hand_of:
             raise ValueError(f"object {self.name!r} cannot be held by the robot and by {self.in_hand_of!r} at once")
         return self
@@ -58,14 +62,19 @@ class TaskHuman(HumanSpec):
 
     name: Name
     role: Role
-    hand: Side = Field(default="right", description="The hand they hand or take with: the one they reach out if they reach out one, else the right.")
+    hand: Side = Field(
+        default="right",
+        description="The hand they hand or take with: the one they reach out if they reach out one, else the right.",
+    )
 
     @model_validator(mode="after")
-    def _hand_they_reach_out(self) -> "TaskHuman":
+    def _hand_they_reach_out(self) -> TaskHuman:
         if "hand" not in self.model_fields_set and len(self.reach) == 1:
             self.hand = next(iter(self.reach))
         elif self.reach and self.hand not in self.reach:
-            raise ValueError(f"{self.name} hands with the {self.hand} hand but reaches out only the {', '.join(self.reach)} one")
+            raise ValueError(
+                f"{self.name} hands with the {self.hand} hand but reaches out only the {', '.join(self.reach)} one"
+            )
         return self
 
 
@@ -122,8 +131,15 @@ class InsertGoal(_Strict):
     into: Name
 
 
-GOAL_KINDS = {"joints": JointsGoal, "tool_pose": ToolPoseGoal, "grasp": GraspGoal, "hand_over": HandOverGoal,
-              "take": TakeGoal, "place": PlaceGoal, "insert": InsertGoal}  # fmt: skip
+GOAL_KINDS = {
+    "joints": JointsGoal,
+    "tool_pose": ToolPoseGoal,
+    "grasp": GraspGoal,
+    "hand_over": HandOverGoal,
+    "take": TakeGoal,
+    "place": PlaceGoal,
+    "insert": InsertGoal,
+}
 
 
 def _goal_kind(value: object) -> str | None:
@@ -137,21 +153,32 @@ def _goal_kind(value: object) -> str | None:
 
 
 Goal = Annotated[
-    Annotated[JointsGoal, Tag("joints")] | Annotated[ToolPoseGoal, Tag("tool_pose")] | Annotated[GraspGoal, Tag("grasp")]
-    | Annotated[HandOverGoal, Tag("hand_over")] | Annotated[TakeGoal, Tag("take")] | Annotated[PlaceGoal, Tag("place")]
+    Annotated[JointsGoal, Tag("joints")]
+    | Annotated[ToolPoseGoal, Tag("tool_pose")]
+    | Annotated[GraspGoal, Tag("grasp")]
+    | Annotated[HandOverGoal, Tag("hand_over")]
+    | Annotated[TakeGoal, Tag("take")]
+    | Annotated[PlaceGoal, Tag("place")]
     | Annotated[InsertGoal, Tag("insert")],
-    Discriminator(_goal_kind, custom_error_type="goal_kind",
-                  custom_error_message=f"a goal is a mapping with exactly one of the keys {', '.join(GOAL_KINDS)}"),
-]  # fmt: skip
+    Discriminator(
+        _goal_kind,
+        custom_error_type="goal_kind",
+        custom_error_message=f"a goal is a mapping with exactly one of the keys {', '.join(GOAL_KINDS)}",
+    ),
+]
 
 
 class Step(_Strict):
     name: Name | None = None
-    arm: str | None = Field(default=None, description="The arm that moves (default: the one holding the object, else the first).")
+    arm: str | None = Field(
+        default=None, description="The arm that moves (default: the one holding the object, else the first)."
+    )
     goal: Goal | None = None
     goals: list[Goal] = Field(default_factory=list, description="One goal per arm, planned together (both arms).")
     arms: list[str] = Field(default_factory=list, description="With `goals`: the arm of each goal.")
-    kind: Name | None = Field(default=None, description="Ontology task class; default from the goal (hand over -> RobotToHumanHandover...).")
+    kind: Name | None = Field(
+        default=None, description="Ontology task class; default from the goal (hand over -> RobotToHumanHandover...)."
+    )
 
     @model_validator(mode="before")
     @classmethod
@@ -160,11 +187,13 @@ class Step(_Strict):
         if isinstance(data, dict):
             goals = [data.get("goal"), *(data.get("goals") or [])]
             for goal in [g for g in goals if isinstance(g, dict) and _goal_kind(g) is None]:
-                raise ValueError(f"goal {{{', '.join(map(str, goal))}}} needs exactly one of the keys {', '.join(GOAL_KINDS)}")
+                raise ValueError(
+                    f"goal {{{', '.join(map(str, goal))}}} needs exactly one of the keys {', '.join(GOAL_KINDS)}"
+                )
         return data
 
     @model_validator(mode="after")
-    def _goal_or_goals(self) -> "Step":
+    def _goal_or_goals(self) -> Step:
         if (self.goal is None) == (not self.goals):
             raise ValueError("a step has either `goal` or `goals`")
         if self.goals and len(self.arms) != len(self.goals):
@@ -182,13 +211,15 @@ class Planning(_Strict):
 
     planner: Literal[PLANNERS] = "CBiRRT"  # type: ignore[valid-type]
     space: Space = "projected"  # CBiRRT's space (PlanOptions' defaults)
-    formulation: Formulation | None = Field(default=None, description="Default: the space's own (atlas, tangent_bundle: hybrid; else deadzone).")
+    formulation: Formulation | None = Field(
+        default=None, description="Default: the space's own (atlas, tangent_bundle: hybrid; else deadzone)."
+    )
     time_limit: Positive = 10.0
     seed: int | None = None
     project_start: bool = Field(default=False, description="Move a start that violates a constraint onto it first.")
 
     @model_validator(mode="after")
-    def _within_planner_limits(self) -> "Planning":
+    def _within_planner_limits(self) -> Planning:
         try:
             PlanOptions(**self.model_dump(exclude_none=True))
         except ValidationError as exc:
@@ -208,10 +239,12 @@ class TaskFile(_Strict):
     start: Start = Field(default_factory=Start)
     steps: list[Step] = Field(min_length=1)
     planning: Planning = Field(default_factory=Planning)
-    rule_files: list[str] = Field(default_factory=list, description="Extra rule files (paths relative to the task file).")
+    rule_files: list[str] = Field(
+        default_factory=list, description="Extra rule files (paths relative to the task file)."
+    )
 
     @model_validator(mode="after")
-    def _references(self) -> "TaskFile":
+    def _references(self) -> TaskFile:
         objects = {o.name for o in self.objects}
         humans = {h.name for h in self.humans}
         names = [o.name for o in self.objects] + [h.name for h in self.humans] + [t.name for t in self.scene.tables]
@@ -224,7 +257,9 @@ class TaskFile(_Strict):
             raise ValueError(f"step names must be unique (each names its trajectory); repeated: {', '.join(repeated)}")
         for obj in self.objects:
             if obj.in_hand_of and obj.in_hand_of not in humans:
-                raise ValueError(f"object {obj.name!r} is in the hand of {obj.in_hand_of!r}, who is not among the humans")
+                raise ValueError(
+                    f"object {obj.name!r} is in the hand of {obj.in_hand_of!r}, who is not among the humans"
+                )
         for k, step in enumerate(self.steps):
             for goal in [step.goal, *step.goals]:
                 for field in ("grasp", "hand_over", "take", "place", "insert", "into"):

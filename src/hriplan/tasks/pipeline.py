@@ -19,23 +19,22 @@ from hriplan import HriplanError
 from hriplan.ontology.assertions import arm_individual
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation, SituationHuman, SituationObject, SituationTask
+from hriplan.planner.constraints.binding import resolve_frame
+from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.planner.motion import Goal as MotionGoal
 from hriplan.planner.motion import JointGoal, MotionResult, ToolGoal, plan_motion
 from hriplan.planner.options import PlanOptions
-from hriplan.planner.constraints.binding import resolve_frame
-from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
+from hriplan.robots.descriptions.postures import posture
 from hriplan.robots.ik import solve_two_arms
 from hriplan.robots.model import Robot, arms_of, description_of, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
-from hriplan.robots.descriptions.postures import posture
 from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
-
 from hriplan.tasks.goals import ResolvedGoal, after_step, resolve_goal, task_kind
-from hriplan.tasks.lift import LIFT, lift_path, supports
 from hriplan.tasks.grasps import Grasp, allowed_grasps
+from hriplan.tasks.lift import LIFT, lift_path, supports
 from hriplan.tasks.model import GraspGoal, Step, TaskFile, step_name
 from hriplan.tasks.prepare import preparatory_goal
 from hriplan.tasks.task_state import TaskState
@@ -84,8 +83,13 @@ def step_arms(task: TaskFile, step: Step, state: TaskState) -> list[str]:
     return [next(iter(description_of(task.robot).arms))]
 
 
-def situation_for(task: TaskFile, step: Step, index: int, state: TaskState,
-                  paths: dict[str, list[tuple[float, float, float]]] | None = None) -> Situation:  # fmt: skip
+def situation_for(
+    task: TaskFile,
+    step: Step,
+    index: int,
+    state: TaskState,
+    paths: dict[str, list[tuple[float, float, float]]] | None = None,
+) -> Situation:
     """The facts of one step: the task kind, who is involved, what is carried, where things are
     (held objects where the hand is) and, once a motion is planned, the carried objects' `paths`."""
     paths = paths or {}
@@ -101,16 +105,37 @@ def situation_for(task: TaskFile, step: Step, index: int, state: TaskState,
         if taken is not None:
             carries[taken] = arm
     objects = [
-        SituationObject(name=o.name, kind=o.kind, fill_level=o.fill_level, open=o.open, sharp=o.sharp, fragile=o.fragile,
-                        hot=o.hot, pose=state.pose(o.name), path=paths.get(o.name, []),
-                        grasp_axis=state.grasps[o.name].axis if o.name in state.grasps else None)  # fmt: skip
+        SituationObject(
+            name=o.name,
+            kind=o.kind,
+            fill_level=o.fill_level,
+            open=o.open,
+            sharp=o.sharp,
+            fragile=o.fragile,
+            hot=o.hot,
+            pose=state.pose(o.name),
+            path=paths.get(o.name, []),
+            grasp_axis=state.grasps[o.name].axis if o.name in state.grasps else None,
+        )
         for o in task.objects
     ]
     humans = [SituationHuman(**h.model_dump()) for h in task.humans]
     kind = step.kind or task_kind(goals[0])
-    return Situation(robot=task.robot, objects=objects, humans=humans, tool_poses=dict(state.tools),
-                     task=SituationTask(name=step_name(step, index), kind=kind, arms=arms, carries=carries, human=human,
-                                           target=target, targets=targets))  # fmt: skip
+    return Situation(
+        robot=task.robot,
+        objects=objects,
+        humans=humans,
+        tool_poses=dict(state.tools),
+        task=SituationTask(
+            name=step_name(step, index),
+            kind=kind,
+            arms=arms,
+            carries=carries,
+            human=human,
+            target=target,
+            targets=targets,
+        ),
+    )
 
 
 def object_axes(kb: KnowledgeBase, arms: list[str]) -> dict[str, str]:
@@ -122,19 +147,27 @@ def object_axes(kb: KnowledgeBase, arms: list[str]) -> dict[str, str]:
 class TaskRunner:
     """Runs a task's steps in order on one planning session (robot and collision set-up built once)."""
 
-    def __init__(self, task: TaskFile, base_dir: Path = Path("."), progress: Progress | None = None,
-                 session: PlanningSession | None = None) -> None:  # fmt: skip
+    def __init__(
+        self,
+        task: TaskFile,
+        base_dir: Path = Path("."),
+        progress: Progress | None = None,
+        session: PlanningSession | None = None,
+    ) -> None:
         self.task = task
         self.rule_files = [str((base_dir / f).resolve()) for f in task.rule_files]
         self.progress = progress or (lambda message: None)
         if session is not None and (session.robot.name, session.robot.hand_postures) != (task.robot, _hands(task)):
-            raise HriplanError(f"the session's robot ({session.robot.name}, hands {session.robot.hand_postures}) is not the task's")
+            raise HriplanError(
+                f"the session's robot ({session.robot.name}, hands {session.robot.hand_postures}) is not the task's"
+            )
         self.session = session
         self.knowledge_bases: dict[str, KnowledgeBase] = {}  # per step, from the last run
         self._derived: dict[str, tuple[KnowledgeBase, Derivation]] = {}  # per situation
 
-    def derive_step(self, step: Step, index: int, state: TaskState,
-                    paths: dict[str, list[tuple[float, float, float]]] | None = None) -> tuple[KnowledgeBase, Derivation]:  # fmt: skip
+    def derive_step(
+        self, step: Step, index: int, state: TaskState, paths: dict[str, list[tuple[float, float, float]]] | None = None
+    ) -> tuple[KnowledgeBase, Derivation]:
         situation = situation_for(self.task, step, index, state, paths)  # nearness along `paths`: ontology/relations.py
         self.progress(f"{situation.task.name}: reasoning about the situation")
         key = situation.model_dump_json()  # the grasp choice and the step derive the same situation
@@ -181,26 +214,38 @@ class TaskRunner:
         robot = kb.situation.robot
         usual = object_axes(kb, list(arms_of(self.task.robot)))
         holders = dict(state.held_by_arm) | dict(kb.situation.task.carries)
-        options = {obj: allowed_grasps(kb.facts, obj, arm_individual(robot, arm), usual[arm])
-                   for obj, arm in holders.items() if obj not in state.grasps}  # fmt: skip
+        options = {
+            obj: allowed_grasps(kb.facts, obj, arm_individual(robot, arm), usual[arm])
+            for obj, arm in holders.items()
+            if obj not in state.grasps
+        }
         if not options:
             return [{}]
         first, *others = options
         rest = {obj: options[obj][0] for obj in others}
         return [{first: g, **rest} for g in options[first]]
 
-    def _step(self, step: Step, index: int, state: TaskState, start: dict[str, float],
-              plan: bool) -> tuple[list[StepOutcome], dict[str, float], list[ResolvedGoal]]:  # fmt: skip
+    def _step(
+        self, step: Step, index: int, state: TaskState, start: dict[str, float], plan: bool
+    ) -> tuple[list[StepOutcome], dict[str, float], list[ResolvedGoal]]:
         """Derive, resolve the goals and (if `plan`) plan one step with the grasps in `state`."""
         kb, derivation = self.derive_step(step, index, state)
         arms = kb.situation.task.arms
         goals = step.goals or [step.goal]
-        touched = {obj: arm for g, arm in zip(goals, arms) if (obj := getattr(g, "take", None) or getattr(g, "grasp", None))}
+        touched = {
+            obj: arm for g, arm in zip(goals, arms) if (obj := getattr(g, "take", None) or getattr(g, "grasp", None))
+        }
         scene = state.scene(touched)
         held = self._held_axes(start, state, derivation, scene) if plan else {}
         resolved = [resolve_goal(g, arm, state, held.get(arm)) for g, arm in zip(goals, arms)]
-        outcome = StepOutcome(name=kb.situation.task.name, kind=kb.situation.task.kind, arms=arms, status="derived",
-                              derivation=derivation, scene=scene)  # fmt: skip
+        outcome = StepOutcome(
+            name=kb.situation.task.name,
+            kind=kb.situation.task.kind,
+            arms=arms,
+            status="derived",
+            derivation=derivation,
+            scene=scene,
+        )
         if not plan:
             return [outcome], start, resolved
         grasps = ", ".join(f"{o} by {g.name}" for o, g in state.grasps.items() if o in kb.situation.task.carries)
@@ -210,7 +255,9 @@ class TaskRunner:
         return planned, end, resolved
 
     def _robot(self) -> Robot:
-        return self.session.robot if self.session is not None else load_robot(self.task.robot, _hands(self.task) or None)
+        return (
+            self.session.robot if self.session is not None else load_robot(self.task.robot, _hands(self.task) or None)
+        )
 
     def _session(self) -> PlanningSession:
         if self.session is None:
@@ -220,24 +267,45 @@ class TaskRunner:
             self.session = PlanningSession(self.task.robot, hands=self.task.hands or None)
         return self.session
 
-    def _plan_step(self, step: Step, index: int, state: TaskState, resolved: list[ResolvedGoal], start: dict[str, float],
-                   outcome: StepOutcome) -> tuple[list[StepOutcome], dict[str, float]]:  # fmt: skip
+    def _plan_step(
+        self,
+        step: Step,
+        index: int,
+        state: TaskState,
+        resolved: list[ResolvedGoal],
+        start: dict[str, float],
+        outcome: StepOutcome,
+    ) -> tuple[list[StepOutcome], dict[str, float]]:
         """Plan the step, after a preparatory motion if its start violates one of its orientation
         or cone constraints (tasks/prepare.py), and lift what it picks off its support (lift.py)."""
         session = self._session()
         session.set_scene(outcome.scene)
         goal = resolved[0].goal if len(resolved) == 1 else self._joint_goal(resolved, start)
-        prepared = preparatory_goal(session.robot, session.checker, outcome.derivation.constraints, start) if len(outcome.arms) == 1 else None
+        prepared = (
+            preparatory_goal(session.robot, session.checker, outcome.derivation.constraints, start)
+            if len(outcome.arms) == 1
+            else None
+        )
         outcomes = []
         if prepared is not None:
             turned = {c.spec.id for c in prepared.violated}
             kept = [c for c in outcome.derivation.constraints if c.spec.id not in turned]
-            prep = outcome.model_copy(update={"name": f"{outcome.name}{PREPARE}", "kind": "Transport",
-                                              "derivation": outcome.derivation.model_copy(update={"constraints": kept})})  # fmt: skip
+            prep = outcome.model_copy(
+                update={
+                    "name": f"{outcome.name}{PREPARE}",
+                    "kind": "Transport",
+                    "derivation": outcome.derivation.model_copy(update={"constraints": kept}),
+                }
+            )
             self.progress(f"{outcome.name}: the start violates {', '.join(sorted(turned))}; a preparatory motion first")
             prep, start = self._motion(step, index, state, prepared.goal, start, prep, rederive=False)
-            prep = prep.model_copy(update={"message": f"{prepared.what} before {outcome.name}" if prep.status == "solved"
-                                           else f"preparatory motion ({prepared.what}): {prep.message}"})  # fmt: skip
+            prep = prep.model_copy(
+                update={
+                    "message": f"{prepared.what} before {outcome.name}"
+                    if prep.status == "solved"
+                    else f"preparatory motion ({prepared.what}): {prep.message}"
+                }
+            )
             outcomes.append(prep)
             if prep.status != "solved":
                 return outcomes, start
@@ -248,12 +316,18 @@ class TaskRunner:
             outcomes += [lift] if lift is not None else []
         return outcomes, end
 
-    def _lift(self, goal: GraspGoal, resolved: ResolvedGoal, state: TaskState, start: dict[str, float],
-              grasped: StepOutcome) -> tuple[StepOutcome | None, dict[str, float]]:  # fmt: skip
+    def _lift(
+        self, goal: GraspGoal, resolved: ResolvedGoal, state: TaskState, start: dict[str, float], grasped: StepOutcome
+    ) -> tuple[StepOutcome | None, dict[str, float]]:
         """After a pick, lift the object straight off what it stands on (tasks/lift.py), timed and
         validated under the pick's constraints; None if it stands on nothing."""
         session, robot, (arm,) = self._session(), self._session().robot, grasped.arms
-        held = replace(state, held_by_arm=dict(state.held_by_arm), held_by_person=dict(state.held_by_person), poses=dict(state.poses))
+        held = replace(
+            state,
+            held_by_arm=dict(state.held_by_arm),
+            held_by_person=dict(state.held_by_person),
+            poses=dict(state.poses),
+        )
         after_step(goal, resolved, arm, held)
         scene = held.scene()
         session.set_scene(scene)
@@ -261,26 +335,51 @@ class TaskRunner:
         resting = supports(session.checker, q, goal.grasp)
         if not resting:
             return None, start
-        lifting = scene.model_copy(update={"attached": [a.model_copy(update={"resting_on": resting}) if a.name == goal.grasp else a
-                                                        for a in scene.attached]})  # fmt: skip
+        lifting = scene.model_copy(
+            update={
+                "attached": [
+                    a.model_copy(update={"resting_on": resting}) if a.name == goal.grasp else a for a in scene.attached
+                ]
+            }
+        )
         session.set_scene(lifting)
         x_lift, why = lift_path(robot, session.checker, arm, q)
-        outcome = grasped.model_copy(update={"name": f"{grasped.name}{LIFT_OFF}", "kind": "Transport", "scene": lifting, "trajectory": None})
+        outcome = grasped.model_copy(
+            update={"name": f"{grasped.name}{LIFT_OFF}", "kind": "Transport", "scene": lifting, "trajectory": None}
+        )
         group = robot.arm_group(arm)
         if x_lift is not None:
             session.set_scene(scene)
             if session.checker.in_collision(robot.configuration(x_lift, group, base=q)):
                 x_lift, why = None, f"{LIFT} m up it still touches {', '.join(resting)}"
         if x_lift is None:
-            return outcome.model_copy(update={"status": "unreachable_goal", "message": f"lifting {goal.grasp} off {', '.join(resting)}: {why}"}), start
+            return outcome.model_copy(
+                update={
+                    "status": "unreachable_goal",
+                    "message": f"lifting {goal.grasp} off {', '.join(resting)}: {why}",
+                }
+            ), start
         session.set_scene(lifting)
         session.set_constraints(grasped.derivation.constraint_set())
-        motion = MotionResult(status="solved", group=group, joint_names=robot.group_joints(group), start=dict(zip(robot.joint_names, q.tolist())),
-                              path=[robot.group_values(q, group).tolist(), x_lift.tolist()])  # fmt: skip
+        motion = MotionResult(
+            status="solved",
+            group=group,
+            joint_names=robot.group_joints(group),
+            start=dict(zip(robot.joint_names, q.tolist())),
+            path=[robot.group_values(q, group).tolist(), x_lift.tolist()],
+        )
         return self._timed(outcome, motion, grasped.derivation, start)
 
-    def _motion(self, step: Step, index: int, state: TaskState, goal: MotionGoal, start: dict[str, float],
-                outcome: StepOutcome, rederive: bool = True) -> tuple[StepOutcome, dict[str, float]]:  # fmt: skip
+    def _motion(
+        self,
+        step: Step,
+        index: int,
+        state: TaskState,
+        goal: MotionGoal,
+        start: dict[str, float],
+        outcome: StepOutcome,
+        rederive: bool = True,
+    ) -> tuple[StepOutcome, dict[str, float]]:
         """Plan the path, re-derive with where it carries each object (nearness along the motion
         decides the velocity rules), then time it under the derived velocity scale."""
         session, robot = self._session(), self._session().robot
@@ -289,34 +388,58 @@ class TaskRunner:
         group = robot.arm_group(arms[0]) if len(arms) == 1 else robot.default_group
         options = self._options()
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
-        motion = plan_motion(robot, session.checker, list(session.constraints.values()), start, goal, options, group, derivation.separation)
+        motion = plan_motion(
+            robot,
+            session.checker,
+            list(session.constraints.values()),
+            start,
+            goal,
+            options,
+            group,
+            derivation.separation,
+        )
         if motion.solved and rederive:
-            _, derivation = self.derive_step(step, index, state, carried_paths(robot, start, motion, outcome.name, self.knowledge_bases))
+            _, derivation = self.derive_step(
+                step, index, state, carried_paths(robot, start, motion, outcome.name, self.knowledge_bases)
+            )
             if derivation.constraint_set() != outcome.derivation.constraint_set():  # user rules may depend on the path
                 session.set_constraints(derivation.constraint_set())
-                motion = plan_motion(robot, session.checker, list(session.constraints.values()), start, goal, options, group,
-                                     derivation.separation)
+                motion = plan_motion(
+                    robot,
+                    session.checker,
+                    list(session.constraints.values()),
+                    start,
+                    goal,
+                    options,
+                    group,
+                    derivation.separation,
+                )
         outcome = outcome.model_copy(update={"derivation": derivation})
         if not motion.solved:
             return outcome.model_copy(update={"status": motion.status, "message": motion.message}), start
         return self._timed(outcome, motion, derivation, start)
 
-    def _timed(self, outcome: StepOutcome, motion: MotionResult, derivation: Derivation,
-               start: dict[str, float]) -> tuple[StepOutcome, dict[str, float]]:  # fmt: skip
+    def _timed(
+        self, outcome: StepOutcome, motion: MotionResult, derivation: Derivation, start: dict[str, float]
+    ) -> tuple[StepOutcome, dict[str, float]]:
         """Time a planned motion under the derivation's velocity scale and people, on the session's
         scene and constraints; the outcome with its trajectory, and where it ends."""
         options = self._options().model_copy(update={"velocity_scale": derivation.velocity_scale})
         result = self._session().time(motion, options, safety=derivation.separation)
         if not result.solved:
             return outcome.model_copy(update={"status": result.status, "message": result.message}), start
-        trajectory = _with_reasons(result.trajectory, derivation).model_copy(update={"task": self.task.name, "step": outcome.name})
+        trajectory = _with_reasons(result.trajectory, derivation).model_copy(
+            update={"task": self.task.name, "step": outcome.name}
+        )
         end = dict(start) | dict(zip(trajectory.joint_names, trajectory.points[-1].positions))
         return outcome.model_copy(update={"status": "solved", "trajectory": trajectory}), end
 
     def _options(self) -> PlanOptions:
         return PlanOptions(**self.task.planning.model_dump(exclude_none=True))
 
-    def _held_axes(self, start: dict[str, float], state: TaskState, derivation: Derivation, scene: Scene) -> dict[str, np.ndarray]:
+    def _held_axes(
+        self, start: dict[str, float], state: TaskState, derivation: Derivation, scene: Scene
+    ) -> dict[str, np.ndarray]:
         """Per arm holding something: the world direction the held object's axis should keep:
         the target of an orientation constraint on that arm (a blade pointing away), else its
         direction at `start`."""
@@ -343,7 +466,9 @@ class TaskRunner:
             if not isinstance(r.goal, ToolGoal):
                 raise HriplanError("a step with several goals needs a tool or object goal for each arm")
             targets.append((r.goal.arm, r.goal.pose.matrix(), r.goal.free_axes))
-        q = solve_two_arms(robot, targets[0], targets[1], robot.configuration(start), lambda full: not checker.in_collision(full))
+        q = solve_two_arms(
+            robot, targets[0], targets[1], robot.configuration(start), lambda full: not checker.in_collision(full)
+        )
         if q is None:
             raise HriplanError("no collision-free configuration puts both arms at their goals")
         return JointGoal(values=dict(zip(robot.joint_names, q.tolist())))
@@ -355,8 +480,9 @@ def tool_poses(robot: Robot, joints: dict[str, float]) -> dict[str, Pose]:
     return {arm: Pose.from_matrix(robot.frame_pose(robot.tool_frame(arm), q)) for arm in robot.arms}
 
 
-def carried_paths(robot: Robot, start: dict[str, float], motion: MotionResult, step: str,
-                  knowledge_bases: dict[str, KnowledgeBase]) -> dict[str, list[tuple[float, float, float]]]:  # fmt: skip
+def carried_paths(
+    robot: Robot, start: dict[str, float], motion: MotionResult, step: str, knowledge_bases: dict[str, KnowledgeBase]
+) -> dict[str, list[tuple[float, float, float]]]:
     """Where each object the step carries passes (its centre at its arm's tool frame), every
     PATH_STEP rad of joint motion along the planned path."""
     carries = knowledge_bases[step].situation.task.carries
@@ -378,7 +504,10 @@ def _hands(task: TaskFile) -> dict[str, str]:
 
 def _with_reasons(trajectory: TrajectoryFile, derivation: Derivation) -> TrajectoryFile:
     by_id = {c.spec.id: c for c in derivation.constraints}
-    constraints = [c.model_copy(update={"reason": by_id[c.spec.id].reason}) if c.spec.id in by_id else c for c in trajectory.constraints]
+    constraints = [
+        c.model_copy(update={"reason": by_id[c.spec.id].reason}) if c.spec.id in by_id else c
+        for c in trajectory.constraints
+    ]
     return trajectory.model_copy(update={"constraints": constraints})
 
 
@@ -388,10 +517,16 @@ def against_task(trajectory: TrajectoryFile, runner: TaskRunner) -> TrajectoryFi
     outcome = runner.run(plan=False)
     step = next((s for s in outcome.steps if s.name == trajectory.step), None)
     if step is None:
-        added = next(((suffix, what) for suffix, what in ADDED_MOTIONS.items() if (trajectory.step or "").endswith(suffix)), None)
+        added = next(
+            ((suffix, what) for suffix, what in ADDED_MOTIONS.items() if (trajectory.step or "").endswith(suffix)), None
+        )
         if added is not None:
-            raise HriplanError(f"step {trajectory.step!r} is {added[1]} task step {trajectory.step[: -len(added[0])]!r}, which --task "
-                               f"does not re-derive: validate it against its own record (without --task)")
+            raise HriplanError(
+                f"step {trajectory.step!r} is {added[1]} task step {trajectory.step[: -len(added[0])]!r}, which --task "
+                f"does not re-derive: validate it against its own record (without --task)"
+            )
         raise HriplanError(f"the trajectory's step {trajectory.step!r} is not a step of task {runner.task.name!r}")
-    resolved = [ResolvedConstraint(spec=c.spec, frame_in_world=Pose(), reason=c.reason) for c in step.derivation.constraints]
+    resolved = [
+        ResolvedConstraint(spec=c.spec, frame_in_world=Pose(), reason=c.reason) for c in step.derivation.constraints
+    ]
     return trajectory.model_copy(update={"constraints": resolved, "scene": step.scene})

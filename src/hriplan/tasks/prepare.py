@@ -17,10 +17,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hriplan.planner.constraints.evaluator import ConstraintEvaluator
-from hriplan.planner.motion import ToolGoal
 from hriplan.planner.constraints.binding import bind
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import ConeConstraint, OrientationConstraint
+from hriplan.planner.motion import ToolGoal
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
 from hriplan.robots.spatial import Pose
@@ -36,14 +36,17 @@ class Preparation(NamedTuple):
     what: str  # "turns the held object in place onto sharp_end_away_scissors", for messages
 
 
-def preparatory_goal(robot: Robot, checker: CollisionChecker, constraints: list[DerivedConstraint],
-                     start: dict[str, float]) -> Preparation | None:  # fmt: skip
+def preparatory_goal(
+    robot: Robot, checker: CollisionChecker, constraints: list[DerivedConstraint], start: dict[str, float]
+) -> Preparation | None:
     """The tool goal that brings one arm's tool within every orientation and cone constraint the
     start violates (the first violated one's arm); None when the start meets them all."""
     q = robot.configuration(start)
     violated = []
     for c in constraints:
-        if isinstance(c.spec, (OrientationConstraint, ConeConstraint)) and (not violated or c.arm == violated[0][0].arm):
+        if isinstance(c.spec, (OrientationConstraint, ConeConstraint)) and (
+            not violated or c.arm == violated[0][0].arm
+        ):
             (bound,) = bind([c.spec], robot, checker)
             if ConstraintEvaluator(robot, [bound], robot.arm_group(c.arm), q).margins(q).max() > VIOLATION:
                 violated.append((c, bound))
@@ -61,4 +64,8 @@ def preparatory_goal(robot: Robot, checker: CollisionChecker, constraints: list[
             what.append(f"brings the tool into {c.spec.id}")
     if any(isinstance(c.spec, ConeConstraint) for c, _ in violated):
         free_axes = []  # a position and the orientation it has, or the one turned onto
-    return Preparation(ToolGoal(arm=arm, pose=Pose.from_matrix(target), free_axes=free_axes), [c for c, _ in violated], " and ".join(what))
+    return Preparation(
+        ToolGoal(arm=arm, pose=Pose.from_matrix(target), free_axes=free_axes),
+        [c for c, _ in violated],
+        " and ".join(what),
+    )

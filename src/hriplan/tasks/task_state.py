@@ -14,14 +14,12 @@ import pinocchio as pin
 from hriplan.robots.human import HELD_OBJECT_OFFSET, Human, HumanSpec
 from hriplan.robots.scene import AttachedObject, Box, Cone, Cylinder, Obstacle, Scene, Shape, Sphere, table
 from hriplan.robots.spatial import Pose
-
 from hriplan.tasks.grasps import Grasp, object_length
 from hriplan.tasks.model import TaskFile, TaskHuman, TaskObject
 
 # A handed object's face nearest the person stays this far in front of their palm centre: an
 # upright can (r 3.3 cm) held HELD_OBJECT_OFFSET in front of it.
 NEAR_FACE_CLEARANCE = HELD_OBJECT_OFFSET - 0.033
-
 
 
 def human_spec(person: TaskHuman) -> HumanSpec:
@@ -70,7 +68,7 @@ class TaskState:
     grasps: dict[str, Grasp] = field(default_factory=dict)  # how each held object is held
 
     @classmethod
-    def initial(cls, task: TaskFile) -> "TaskState":
+    def initial(cls, task: TaskFile) -> TaskState:
         state = cls(task)
         for obj in task.objects:
             if obj.held_by:
@@ -113,7 +111,11 @@ class TaskState:
                 continue
             if obj.name in self.held_by_arm:
                 arm = self.held_by_arm[obj.name]
-                attached.append(AttachedObject(name=obj.name, shape=obj.shape, arm=arm, grasp=Pose.from_se3(self.in_tool(obj.name))))
+                attached.append(
+                    AttachedObject(name=obj.name, shape=obj.shape, arm=arm, grasp=Pose.from_se3(self.in_tool(obj.name)))
+                )
             else:
-                obstacles.append(Obstacle(name=obj.name, shape=obj.shape, pose=self.pose(obj.name), touched_by=touched.get(obj.name)))
+                obstacles.append(
+                    Obstacle(name=obj.name, shape=obj.shape, pose=self.pose(obj.name), touched_by=touched.get(obj.name))
+                )
         return Scene(obstacles=obstacles, attached=attached, humans=[human_spec(h) for h in self.task.humans])

@@ -6,7 +6,6 @@ from html import escape
 
 from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.planner.trajectory import TrajectoryFile
-
 from hriplan.viewer.describe import describe, kind
 from hriplan.viewer.scene import PERSON, SLOWED, TOOL_PATH
 from hriplan.viewer.volumes import INSIDE, KEEP_OUT, LINK_AXIS, ORIENTATION, OUTSIDE, colors
@@ -45,7 +44,7 @@ def legend_html(trajectory: TrajectoryFile) -> str:
     key = "".join(f'<span class="key">{_swatch(rgb)}{escape(text)}</span>' for rgb, text in KEY)
     return (
         f'<details id="hriplan-legend" open><summary>{escape(summary)}</summary>'
-        f'<ul>{"".join(rows) or "<li>no constraints</li>"}</ul>'
+        f"<ul>{''.join(rows) or '<li>no constraints</li>'}</ul>"
         '<div class="hint">worst margin: the largest signed distance past the constraint\'s boundary over the motion, '
         "in m (volumes) or rad (orientations); 0 or below (negative) means kept, above 0 violated by that much.</div>"
         f'<div class="keys">{key}</div>'

@@ -25,12 +25,11 @@ import meshcat
 
 from hriplan import HriplanError
 from hriplan.files import write_atomically
+from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.trajectory import TrajectoryFile
-
 from hriplan.viewer.drawing import Drawing
 from hriplan.viewer.legend import LEGEND_CSS, legend_html
 from hriplan.viewer.scene import build_drawing
-from hriplan.planner.replay import PlannedWorld
 
 CLIENT = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
 
@@ -132,14 +131,35 @@ def _commands(drawing: Drawing) -> str:
 
 def render_page(steps: list[tuple[str, Drawing, float, str]], title: str) -> str:
     """The HTML text of a viewer for (name, drawing, duration in s, legend HTML) per step."""
-    plan = json.dumps({"steps": [{"name": name, "duration": duration, "clones": drawing.clones, "camera": drawing.camera}
-                                 for name, drawing, duration, _ in steps]}).replace("</", "<\\/")  # fmt: skip
-    options = "".join(f'<option value="{k}">step {k + 1}: {escape(name)}</option>' for k, (name, *_) in enumerate(steps))
-    legends = "".join(f'<div class="hriplan-step-legend" data-step="{k}">{legend}</div>' for k, (*_, legend) in enumerate(steps))
-    commands = "\n".join(f'<script type="application/octet-stream" id="hriplan-commands-{k}">{_commands(drawing)}</script>'
-                         for k, (_, drawing, *_) in enumerate(steps))  # fmt: skip
-    return PAGE.format(title=escape(title), css=LEGEND_CSS, options=options, selector_hidden="" if len(steps) > 1 else " hidden",
-                       legends=legends, plan=plan, commands=commands, client=CLIENT.read_text(encoding="utf-8"), script=SCRIPT)  # fmt: skip
+    plan = json.dumps(
+        {
+            "steps": [
+                {"name": name, "duration": duration, "clones": drawing.clones, "camera": drawing.camera}
+                for name, drawing, duration, _ in steps
+            ]
+        }
+    ).replace("</", "<\\/")
+    options = "".join(
+        f'<option value="{k}">step {k + 1}: {escape(name)}</option>' for k, (name, *_) in enumerate(steps)
+    )
+    legends = "".join(
+        f'<div class="hriplan-step-legend" data-step="{k}">{legend}</div>' for k, (*_, legend) in enumerate(steps)
+    )
+    commands = "\n".join(
+        f'<script type="application/octet-stream" id="hriplan-commands-{k}">{_commands(drawing)}</script>'
+        for k, (_, drawing, *_) in enumerate(steps)
+    )
+    return PAGE.format(
+        title=escape(title),
+        css=LEGEND_CSS,
+        options=options,
+        selector_hidden="" if len(steps) > 1 else " hidden",
+        legends=legends,
+        plan=plan,
+        commands=commands,
+        client=CLIENT.read_text(encoding="utf-8"),
+        script=SCRIPT,
+    )
 
 
 def write_task_viewer(trajectories: list[TrajectoryFile], path: str | Path) -> Path:

@@ -20,10 +20,9 @@ from matplotlib.figure import Figure
 
 from hriplan.files import temporary_path
 from hriplan.planner.constraints.spec import OrientationConstraint
-from hriplan.planner.trajectory import TrajectoryFile
-
-from hriplan.viewer.describe import describe, kind
 from hriplan.planner.replay import PlannedWorld
+from hriplan.planner.trajectory import TrajectoryFile
+from hriplan.viewer.describe import describe, kind
 
 DPI = 110
 KEPT = "#2ca02c"
@@ -75,8 +74,11 @@ def _margins(world: PlannedWorld) -> Figure:
     return figure
 
 
-JOINT_FIELDS = {"positions": ("rad", "Joint positions"), "velocities": ("rad/s", "Joint velocities"),
-                "accelerations": ("rad/s²", "Joint accelerations")}  # fmt: skip
+JOINT_FIELDS = {
+    "positions": ("rad", "Joint positions"),
+    "velocities": ("rad/s", "Joint velocities"),
+    "accelerations": ("rad/s²", "Joint accelerations"),
+}
 
 
 def _joint_bounds(world: PlannedWorld, name: str, field: str) -> tuple[float, float] | None:
@@ -159,11 +161,27 @@ def _separation(world: PlannedWorld) -> Figure:
     axes = figure.subplots(2 * len(traces), 1, sharex=True, squeeze=False)[:, 0]
     for k, trace in enumerate(traces):
         top, bottom = axes[2 * k], axes[2 * k + 1]
-        top.plot(world.times, _series(trace.body_separation), color="C0", label="separation of the moving parts from the body")
+        top.plot(
+            world.times,
+            _series(trace.body_separation),
+            color="C0",
+            label="separation of the moving parts from the body",
+        )
         if trace.contact_speed is not None:
-            top.plot(world.times, _series(trace.separation), color="C1", ls=":", label="... from the whole person (hand included)")
-        top.axhline(trace.minimum_separation, color=LIMIT, ls="--", lw=1,
-                    label=f"minimum separation S_0 = {trace.minimum_separation:.2f} m (speed 0)")  # fmt: skip
+            top.plot(
+                world.times,
+                _series(trace.separation),
+                color="C1",
+                ls=":",
+                label="... from the whole person (hand included)",
+            )
+        top.axhline(
+            trace.minimum_separation,
+            color=LIMIT,
+            ls="--",
+            lw=1,
+            label=f"minimum separation S_0 = {trace.minimum_separation:.2f} m (speed 0)",
+        )
         top.set_ylabel("separation (m)")
         top.set_ylim(bottom=0.0)
         top.set_title(f"{trace.person} ({trace.role or 'no role'})", fontsize=9, loc="left")
@@ -173,12 +191,17 @@ def _separation(world: PlannedWorld) -> Figure:
         bottom.plot(world.times, actual, color="C0", label="actual speed towards the person")
         bottom.fill_between(world.times, actual, allowed, where=actual <= allowed, color=KEPT, alpha=0.1, lw=0)
         if trace.contact_speed is not None:
-            bottom.axhline(trace.contact_speed, color="C1", ls=":", lw=1, label=f"contact cap (PFL) {trace.contact_speed:.2f} m/s")
+            bottom.axhline(
+                trace.contact_speed, color="C1", ls=":", lw=1, label=f"contact cap (PFL) {trace.contact_speed:.2f} m/s"
+            )
         margin = "" if trace.worst_margin is None else f", worst margin {trace.worst_margin:+.3f} m/s"
         bottom.set_title(f"speed towards {trace.person}{margin}", fontsize=9, loc="left")
         bottom.set_ylabel("speed (m/s)")
         finite = allowed[np.isfinite(allowed)]
-        bottom.set_ylim(min(0.0, float(np.nanmin(actual))) - 0.05, 1.2 * max(float(finite.max()) if finite.size else 1.0, float(np.nanmax(actual))))
+        bottom.set_ylim(
+            min(0.0, float(np.nanmin(actual))) - 0.05,
+            1.2 * max(float(finite.max()) if finite.size else 1.0, float(np.nanmax(actual))),
+        )
         bottom.legend(fontsize=8, loc="upper right")
     axes[-1].set_xlabel("time (s)")
     figure.suptitle(_title(world, "Speed and separation (ISO/TS 15066)"), fontsize=11)

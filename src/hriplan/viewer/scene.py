@@ -17,14 +17,13 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.planner.constraints.spec import OrientationConstraint
+from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.trajectory import ResolvedConstraint
 from hriplan.robots.human import display_meshes
 from hriplan.robots.scene import Mesh
-
 from hriplan.viewer.drawing import Drawing, material, rgba_color
 from hriplan.viewer.shapes import Part, beads, parts, tube
 from hriplan.viewer.volumes import colors, draw_orientation, draw_volume, link_axes
-from hriplan.planner.replay import PlannedWorld
 
 MAX_FPS = 25.0
 MAX_FRAMES = 600
@@ -57,7 +56,9 @@ def build_drawing(world: PlannedWorld) -> Drawing:
     _constraints(drawing, world, link_poses)
     _tool_paths(drawing, world, traced, link_poses)
     work = [p.translation for link in traced for p in link_poses[link]]
-    _camera(drawing, world, robot_points, np.array(work + [np.array(o.pose.xyz) for o in world.trajectory.scene.obstacles]))
+    _camera(
+        drawing, world, robot_points, np.array(work + [np.array(o.pose.xyz) for o in world.trajectory.scene.obstacles])
+    )
     if len(times) > 1:
         drawing.finish_animation(fps=(len(times) - 1) / world.duration)
     return drawing

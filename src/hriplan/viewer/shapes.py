@@ -24,8 +24,11 @@ _UINT16_EXT, _UINT32_EXT, _FLOAT32_EXT = 0x14, 0x16, 0x17  # msgpack-lite's type
 
 
 def _packed(array: np.ndarray, item_size: int) -> dict:
-    kinds = {np.dtype("<f4"): ("Float32Array", _FLOAT32_EXT), np.dtype("<u2"): ("Uint16Array", _UINT16_EXT),
-             np.dtype("<u4"): ("Uint32Array", _UINT32_EXT)}  # fmt: skip
+    kinds = {
+        np.dtype("<f4"): ("Float32Array", _FLOAT32_EXT),
+        np.dtype("<u2"): ("Uint16Array", _UINT16_EXT),
+        np.dtype("<u4"): ("Uint32Array", _UINT32_EXT),
+    }
     name, code = kinds[array.dtype]
     return {"itemSize": item_size, "type": name, "array": umsgpack.Ext(code, array.tobytes()), "normalized": False}
 
@@ -53,12 +56,27 @@ class IndexedMesh(mg.Geometry):
 class Frustum(mg.Geometry):
     """three.js CylinderGeometry with every option: cones (a zero radius), open ends, sectors."""
 
-    def __init__(self, height: float, radius_top: float, radius_bottom: float, open_ended: bool = False,
-                 theta_start: float = 0.0, theta_length: float = 2 * math.pi, segments: int = 48) -> None:  # fmt: skip
+    def __init__(
+        self,
+        height: float,
+        radius_top: float,
+        radius_bottom: float,
+        open_ended: bool = False,
+        theta_start: float = 0.0,
+        theta_length: float = 2 * math.pi,
+        segments: int = 48,
+    ) -> None:
         super().__init__()
-        self.params = {"height": height, "radiusTop": radius_top, "radiusBottom": radius_bottom,
-                       "radialSegments": segments, "heightSegments": 1, "openEnded": open_ended,
-                       "thetaStart": theta_start, "thetaLength": theta_length}  # fmt: skip
+        self.params = {
+            "height": height,
+            "radiusTop": radius_top,
+            "radiusBottom": radius_bottom,
+            "radialSegments": segments,
+            "heightSegments": 1,
+            "openEnded": open_ended,
+            "thetaStart": theta_start,
+            "thetaLength": theta_length,
+        }
 
     def lower(self, object_data: dict) -> dict:
         return {"uuid": self.uuid, "type": "CylinderGeometry", **self.params}

@@ -25,7 +25,6 @@ from hriplan.planner.constraints.spec import (
     SphereConstraint,
 )
 from hriplan.planner.trajectory import ResolvedConstraint
-
 from hriplan.viewer.drawing import Drawing, material
 from hriplan.viewer.shapes import Y_TO_Z, Frustum, Part, translation
 

@@ -10,10 +10,10 @@ the joint's range in Kautham's robot model. So a joint that no control moves kee
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-import xml.etree.ElementTree as ET
 
 from hriplan.formats.kautham.reader import Reader
 
@@ -41,7 +41,9 @@ class ControlSet:
 
 def implicit_controls(joint_of: Mapping[str, str]) -> ControlSet:
     """Without a controls file: one control per joint, named by the joint or the link it moves."""
-    return ControlSet("the problem file (no <Controls>)", {}, {name: {joint: 1.0} for name, joint in joint_of.items()}, False)
+    return ControlSet(
+        "the problem file (no <Controls>)", {}, {name: {joint: 1.0} for name, joint in joint_of.items()}, False
+    )
 
 
 def read_controls(path: Path, robot_names: Collection[str], joint_of: Callable[[str], str | None]) -> ControlSet:
@@ -59,7 +61,9 @@ def read_controls(path: Path, robot_names: Collection[str], joint_of: Callable[[
         if robot not in robot_names:
             raise reader.fail(f"{where}: DOF {name!r} names robot {robot!r}, not {' or '.join(sorted(robot_names))}")
         if link in BASE_DOFS:
-            raise reader.fail(f"{where}: DOF {name!r} moves the mobile base, which the importer does not plan (it places the base at <Home>)")
+            raise reader.fail(
+                f"{where}: DOF {name!r} moves the mobile base, which the importer does not plan (it places the base at <Home>)"
+            )
         joint = joint_of(link)
         if joint is None:
             raise reader.fail(f"{where}: DOF {name!r}: the robot has no joint moving link {link!r}")

@@ -14,9 +14,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from hriplan.robots.scene import Box, Cylinder, Mesh, Shape, Sphere
-
 from hriplan.formats.kautham.reader import Reader
+from hriplan.robots.scene import Box, Cylinder, Mesh, Shape, Sphere
 
 
 @dataclass(frozen=True)
@@ -41,12 +40,16 @@ def _shape(reader: Reader, geometry: ET.Element, scale: float, where: str) -> Sh
     if el.tag == "box":
         return Box(size=tuple(np.array(reader.floats(reader.attr(el, "size", where), 3, where)) * scale))
     if el.tag == "cylinder":
-        return Cylinder(radius=reader.number(el, "radius", where) * scale, height=reader.number(el, "length", where) * scale)
+        return Cylinder(
+            radius=reader.number(el, "radius", where) * scale, height=reader.number(el, "length", where) * scale
+        )
     if el.tag == "sphere":
         return Sphere(radius=reader.number(el, "radius", where) * scale)
     filename = reader.attr(el, "filename", where)
     if filename.startswith("package://"):
-        raise reader.fail(f"{where}: mesh {filename!r}: package:// paths are not supported, use a path relative to the URDF")
+        raise reader.fail(
+            f"{where}: mesh {filename!r}: package:// paths are not supported, use a path relative to the URDF"
+        )
     path = reader.path.parent / filename
     if not path.is_file():
         raise reader.fail(f"{where}: mesh file {filename!r} not found next to the URDF")

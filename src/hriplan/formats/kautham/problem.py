@@ -33,19 +33,25 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan import HriplanError
-from hriplan.planner.motion import JointGoal
-from hriplan.planner.options import PlanOptions
-from hriplan.planner.problem import PlanningProblem
-from hriplan.planner.constraints.binding import check_groups
-from hriplan.planner.constraints.spec import (BoxConstraint, ConeConstraint, ConstraintSet, CylinderConstraint, FrameRef,
-                                  OrientationConstraint, SphereConstraint)  # fmt: skip
-from hriplan.robots.model import ROBOT_NAMES, Robot, load_robot
-from hriplan.robots.scene import Obstacle, Scene
-from hriplan.robots.spatial import Pose
-
 from hriplan.formats.kautham.controls import ControlSet, implicit_controls, read_controls
 from hriplan.formats.kautham.obstacles import load_obstacle_model
 from hriplan.formats.kautham.reader import Reader, find_file
+from hriplan.planner.constraints.binding import check_groups
+from hriplan.planner.constraints.spec import (
+    BoxConstraint,
+    ConeConstraint,
+    ConstraintSet,
+    CylinderConstraint,
+    FrameRef,
+    OrientationConstraint,
+    SphereConstraint,
+)
+from hriplan.planner.motion import JointGoal
+from hriplan.planner.options import PlanOptions
+from hriplan.planner.problem import PlanningProblem
+from hriplan.robots.model import ROBOT_NAMES, Robot, load_robot
+from hriplan.robots.scene import Obstacle, Scene
+from hriplan.robots.spatial import Pose
 
 VOLUMES = {"box": BoxConstraint, "sphere": SphereConstraint, "cylinder": CylinderConstraint, "cone": ConeConstraint}
 TYPES = ("arm_orientation", *VOLUMES)
@@ -71,7 +77,9 @@ def _origin(reader: Reader, el: ET.Element | None, where: str, rpy: str) -> Pose
     angles = reader.floats(el.get("rpy", "0 0 0"), 3, where)
     if rpy == "urdf":
         return Pose(xyz=xyz, rpy=tuple(angles))
-    return Pose.from_matrix(np.block([[_kautham_rpy(*angles), np.array(xyz)[:, None]], [np.zeros((1, 3)), np.ones((1, 1))]]))
+    return Pose.from_matrix(
+        np.block([[_kautham_rpy(*angles), np.array(xyz)[:, None]], [np.zeros((1, 3)), np.ones((1, 1))]])
+    )
 
 
 def _pose(se3: pin.SE3) -> Pose:
@@ -106,7 +114,7 @@ def _joints(reader: Reader, robot: Robot, constraint: ET.Element, where: str) ->
 Frames = dict[str, tuple[str, pin.SE3]]
 
 
-def _constraint(reader: Reader, robot: Robot, el: ET.Element, frames: Frames, world: pin.SE3, rpy: str):  # noqa: ANN202
+def _constraint(reader: Reader, robot: Robot, el: ET.Element, frames: Frames, world: pin.SE3, rpy: str):
     cid = reader.attr(el, "id", "<Constraint>")
     kind = reader.attr(el, "type", f"constraint {cid!r}")
     where = f"constraint {cid!r}"
@@ -119,7 +127,12 @@ def _constraint(reader: Reader, robot: Robot, el: ET.Element, frames: Frames, wo
     status = "true" if enabled_el is None else enabled_el.get("status", "true").lower()
     if status not in ("true", "false"):
         raise reader.fail(f"{where}: <Enabled status> must be true or false, got {status!r}")
-    common = {"id": cid, "joints": _joints(reader, robot, el, where), "target_link": target_link, "enabled": status == "true"}
+    common = {
+        "id": cid,
+        "joints": _joints(reader, robot, el, where),
+        "target_link": target_link,
+        "enabled": status == "true",
+    }
     if kind == "arm_orientation":
         q = reader.child(el, "TargetOrientation", where)
         quat = [reader.number(q, k, where) for k in ("qx", "qy", "qz", "qw")]
@@ -129,10 +142,13 @@ def _constraint(reader: Reader, robot: Robot, el: ET.Element, frames: Frames, wo
         variable = tol is not None and tol.get("variable", "false").lower() == "true"
         try:
             return OrientationConstraint(
-                **common, target=Pose(quat_xyzw=tuple(quat)), free_axes=free, frame=FrameRef(entity="robot_base"),
+                **common,
+                target=Pose(quat_xyzw=tuple(quat)),
+                free_axes=free,
+                frame=FrameRef(entity="robot_base"),
                 tolerance=reader.number(tol, "value", where, 0.1) if tol is not None else 0.1,
                 tolerance_gradient=reader.number(tol, "gradient", where, 0.0) if variable else 0.0,
-            )  # fmt: skip
+            )
         except ValueError as exc:
             raise reader.fail(f"{where}: {exc.errors()[0]['msg']}") from None
     params = reader.child(el, "GeometricParams", where)
@@ -157,7 +173,9 @@ def _constraint(reader: Reader, robot: Robot, el: ET.Element, frames: Frames, wo
         raise reader.fail(f"{where}: {exc.errors()[0]['msg']}") from None
 
 
-def _obstacles(reader: Reader, root: ET.Element, folders: list[Path], world: pin.SE3, warn: Warn) -> tuple[list[Obstacle], Frames]:
+def _obstacles(
+    reader: Reader, root: ET.Element, folders: list[Path], world: pin.SE3, warn: Warn
+) -> tuple[list[Obstacle], Frames]:
     """Scene obstacles in the robot's Home frame, and the frame each Kautham obstacle name stands for."""
     obstacles: list[Obstacle] = []
     frames: Frames = {}
@@ -177,17 +195,22 @@ def _obstacles(reader: Reader, root: ET.Element, folders: list[Path], world: pin
             k += 1
             name = f"{base}_{k}"
         if model is None:
-            warn(f"{reader.path}: skipped obstacle {name!r}: {urdf} is not in {', '.join(map(str, folders))} (give its models folder with --models)")
+            warn(
+                f"{reader.path}: skipped obstacle {name!r}: {urdf} is not in {', '.join(map(str, folders))} (give its models folder with --models)"
+            )
             frames[name] = ("world", home)
             continue
         for i, (shape, placement) in enumerate(model.pieces):
-            obstacles.append(Obstacle(name=name if i == 0 else f"{name}_part{i + 1}", shape=shape, pose=_pose(home * placement)))
+            obstacles.append(
+                Obstacle(name=name if i == 0 else f"{name}_part{i + 1}", shape=shape, pose=_pose(home * placement))
+            )
         frames[name] = (name, model.pieces[0][1].inverse())
     return obstacles, frames
 
 
-def _kautham_ranges(reader: Reader, robot: Robot, robot_el: ET.Element, folders: list[Path],
-                    warn: Warn) -> tuple[dict[str, tuple[float, float]], set[str]]:  # fmt: skip
+def _kautham_ranges(
+    reader: Reader, robot: Robot, robot_el: ET.Element, folders: list[Path], warn: Warn
+) -> tuple[dict[str, tuple[float, float]], set[str]]:
     """Joint ranges of Kautham's robot model (normalised controls span them) and its names."""
     by_name = _joint_by_name(robot)
     ranges = {joint: KAUTHAM_RANGE for joint in robot.joint_names}
@@ -197,8 +220,10 @@ def _kautham_ranges(reader: Reader, robot: Robot, robot_el: ET.Element, folders:
         names.add(kautham_name.get("name"))
     found = find_file(robot_el.get("robot", ""), folders) if robot_el.get("robot") else None
     if found is None:
-        warn(f"{reader.path}: Kautham's robot file {robot_el.get('robot')!r} is not in {', '.join(map(str, folders))}: "
-             "controls are normalised over +-2 pi, the range of Kautham's UR5 and MADAR joints")  # fmt: skip
+        warn(
+            f"{reader.path}: Kautham's robot file {robot_el.get('robot')!r} is not in {', '.join(map(str, folders))}: "
+            "controls are normalised over +-2 pi, the range of Kautham's UR5 and MADAR joints"
+        )
     else:
         robot_file = Reader(found)
         urdf = robot_file.parse()
@@ -208,7 +233,10 @@ def _kautham_ranges(reader: Reader, robot: Robot, robot_el: ET.Element, folders:
             link = robot.link_name(child.get("link", "")) if child is not None else ""
             if limit is not None and link in by_name:
                 where = f"joint {joint.get('name')!r}"
-                ranges[by_name[link]] = (robot_file.number(limit, "lower", where), robot_file.number(limit, "upper", where))
+                ranges[by_name[link]] = (
+                    robot_file.number(limit, "lower", where),
+                    robot_file.number(limit, "upper", where),
+                )
     return ranges, names
 
 
@@ -223,7 +251,9 @@ def _controls(reader: Reader, root: ET.Element, folders: list[Path], robot: Robo
     return read_controls(found, robot_names, lambda link: by_name.get(robot.link_name(link)))
 
 
-def _query_controls(reader: Reader, root: ET.Element, controls: ControlSet) -> tuple[dict[str, float], dict[str, float]]:
+def _query_controls(
+    reader: Reader, root: ET.Element, controls: ControlSet
+) -> tuple[dict[str, float], dict[str, float]]:
     """Control values (init, goal) by control name: `<RobotControl>` elements or `<Init>`/`<Goal>` lists."""
     query = root.find(".//Queries/Query")
     if query is None:
@@ -245,7 +275,12 @@ def _query_controls(reader: Reader, root: ET.Element, controls: ControlSet) -> t
             raise reader.fail("query: <Init>/<Goal> lists need a <Controls> file to name their values")
         names = list(controls.controls)
         for values, tag in ((init, "Init"), (goal, "Goal")):
-            values.update(zip(names, reader.floats(query.find(tag).text or "", len(names), f"query <{tag}> ({len(names)} controls)")))
+            values.update(
+                zip(
+                    names,
+                    reader.floats(query.find(tag).text or "", len(names), f"query <{tag}> ({len(names)} controls)"),
+                )
+            )
     else:
         raise reader.fail("query: no <RobotControl> elements and no <Init>/<Goal>")
     missing = [name for name in controls.controls if name not in init]
@@ -258,8 +293,14 @@ def _query_controls(reader: Reader, root: ET.Element, controls: ControlSet) -> t
     return init, goal
 
 
-def _configuration(reader: Reader, robot: Robot, controls: ControlSet, values: dict[str, float], key: str,
-                   ranges: dict[str, tuple[float, float]]) -> dict[str, float]:  # fmt: skip
+def _configuration(
+    reader: Reader,
+    robot: Robot,
+    controls: ControlSet,
+    values: dict[str, float],
+    key: str,
+    ranges: dict[str, tuple[float, float]],
+) -> dict[str, float]:
     """Every joint's angle for the query's control values (joints no control moves keep their offset)."""
     result = {}
     for joint, p in controls.normalised(values, robot.joint_names).items():
@@ -270,14 +311,20 @@ def _configuration(reader: Reader, robot: Robot, controls: ControlSet, values: d
         i = robot.model.joints[robot.model.getJointId(joint)].idx_q
         lower, upper = robot.model.lowerPositionLimit[i], robot.model.upperPositionLimit[i]
         if not lower - 1e-9 <= q <= upper + 1e-9:
-            raise reader.fail(f"query {key}: {joint} = {q:.3f} rad is outside hriplan's limits [{lower:.3f}, {upper:.3f}]")
+            raise reader.fail(
+                f"query {key}: {joint} = {q:.3f} rad is outside hriplan's limits [{lower:.3f}, {upper:.3f}]"
+            )
         result[joint] = float(np.clip(q, lower, upper))
     return result
 
 
 def _robot_name(reader: Reader, robot_el: ET.Element) -> str:
     kautham_name = robot_el.find("KauthamName")
-    names = [robot_el.get("name"), kautham_name.get("name") if kautham_name is not None else None, Path(robot_el.get("robot", "")).stem]
+    names = [
+        robot_el.get("name"),
+        kautham_name.get("name") if kautham_name is not None else None,
+        Path(robot_el.get("robot", "")).stem,
+    ]
     for text in filter(None, names):
         for known in ROBOT_NAMES:
             if known in text.lower():
@@ -285,8 +332,12 @@ def _robot_name(reader: Reader, robot_el: ET.Element) -> str:
     raise reader.fail(f"robot {next(filter(None, names), '')!r} is not supported ({', '.join(ROBOT_NAMES)})")
 
 
-def import_kautham(path: str | Path, rpy: Literal["kautham", "urdf"] = "kautham", models: Sequence[str | Path] = (),
-                   warn: Warn | None = None) -> PlanningProblem:  # fmt: skip
+def import_kautham(
+    path: str | Path,
+    rpy: Literal["kautham", "urdf"] = "kautham",
+    models: Sequence[str | Path] = (),
+    warn: Warn | None = None,
+) -> PlanningProblem:
     """A hriplan planning problem from a Kautham problem file (robot madar or ur5).
 
     `models`: folders with Kautham's robot, obstacle and controls files (Kautham's
@@ -319,10 +370,16 @@ def import_kautham(path: str | Path, rpy: Literal["kautham", "urdf"] = "kautham"
     # the tolerance bands these problems are about, extends by `delta` and takes no range.
     options = PlanOptions(time_limit=_parameter(reader, root, "_Max Planning Time", 10.0))
     return PlanningProblem(
-        name=path.stem, description=f"imported from the Kautham problem {path.name} (world = the robot's <Home> frame)",
-        robot=robot.name, scene=Scene(obstacles=obstacles), constraints=ConstraintSet(constraints=constraints), group=group,
-        start=start, goal=JointGoal(values={j: goal[j] for j in robot.group_joints(group)}), options=options,
-    )  # fmt: skip
+        name=path.stem,
+        description=f"imported from the Kautham problem {path.name} (world = the robot's <Home> frame)",
+        robot=robot.name,
+        scene=Scene(obstacles=obstacles),
+        constraints=ConstraintSet(constraints=constraints),
+        group=group,
+        start=start,
+        goal=JointGoal(values={j: goal[j] for j in robot.group_joints(group)}),
+        options=options,
+    )
 
 
 def _group(robot: Robot, joints: list[str]) -> str:

@@ -14,10 +14,9 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan import HriplanError
+from hriplan.planner.constraints.spec import ConstraintSpec, FrameRef, OrientationConstraint
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
-
-from hriplan.planner.constraints.spec import ConstraintSpec, FrameRef, OrientationConstraint
 
 AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -125,8 +124,12 @@ def bind(specs: Sequence[ConstraintSpec], robot: Robot, checker: CollisionChecke
     return bound
 
 
-def set_goal_positions(robot: Robot, bound: Sequence[BoundConstraint], q_goal: np.ndarray,
-                       known: dict[str, list[float] | None] | None = None) -> None:  # fmt: skip
+def set_goal_positions(
+    robot: Robot,
+    bound: Sequence[BoundConstraint],
+    q_goal: np.ndarray,
+    known: dict[str, list[float] | None] | None = None,
+) -> None:
     """Dynamic tolerance is measured from the target link's position at the goal: record it
     (from `known` where a trajectory file already holds it, else by FK at `q_goal`)."""
     known = known or {}

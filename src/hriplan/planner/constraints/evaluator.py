@@ -18,11 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from hriplan.robots.model import Robot
-
 from hriplan.planner.constraints import geometry as G
 from hriplan.planner.constraints.binding import BoundConstraint
 from hriplan.planner.constraints.spec import BoxConstraint, ConeConstraint, CylinderConstraint, SphereConstraint
+from hriplan.robots.model import Robot
 
 LWA = pin.LOCAL_WORLD_ALIGNED
 
@@ -58,17 +57,24 @@ class _Term:
     gradient: float
 
     @classmethod
-    def of(cls, c: BoundConstraint) -> "_Term":
+    def of(cls, c: BoundConstraint) -> _Term:
         orientation = c.is_orientation
         free = tuple(c.free)
         restricted = np.eye(3)[({0, 1, 2} - set(free)).pop()] if len(free) == 2 else None
         return cls(
-            bound=c, link=c.link, rf=c.frame.rotation.copy(), rf_t=c.frame.rotation.T.copy(),
-            origin=c.frame.translation.copy(), sd=None if orientation else shape_sd(c.spec),
-            sign=1.0 if orientation or c.spec.region == "inside" else -1.0, free=free, target=c.target,
-            restricted=restricted, tolerance=c.spec.tolerance if orientation else 0.0,
+            bound=c,
+            link=c.link,
+            rf=c.frame.rotation.copy(),
+            rf_t=c.frame.rotation.T.copy(),
+            origin=c.frame.translation.copy(),
+            sd=None if orientation else shape_sd(c.spec),
+            sign=1.0 if orientation or c.spec.region == "inside" else -1.0,
+            free=free,
+            target=c.target,
+            restricted=restricted,
+            tolerance=c.spec.tolerance if orientation else 0.0,
             gradient=c.spec.tolerance_gradient if orientation else 0.0,
-        )  # fmt: skip
+        )
 
 
 def _volume_box(spec: object) -> tuple[list[float], list[float]]:

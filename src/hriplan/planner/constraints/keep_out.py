@@ -11,11 +11,10 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from hriplan.robots.scene import Box, Cone, Cylinder, Obstacle, Sphere
-from hriplan.robots.spatial import Pose
-
 from hriplan.planner.constraints.binding import BoundConstraint
 from hriplan.planner.constraints.spec import BoxConstraint, ConeConstraint, CylinderConstraint, SphereConstraint
+from hriplan.robots.scene import Box, Cone, Cylinder, Obstacle, Sphere
+from hriplan.robots.spatial import Pose
 
 KEEP_OUT_PREFIX = "keep-out:"
 

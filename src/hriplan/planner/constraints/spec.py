@@ -57,7 +57,7 @@ class OrientationConstraint(_Constraint):
     tolerance_gradient: Annotated[float, Field(ge=0.0, allow_inf_nan=False)] = 0.0
 
     @model_validator(mode="after")
-    def _axes(self) -> "OrientationConstraint":
+    def _axes(self) -> OrientationConstraint:
         if len(set(self.free_axes)) != len(self.free_axes):
             raise ValueError(f"constraint {self.id!r}: free_axes repeats an axis")
         if len(self.free_axes) == 3:
@@ -71,7 +71,7 @@ class _Volume(_Constraint):
     keep_out_all_links: bool = False
 
     @model_validator(mode="after")
-    def _keep_out_needs_outside(self) -> "_Volume":
+    def _keep_out_needs_outside(self) -> _Volume:
         if self.keep_out_all_links and self.region != "outside":
             raise ValueError(f"constraint {self.id!r}: keep_out_all_links needs region 'outside'")
         return self
@@ -114,7 +114,7 @@ class ConstraintSet(BaseModel):
     constraints: list[ConstraintSpec] = Field(default_factory=list)
 
     @model_validator(mode="after")
-    def _unique_ids(self) -> "ConstraintSet":
+    def _unique_ids(self) -> ConstraintSet:
         ids = [c.id for c in self.constraints]
         repeated = sorted({i for i in ids if ids.count(i) > 1})
         if repeated:

@@ -47,11 +47,16 @@ def _straightened(path: np.ndarray, arm: np.ndarray) -> np.ndarray | None:
     return out
 
 
-def straighten_arms(path: Sequence[np.ndarray], arms: list[np.ndarray], path_valid: Callable[[list[np.ndarray]], bool]) -> list[np.ndarray]:
+def straighten_arms(
+    path: Sequence[np.ndarray], arms: list[np.ndarray], path_valid: Callable[[list[np.ndarray]], bool]
+) -> list[np.ndarray]:
     """The path with each arm straightened where `path_valid` accepts the result."""
     current = np.array(path, dtype=float)
     for arm in arms:
-        if _travel(current[:, arm]) <= (1.0 + STRAIGHT_ENOUGH) * np.linalg.norm(current[-1, arm] - current[0, arm]) + 1e-9:
+        if (
+            _travel(current[:, arm])
+            <= (1.0 + STRAIGHT_ENOUGH) * np.linalg.norm(current[-1, arm] - current[0, arm]) + 1e-9
+        ):
             continue  # already (nearly) straight: nothing to gain
         candidate = _straightened(current, arm)
         if candidate is not None and path_valid(list(candidate)):

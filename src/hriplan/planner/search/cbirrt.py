@@ -121,7 +121,9 @@ class _Search:
         (LOCAL_SHARE) are near a node of the tree, in the IK branch it explores; uniform
         targets in the joint box mostly lie in other branches, where extensions stall."""
         if rng.random() < LOCAL_SHARE:
-            x = np.clip(tree.nodes[rng.integers(len(tree))] + rng.normal(0.0, LOCAL_SPREAD, len(self.low)), self.low, self.high)
+            x = np.clip(
+                tree.nodes[rng.integers(len(tree))] + rng.normal(0.0, LOCAL_SPREAD, len(self.low)), self.low, self.high
+            )
         else:
             x = rng.uniform(self.low, self.high)
         inside = self.project(x.copy())
@@ -188,11 +190,14 @@ def plan_in_bands(
             path = shortcut(search, path, rng, budget, deadline=started + time_limit)
             return OmplResult(True, path, time.perf_counter() - started, space, "", counters)
         a, b = b, a
-    return OmplResult(False, [], time.perf_counter() - started, space, "no exact solution within the time limit", counters)
+    return OmplResult(
+        False, [], time.perf_counter() - started, space, "no exact solution within the time limit", counters
+    )
 
 
-def shortcut(search: _Search, path: list[np.ndarray], rng: np.random.Generator, budget: int, deadline: float,
-             attempts: int = 60) -> list[np.ndarray]:  # fmt: skip
+def shortcut(
+    search: _Search, path: list[np.ndarray], rng: np.random.Generator, budget: int, deadline: float, attempts: int = 60
+) -> list[np.ndarray]:
     """Replace random sub-paths by constrained extensions between their ends while they shorten
     the path (each replacement is a chain of projected, valid states like the trees' edges),
     until `budget` collision checks have been spent.

@@ -57,11 +57,11 @@ class RowsConstraint(ob.Constraint):
         super().__init__(ambient, n_rows)
         self._rows, self._jacobian, self._counters = rows, jacobian, counters
 
-    def function(self, x, out) -> None:  # noqa: ANN001 - OMPL's signature
+    def function(self, x, out) -> None:
         self._counters.function += 1
         out[:] = self._rows(np.asarray(x))
 
-    def jacobian(self, x, out) -> None:  # noqa: ANN001
+    def jacobian(self, x, out) -> None:
         self._counters.jacobian += 1
         out[:, :] = self._jacobian(np.asarray(x))
 
@@ -85,14 +85,22 @@ def _space(options: PlanOptions, bounds: tuple[np.ndarray, np.ndarray], constrai
     real.setBounds(box)
     if constraint is None:
         return real, ob.SpaceInformation(real), "real_vector"
-    kind = {"atlas": ob.AtlasStateSpace, "tangent_bundle": ob.TangentBundleStateSpace, "projected": ob.ProjectedStateSpace}
+    kind = {
+        "atlas": ob.AtlasStateSpace,
+        "tangent_bundle": ob.TangentBundleStateSpace,
+        "projected": ob.ProjectedStateSpace,
+    }
     space = kind[options.space](real, constraint)
     space.setDelta(options.delta)
-    info = ob.TangentBundleSpaceInformation(space) if options.space == "tangent_bundle" else ob.ConstrainedSpaceInformation(space)
+    info = (
+        ob.TangentBundleSpaceInformation(space)
+        if options.space == "tangent_bundle"
+        else ob.ConstrainedSpaceInformation(space)
+    )
     return space, info, options.space
 
 
-def _planner(name: str, info: ob.SpaceInformation, options: PlanOptions, plain: bool):  # noqa: ANN202
+def _planner(name: str, info: ob.SpaceInformation, options: PlanOptions, plain: bool):
     planner = getattr(og, name)(info)
     reach = options.range if options.range is not None else PLAIN_SPACE_RANGE if plain else None
     if reach is not None and hasattr(planner, "setRange"):
@@ -143,7 +151,7 @@ def solve_with_ompl(
     space, info, space_name = _space(options, bounds, constraint)
     n = len(start)
 
-    def valid(state) -> bool:  # noqa: ANN001
+    def valid(state) -> bool:
         counters.validity += 1
         return bool(is_valid(np.array([state[i] for i in range(n)])))
 
@@ -171,16 +179,25 @@ def solve_with_ompl(
     except RuntimeError as exc:  # OMPL reports chart or set-up failures as exceptions
         return OmplResult(False, [], time.perf_counter() - t0, space_name, f"OMPL: {exc}", counters)
     if not setup.haveExactSolutionPath():
-        return OmplResult(False, [], time.perf_counter() - t0, space_name, "no exact solution within the time limit", counters)
+        return OmplResult(
+            False, [], time.perf_counter() - t0, space_name, "no exact solution within the time limit", counters
+        )
     path = setup.getSolutionPath()
     raw = _states(og.PathGeometric(path), n)
     if options.simplify:
         if constraint is None:  # shortcuts are long straight segments: check them as densely as validation will
             _set_resolution(info, space, options.validation_step)
-        shorten(og.PathSimplifier(info), path, max(t0 + options.time_limit, time.perf_counter() + 0.05), constraint is not None)
+        shorten(
+            og.PathSimplifier(info),
+            path,
+            max(t0 + options.time_limit, time.perf_counter() + 0.05),
+            constraint is not None,
+        )
         if constraint is None:  # and hand back states at the planning resolution, as unsimplified paths
             _set_resolution(info, space, options.delta)
-    return OmplResult(True, _states(path, n), time.perf_counter() - t0, space_name, "", counters, raw if options.simplify else [])
+    return OmplResult(
+        True, _states(path, n), time.perf_counter() - t0, space_name, "", counters, raw if options.simplify else []
+    )
 
 
 def _set_resolution(info: ob.SpaceInformation, space: ob.StateSpace, step: float) -> None:

@@ -59,4 +59,3 @@ def add_allegro(robot: ET.Element, prefix: str, side: Literal["right", "left"]) 
 
 def hand_joint_name(prefix: str, name: str) -> str:
     return f"{prefix}hand_{name}"
-

@@ -14,7 +14,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from hriplan import HriplanError
-
 from hriplan.robots import urdf_xml as X
 from hriplan.robots.descriptions.allegro import add_allegro
 from hriplan.robots.descriptions.ur5_arm import add_ur5
@@ -131,13 +130,21 @@ class RobotDescription:
 
 DESCRIPTIONS = {
     "madar": RobotDescription(
-        name="madar", urdf=madar_urdf, base_link=MADAR_BASE, whole_group="both_arms",
+        name="madar",
+        urdf=madar_urdf,
+        base_link=MADAR_BASE,
+        whole_group="both_arms",
         arms={side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand=True) for side in ("right", "left")},
         # Kautham's MADAR names the adapter and the hand's base (the Allegro palm) differently.
         link_aliases={"right_hand_adapter_link": "right_hand_adapter", "right_hand_base_link": "right_hand_palm_link"},
-    ),  # fmt: skip
-    "ur5": RobotDescription(name="ur5", urdf=ur5_urdf, base_link="base_link", whole_group="arm",
-                            arms={"arm": ArmDescription("", "tool", "arm")}),  # fmt: skip
+    ),
+    "ur5": RobotDescription(
+        name="ur5",
+        urdf=ur5_urdf,
+        base_link="base_link",
+        whole_group="arm",
+        arms={"arm": ArmDescription("", "tool", "arm")},
+    ),
 }
 
 
