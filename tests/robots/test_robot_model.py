@@ -194,7 +194,7 @@ def test_a_robot_is_its_description_not_its_name(monkeypatch):
     # the base link come from its description; before, code branched on the names madar and ur5.
     from hriplan.planner.motion import JointGoal
     from hriplan.planner.session import PlanningSession
-    from hriplan.robots.descriptions.registry import registry as descriptions
+    from hriplan.robots.descriptions import registry as descriptions
 
     main = descriptions.RobotDescription(
         name="cell_ur5",
