@@ -21,7 +21,7 @@ FLOORS: list[set[str]] = [
     {"robots"},
     {"ontology"},
     {"safety"},
-    {"planner.options"},
+    {"planner.options", "planner.outcome"},
     {"planner.constraints"},
     {"planner.search"},
     {"planner"},

@@ -35,6 +35,7 @@ from hriplan.planner.constraints.spec import (
 )
 from hriplan.planner.motion import JointGoal, MotionResult, ToolGoal
 from hriplan.planner.options import PlanOptions
+from hriplan.planner.outcome import Status
 from hriplan.planner.session import PlanningSession, PlanResult
 from hriplan.planner.trajectory import TrajectoryFile, load_trajectory
 from hriplan.robots.descriptions.postures import POSTURES, posture
@@ -93,6 +94,7 @@ __all__ = [
     "Scene",
     "Sphere",
     "SphereConstraint",
+    "Status",
     "TaskFile",
     "TaskOutcome",
     "TaskRunner",

@@ -17,7 +17,7 @@ from hriplan.planner.motion import plan_motion
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.problem import load_problem
 from hriplan.planner.search.cbirrt import BandProblem, _min_norm_step, _Search
-from hriplan.planner.search.ompl_solver import Counters
+from hriplan.planner.search.result import Counters
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.validate import densify
 from hriplan.robots.ik import solve_ik

@@ -17,6 +17,7 @@ from hriplan import HriplanError
 from hriplan.cli.outputs import directory_output, file_output
 from hriplan.cli.progress import progress
 from hriplan.ontology.reasoners import Reasoner, use_reasoner
+from hriplan.planner.outcome import Status
 
 TaskArgument = Annotated[Path, typer.Argument(help="A task file (YAML or JSON).", show_default=False)]
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress messages.")]
@@ -119,7 +120,7 @@ def plan(
         typer.echo(summarize(outcome, verbose))
         typer.echo("\n".join(f"wrote {p}" for p in written))
     if not outcome.solved:
-        failed = next(s for s in outcome.steps if s.status != "solved")
+        failed = next(s for s in outcome.steps if s.status != Status.SOLVED)
         typer.echo(f"planning failed at step {failed.name} ({failed.status}): {failed.message}", err=True)
         raise typer.Exit(1)
 

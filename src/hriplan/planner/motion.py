@@ -25,6 +25,7 @@ from hriplan.planner.constraints.projection import project
 from hriplan.planner.constraints.slack import SlackRows
 from hriplan.planner.constraints.spec import Axis, ConstraintSpec
 from hriplan.planner.options import PlanOptions, check_options
+from hriplan.planner.outcome import Status
 from hriplan.planner.search.arm_shortcut import arm_subgroups, straighten_arms
 from hriplan.planner.validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
 from hriplan.robots.collision import ZONE_NAMING, CollisionChecker, SeparationZones
@@ -36,6 +37,7 @@ from hriplan.safety.zones import separation_zones
 
 if TYPE_CHECKING:
     from hriplan.planner.search.cbirrt import BandProblem
+    from hriplan.planner.search.result import SearchResult
 
 # Planning keeps this much inside every band so that chords between planned states stay valid.
 PLANNING_MARGIN = 2e-3
@@ -43,9 +45,6 @@ PLANNING_MARGIN = 2e-3
 SPARSE_FIRST = 16
 # Dead-zone rows project this far inside a band, so a projected state is valid for planning.
 BAND_OFFSET = 2 * PLANNING_MARGIN
-Status = Literal[
-    "solved", "invalid_start", "invalid_goal", "unreachable_goal", "timeout", "invalid_path", "planner_error"
-]
 
 
 class JointGoal(BaseModel):
@@ -82,7 +81,7 @@ class MotionResult(BaseModel):
 
     @property
     def solved(self) -> bool:
-        return self.status == "solved"
+        return self.status == Status.SOLVED
 
 
 class _Problem:
@@ -177,7 +176,7 @@ def plan_motion(
     _check_group(robot, bound, group)
     full_start = dict(zip(robot.joint_names, q_start.tolist()))
 
-    def result(status: str, message: str) -> MotionResult:
+    def result(status: Status, message: str) -> MotionResult:
         return MotionResult(status=status, message=message, group=group, joint_names=joint_names, start=full_start)
 
     separation = (
@@ -187,7 +186,7 @@ def plan_motion(
         problem = _Problem(robot, checker, bound, group, q_start)
         x_start = robot.group_values(q_start, group)
         if checker.in_collision(q_start):
-            return result("invalid_start", problem.collision_message("start", x_start))
+            return result(Status.INVALID_START, problem.collision_message("start", x_start))
         # The goal first: it fixes p_goal, so the start is checked at its own dynamic tolerance.
         goal_or_error = _resolve_goal(problem, goal, x_start)
         if isinstance(goal_or_error, MotionResult):
@@ -197,7 +196,7 @@ def plan_motion(
         if problem.describe_violations(x_start):
             if not options.project_start:
                 return result(
-                    "invalid_start",
+                    Status.INVALID_START,
                     f"start violates {problem.describe_violations(x_start)} (set project_start to move it onto the constraints)",
                 )
             projected = project(
@@ -207,7 +206,7 @@ def plan_motion(
             )
             if projected is None or checker.in_collision(problem.evaluator.full(projected)):
                 return result(
-                    "invalid_start",
+                    Status.INVALID_START,
                     f"start violates {problem.describe_violations(x_start)} and cannot be projected onto the constraints",
                 )
             moved, x_start = float(np.abs(projected - x_start).max()), projected
@@ -235,10 +234,10 @@ def _resolve_goal(problem: _Problem, goal: Goal, x_start: np.ndarray) -> np.ndar
         x_goal = robot.group_values(q_goal, group)
         _set_goal_positions(problem, x_goal)
         if problem.checker.in_collision(q_goal):
-            return MotionResult(status="invalid_goal", message=problem.collision_message("goal", x_goal), **blank)
+            return MotionResult(status=Status.INVALID_GOAL, message=problem.collision_message("goal", x_goal), **blank)
         if problem.describe_violations(x_goal):
             return MotionResult(
-                status="invalid_goal", message=f"goal violates {problem.describe_violations(x_goal)}", **blank
+                status=Status.INVALID_GOAL, message=f"goal violates {problem.describe_violations(x_goal)}", **blank
             )
         return x_goal
     arm_group = robot.arm_group(goal.arm)
@@ -269,7 +268,7 @@ def _resolve_goal(problem: _Problem, goal: Goal, x_start: np.ndarray) -> np.ndar
     )
     if not ik.success:
         return MotionResult(
-            status="unreachable_goal", message=f"no valid IK solution for the goal pose: {ik.message}", **blank
+            status=Status.UNREACHABLE_GOAL, message=f"no valid IK solution for the goal pose: {ik.message}", **blank
         )
     x_goal = robot.group_values(robot.configuration(ik.q, arm_group, base=base), group)
     _set_goal_positions(problem, x_goal)
@@ -315,15 +314,17 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
     ends = [_onto_manifold(problem, rows, x, options.validation_step) for x in (x_start, x_goal)]
     if ends[0] is None:
         return MotionResult(
-            status="invalid_start", message="the start cannot be moved onto the constraint manifold validly", **blank
+            status=Status.INVALID_START,
+            message="the start cannot be moved onto the constraint manifold validly",
+            **blank,
         )
     if ends[1] is None:
         return MotionResult(
-            status="invalid_goal", message="the goal cannot be moved onto the constraint manifold validly", **blank
+            status=Status.INVALID_GOAL, message="the goal cannot be moved onto the constraint manifold validly", **blank
         )
     for name, x in (("start", ends[0]), ("goal", ends[1])):
         if not is_valid(x):
-            status = "invalid_start" if name == "start" else "invalid_goal"
+            status = Status.INVALID_START if name == "start" else Status.INVALID_GOAL
             reason = (
                 problem.describe_violations(x)
                 or problem.describe_collisions(x)
@@ -331,7 +332,8 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             )
             return MotionResult(status=status, message=f"{name} is not valid for planning: {reason}", **blank)
     started = time.perf_counter()
-    last_message = ""
+    # Why the last attempt failed, as the code that knew it said: the search, or dense validation here.
+    status, message = Status.TIMEOUT, "time limit reached"
     calls: dict[str, int] = {}
     attempt = 0
     while True:
@@ -343,8 +345,8 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             calls[key] = calls.get(key, 0) + value
         attempt += 1
         if not run.solved:
-            last_message = run.message
-            if run.message.startswith("OMPL:"):
+            status, message = run.status, run.message
+            if run.status == Status.PLANNER_ERROR:
                 break
             continue
         for states in [
@@ -355,7 +357,7 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
             if validation.valid:
                 waypoints, validation = _straighten_arms(problem, options, waypoints, validation, limit)
                 return MotionResult(
-                    status="solved",
+                    status=Status.SOLVED,
                     group=problem.group,
                     joint_names=[],
                     path=[w.tolist() for w in waypoints],
@@ -364,17 +366,11 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
                     space=run.space,
                     calls=calls,
                 )
-            last_message = f"planner path failed dense validation ({validation.message}); re-planning"
-    status = (
-        "planner_error"
-        if last_message.startswith("OMPL:")
-        else "invalid_path"
-        if "dense validation" in last_message
-        else "timeout"
-    )
+            status = Status.INVALID_PATH
+            message = f"planner path failed dense validation ({validation.message}); re-planning"
     return MotionResult(
         status=status,
-        message=last_message or "time limit reached",
+        message=message,
         group=problem.group,
         joint_names=[],
         planning_time=time.perf_counter() - started,
@@ -405,7 +401,9 @@ def _straighten_arms(
     return (straightened, again) if again.valid else (waypoints, validation)
 
 
-def _solve(problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_valid, rows, attempt: int):
+def _solve(
+    problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_valid, rows, attempt: int
+) -> SearchResult:
     """One search (re-plan number `attempt`) by the chosen method: hriplan's CBiRRT, OMPL on slack
     variables, or OMPL. OMPL and the band planner load only when a motion is planned."""
     from hriplan.planner.search.ompl_solver import ompl_seed, solve_with_ompl

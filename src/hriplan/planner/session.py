@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from time import perf_counter
-from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, model_validator
@@ -20,8 +19,9 @@ from hriplan import HriplanError
 from hriplan.planner.constraints.binding import bind, set_goal_positions
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec
-from hriplan.planner.motion import Goal, MotionResult, Status, plan_motion, with_keep_out
+from hriplan.planner.motion import Goal, MotionResult, plan_motion, with_keep_out
 from hriplan.planner.options import PlanOptions
+from hriplan.planner.outcome import Status
 from hriplan.planner.search.ompl_solver import ompl_seed
 from hriplan.planner.separation_report import separation_report
 from hriplan.planner.timing import time_parameterize
@@ -47,26 +47,23 @@ def _retry_seed(seed: int | None, retry: int) -> int | None:
     return None if seed is None else -ompl_seed(seed, retry) - 2**31
 
 
-PlanStatus = Literal[Status, "timing_failed"]
-
-
 class PlanResult(BaseModel):
     """A planned motion and, only when solved, its validated timed trajectory."""
 
-    status: PlanStatus
+    status: Status
     motion: MotionResult
     trajectory: TrajectoryFile | None = None
     message: str = ""
 
     @model_validator(mode="after")
     def _solved_means_a_trajectory(self) -> PlanResult:
-        if (self.status == "solved") != (self.trajectory is not None):
+        if (self.status == Status.SOLVED) != (self.trajectory is not None):
             raise ValueError("a plan result is solved exactly when it has a trajectory")
         return self
 
     @property
     def solved(self) -> bool:
-        return self.status == "solved"
+        return self.status == Status.SOLVED
 
 
 class PlanningSession:
@@ -129,7 +126,7 @@ class PlanningSession:
                 self.robot, self.checker, list(self.constraints.values()), start, goal, run, group, safety
             )
             result = self.time(motion, options, safety)
-            if result.status != "timing_failed":
+            if result.status != Status.TIMING_FAILED:
                 break
         return result
 
@@ -161,12 +158,12 @@ class PlanningSession:
         with with_keep_out(self.checker, bound):
             timed, check, message = self._time_and_check(path, evaluator, motion.group, options, monitor)
         if timed is None:
-            return PlanResult(status="timing_failed", motion=motion, message=message)
+            return PlanResult(status=Status.TIMING_FAILED, motion=motion, message=message)
         trajectory = self._file(motion, bound, timed, check, options, scene, evaluator.full(path[0]))
         if monitor is not None:
             report = trajectory.report.model_copy(update={"separation": separation_report(monitor, timed)})
             trajectory = trajectory.model_copy(update={"report": report})
-        return PlanResult(status="solved", motion=motion, trajectory=trajectory)
+        return PlanResult(status=Status.SOLVED, motion=motion, trajectory=trajectory)
 
     def _time_and_check(
         self,
@@ -204,7 +201,7 @@ class PlanningSession:
     def _file(self, motion, bound, timed, check, options, scene, q0) -> TrajectoryFile:
         path = np.array(motion.path)
         report = TrajectoryReport(
-            status="solved",
+            status=Status.SOLVED,
             planner=options.planner,
             space=motion.space,
             planning_time=motion.planning_time,

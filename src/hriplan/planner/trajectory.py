@@ -14,6 +14,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hriplan.files import load_model
 from hriplan.planner.constraints.spec import ConstraintSpec
+from hriplan.planner.outcome import Status
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
@@ -63,7 +64,7 @@ class SeparationTrace(BaseModel):
 
 
 class TrajectoryReport(BaseModel):
-    status: str
+    status: Status  # a trajectory is written for solved motions only
     planner: str
     space: str
     planning_time: float

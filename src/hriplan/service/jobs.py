@@ -71,14 +71,10 @@ def plan_task(payload: dict[str, Any]) -> Reply:
 
 
 def _plan_response(result: PlanResult, ros: bool) -> Reply:
-    # A motion that was planned but could not be timed and re-validated: "timing_failed", the planner's name for it.
-    status = (
-        "solved" if result.solved else result.motion.status if result.motion.status != "solved" else "timing_failed"
-    )
-    message = "" if result.solved else f"planning failed ({status}): {result.message}"
+    message = "" if result.solved else f"planning failed ({result.status}): {result.message}"
     response = PlanResponse(
         solved=result.solved,
-        status=status,
+        status=result.status,
         message=message,
         trajectory=result.trajectory,
         joint_trajectory=joint_trajectory(result.trajectory) if ros and result.trajectory else None,

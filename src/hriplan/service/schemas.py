@@ -8,6 +8,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.planner.motion import Goal
 from hriplan.planner.options import PlanOptions
+from hriplan.planner.outcome import Status
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.robots.scene import Scene
 from hriplan.service.ros import JointTrajectory
@@ -27,7 +28,7 @@ class PlanResponse(BaseModel):
     """One motion: the trajectory file if solved, else the status and the one-line reason."""
 
     solved: bool
-    status: str
+    status: Status
     message: str = ""
     trajectory: TrajectoryFile | None = None
     joint_trajectory: JointTrajectory | None = Field(

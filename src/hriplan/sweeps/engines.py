@@ -17,6 +17,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
+from hriplan.planner.outcome import Status
 from hriplan.sweeps.variants import Variant
 from hriplan.sweeps.worker import Row, failure_rows, run_variant, variant_columns
 
@@ -33,7 +34,7 @@ class Engine(Protocol):
 def _error_rows(variant: Variant, exc: BaseException) -> list[Row]:
     return [
         variant_columns(variant)
-        | {"step": "", "step_index": -1, "status": "error", "reason": f"{type(exc).__name__}: {exc}"}
+        | {"step": "", "step_index": -1, "status": Status.ERROR.value, "reason": f"{type(exc).__name__}: {exc}"}
     ]
 
 

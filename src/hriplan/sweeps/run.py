@@ -9,6 +9,7 @@ from pathlib import Path
 
 from pydantic import BaseModel
 
+from hriplan.planner.outcome import SUCCEEDED
 from hriplan.sweeps.engines import Engine, LocalEngine, Work
 from hriplan.sweeps.progress import Progress
 from hriplan.sweeps.results import ResultStore, Row
@@ -49,7 +50,7 @@ def _pattern(reason: str) -> str:
 
 
 def succeeded(rows: list[Row]) -> bool:
-    return bool(rows) and all(r["status"] in ("solved", "derived") for r in rows)
+    return bool(rows) and all(r["status"] in SUCCEEDED for r in rows)
 
 
 def summarize(rows: list[Row], keys: set[str], skipped: int, ran: int, wall: float, results: Path) -> SweepSummary:
@@ -57,7 +58,7 @@ def summarize(rows: list[Row], keys: set[str], skipped: int, ran: int, wall: flo
     by_key: dict[str, list[Row]] = {}
     for r in mine:
         by_key.setdefault(r["key"], []).append(r)
-    failed = Counter(_pattern(r["reason"] or r["status"]) for r in mine if r["status"] not in ("solved", "derived"))
+    failed = Counter(_pattern(r["reason"] or r["status"]) for r in mine if r["status"] not in SUCCEEDED)
     return SweepSummary(
         variants=len(keys),
         skipped=skipped,

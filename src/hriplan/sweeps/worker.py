@@ -16,6 +16,7 @@ import time
 from typing import Any
 
 from hriplan import HriplanError
+from hriplan.planner.outcome import Status
 from hriplan.sweeps.variants import Variant
 
 Row = dict[str, Any]
@@ -78,7 +79,7 @@ def run_variant(variant: Variant, plan: bool = True) -> list[Row]:
         outcome = TaskRunner(variant.task, session=session).run(plan=plan)
     except HriplanError as exc:
         timing = {"wall_time": time.perf_counter() - began, "cpu_time": time.process_time() - cpu}
-        return [base | {"step": "", "step_index": -1, "status": "error", "reason": str(exc)} | timing]
+        return [base | {"step": "", "step_index": -1, "status": Status.ERROR.value, "reason": str(exc)} | timing]
     timing = {
         "wall_time": time.perf_counter() - began,
         "cpu_time": time.process_time() - cpu,
@@ -94,7 +95,7 @@ def run_variant(variant: Variant, plan: bool = True) -> list[Row]:
                 "step": step.name,
                 "step_index": index,
                 "kind": step.kind,
-                "status": step.status,
+                "status": Status(step.status).value,
                 "reason": step.message,
                 "constraint_kinds": ",".join(sorted(kinds)),
                 "velocity_scale": step.derivation.velocity_scale,
@@ -111,4 +112,6 @@ def run_variant(variant: Variant, plan: bool = True) -> list[Row]:
 
 def failure_rows(variant: Variant, reason: str) -> list[Row]:
     """The record of a variant no worker could finish (its worker died on every attempt)."""
-    return [variant_columns(variant) | {"step": "", "step_index": -1, "status": "worker_died", "reason": reason}]
+    return [
+        variant_columns(variant) | {"step": "", "step_index": -1, "status": Status.WORKER_DIED.value, "reason": reason}
+    ]

@@ -24,6 +24,7 @@ from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.planner.motion import Goal as MotionGoal
 from hriplan.planner.motion import JointGoal, MotionResult, ToolGoal, plan_motion
 from hriplan.planner.options import PlanOptions
+from hriplan.planner.outcome import SUCCEEDED, Status
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
 from hriplan.robots.descriptions.postures import posture
 from hriplan.robots.ik import solve_two_arms
@@ -54,7 +55,7 @@ class StepOutcome(BaseModel):
     name: str
     kind: str
     arms: list[str]
-    status: str
+    status: Status
     message: str = ""
     derivation: Derivation = Field(default_factory=Derivation)
     scene: Scene = Field(default_factory=Scene)  # what the step is planned (and validated) against
@@ -67,7 +68,7 @@ class TaskOutcome(BaseModel):
 
     @property
     def solved(self) -> bool:
-        return all(s.status == "solved" for s in self.steps)
+        return all(s.status == Status.SOLVED for s in self.steps)
 
 
 def step_arms(task: TaskFile, step: Step, state: TaskState) -> list[str]:
@@ -191,10 +192,10 @@ class TaskRunner:
             for grasps in choices if plan else choices[:1]:
                 state.grasps |= grasps
                 planned, end, resolved = self._step(step, index, state, start, plan)
-                if planned[-1].status in ("solved", "derived"):
+                if planned[-1].status in SUCCEEDED:
                     break
             outcomes += planned
-            if planned[-1].status not in ("solved", "derived"):
+            if planned[-1].status not in SUCCEEDED:
                 break
             goals, arms = step.goals or [step.goal], planned[-1].arms
             for g, arm, r in zip(goals, arms, resolved):
@@ -242,7 +243,7 @@ class TaskRunner:
             name=kb.situation.task.name,
             kind=kb.situation.task.kind,
             arms=arms,
-            status="derived",
+            status=Status.DERIVED,
             derivation=derivation,
             scene=scene,
         )
@@ -250,7 +251,7 @@ class TaskRunner:
             return [outcome], start, resolved
         grasps = ", ".join(f"{o} by {g.name}" for o, g in state.grasps.items() if o in kb.situation.task.carries)
         planned, end = self._plan_step(step, index, state, resolved, start, outcome)
-        if grasps and planned[-1].status != "solved":
+        if grasps and planned[-1].status != Status.SOLVED:
             planned[-1] = planned[-1].model_copy(update={"message": f"{planned[-1].message} (holding {grasps})"})
         return planned, end, resolved
 
@@ -302,16 +303,16 @@ class TaskRunner:
             prep = prep.model_copy(
                 update={
                     "message": f"{prepared.what} before {outcome.name}"
-                    if prep.status == "solved"
+                    if prep.status == Status.SOLVED
                     else f"preparatory motion ({prepared.what}): {prep.message}"
                 }
             )
             outcomes.append(prep)
-            if prep.status != "solved":
+            if prep.status != Status.SOLVED:
                 return outcomes, start
         final, end = self._motion(step, index, state, goal, start, outcome)
         outcomes.append(final)
-        if final.status == "solved" and isinstance(step.goal, GraspGoal) and not step.goals:
+        if final.status == Status.SOLVED and isinstance(step.goal, GraspGoal) and not step.goals:
             lift, end = self._lift(step.goal, resolved[0], state, end, final)
             outcomes += [lift] if lift is not None else []
         return outcomes, end
@@ -355,14 +356,14 @@ class TaskRunner:
         if x_lift is None:
             return outcome.model_copy(
                 update={
-                    "status": "unreachable_goal",
+                    "status": Status.UNREACHABLE_GOAL,
                     "message": f"lifting {goal.grasp} off {', '.join(resting)}: {why}",
                 }
             ), start
         session.set_scene(lifting)
         session.set_constraints(grasped.derivation.constraint_set())
         motion = MotionResult(
-            status="solved",
+            status=Status.SOLVED,
             group=group,
             joint_names=robot.group_joints(group),
             start=dict(zip(robot.joint_names, q.tolist())),
@@ -432,7 +433,7 @@ class TaskRunner:
             update={"task": self.task.name, "step": outcome.name}
         )
         end = dict(start) | dict(zip(trajectory.joint_names, trajectory.points[-1].positions))
-        return outcome.model_copy(update={"status": "solved", "trajectory": trajectory}), end
+        return outcome.model_copy(update={"status": Status.SOLVED, "trajectory": trajectory}), end
 
     def _options(self) -> PlanOptions:
         return PlanOptions(**self.task.planning.model_dump(exclude_none=True))

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hriplan.planner.search.ompl_solver import Counters, OmplResult
+from hriplan.planner.outcome import Status
+from hriplan.planner.search.result import Counters, SearchResult
 
 Margins = Callable[[np.ndarray], np.ndarray]
 Gradients = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]  # x -> (margins, a gradient row each)
@@ -161,7 +162,7 @@ class _Search:
 
 def plan_in_bands(
     problem: BandProblem, start: np.ndarray, goal: np.ndarray, time_limit: float, seed: int | None, max_steps: int = 10
-) -> OmplResult:
+) -> SearchResult:
     """Bidirectional constrained search; the path's consecutive states are <= ~delta apart."""
     rng = np.random.default_rng(seed)
     counters = Counters()
@@ -188,11 +189,9 @@ def plan_in_bands(
             # a bounded share of the plan, counted in steps so that a seed gives one path.
             budget = counters.validity + max(SHORTCUT_MIN_STEPS, counters.validity)
             path = shortcut(search, path, rng, budget, deadline=started + time_limit)
-            return OmplResult(True, path, time.perf_counter() - started, space, "", counters)
+            return SearchResult(Status.SOLVED, path, space, "", counters)
         a, b = b, a
-    return OmplResult(
-        False, [], time.perf_counter() - started, space, "no exact solution within the time limit", counters
-    )
+    return SearchResult(Status.TIMEOUT, [], space, "no exact solution within the time limit", counters)
 
 
 def shortcut(

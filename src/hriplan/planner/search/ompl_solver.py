@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 from ompl import base as ob
@@ -17,6 +16,8 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from hriplan.planner.options import PlanOptions
+from hriplan.planner.outcome import Status
+from hriplan.planner.search.result import Counters, SearchResult
 
 ou.setLogLevel(ou.LOG_NONE)  # failures reach us as exceptions or statuses
 Rows = Callable[[np.ndarray], np.ndarray]
@@ -30,24 +31,6 @@ SHRINK_TOLERANCE = 5e-3
 STALE_ROUNDS = 2
 # Shortcut attempts per round (and consecutive failed attempts before a round gives up).
 SHORTCUT_STEPS, SHORTCUT_EMPTY_STEPS = 200, 50
-
-
-@dataclass
-class Counters:
-    function: int = 0
-    jacobian: int = 0
-    validity: int = 0
-
-
-@dataclass
-class OmplResult:
-    solved: bool
-    states: list[np.ndarray]
-    seconds: float
-    space: str
-    message: str = ""
-    counters: Counters = field(default_factory=Counters)
-    unsimplified: list[np.ndarray] = field(default_factory=list)  # the planner's own path, if simplified
 
 
 class RowsConstraint(ob.Constraint):
@@ -140,7 +123,7 @@ def solve_with_ompl(
     is_valid: Callable[[np.ndarray], bool],
     rows: tuple[Rows, Rows, int] | None,
     attempt: int = 0,
-) -> OmplResult:
+) -> SearchResult:
     """Plan from `start` to `goal` (ambient vectors); `rows` = (function, jacobian, count) puts
     those rows on the manifold, None plans in the plain joint space. `attempt` counts re-plans
     of one run, each with its own seed."""
@@ -177,11 +160,9 @@ def solve_with_ompl(
         setup.setPlanner(_planner(options.planner, info, options, constraint is None))
         setup.solve(options.time_limit)
     except RuntimeError as exc:  # OMPL reports chart or set-up failures as exceptions
-        return OmplResult(False, [], time.perf_counter() - t0, space_name, f"OMPL: {exc}", counters)
+        return SearchResult(Status.PLANNER_ERROR, [], space_name, f"OMPL: {exc}", counters)
     if not setup.haveExactSolutionPath():
-        return OmplResult(
-            False, [], time.perf_counter() - t0, space_name, "no exact solution within the time limit", counters
-        )
+        return SearchResult(Status.TIMEOUT, [], space_name, "no exact solution within the time limit", counters)
     path = setup.getSolutionPath()
     raw = _states(og.PathGeometric(path), n)
     if options.simplify:
@@ -195,9 +176,7 @@ def solve_with_ompl(
         )
         if constraint is None:  # and hand back states at the planning resolution, as unsimplified paths
             _set_resolution(info, space, options.delta)
-    return OmplResult(
-        True, _states(path, n), time.perf_counter() - t0, space_name, "", counters, raw if options.simplify else []
-    )
+    return SearchResult(Status.SOLVED, _states(path, n), space_name, "", counters, raw if options.simplify else [])
 
 
 def _set_resolution(info: ob.SpaceInformation, space: ob.StateSpace, step: float) -> None:
