@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from hriplan.planner.trajectory import SeparationTrace
 from hriplan.rules.explain import describe
 from hriplan.rules.infer import Derivation
+from hriplan.safety.report import SeparationTrace
 from hriplan.tasks.pipeline import TaskOutcome
 
 

@@ -23,7 +23,6 @@ from hriplan.planner.motion import Goal, MotionResult, plan_motion, with_keep_ou
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.search.ompl_solver import ompl_seed
-from hriplan.planner.separation_report import separation_report
 from hriplan.planner.timing import time_parameterize
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
 from hriplan.planner.validate import densify, validate_path
@@ -33,6 +32,7 @@ from hriplan.robots.model import JointValues, Robot, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.report import separation_report
 from hriplan.safety.separation import SeparationPolicy
 
 # Knot spacing handed to the time parameteriser, then a denser retry if re-validation fails.
@@ -161,7 +161,9 @@ class PlanningSession:
             return PlanResult(status=Status.TIMING_FAILED, motion=motion, message=message)
         trajectory = self._file(motion, bound, timed, check, options, scene, evaluator.full(path[0]))
         if monitor is not None:
-            report = trajectory.report.model_copy(update={"separation": separation_report(monitor, timed)})
+            report = trajectory.report.model_copy(
+                update={"separation": separation_report(monitor, timed.positions, timed.velocities)}
+            )
             trajectory = trajectory.model_copy(update={"report": report})
         return PlanResult(status=Status.SOLVED, motion=motion, trajectory=trajectory)
 

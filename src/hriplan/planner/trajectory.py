@@ -17,6 +17,7 @@ from hriplan.planner.constraints.spec import ConstraintSpec
 from hriplan.planner.outcome import Status
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
+from hriplan.safety.report import SeparationTrace
 
 SCHEMA = "hriplan.trajectory"
 SCHEMA_VERSION = 1
@@ -39,28 +40,6 @@ class ResolvedConstraint(BaseModel):
     frame_in_world: Pose
     goal_position: list[float] | None = None  # target link at the goal (dynamic tolerance)
     reason: str = ""  # one line: why this constraint is there (from the rules, when they made it)
-
-
-class SeparationTrace(BaseModel):
-    """One person along the timed motion (ISO/TS 15066 speed and separation, see separation.py).
-
-    Per trajectory point: the closest moving robot part's separation (to the whole person, and to
-    the body outside its contact regions, where S_0 applies), and for the binding
-    part-capsule pair (least margin) the allowed speed towards the person and the actual one
-    (negative: moving away). None: no moving part faces the person (no limit)."""
-
-    person: str
-    role: str = ""
-    minimum_separation: float  # S_0: where the allowed speed falls to 0 (m)
-    contact_speed: float | None = None  # PFL cap near the person's contact region (m/s), if any
-    min_separation: float | None  # closest approach of a moving part along the motion (m)
-    worst_margin: float | None  # smallest allowed - actual speed towards the person (m/s; >= 0 kept)
-    slowest_allowed: float | None = None  # smallest allowed speed where the robot approached (m/s)
-    slowest_separation: float | None = None  # the separation there (m)
-    separation: list[float | None] = Field(default_factory=list)
-    body_separation: list[float | None] = Field(default_factory=list)  # outside the contact regions
-    allowed_speed: list[float | None] = Field(default_factory=list)
-    approach_speed: list[float | None] = Field(default_factory=list)
 
 
 class TrajectoryReport(BaseModel):
