@@ -19,7 +19,7 @@ from hriplan.planner.constraints.spec import (
     FrameRef,
     OrientationConstraint,
 )
-from hriplan.planner.motion import JointGoal
+from hriplan.planner.motion import JointTarget
 from hriplan.planner.problem import PlanningProblem
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.human import HumanSpec
@@ -109,7 +109,7 @@ def ur5_upright_box() -> PlanningProblem:
         scene=scene,
         constraints=ConstraintSet(constraints=constraints),
         start=dict(zip(robot.joint_names, start)),
-        goal=JointGoal(values=dict(zip(joints, robot.group_values(goal)))),
+        goal=JointTarget(values=dict(zip(joints, robot.group_values(goal)))),
         roles={"human": "Collaborator"},
     )
 
@@ -160,7 +160,7 @@ def madar_handover() -> PlanningProblem:
         constraints=ConstraintSet(constraints=constraints),
         group="right_arm",
         start=dict(zip(robot.joint_names, start)),
-        goal=JointGoal(values=dict(zip(joints, robot.group_values(goal, "right_arm")))),
+        goal=JointTarget(values=dict(zip(joints, robot.group_values(goal, "right_arm")))),
         roles={"receiver": "Receiver"},
     )
 
@@ -217,7 +217,7 @@ def madar_peg_in_hole() -> PlanningProblem:
         constraints=ConstraintSet(constraints=constraints),
         group="both_arms",
         start=dict(zip(robot.joint_names, start)),
-        goal=JointGoal(values=dict(zip(robot.joint_names, goal))),
+        goal=JointTarget(values=dict(zip(robot.joint_names, goal))),
         roles={"supervisor": "Supervisor"},
     )
 
@@ -266,7 +266,7 @@ def madar_left_arm() -> PlanningProblem:
         constraints=ConstraintSet(constraints=constraints),
         group="left_arm",
         start=dict(zip(robot.joint_names, start)),
-        goal=JointGoal(values=dict(zip(joints, robot.group_values(goal, "left_arm")))),
+        goal=JointTarget(values=dict(zip(joints, robot.group_values(goal, "left_arm")))),
     )
 
 
@@ -294,7 +294,7 @@ def madar_one_arm_holds() -> PlanningProblem:
         scene=scene,
         group="both_arms",
         start=dict(zip(robot.joint_names, start)),
-        goal=JointGoal(values=dict(zip(robot.joint_names, goal))),
+        goal=JointTarget(values=dict(zip(robot.joint_names, goal))),
     )
 
 
@@ -319,7 +319,7 @@ def _ur5_problem(
         scene=scene,
         constraints=ConstraintSet(constraints=constraints),
         start=dict(zip(robot.joint_names, start)),
-        goal=JointGoal(values=dict(zip(robot.joint_names, robot.group_values(goal)))),
+        goal=JointTarget(values=dict(zip(robot.joint_names, robot.group_values(goal)))),
     )
 
 

@@ -16,7 +16,7 @@ from hriplan.api import (
     PlanOptions,
     Pose,
     Scene,
-    ToolGoal,
+    ToolTarget,
     load_task,
     posture,
     run_task,
@@ -53,7 +53,7 @@ session.set_constraints(
 )
 start = posture("madar", "ready")
 hand = session.checker.humans["bob"].frame("right_hand").translation
-goal = ToolGoal(
+goal = ToolTarget(
     arm="right", pose=Pose(xyz=tuple(hand + (0.0, -0.19, 0.0)), rpy=(np.pi / 2, 0.0, np.pi)), free_axes=["y"]
 )
 result = session.plan(start, goal, PlanOptions(seed=1))

@@ -1,15 +1,15 @@
 """The plug-in API for higher-level systems (task planners, a motion manager on the real robot).
 
-    from hriplan.api import PlanningSession, Scene, HumanSpec, Pose, JointGoal, ToolGoal, PlanOptions
+    from hriplan.api import PlanningSession, Scene, HumanSpec, Pose, JointTarget, ToolTarget, PlanOptions
     session = PlanningSession("madar", scene, hands={"right": "power"})   # built once
     session.pose_human(HumanSpec(name="bob", position=(0.1, 1.4), yaw=-1.57))  # perception update
     session.set_constraints(constraints)                                   # or derive them: run_task
-    result = session.plan(start, ToolGoal(arm="right", pose=Pose(...)))    # validated + timed
+    result = session.plan(start, ToolTarget(arm="right", pose=Pose(...)))    # validated + timed
     result.trajectory.points, result.trajectory.report                     # what to execute, why
 
     outcome = run_task(load_task("examples/handover_full_can.yaml"), session)  # rules decide
 
-A `ToolGoal(arm="right")` planned without a `group` moves that arm only; a `JointGoal` without
+A `ToolTarget(arm="right")` planned without a `group` moves that arm only; a `JointTarget` without
 one moves the whole robot. Named start postures: `posture("madar", "ready")` (`POSTURES` lists
 them); frames a constraint can be anchored at on a person: `FrameRef(entity="bob/right_hand")`,
 with `PERSON_FRAMES` the frame names every person has.
@@ -33,7 +33,7 @@ from hriplan.planner.constraints.spec import (
     OrientationConstraint,
     SphereConstraint,
 )
-from hriplan.planner.motion import JointGoal, MotionResult, ToolGoal
+from hriplan.planner.motion import JointTarget, MotionResult, ToolTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.session import PlanningSession, PlanResult
@@ -81,7 +81,7 @@ __all__ = [
     "CylinderConstraint",
     "FrameRef",
     "HumanSpec",
-    "JointGoal",
+    "JointTarget",
     "MotionResult",
     "Obstacle",
     "OrientationConstraint",
@@ -98,7 +98,7 @@ __all__ = [
     "TaskFile",
     "TaskOutcome",
     "TaskRunner",
-    "ToolGoal",
+    "ToolTarget",
     "TrajectoryFile",
     "load_robot",
     "load_task",

@@ -12,7 +12,7 @@ from hriplan.api import (
     Pose,
     Scene,
     TaskFile,
-    ToolGoal,
+    ToolTarget,
     posture,
     run_task,
 )
@@ -22,7 +22,7 @@ def test_a_tool_goal_without_group_moves_its_arm_only():
     session = PlanningSession("madar", hands={"right": "power"})
     start = posture("madar", "ready")
     tool = session.robot.frame_pose("right_tool", start)
-    goal = ToolGoal(arm="right", pose=Pose(xyz=tuple(tool[:3, 3] + (0.0, 0.05, 0.0)), quat_xyzw=_quat(tool[:3, :3])))
+    goal = ToolTarget(arm="right", pose=Pose(xyz=tuple(tool[:3, 3] + (0.0, 0.05, 0.0)), quat_xyzw=_quat(tool[:3, :3])))
     result = session.plan(start, goal, PlanOptions(seed=1, time_limit=20))
     assert result.solved, result.message
     trajectory = result.trajectory

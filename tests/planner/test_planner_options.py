@@ -10,7 +10,7 @@ from ompl import geometric as og
 from pydantic import ValidationError
 
 from hriplan import HriplanError
-from hriplan.planner.motion import ToolGoal, plan_motion
+from hriplan.planner.motion import ToolTarget, plan_motion
 from hriplan.planner.options import PLANNERS, RANGED_PLANNERS, PlanOptions
 from hriplan.planner.problem import load_problem
 from hriplan.planner.replay import PlannedWorld
@@ -114,7 +114,7 @@ def test_a_start_inside_its_dynamic_tolerance_is_planned(problem, goal_kind):
     goal = (
         problem.goal
         if goal_kind == "joints"
-        else ToolGoal(arm="arm", pose=Pose.from_matrix(robot.frame_pose("tool", q_goal)), free_axes=["z"])
+        else ToolTarget(arm="arm", pose=Pose.from_matrix(robot.frame_pose("tool", q_goal)), free_axes=["z"])
     )
     result = session.plan(start, goal, PlanOptions(seed=1, time_limit=20.0))
     assert result.solved, result.message

@@ -7,7 +7,7 @@ from hriplan import HriplanError
 from hriplan.planner.constraints.binding import bind
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import CylinderConstraint, FrameRef
-from hriplan.planner.motion import JointGoal, ToolGoal, plan_motion
+from hriplan.planner.motion import JointTarget, ToolTarget, plan_motion
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import load_trajectory
@@ -88,14 +88,14 @@ def test_start_violating_a_constraint_is_reported_or_projected(problem, session)
 
 def test_goal_problems_have_their_own_status(problem, session):
     robot = session.robot
-    colliding = JointGoal(values=dict(problem.goal.values, shoulder_lift_joint=0.6))
+    colliding = JointTarget(values=dict(problem.goal.values, shoulder_lift_joint=0.6))
     assert session.plan(problem.start, colliding).motion.status == "invalid_goal"
-    far = ToolGoal(arm="arm", pose=Pose(xyz=(3.0, 0.0, 0.5), rpy=(np.pi, 0, 0)), free_axes=["z"])
+    far = ToolTarget(arm="arm", pose=Pose(xyz=(3.0, 0.0, 0.5), rpy=(np.pi, 0, 0)), free_axes=["z"])
     result = session.plan(problem.start, far)
     assert result.motion.status == "unreachable_goal" and "out of reach" in result.message
     # a tool-pose goal resolved by IK with free spin: lands upright at the position
     goal_pose = robot.frame_pose("tool", robot.configuration(problem.goal.values))
-    tool_goal = ToolGoal(arm="arm", pose=Pose.from_matrix(goal_pose), free_axes=["z"])
+    tool_goal = ToolTarget(arm="arm", pose=Pose.from_matrix(goal_pose), free_axes=["z"])
     solved = session.plan(problem.start, tool_goal, PlanOptions(seed=3, time_limit=20.0))
     assert solved.solved
     end = robot.frame_pose("tool", robot.configuration(solved.motion.path[-1]))
@@ -190,7 +190,7 @@ def test_constraint_on_joints_outside_the_planned_group_is_an_error(madar):
     )
     session.set_constraints([spec])
     with pytest.raises(HriplanError, match="outside the planned group 'right_arm'"):
-        session.plan({}, JointGoal(values=[0.1] * 6), group="right_arm")
+        session.plan({}, JointTarget(values=[0.1] * 6), group="right_arm")
 
 
 def test_plan_motion_without_constraints_plans_in_joint_space(problem, session):

@@ -192,7 +192,7 @@ def test_meshes_sit_where_example_robot_data_puts_them(rng):
 def test_a_robot_is_its_description_not_its_name(monkeypatch):
     # A robot added as data only (a UR5 whose arm is called "main"): groups, tool frame, hands and
     # the base link come from its description; before, code branched on the names madar and ur5.
-    from hriplan.planner.motion import JointGoal
+    from hriplan.planner.motion import JointTarget
     from hriplan.planner.session import PlanningSession
     from hriplan.robots.descriptions import registry as descriptions
 
@@ -210,7 +210,7 @@ def test_a_robot_is_its_description_not_its_name(monkeypatch):
     with pytest.raises(HriplanError, match="has no hand 'right'"):
         load_robot("cell_ur5", {"right": "power"})
     session = PlanningSession(robot)
-    goal = JointGoal(values={"shoulder_lift_joint": -1.2, "elbow_joint": 1.0})
+    goal = JointTarget(values={"shoulder_lift_joint": -1.2, "elbow_joint": 1.0})
     result = session.plan(dict(zip(robot.joint_names, [0.0, -1.57, 1.57, 0.0, 0.0, 0.0])), goal, group="main_arm")
     assert result.solved, result.message
     assert result.trajectory.points[-1].positions[1] == pytest.approx(-1.2, abs=1e-6)

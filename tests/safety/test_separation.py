@@ -22,7 +22,7 @@ from PIL import Image
 
 from hriplan import HriplanError
 from hriplan.cli.summary import separation_phrase
-from hriplan.planner.motion import JointGoal
+from hriplan.planner.motion import JointTarget
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.timing import time_parameterize
@@ -334,7 +334,7 @@ def test_a_start_inside_the_minimum_separation_fails_with_the_reason():
     bystander = HumanSpec(name="dana", position=(0.8, 0.6), yaw=math.pi)
     session = PlanningSession("madar", Scene(humans=[bystander]), hands={"right": "open"})
     q0, path = _right_arm_path(session.robot)
-    goal = JointGoal(values=dict(zip(session.robot.group_joints("right_arm"), path[5])))
+    goal = JointTarget(values=dict(zip(session.robot.group_joints("right_arm"), path[5])))
     start = dict(zip(session.robot.joint_names, q0))
     assert session.plan(start, goal, group="right_arm").solved  # without the policy it plans and runs
     result = session.plan(start, goal, group="right_arm", safety=default_policy("madar", [bystander]))

@@ -2,7 +2,7 @@
 
 from collections import Counter
 
-from hriplan.planner.motion import ToolGoal
+from hriplan.planner.motion import ToolTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.session import PlanningSession
 from hriplan.robots.descriptions.postures import posture
@@ -14,7 +14,7 @@ from hriplan.robots.spatial import Pose
 def test_an_ik_goal_in_a_table_names_what_collides_and_what_would_help():
     session = PlanningSession("madar", Scene(obstacles=[table("table", (0.5, 0.5, 0.04), 0.72, (0.45, 0.85))]))
     # The grasp centre 1 cm inside the table top: the fingers go through it whatever the spin.
-    goal = ToolGoal(arm="right", pose=Pose(xyz=(0.45, 0.75, 0.71), rpy=(3.1416, 0.0, 0.0)), free_axes=["z"])
+    goal = ToolTarget(arm="right", pose=Pose(xyz=(0.45, 0.75, 0.71), rpy=(3.1416, 0.0, 0.0)), free_axes=["z"])
     result = session.plan(posture("madar", "ready"), goal, PlanOptions(time_limit=1.0, seed=1), "right_arm")
     assert result.motion.status == "unreachable_goal"
     assert "collides: right_" in result.message and " - table (" in result.message

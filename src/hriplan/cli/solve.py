@@ -8,7 +8,7 @@ import typer
 
 from hriplan.cli.outputs import file_output
 from hriplan.cli.summary import separation_phrase
-from hriplan.planner.motion import JointGoal
+from hriplan.planner.motion import JointTarget
 from hriplan.planner.problem import load_problem
 from hriplan.planner.session import PlanningSession
 from hriplan.safety.policy import default_policy
@@ -21,7 +21,7 @@ def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_jso
         file_output(output)
     problem = load_problem(path)
     check_joint_values(problem.start, problem.robot, f"{path}: start")
-    if isinstance(problem.goal, JointGoal) and isinstance(problem.goal.values, dict):
+    if isinstance(problem.goal, JointTarget) and isinstance(problem.goal.values, dict):
         check_joint_values(problem.goal.values, problem.robot, f"{path}: goal")
     session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
     session.set_constraints(problem.constraints)

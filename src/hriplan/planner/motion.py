@@ -47,13 +47,16 @@ SPARSE_FIRST = 16
 BAND_OFFSET = 2 * PLANNING_MARGIN
 
 
-class JointGoal(BaseModel):
+class JointTarget(BaseModel):
+    """Joint values to reach: by name (any joints; the others keep the start's), or a list in the
+    planned group's order. Task files' goals (tasks/model.py) resolve to these targets."""
+
     model_config = ConfigDict(extra="forbid")
     type: Literal["joints"] = "joints"
     values: dict[str, float] | list[float]
 
 
-class ToolGoal(BaseModel):
+class ToolTarget(BaseModel):
     """A tool pose for one arm, reached by IK (the first valid solution nearest the start)."""
 
     model_config = ConfigDict(extra="forbid")
@@ -63,7 +66,7 @@ class ToolGoal(BaseModel):
     free_axes: list[Axis] = Field(default_factory=list)
 
 
-Goal = Annotated[JointGoal | ToolGoal, Field(discriminator="type")]
+Goal = Annotated[JointTarget | ToolTarget, Field(discriminator="type")]
 
 
 class MotionResult(BaseModel):
@@ -131,7 +134,7 @@ def with_keep_out(
     checker: CollisionChecker, bound: list[BoundConstraint], separation: SeparationZones | None = None
 ) -> Iterator[None]:
     """The checker with the keep-out zones of `bound` added as obstacles and the people's
-    `separation` zones (separation_zones.py), for the block's duration (one build)."""
+    `separation` zones (safety/zones.py), for the block's duration (one build)."""
     zones = keep_out_obstacles(bound)
     if not zones and separation is None:
         yield
@@ -165,10 +168,10 @@ def plan_motion(
     safety: SeparationPolicy | None = None,
 ) -> MotionResult:
     """Plan a constrained, collision-free motion of `group` from `start` to `goal`. With `safety`,
-    the moving parts keep ISO/TS 15066's minimum separation from people (separation_zones.py)."""
+    the moving parts keep ISO/TS 15066's minimum separation from people (safety/zones.py)."""
     options = options or PlanOptions()
     # No group: a tool goal moves its own arm only, a joint goal the whole robot.
-    group = group or (robot.arm_group(goal.arm) if isinstance(goal, ToolGoal) else robot.default_group)
+    group = group or (robot.arm_group(goal.arm) if isinstance(goal, ToolTarget) else robot.default_group)
     joint_names = robot.group_joints(group)
     q_start = robot.configuration(start) if isinstance(start, dict) else robot.configuration(start, group)
     check_options(options)
@@ -224,7 +227,7 @@ def _set_goal_positions(problem: _Problem, x_goal: np.ndarray) -> None:
 def _resolve_goal(problem: _Problem, goal: Goal, x_start: np.ndarray) -> np.ndarray | MotionResult:
     robot, group = problem.robot, problem.group
     blank = {"group": group, "joint_names": []}
-    if isinstance(goal, JointGoal):
+    if isinstance(goal, JointTarget):
         base = problem.evaluator.full(x_start)
         q_goal = (
             robot.configuration(goal.values, base=base)

@@ -14,7 +14,7 @@ import pinocchio as pin
 
 from hriplan import HriplanError
 from hriplan.planner.motion import Goal as MotionGoal
-from hriplan.planner.motion import JointGoal, ToolGoal
+from hriplan.planner.motion import JointTarget, ToolTarget
 from hriplan.robots.bounding import frame_with_z
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.grasps import object_length
@@ -59,7 +59,7 @@ def _to_object(arm: str, name: str, object_pose: pin.SE3, state: TaskState) -> R
     """The tool goal that brings the held (or grasped) object `name` to `object_pose`, by its
     grasp (state.grasps), the spin about the grasp axis free."""
     tool = object_pose * state.in_tool(name).inverse()
-    goal = ToolGoal(arm=arm, pose=Pose.from_se3(tool), free_axes=[state.grasps[name].axis[1]])
+    goal = ToolTarget(arm=arm, pose=Pose.from_se3(tool), free_axes=[state.grasps[name].axis[1]])
     return ResolvedGoal(goal, name, Pose.from_se3(object_pose))
 
 
@@ -70,9 +70,9 @@ def resolve_goal(goal: TaskGoal, arm: str, state: TaskState, held_axis: np.ndarr
     now, or turned onto an orientation constraint: scissors pointed away from the receiver),
     else it arrives upright."""
     if isinstance(goal, JointsGoal):
-        return ResolvedGoal(JointGoal(values=goal.joints), None)
+        return ResolvedGoal(JointTarget(values=goal.joints), None)
     if isinstance(goal, ToolPoseGoal):
-        return ResolvedGoal(ToolGoal(arm=arm, pose=goal.tool_pose, free_axes=goal.free_axes), None)
+        return ResolvedGoal(ToolTarget(arm=arm, pose=goal.tool_pose, free_axes=goal.free_axes), None)
     if isinstance(goal, GraspGoal):
         return _to_object(arm, goal.grasp, state.pose(goal.grasp).se3(), state)
     if isinstance(goal, TakeGoal):

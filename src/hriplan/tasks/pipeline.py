@@ -22,7 +22,7 @@ from hriplan.ontology.situation import Situation, SituationHuman, SituationObjec
 from hriplan.planner.constraints.binding import resolve_frame
 from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.planner.motion import Goal as MotionGoal
-from hriplan.planner.motion import JointGoal, MotionResult, ToolGoal, plan_motion
+from hriplan.planner.motion import JointTarget, MotionResult, ToolTarget, plan_motion
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import SUCCEEDED, Status
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
@@ -204,7 +204,7 @@ class TaskRunner:
             if plan:
                 start, state.tools = end, tool_poses(robot, end)
             else:
-                state.tools |= {r.goal.arm: r.goal.pose for r in resolved if isinstance(r.goal, ToolGoal)}
+                state.tools |= {r.goal.arm: r.goal.pose for r in resolved if isinstance(r.goal, ToolTarget)}
         return TaskOutcome(task=task.name, steps=outcomes)
 
     def _grasp_choices(self, step: Step, index: int, state: TaskState) -> list[dict[str, Grasp]]:
@@ -458,13 +458,13 @@ class TaskRunner:
                     held[arm] = (target @ state.in_tool(obj).rotation)[:, 2].copy()
         return held
 
-    def _joint_goal(self, resolved: list[ResolvedGoal], start: dict[str, float]) -> JointGoal:
+    def _joint_goal(self, resolved: list[ResolvedGoal], start: dict[str, float]) -> JointTarget:
         """Two arms' tool goals as one joint goal: IK for both, clear of each other and the scene."""
         session = self._session()
         robot, checker = session.robot, session.checker
         targets = []
         for r in resolved:
-            if not isinstance(r.goal, ToolGoal):
+            if not isinstance(r.goal, ToolTarget):
                 raise HriplanError("a step with several goals needs a tool or object goal for each arm")
             targets.append((r.goal.arm, r.goal.pose.matrix(), r.goal.free_axes))
         q = solve_two_arms(
@@ -472,7 +472,7 @@ class TaskRunner:
         )
         if q is None:
             raise HriplanError("no collision-free configuration puts both arms at their goals")
-        return JointGoal(values=dict(zip(robot.joint_names, q.tolist())))
+        return JointTarget(values=dict(zip(robot.joint_names, q.tolist())))
 
 
 def tool_poses(robot: Robot, joints: dict[str, float]) -> dict[str, Pose]:

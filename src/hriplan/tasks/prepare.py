@@ -20,7 +20,7 @@ import numpy as np
 from hriplan.planner.constraints.binding import bind
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import ConeConstraint, OrientationConstraint
-from hriplan.planner.motion import ToolGoal
+from hriplan.planner.motion import ToolTarget
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
 from hriplan.robots.spatial import Pose
@@ -31,7 +31,7 @@ ENTRY = 0.8  # where on its axis a cone is entered, as a fraction of its height 
 
 
 class Preparation(NamedTuple):
-    goal: ToolGoal
+    goal: ToolTarget
     violated: list[DerivedConstraint]  # the constraints the preparatory motion brings the tool within
     what: str  # "turns the held object in place onto sharp_end_away_scissors", for messages
 
@@ -65,7 +65,7 @@ def preparatory_goal(
     if any(isinstance(c.spec, ConeConstraint) for c, _ in violated):
         free_axes = []  # a position and the orientation it has, or the one turned onto
     return Preparation(
-        ToolGoal(arm=arm, pose=Pose.from_matrix(target), free_axes=free_axes),
+        ToolTarget(arm=arm, pose=Pose.from_matrix(target), free_axes=free_axes),
         [c for c, _ in violated],
         " and ".join(what),
     )

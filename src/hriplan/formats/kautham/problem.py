@@ -46,7 +46,7 @@ from hriplan.planner.constraints.spec import (
     OrientationConstraint,
     SphereConstraint,
 )
-from hriplan.planner.motion import JointGoal
+from hriplan.planner.motion import JointTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.problem import PlanningProblem
 from hriplan.robots.model import ROBOT_NAMES, Robot, load_robot
@@ -377,7 +377,7 @@ def import_kautham(
         constraints=ConstraintSet(constraints=constraints),
         group=group,
         start=start,
-        goal=JointGoal(values={j: goal[j] for j in robot.group_joints(group)}),
+        goal=JointTarget(values={j: goal[j] for j in robot.group_joints(group)}),
         options=options,
     )
 
