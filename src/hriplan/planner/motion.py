@@ -66,7 +66,8 @@ class ToolTarget(BaseModel):
     free_axes: list[Axis] = Field(default_factory=list)
 
 
-Goal = Annotated[JointTarget | ToolTarget, Field(discriminator="type")]
+# What a motion reaches (a problem file's `goal`), chosen by its `type` field.
+Target = Annotated[JointTarget | ToolTarget, Field(discriminator="type")]
 
 
 class MotionResult(BaseModel):
@@ -162,7 +163,7 @@ def plan_motion(
     checker: CollisionChecker,
     constraints: Sequence[ConstraintSpec],
     start: JointValues,
-    goal: Goal,
+    goal: Target,
     options: PlanOptions | None = None,
     group: str | None = None,
     safety: SeparationPolicy | None = None,
@@ -224,7 +225,7 @@ def _set_goal_positions(problem: _Problem, x_goal: np.ndarray) -> None:
     set_goal_positions(problem.robot, problem.evaluator.constraints, problem.evaluator.full(x_goal))
 
 
-def _resolve_goal(problem: _Problem, goal: Goal, x_start: np.ndarray) -> np.ndarray | MotionResult:
+def _resolve_goal(problem: _Problem, goal: Target, x_start: np.ndarray) -> np.ndarray | MotionResult:
     robot, group = problem.robot, problem.group
     blank = {"group": group, "joint_names": []}
     if isinstance(goal, JointTarget):

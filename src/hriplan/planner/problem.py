@@ -12,7 +12,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan.files import load_model
 from hriplan.planner.constraints.spec import ConstraintSet
-from hriplan.planner.motion import Goal
+from hriplan.planner.motion import Target
 from hriplan.planner.options import PlanOptions
 from hriplan.robots.scene import Scene
 
@@ -28,7 +28,7 @@ class PlanningProblem(BaseModel):
     constraints: ConstraintSet = Field(default_factory=ConstraintSet)
     group: str | None = None
     start: dict[str, float]
-    goal: Goal
+    goal: Target
     options: PlanOptions = Field(default_factory=PlanOptions)
     # Speed and separation: each person's role (ontology: Receiver, Giver, Supervisor, ...), which
     # sets their ISO/TS 15066 parameters; people not named are bystanders.

@@ -19,7 +19,7 @@ from hriplan import HriplanError
 from hriplan.planner.constraints.binding import bind, set_goal_positions
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec
-from hriplan.planner.motion import Goal, MotionResult, plan_motion, with_keep_out
+from hriplan.planner.motion import MotionResult, Target, plan_motion, with_keep_out
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.search.ompl_solver import ompl_seed
@@ -102,7 +102,7 @@ class PlanningSession:
     def plan(
         self,
         start: JointValues,
-        goal: Goal,
+        goal: Target,
         options: PlanOptions | None = None,
         group: str | None = None,
         safety: SeparationPolicy | None = None,

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan.planner.constraints.spec import ConstraintSet
-from hriplan.planner.motion import Goal
+from hriplan.planner.motion import Target
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.trajectory import TrajectoryFile
@@ -84,7 +84,7 @@ class SessionPlanRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     start: dict[str, float]
-    goal: Goal
+    goal: Target
     options: PlanOptions = Field(default_factory=PlanOptions)
     group: str | None = None
 

@@ -13,8 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan import HriplanError
-from hriplan.planner.motion import Goal as MotionGoal
-from hriplan.planner.motion import JointTarget, ToolTarget
+from hriplan.planner.motion import JointTarget, Target, ToolTarget
 from hriplan.robots.bounding import frame_with_z
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.grasps import object_length
@@ -38,7 +37,7 @@ TASK_KINDS = {
 
 @dataclass(frozen=True)
 class ResolvedGoal:
-    goal: MotionGoal
+    goal: Target
     moved_object: str | None  # what the arm carries or takes in this step
     object_pose: Pose | None = None  # where that object is at the end of the step
 

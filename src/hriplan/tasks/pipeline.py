@@ -21,8 +21,7 @@ from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation, SituationHuman, SituationObject, SituationTask
 from hriplan.planner.constraints.binding import resolve_frame
 from hriplan.planner.constraints.spec import OrientationConstraint
-from hriplan.planner.motion import Goal as MotionGoal
-from hriplan.planner.motion import JointTarget, MotionResult, ToolTarget, plan_motion
+from hriplan.planner.motion import JointTarget, MotionResult, Target, ToolTarget, plan_motion
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import SUCCEEDED, Status
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
@@ -376,7 +375,7 @@ class TaskRunner:
         step: Step,
         index: int,
         state: TaskState,
-        goal: MotionGoal,
+        goal: Target,
         start: dict[str, float],
         outcome: StepOutcome,
         rederive: bool = True,
