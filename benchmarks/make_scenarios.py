@@ -75,41 +75,51 @@ def _both_arms(
     return q
 
 
-def ur5_upright_box() -> PlanningProblem:
-    robot = load_robot("ur5")
-    scene = Scene(
+def _upright(joints: list[str], link: str, axis: str, target: Pose, **tolerance) -> OrientationConstraint:
+    """Keep the tool's orientation (a held cup upright), free to spin about `axis`."""
+    tolerance = tolerance or {"tolerance": 0.1}
+    return OrientationConstraint(
+        id="upright", joints=joints, target_link=link, free_axes=[axis], target=target, **tolerance
+    )
+
+
+def _box(name: str, joints: list[str], link: str, size, centre) -> BoxConstraint:
+    """Keep the tool inside an axis-aligned box centred at `centre` (world frame)."""
+    return BoxConstraint(id=name, joints=joints, target_link=link, size=size, frame=FrameRef(offset=Pose(xyz=centre)))
+
+
+def _ur5_block_scene(humans: list[HumanSpec] = ()) -> Scene:
+    """Scenarios (a) and (e): a table under the UR5 and a block to carry the cup over."""
+    return Scene(
         obstacles=[
             table(position=(0.5, 0.0), size=(0.6, 1.2, 0.04), top=-0.05),
             Obstacle(name="block", shape=Box(size=(0.3, 0.08, 0.35)), pose=Pose(xyz=(0.45, 0.0, 0.125))),
         ],
-        humans=[HumanSpec(name="human", position=(1.2, 0.0), yaw=np.pi)],
+        humans=list(humans),
     )
+
+
+def ur5_upright_box() -> PlanningProblem:
+    robot = load_robot("ur5")
+    scene = _ur5_block_scene([HumanSpec(name="human", position=(1.2, 0.0), yaw=np.pi)])
     checker = CollisionChecker(robot, scene)
     joints = robot.group_joints()
     down = Pose(rpy=(np.pi, 0.0, 0.0))
     constraints = [
-        OrientationConstraint(
-            id="upright", joints=joints, target_link="tool", free_axes=["z"], target=down, tolerance=0.1
-        ),
-        BoxConstraint(
-            id="workspace",
-            joints=joints,
-            target_link="tool",
-            size=(0.8, 1.2, 0.6),
-            frame=FrameRef(offset=Pose(xyz=(0.45, 0.0, 0.3))),
-        ),
+        _upright(joints, "tool", "z", down),
+        _box("workspace", joints, "tool", (0.8, 1.2, 0.6), (0.45, 0.0, 0.3)),
     ]
     home = robot.configuration([0.0, -1.2, 1.5, -1.9, -1.57, 0.0])
     start = _ik(robot, checker, "arm", _pose(down.rotation(), (0.45, -0.3, 0.12)), home)
     goal = _ik(robot, checker, "arm", _pose(down.rotation(), (0.45, 0.3, 0.12)), start)
-    return PlanningProblem(
-        name="a_ur5_upright_box",
-        description="UR5 carries an upright cup over a block, inside a workspace box",
-        robot="ur5",
-        scene=scene,
-        constraints=ConstraintSet(constraints=constraints),
-        start=dict(zip(robot.joint_names, start)),
-        goal=JointTarget(values=dict(zip(joints, robot.group_values(goal)))),
+    return _problem(
+        "a_ur5_upright_box",
+        "UR5 carries an upright cup over a block, inside a workspace box",
+        robot,
+        scene,
+        constraints,
+        start,
+        goal,
         roles={"human": "Collaborator"},
     )
 
@@ -125,16 +135,8 @@ def madar_handover() -> PlanningProblem:
     # Approach cone: apex at the receiver's palm, axis along the receiver's front (to the robot).
     cone_frame = FrameRef(entity="receiver/right_hand", offset=Pose(rpy=(0.0, np.pi / 2, 0.0)))
     constraints = [
-        OrientationConstraint(
-            id="upright", joints=joints, target_link="right_tool", free_axes=["y"], target=MADAR_UPRIGHT, tolerance=0.1
-        ),
-        BoxConstraint(
-            id="shared_workspace",
-            joints=joints,
-            target_link="right_tool",
-            size=(1.0, 0.8, 0.8),
-            frame=FrameRef(offset=Pose(xyz=(0.1, 0.75, 1.0))),
-        ),
+        _upright(joints, "right_tool", "y", MADAR_UPRIGHT),
+        _box("shared_workspace", joints, "right_tool", (1.0, 0.8, 0.8), (0.1, 0.75, 1.0)),
         ConeConstraint(
             id="approach_cone", joints=joints, target_link="right_tool", radius=0.3, height=0.55, frame=cone_frame
         ),
@@ -151,16 +153,16 @@ def madar_handover() -> PlanningProblem:
         ref=np.array([0.8, 0.2, -0.3, -0.3, 0.6, -0.4]),
     )
     start = _ik(robot, checker, "right", _pose(up, (0.25, 0.6, 1.0)), goal)
-    return PlanningProblem(
-        name="b_madar_handover",
-        description="MADAR's right arm brings a full can to a receiver's hand",
-        robot="madar",
+    return _problem(
+        "b_madar_handover",
+        "MADAR's right arm brings a full can to a receiver's hand",
+        robot,
+        scene,
+        constraints,
+        start,
+        goal,
+        "right_arm",
         hands=hands,
-        scene=scene,
-        constraints=ConstraintSet(constraints=constraints),
-        group="right_arm",
-        start=dict(zip(robot.joint_names, start)),
-        goal=JointTarget(values=dict(zip(joints, robot.group_values(goal, "right_arm")))),
         roles={"receiver": "Receiver"},
     )
 
@@ -208,16 +210,16 @@ def madar_peg_in_hole() -> PlanningProblem:
     base = robot.configuration({})
     start = _both_arms(robot, checker, _pose(down, (0.35, 0.6, 1.05)), _pose(down, (-0.35, 0.6, 1.05)), base)
     goal = _both_arms(robot, checker, _pose(down, (0.06, 0.85, 0.98)), _pose(down, (-0.06, 0.85, 0.98)), start)
-    return PlanningProblem(
-        name="c_madar_peg_in_hole",
-        description="MADAR brings two pegs above holes beside a supervising person",
-        robot="madar",
+    return _problem(
+        "c_madar_peg_in_hole",
+        "MADAR brings two pegs above holes beside a supervising person",
+        robot,
+        scene,
+        constraints,
+        start,
+        goal,
+        "both_arms",
         hands=hands,
-        scene=scene,
-        constraints=ConstraintSet(constraints=constraints),
-        group="both_arms",
-        start=dict(zip(robot.joint_names, start)),
-        goal=JointTarget(values=dict(zip(robot.joint_names, goal))),
         roles={"supervisor": "Supervisor"},
     )
 
@@ -235,16 +237,8 @@ def madar_left_arm() -> PlanningProblem:
     checker = CollisionChecker(robot, scene)
     joints = robot.group_joints("left_arm")
     constraints = [
-        OrientationConstraint(
-            id="upright", joints=joints, target_link="left_tool", free_axes=["y"], target=MADAR_UPRIGHT, tolerance=0.1
-        ),
-        BoxConstraint(
-            id="workspace",
-            joints=joints,
-            target_link="left_tool",
-            size=(0.9, 0.8, 0.8),
-            frame=FrameRef(offset=Pose(xyz=(-0.3, 0.7, 1.1))),
-        ),
+        _upright(joints, "left_tool", "y", MADAR_UPRIGHT),
+        _box("workspace", joints, "left_tool", (0.9, 0.8, 0.8), (-0.3, 0.7, 1.1)),
     ]
     base = robot.configuration(
         {
@@ -257,16 +251,16 @@ def madar_left_arm() -> PlanningProblem:
     up = MADAR_UPRIGHT.rotation()
     start = _ik(robot, checker, "left", _pose(up, (-0.15, 0.6, 1.0)), base)
     goal = _ik(robot, checker, "left", _pose(up, (-0.55, 0.65, 1.0)), start)
-    return PlanningProblem(
-        name="g_madar_left_arm",
-        description="MADAR's left arm carries an upright can past a box; the right arm stays folded",
-        robot="madar",
+    return _problem(
+        "g_madar_left_arm",
+        "MADAR's left arm carries an upright can past a box; the right arm stays folded",
+        robot,
+        scene,
+        constraints,
+        start,
+        goal,
+        "left_arm",
         hands=hands,
-        scene=scene,
-        constraints=ConstraintSet(constraints=constraints),
-        group="left_arm",
-        start=dict(zip(robot.joint_names, start)),
-        goal=JointTarget(values=dict(zip(joints, robot.group_values(goal, "left_arm")))),
     )
 
 
@@ -286,15 +280,16 @@ def madar_one_arm_holds() -> PlanningProblem:
         robot, checker, _pose(up, (0.45, 0.65, 1.0)), _pose(up, (-0.3, 0.65, 0.95)), robot.configuration({})
     )
     goal = _ik(robot, checker, "right", _pose(up, (0.1, 0.65, 0.95)), start, free=("y",))
-    return PlanningProblem(
-        name="i_madar_one_arm_holds",
-        description="Both arms planned: the right arm moves past a divider, the left arm holds its pose",
-        robot="madar",
+    return _problem(
+        "i_madar_one_arm_holds",
+        "Both arms planned: the right arm moves past a divider, the left arm holds its pose",
+        robot,
+        scene,
+        [],
+        start,
+        goal,
+        "both_arms",
         hands=hands,
-        scene=scene,
-        group="both_arms",
-        start=dict(zip(robot.joint_names, start)),
-        goal=JointTarget(values=dict(zip(robot.joint_names, goal))),
     )
 
 
@@ -308,18 +303,28 @@ def _tilted_down(angle: float) -> np.ndarray:
     return pin.utils.rpyToMatrix(0.0, -angle, 0.0) @ UR5_DOWN.rotation()
 
 
-def _ur5_problem(
-    name: str, description: str, scene: Scene, constraints: list, start: np.ndarray, goal: np.ndarray
+def _problem(
+    name: str,
+    description: str,
+    robot: Robot,
+    scene: Scene,
+    constraints: list,
+    start: np.ndarray,
+    goal: np.ndarray,
+    group: str | None = None,
+    **extra,
 ) -> PlanningProblem:
-    robot = load_robot("ur5")
+    """A problem from joint-space start and goal; the goal gives the planned group's joints only."""
     return PlanningProblem(
         name=name,
         description=description,
-        robot="ur5",
+        robot=robot.name,
         scene=scene,
         constraints=ConstraintSet(constraints=constraints),
         start=dict(zip(robot.joint_names, start)),
-        goal=JointTarget(values=dict(zip(robot.joint_names, robot.group_values(goal)))),
+        goal=JointTarget(values=dict(zip(robot.group_joints(group), robot.group_values(goal, group)))),
+        **({"group": group} if group else {}),
+        **extra,
     )
 
 
@@ -337,24 +342,17 @@ def ur5_tilt_past_post(dynamic: bool) -> PlanningProblem:
     joints = robot.group_joints()
     tolerance = {"tolerance": 0.05, "tolerance_gradient": 1.0} if dynamic else {"tolerance": 0.5}
     constraints = [
-        OrientationConstraint(
-            id="upright", joints=joints, target_link="tool", free_axes=["z"], target=UR5_DOWN, **tolerance
-        ),
-        BoxConstraint(
-            id="rail",
-            joints=joints,
-            target_link="tool",
-            size=(0.01, 0.8, 0.3),
-            frame=FrameRef(offset=Pose(xyz=(0.455, 0.0, 0.2))),
-        ),
+        _upright(joints, "tool", "z", UR5_DOWN, **tolerance),
+        _box("rail", joints, "tool", (0.01, 0.8, 0.3), (0.455, 0.0, 0.2)),
     ]
     home = robot.configuration(UR5_HOME)
     start = _ik(robot, checker, "arm", _pose(UR5_DOWN.rotation(), (0.455, -0.35, 0.15)), home)
     goal = _ik(robot, checker, "arm", _pose(UR5_DOWN.rotation(), (0.455, 0.35, 0.15)), start)
     kind = "dynamic" if dynamic else "static"
-    return _ur5_problem(
+    return _problem(
         f"d_ur5_tilt_past_post_{kind}",
         f"UR5 tool on a rail past a post: passes only tilted within its {kind} tolerance",
+        robot,
         scene,
         constraints,
         start,
@@ -366,38 +364,20 @@ def ur5_tilted_start() -> PlanningProblem:
     """(e) Scenario (a) with a dynamic tolerance (0.05 rad + 0.5 rad/m), starting tilted 0.25 rad:
     inside its tolerance 0.6 m from the goal (0.35 rad), far outside the 0.05 rad at the goal."""
     robot = load_robot("ur5")
-    scene = Scene(
-        obstacles=[
-            table(position=(0.5, 0.0), size=(0.6, 1.2, 0.04), top=-0.05),
-            Obstacle(name="block", shape=Box(size=(0.3, 0.08, 0.35)), pose=Pose(xyz=(0.45, 0.0, 0.125))),
-        ]
-    )
+    scene = _ur5_block_scene()
     checker = CollisionChecker(robot, scene)
     joints = robot.group_joints()
     constraints = [
-        OrientationConstraint(
-            id="upright",
-            joints=joints,
-            target_link="tool",
-            free_axes=["z"],
-            target=UR5_DOWN,
-            tolerance=0.05,
-            tolerance_gradient=0.5,
-        ),
-        BoxConstraint(
-            id="workspace",
-            joints=joints,
-            target_link="tool",
-            size=(0.8, 1.2, 0.6),
-            frame=FrameRef(offset=Pose(xyz=(0.45, 0.0, 0.3))),
-        ),
+        _upright(joints, "tool", "z", UR5_DOWN, tolerance=0.05, tolerance_gradient=0.5),
+        _box("workspace", joints, "tool", (0.8, 1.2, 0.6), (0.45, 0.0, 0.3)),
     ]
     home = robot.configuration(UR5_HOME)
     start = _ik(robot, checker, "arm", _pose(_tilted_down(0.25), (0.45, -0.3, 0.12)), home)
     goal = _ik(robot, checker, "arm", _pose(UR5_DOWN.rotation(), (0.45, 0.3, 0.12)), start)
-    return _ur5_problem(
+    return _problem(
         "e_ur5_tilted_start",
         "UR5 starts tilted inside its dynamic tolerance and ends upright over a block",
+        robot,
         scene,
         constraints,
         start,
@@ -437,17 +417,14 @@ def ur5_cluttered_cabinet() -> PlanningProblem:
     )
     checker = CollisionChecker(robot, scene)
     joints = robot.group_joints()
-    constraints = [
-        OrientationConstraint(
-            id="upright", joints=joints, target_link="tool", free_axes=["z"], target=UR5_DOWN, tolerance=0.1
-        )
-    ]
+    constraints = [_upright(joints, "tool", "z", UR5_DOWN)]
     home = robot.configuration(UR5_HOME)
     start = _ik(robot, checker, "arm", _pose(UR5_DOWN.rotation(), (0.3, -0.35, 0.15)), home)
     goal = _ik(robot, checker, "arm", _pose(UR5_DOWN.rotation(), (0.65, 0.05, 0.33)), start)
-    return _ur5_problem(
+    return _problem(
         "h_ur5_cluttered_cabinet",
         "UR5 carries a cup upright from a cluttered table into a cabinet compartment",
+        robot,
         scene,
         constraints,
         start,
