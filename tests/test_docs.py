@@ -9,7 +9,7 @@ for one line that starts with what comes before. A command shown without output 
 its exit status only; every command must exit 0.
 
 `.venv/bin/hriplan` and `.venv/bin/python` are this interpreter, `make demo` is the Makefile's demo
-recipe (run once, for every document), `.venv/bin/hriplan serve ARGS` starts a server on a free
+recipe (run once, before the first command that reads its files), `.venv/bin/hriplan serve ARGS` starts a server on a free
 port for the rest of its document and `localhost:8000` is mapped to it. ```python blocks run as
 scripts. `make test` (README) is what runs this file; the commands in SKIPPED are not run.
 """
@@ -35,6 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCUMENTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 SHOWN_URL = "localhost:8000"
 SHOWN_PYTHON_URL = "http://127.0.0.1:8000"
+DEMO_OUTPUT = "out/handover_full_can."  # the files `make demo` writes
 
 SKIPPED = {
     ".venv/bin/pip install -e '.[server]'": "installs packages: the test runs in the environment it would make",
@@ -192,7 +193,9 @@ def server_from(command: str) -> Iterator[str]:
 
 
 @pytest.mark.parametrize("document", DOCUMENTS, ids=lambda p: p.name)
-def test_every_command_shown_runs_and_prints_what_is_shown(document: Path, workdir: Path, demo) -> None:
+def test_every_command_shown_runs_and_prints_what_is_shown(
+    document: Path, workdir: Path, request: pytest.FixtureRequest
+) -> None:
     with contextlib.ExitStack() as stack:
         url = None
         for block in blocks(document):
@@ -210,8 +213,10 @@ def test_every_command_shown_runs_and_prints_what_is_shown(document: Path, workd
                 where = f"{document.relative_to(ROOT)}:{command.line}"
                 if command.text in SKIPPED:
                     continue
+                if DEMO_OUTPUT in command.text:  # its files are needed: the demo runs first
+                    request.getfixturevalue("demo")
                 if command.text == "make demo":
-                    check(command, demo, where)
+                    check(command, request.getfixturevalue("demo"), where)
                 elif command.text.startswith(".venv/bin/hriplan serve"):
                     assert not command.shown, f"{where}: a server's output is not checked"
                     url = stack.enter_context(server_from(command.text))
