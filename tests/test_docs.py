@@ -196,6 +196,9 @@ def server_from(command: str) -> Iterator[str]:
 def test_every_command_shown_runs_and_prints_what_is_shown(
     document: Path, workdir: Path, request: pytest.FixtureRequest
 ) -> None:
+    shown = [c.text for b in blocks(document) if b.language == "console" for c in commands(b)]
+    if any(text.startswith("curl ") for text in shown) and shutil.which("curl") is None:
+        pytest.skip("curl is not installed: this document's requests are curl commands")
     with contextlib.ExitStack() as stack:
         url = None
         for block in blocks(document):
