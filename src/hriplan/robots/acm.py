@@ -21,6 +21,7 @@ import json
 import numpy as np
 import pinocchio as pin
 
+from hriplan.files import write_atomically
 from hriplan.robots.fit_cache import cache_dir
 from hriplan.robots.model import Robot
 from hriplan.robots.robot_geometry import RobotPart, parent_links
@@ -99,8 +100,5 @@ def load_acm(robot: Robot, parts: tuple[RobotPart, ...], samples: int = DEFAULT_
     if path.exists():
         return json.loads(path.read_text())
     acm = compute_acm(robot, parts, samples)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(acm, indent=0, sort_keys=True))
-    tmp.replace(path)
+    write_atomically(path, json.dumps(acm, indent=0, sort_keys=True))
     return acm
