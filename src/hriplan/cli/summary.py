@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from hriplan.planner.constraints.words import describe
 from hriplan.planner.trajectory import SeparationTrace
-from hriplan.rules.explain import describe
 from hriplan.rules.infer import Derivation
 from hriplan.tasks.pipeline import TaskOutcome
 

@@ -20,9 +20,10 @@ from matplotlib.figure import Figure
 
 from hriplan.files import atomic_path
 from hriplan.planner.constraints.spec import OrientationConstraint
+from hriplan.planner.constraints.words import kind
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.trajectory import TrajectoryFile
-from hriplan.viewer.describe import describe, kind
+from hriplan.viewer.describe import describe
 
 DPI = 110
 KEPT = "#2ca02c"
