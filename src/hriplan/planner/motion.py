@@ -132,7 +132,7 @@ def with_keep_out(
     checker: CollisionChecker, bound: list[BoundConstraint], separation: SeparationZones | None = None
 ) -> Iterator[None]:
     """The checker with the keep-out zones of `bound` added as obstacles and the people's
-    `separation` zones (separation_zones.py), for the block's duration (one build)."""
+    `separation` zones (safety/zones.py), for the block's duration (one build)."""
     zones = keep_out_obstacles(bound)
     if not zones and separation is None:
         yield
@@ -166,7 +166,7 @@ def plan_motion(
     safety: SeparationPolicy | None = None,
 ) -> MotionResult:
     """Plan a constrained, collision-free motion of `group` from `start` to `goal`. With `safety`,
-    the moving parts keep ISO/TS 15066's minimum separation from people (separation_zones.py)."""
+    the moving parts keep ISO/TS 15066's minimum separation from people (safety/zones.py)."""
     options = options or PlanOptions()
     # No group: a tool goal moves its own arm only, a joint goal the whole robot.
     group = group or (robot.arm_group(goal.arm) if isinstance(goal, ToolGoal) else robot.default_group)
