@@ -97,3 +97,20 @@ def test_the_temporary_is_new_each_time_and_the_file_gets_the_mode_a_plain_write
     plain.write_text("x")
     assert target.read_text(encoding="utf-8") == "é"
     assert os.stat(target).st_mode == os.stat(plain).st_mode
+
+
+def test_an_interrupted_command_removes_the_temporaries_of_the_outputs_it_named(tmp_path: Path, monkeypatch) -> None:
+    """Ctrl-C leaves by os._exit (cli/errors.py), past every `finally`: the command's named outputs'
+    temporaries are found by name and removed, and nothing else."""
+    from hriplan.cli import outputs
+
+    monkeypatch.setattr(outputs, "_NAMED", [])
+    kept = write_atomically(tmp_path / "kept.json", "{}")
+    target = outputs.file_output(tmp_path / "out.json")
+    folder = outputs.directory_output(tmp_path / "plots")
+    open_writes = [atomic_path(target), atomic_path(folder / "joint_positions.png"), atomic_path(tmp_path / "other")]
+    temporaries_made = [write.__enter__() for write in open_writes]  # interrupted inside the block
+    assert all(t.exists() for t in temporaries_made)
+    outputs.remove_partial_outputs()
+    assert [t.exists() for t in temporaries_made] == [False, False, True]  # "other" is no output of the command
+    assert kept.read_text() == "{}" and list(folder.iterdir()) == []
