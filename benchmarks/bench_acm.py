@@ -2,7 +2,7 @@
 of random joint states that are collision free, and the cost of one self-collision check.
 
 Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_acm.py [STATES]
-The mesh-level check of every skipped pair is tests/test_acm.py.
+The mesh-level check of every skipped pair is tests/robots/test_acm.py.
 """
 
 from __future__ import annotations

@@ -7,7 +7,12 @@ twice, the wrong structure - becomes one `HriplanError` naming the file (and lin
 
 from __future__ import annotations
 
+import glob
 import json
+import os
+import secrets
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -85,19 +90,39 @@ def read_data(path: str | Path) -> Any:
     return data
 
 
-def temporary_path(path: Path) -> Path:
-    """Where `path` is written before it is renamed into place (an interrupted command removes it)."""
-    return path.with_name(path.name + ".tmp")
-
-
-def write_atomically(path: str | Path, text: str) -> Path:
-    """Write `text` to `path` through a temporary file, so that a reader never sees half of it."""
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A new empty file beside `path` to write into; when the block ends it is synced and renamed
+    onto `path`, and on any failure (Ctrl-C included) removed, so a reader sees the old file or the
+    new one, whole. Its name is unique (`.NAME.<random>.tmp`): two writers of the same file at once
+    never write into one temporary, the last rename wins."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = temporary_path(path)
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
-    return path
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(8)}.tmp")
+    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))  # as mkstemp, but with the umask's mode
+    try:
+        yield tmp
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def temporaries(path: Path) -> list[Path]:
+    """The temporaries `atomic_path` has open for `path` (what an interrupted command removes)."""
+    return list(path.parent.glob(f".{glob.escape(path.name)}.*.tmp"))
+
+
+def write_atomically(path: str | Path, data: str | bytes) -> Path:
+    """Write `data` (text as UTF-8) to `path` through `atomic_path`: whole or not at all."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data.encode("utf-8") if isinstance(data, str) else data)
+    return Path(path)
 
 
 def load_model(path: str | Path, model: type[M]) -> M:

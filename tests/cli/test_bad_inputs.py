@@ -486,7 +486,6 @@ CASES: list[Case] = [
         "view_output_directory",
         "view {d}/traj.json -o {d}/outdir",
         "directory",
-        absent=("outdir.tmp",),
         traj__json="TRAJECTORY",
         outdir=DIR,
     ),

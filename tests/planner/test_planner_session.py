@@ -164,3 +164,17 @@ def test_a_path_that_cannot_be_timed_is_planned_again(handover, monkeypatch):
     monkeypatch.setattr(session_module, "time_parameterize", first_fails)
     result = session.plan(problem.start, problem.goal, problem.options.model_copy(update={"seed": 1}), problem.group)
     assert result.status == "solved" and len(calls) == len(session_module.TIMING_STEPS) + 1
+
+
+def test_a_worker_reuses_its_session_and_another_robot_or_hand_gets_its_own(monkeypatch):
+    from hriplan.planner import session as session_module
+
+    monkeypatch.setattr(session_module, "_WORKER_SESSIONS", {})
+    ur5 = session_module.worker_session("ur5")
+    assert session_module.worker_session("ur5") is ur5 and session_module.worker_session("ur5", {}) is ur5
+    madar = session_module.worker_session("madar")
+    power = session_module.worker_session("madar", {"right": "power"})
+    assert len({id(ur5), id(madar), id(power)}) == 3
+    assert (ur5.robot.name, madar.robot.name, power.robot.name) == ("ur5", "madar", "madar")
+    assert (madar.robot.hand_postures["right"], power.robot.hand_postures["right"]) == ("open", "power")
+    assert session_module.worker_session("madar", {"right": "power"}) is power

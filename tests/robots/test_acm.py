@@ -4,7 +4,10 @@ The meshes come straight from the robot's URDF text (pinocchio + coal BVH meshes
 hriplan's fitted capsules: a pair the planner does not check must never touch at mesh level.
 """
 
+import json
 import re
+import threading
+from types import SimpleNamespace
 
 import numpy as np
 import pinocchio as pin
@@ -136,3 +139,37 @@ def test_the_cache_key_follows_the_rules(ur5, monkeypatch):
     key = acm_module._key(ur5, parts, 100)
     monkeypatch.setattr(acm_module, "RULES", acm_module.RULES + " (changed)")
     assert acm_module._key(ur5, parts, 100) != key
+
+
+def test_workers_computing_the_same_matrix_at_once_all_get_it_and_leave_one_whole_file(tmp_path, monkeypatch):
+    """Sweep workers that start together compute the same ACM and write the same cache file at
+    once: each gets the matrix, the file is whole and no temporary stays (a fixed `NAME.tmp`, as
+    before files.atomic_path, lost a rename or left a truncated file here)."""
+    workers = 8
+    matrix = {f"part_{i}|part_{j}": "never" for i in range(300) for j in range(i + 1, 300)}  # ~1.4 MB of JSON
+    barrier = threading.Barrier(workers, timeout=30)
+
+    def compute(robot, parts, samples):
+        barrier.wait()  # every worker writes at the same moment
+        return dict(matrix)
+
+    monkeypatch.setattr(acm_module, "cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(acm_module, "_key", lambda robot, parts, samples: "k")
+    monkeypatch.setattr(acm_module, "compute_acm", compute)
+    results: list[object] = []
+
+    def worker() -> None:
+        try:
+            results.append(acm_module.load_acm(SimpleNamespace(name="r"), ()))
+        except BaseException as exc:
+            results.append(exc)
+            barrier.abort()
+
+    threads = [threading.Thread(target=worker) for _ in range(workers)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert [r for r in results if r != matrix] == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["acm-r-k.json"]
+    assert json.loads((tmp_path / "acm-r-k.json").read_text()) == matrix

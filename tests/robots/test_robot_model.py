@@ -9,7 +9,7 @@ from hriplan.robots.descriptions.registry import madar_urdf
 from hriplan.robots.model import load_robot
 from hriplan.robots.spatial import Pose
 
-# Reference (shared/reference/kautham-constraints.md), written out here on purpose.
+# Reference (the Kautham project's MADAR description), written out here on purpose.
 MOUNTS = {"right": ((0.256, 0, 1.389), (3.142, -0.7874, 0)), "left": ((-0.256, 0, 1.389), (-3.142, 0.7874, 0))}
 ORIGINS = [
     ((0, 0, 0.089159), (0, 0, 0)),

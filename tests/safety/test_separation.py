@@ -1,7 +1,7 @@
 """Speed and separation (ISO/TS 15066): formulas, ontology parameters, timing near people.
 
-The trajectory checks below do not use the code under test (planner/separation.py, approach.py,
-timing.py): they recompute separations with coal on the robot's and the people's capsules,
+The trajectory checks below do not use the code under test (safety/separation.py, approach.py,
+planner/timing.py): they recompute separations with coal on the robot's and the people's capsules,
 robot point speeds by finite differences of pinocchio's forward kinematics, and the allowed
 speed from the formulas written out here.
 """
@@ -338,7 +338,7 @@ def test_a_start_inside_the_minimum_separation_fails_with_the_reason():
     start = dict(zip(session.robot.joint_names, q0))
     assert session.plan(start, goal, group="right_arm").solved  # without the policy it plans and runs
     result = session.plan(start, goal, group="right_arm", safety=default_policy("madar", [bystander]))
-    # the planner keeps S_0 (separation_zones.py): the start is refused before any search
+    # the planner keeps S_0 (safety/zones.py): the start is refused before any search
     assert result.status == "invalid_start"
     assert result.message.startswith("start is inside a person's minimum separation of ISO/TS 15066")
     assert " - dana/" in result.message and "(minimum separation 0.550 m)" in result.message

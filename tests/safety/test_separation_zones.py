@@ -1,4 +1,4 @@
-"""The planner keeps ISO/TS 15066's minimum separation S_0 (planner/separation_zones.py)."""
+"""The planner keeps ISO/TS 15066's minimum separation S_0 (safety/zones.py)."""
 
 import pytest
 

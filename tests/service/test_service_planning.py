@@ -257,3 +257,24 @@ def test_mixed_concurrent_requests_never_mix_up_answers(server):
     with concurrent.futures.ThreadPoolExecutor(4) as pool:
         answers = list(pool.map(one, range(24)))
     assert [body for ok, body in answers if not ok] == []
+
+
+def test_a_worker_plans_every_session_request_in_its_own_world_on_its_one_session(monkeypatch):
+    """A worker's jobs share one planning session per robot and hands (a task plan, another
+    session): a session request plans in its own scene and constraints whatever ran before."""
+    from hriplan.planner import session as session_module
+    from hriplan.robots.scene import Scene
+    from hriplan.service import jobs
+    from hriplan.service.schemas import SessionState
+
+    monkeypatch.setattr(session_module, "_WORKER_SESSIONS", {})
+    crate = {"name": "crate", "shape": {"type": "box", "size": [0.3, 0.3, 0.3]}, "pose": {"xyz": [-2.0, 2.0, 0.3]}}
+    cell = SessionState.model_validate({"id": "cell", "robot": "ur5", "scene": {"obstacles": [crate]}})
+    other = SessionState.model_validate({"id": "other", "robot": "ur5"})
+    session = jobs._session(cell)
+    assert [o.name for o in session.checker.scene.obstacles] == ["crate"]
+    assert jobs._session(other) is session and session.checker.scene.obstacles == []
+    assert jobs._session(cell) is session and [o.name for o in session.checker.scene.obstacles] == ["crate"]
+    session.set_scene(Scene())  # what a task job on this worker does
+    assert [o.name for o in jobs._session(cell).checker.scene.obstacles] == ["crate"]
+    assert jobs._session(SessionState.model_validate({"id": "c", "robot": "madar"})) is not session

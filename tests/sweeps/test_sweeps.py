@@ -13,9 +13,10 @@ from typer.testing import CliRunner
 
 from hriplan import HriplanError
 from hriplan.cli.main import app
+from hriplan.planner import session as session_module
 from hriplan.sweeps.results import ResultStore, read_results
 from hriplan.sweeps.variants import batch, expand, parse_vary
-from hriplan.sweeps.worker import _SESSIONS, run_variant, separation_columns
+from hriplan.sweeps.worker import run_variant, separation_columns
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 TAKE = EXAMPLES / "handover_full_can.yaml"
@@ -134,8 +135,10 @@ def test_separation_per_person_from_traces_or_the_closest_pair():
     }
 
 
-def test_a_planned_row_reproduces_a_direct_plan_of_its_task():
-    """The row holds the variant's task: planning it directly gives the row's numbers."""
+def test_a_planned_row_reproduces_a_direct_plan_of_its_task(monkeypatch):
+    """The row holds the variant's task: planning it directly gives the row's numbers. Both plan
+    on the worker's one session for the robot and hands, built once."""
+    monkeypatch.setattr(session_module, "_WORKER_SESSIONS", {})
     from hriplan.tasks.model import TaskFile
     from hriplan.tasks.pipeline import TaskRunner
 
@@ -155,9 +158,9 @@ def test_a_planned_row_reproduces_a_direct_plan_of_its_task():
     length = sum(sum((a - b) ** 2 for a, b in zip(p, q)) ** 0.5 for p, q in zip(points, points[1:]))
     assert row["path_length"] == pytest.approx(length, rel=0.05)
     # a second variant on the same robot and hands reuses this worker's session
-    sessions = dict(_SESSIONS)
+    (session,) = session_module._WORKER_SESSIONS.values()
     run_variant(expand(GIVE, [parse_vary("planning.seed=4")])[0])
-    assert _SESSIONS == sessions and len(sessions) == 1
+    assert list(session_module._WORKER_SESSIONS.values()) == [session]
 
 
 def test_batch_keys_files_and_a_failed_derivation_is_an_error_row(tmp_path):

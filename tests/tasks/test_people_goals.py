@@ -117,3 +117,27 @@ def test_a_person_hands_with_the_hand_they_reach_out():
     assert np.allclose(goal.pose.xyz, (-0.45, 1.1 - 0.19, 1.05), atol=0.02)
     with pytest.raises(ValueError, match="eve hands with the right hand but reaches out only the left one"):
         TaskFile.model_validate(task.model_dump() | {"humans": [task.humans[0].model_dump() | {"hand": "right"}]})
+
+
+@pytest.mark.parametrize(
+    "reach, hand",
+    [({}, "right"), ({"left": (-0.45, 1.1, 1.05)}, "left"), ({"right": (0.4, 1.1, 1.0)}, "right"),
+     ({"left": (-0.45, 1.1, 1.05), "right": (0.4, 1.1, 1.0)}, "right")],
+)  # fmt: skip
+def test_a_task_a_situation_and_a_bare_problem_choose_the_same_handing_hand(reach, hand):
+    """One rule (robots.human.handing_hand) for a task's person, a situation's and the ISO/TS 15066
+    policy of a bare planning problem, whose contact region lies on that hand's side."""
+    from hriplan.ontology.situation import SituationHuman
+    from hriplan.robots.human import HumanSpec
+    from hriplan.safety.policy import default_policy
+    from hriplan.tasks.model import TaskHuman
+
+    person = {"name": "eve", "role": "Receiver", "reach": reach}
+    assert TaskHuman.model_validate(person).hand == SituationHuman.model_validate(person).hand == hand
+    (policy,) = default_policy("madar", [HumanSpec(name="eve", reach=reach)], {"eve": "Receiver"}).people
+    sides = {capsule.split("_")[0] for region in policy.contact for capsule in region.capsules}
+    assert sides == {hand}
+    if len(reach) == 1:
+        other = "right" if hand == "left" else "left"
+        with pytest.raises(ValueError, match=f"eve hands with the {other} hand but reaches out only the {hand} one"):
+            SituationHuman.model_validate(person | {"hand": other})

@@ -23,7 +23,7 @@ def run(path: Path, plan: bool = True):
 
 
 def tool_positions(robot, trajectory, arm: str = "right") -> np.ndarray:
-    """World positions of an arm's tool frame at every trajectory point (I2: start + group joints)."""
+    """World positions of an arm's tool frame at every trajectory point (the start, group joints set)."""
     return np.array(
         [
             robot.frame_pose(

@@ -242,7 +242,12 @@ def test_viewer_shows_every_constraint_with_its_geometry(trajectory, viewer_file
     assert "<script src" not in html and '<link rel="stylesheet"' not in html  # one self-contained file
     for c in trajectory.constraints:
         assert f"<b>{c.spec.id}</b>" in html
-    assert "keeps right_tool inside a cone (apex at the frame, radius 0.30 m at 0.55 m)" in html
+    # without a reason from the rules, a constraint is worded as `hriplan derive` words it (constraints/words.py)
+    cone = (
+        "right_tool stays inside a cone of radius 0.3 m and height 0.55 m with its apex at receiver/right_hand (offset)"
+    )
+    assert cone in html
+    assert "right_tool stays within 0.1 rad of its target orientation in world, free to spin about its y axis" in html
 
     # The cone's apex is at its frame's origin and it opens along the frame's +z (spec.py), although
     # three.js cylinders run along y and are centred.

@@ -2,8 +2,8 @@
 
 A command names its outputs first (`file_output`, `directory_output`): a path under a file, a
 directory where a file goes (or the reverse) or an unwritable folder is a one-line error before
-any reasoning or planning. Files are written through a temporary `NAME.tmp` and renamed; an
-interrupted command removes the temporary files of the outputs it named.
+any reasoning or planning. Files are written through a temporary `.NAME.<random>.tmp` and renamed
+(files.atomic_path); an interrupted command removes the temporary files of the outputs it named.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 
 from hriplan import HriplanError
 
-_NAMED: list[Path] = []  # outputs of the running command, whose NAME.tmp an interrupt removes
+_NAMED: list[Path] = []  # outputs of the running command, whose temporaries an interrupt removes
 
 
 def _writable_folder(path: Path, option: str) -> None:
@@ -50,9 +50,9 @@ def directory_output(path: Path, option: str = "--output") -> Path:
 
 def remove_partial_outputs() -> None:
     """Remove the temporary files of the named outputs (and their directories' temporaries)."""
-    from hriplan.files import temporary_path  # (loads pydantic and yaml: not for `--help`)
+    from hriplan.files import temporaries  # (loads pydantic and yaml: not for `--help`)
 
     for path in _NAMED:
-        candidates = [temporary_path(path)] + (list(path.glob("*.tmp")) if path.is_dir() else [])
+        candidates = temporaries(path) + (list(path.glob(".*.tmp")) if path.is_dir() else [])
         for tmp in candidates:
             tmp.unlink(missing_ok=True)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from hriplan.rules.explain import describe
+from hriplan.planner.constraints.words import describe
 from hriplan.rules.infer import Derivation
 from hriplan.safety.report import SeparationTrace
 from hriplan.tasks.pipeline import TaskOutcome

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
+from hriplan.files import write_atomically
 from hriplan.ontology.assertions import Assertion
 from hriplan.ontology.facts import Facts
 from hriplan.ontology.ruleset import Rule
@@ -79,8 +80,8 @@ class ReasoningCache:
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
             if ntriples is not None:
-                _write_atomic(self.directory / f"{key}.nt", ntriples)
-            _write_atomic(self.directory / f"{key}.json", json.dumps(record).encode())
+                write_atomically(self.directory / f"{key}.nt", ntriples)
+            write_atomically(self.directory / f"{key}.json", json.dumps(record).encode())
         except OSError:
             pass  # a read-only or full disk must not break reasoning
 
@@ -120,9 +121,3 @@ def default_cache() -> ReasoningCache:
 @functools.cache
 def _cache_for(directory: Path) -> ReasoningCache:
     return ReasoningCache(directory)
-
-
-def _write_atomic(path: Path, data: bytes) -> None:
-    tmp = path.with_suffix(path.suffix + f".{os.getpid()}.tmp")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)

@@ -1,4 +1,4 @@
-"""Relations that depend on numbers, computed from the geometry before any reasoning (I4).
+"""Relations that depend on numbers, computed from the geometry before any reasoning.
 
 The reasoner never sees a coordinate. A relation such as "near a person" is measured here, where
 the numbers are, compared with its threshold read from the ontology (`NearHuman hasDistance`),

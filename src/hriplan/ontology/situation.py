@@ -20,7 +20,7 @@ from pydantic import (
 )
 
 from hriplan import HriplanError
-from hriplan.robots.human import HumanSpec, Side
+from hriplan.robots.human import HAND, HumanSpec, Side, hand_they_reach_out
 from hriplan.robots.spatial import Pose
 
 EXAMPLES_DIR = Path(__file__).with_name("situations")
@@ -58,11 +58,14 @@ class SituationObject(BaseModel):
 
 
 class SituationHuman(HumanSpec):
-    """A person: where and how they stand (HumanSpec; `name` is their id) and their role."""
+    """A person: where and how they stand (HumanSpec; `name` is their id), their role and the hand
+    they give or receive with."""
 
     name: Name
     role: Role
-    hand: Side = "right"  # the hand they give or receive with
+    hand: Side = Field(default="right", description=HAND)
+
+    _hand_they_reach_out = hand_they_reach_out
 
 
 class SituationTask(BaseModel):

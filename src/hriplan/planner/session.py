@@ -9,7 +9,7 @@ processes.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from time import perf_counter
 
 import numpy as np
@@ -240,3 +240,16 @@ class PlanningSession:
             constraints=constraints,
             report=report,
         )
+
+
+_WORKER_SESSIONS: dict[tuple[str, tuple[tuple[str, str], ...]], PlanningSession] = {}
+
+
+def worker_session(robot: str, hands: Mapping[str, str] | None = None) -> PlanningSession:
+    """This process's session for `robot` with `hands`, built on first use, so that a worker (a
+    sweep's, the service's, a task runner) loads a robot and its collision model once, not once per
+    request. It holds the scene and constraints its last user set: set both before planning."""
+    key = (robot, tuple(sorted((hands or {}).items())))
+    if key not in _WORKER_SESSIONS:
+        _WORKER_SESSIONS[key] = PlanningSession(robot, hands=dict(hands) if hands else None)
+    return _WORKER_SESSIONS[key]

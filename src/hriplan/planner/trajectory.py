@@ -12,7 +12,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from hriplan.files import load_model
+from hriplan.files import load_model, write_atomically
 from hriplan.planner.constraints.spec import ConstraintSpec
 from hriplan.planner.outcome import Status
 from hriplan.robots.scene import Scene
@@ -96,10 +96,7 @@ class TrajectoryFile(BaseModel):
 
     def save(self, path: str | Path) -> None:
         """Write atomically: a partly written trajectory never replaces a good one."""
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(self.model_dump_json(indent=1, by_alias=True))
-        tmp.replace(path)
+        write_atomically(path, self.model_dump_json(indent=1, by_alias=True))
 
 
 def load_trajectory(path: str | Path) -> TrajectoryFile:

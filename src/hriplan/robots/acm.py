@@ -8,7 +8,7 @@ them, is checked on its URDF collision meshes ("mesh"): their capsules overlap a
 between (UR5 base and upper arm: 43 % of the samples against 3.5 % for the meshes; forearm and
 wrist 2: 37 % against 4 %), which would forbid motions, and starts, the robot can make. Nothing is taken from a published SRDF: its pairs were judged on other models, and
 the UR5's forearm and wrists, or its base and upper arm, do touch in some configurations
-(tests/test_acm.py checks every disabled pair at mesh level).
+(tests/robots/test_acm.py checks every disabled pair at mesh level).
 Sampling costs about a second, so the result is cached on disk per robot description and
 per RULES (change it whenever the rules that decide a pair change).
 """
@@ -21,6 +21,7 @@ import json
 import numpy as np
 import pinocchio as pin
 
+from hriplan.files import write_atomically
 from hriplan.robots.fit_cache import cache_dir
 from hriplan.robots.model import Robot
 from hriplan.robots.robot_geometry import RobotPart, parent_links
@@ -99,8 +100,5 @@ def load_acm(robot: Robot, parts: tuple[RobotPart, ...], samples: int = DEFAULT_
     if path.exists():
         return json.loads(path.read_text())
     acm = compute_acm(robot, parts, samples)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(acm, indent=0, sort_keys=True))
-    tmp.replace(path)
+    write_atomically(path, json.dumps(acm, indent=0, sort_keys=True))
     return acm

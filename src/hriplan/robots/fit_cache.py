@@ -21,6 +21,8 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from hriplan.files import write_atomically
+
 
 def cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hriplan"
@@ -36,10 +38,7 @@ def cached_fit(kind: str, key: object, fit: Callable[[], dict[str, Any]]) -> dic
     except (OSError, ValueError):
         pass
     result = fit()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(result))
-    tmp.replace(path)
+    write_atomically(path, json.dumps(result))
     return result
 
 

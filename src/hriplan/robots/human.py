@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, TypeVar
 
 import coal
 import numpy as np
 import pinocchio as pin
 from example_robot_data.human import HumanLoader
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hriplan import HriplanError
 from hriplan.robots.assets import resolve_package_uri
@@ -66,6 +66,33 @@ class HumanSpec(BaseModel):
     height: float | None = Field(default=None, gt=0.5, lt=2.5)
     reach: dict[Side, tuple[float, float, float]] = Field(default_factory=dict)
     margin: float = Field(default=0.0, ge=0.0)
+
+
+def handing_hand(person: HumanSpec, named: Side | None = None) -> Side:
+    """The hand `person` hands or takes with: `named` if given, else the one they reach out if
+    they reach out one, else the right. A named hand they do not reach out is a ValueError (the
+    object would go to a hanging hand)."""
+    if named is None:
+        return next(iter(person.reach)) if len(person.reach) == 1 else "right"
+    if person.reach and named not in person.reach:
+        raise ValueError(
+            f"{person.name} hands with the {named} hand but reaches out only the {', '.join(person.reach)} one"
+        )
+    return named
+
+
+HAND = "The hand they hand or take with: the one they reach out if they reach out one, else the right."
+Person = TypeVar("Person", bound=HumanSpec)
+
+
+def _with_handing_hand(person: Person) -> Person:
+    person.hand = handing_hand(person, person.hand if "hand" in person.model_fields_set else None)
+    return person
+
+
+# The validator of a person model with a `hand` field (a task's, a situation's): its hand as
+# `handing_hand` chooses. (Not a base class: the models' fields keep their order, `hand` last.)
+hand_they_reach_out = model_validator(mode="after")(_with_handing_hand)
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 `ur_analytic_ik` gives every closed-form UR5 branch (up to 8) in microseconds. Its base and
 flange frames coincide with our `{prefix}base_link` and `{prefix}wrist_3_link` and its joint
-values are ours (checked to 1e-15 on random configurations; `tests/test_ik.py` keeps that true):
+values are ours (checked to 1e-15 on random configurations; `tests/robots/test_ik.py` keeps that true):
     inv(T_base_link) @ T_wrist_3_link(q) == ur_analytic_ik.ur5.forward_kinematics(*q).
 So a tool target only has to be moved into the arm base frame and back from tool to wrist_3.
 """

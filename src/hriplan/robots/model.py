@@ -173,9 +173,6 @@ class Robot:
     def group_values(self, q: np.ndarray, group: str | None = None) -> np.ndarray:
         return np.asarray(q)[self.group_indices(group)].copy()
 
-    def within_limits(self, q: np.ndarray) -> bool:
-        return bool(np.all(q >= self.model.lowerPositionLimit) and np.all(q <= self.model.upperPositionLimit))
-
     def _full(self, values: JointValues, group: str | None) -> np.ndarray:
         """Fast path for a full configuration vector (what the planner passes millions of times)."""
         if isinstance(values, np.ndarray) and values.shape == (self.model.nq,) and group in (None, self.default_group):

@@ -74,13 +74,3 @@ class Pose(BaseModel):
     @classmethod
     def from_matrix(cls, matrix: np.ndarray) -> Pose:
         return cls.from_se3(pin.SE3(np.asarray(matrix, dtype=float)))
-
-
-def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """URDF roll-pitch-yaw to a rotation matrix (Rz(yaw) Ry(pitch) Rx(roll))."""
-    return pin.rpy.rpyToMatrix(roll, pitch, yaw)
-
-
-def se3_from(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> pin.SE3:
-    """A placement from URDF-style xyz and rpy."""
-    return pin.SE3(rpy_matrix(*rpy), np.array(xyz, dtype=float))

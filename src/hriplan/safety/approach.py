@@ -8,7 +8,7 @@ given (its whole speed near a contact region, see separation.py). The allowed sp
 path speed. A moved part inside a person's minimum separation (allowed speed 0) is an error:
 the robot would have to stand still there.
 
-All points of one call are measured in one batch (robots/person_distance.py): timing asks for
+All points of one call are measured in one batch (safety/person_distance.py): timing asks for
 the whole path at once, and one coal query per point and pair was most of a re-plan's time.
 """
 

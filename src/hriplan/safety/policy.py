@@ -18,7 +18,7 @@ from hriplan import HriplanError
 from hriplan.ontology.facts import Facts
 from hriplan.ontology.situation import Situation
 from hriplan.ontology.vocabulary import NAMESPACE, ontology_source
-from hriplan.robots.human import HumanSpec
+from hriplan.robots.human import HumanSpec, handing_hand
 from hriplan.safety.separation import ContactRegion, PersonSeparation, RobotStopping, SeparationPolicy
 
 PARAMETERS = "SeparationParameters"
@@ -91,10 +91,7 @@ def default_policy(
     if unknown:
         raise HriplanError(f"roles name {', '.join(unknown)}, who is not in the scene")
     source = ontology_source(ontology)
-    handing = [
-        (p.name, roles.get(p.name, DEFAULT_ROLE), next(iter(p.reach), "right") if len(p.reach) == 1 else "right")
-        for p in people
-    ]
+    handing = [(p.name, roles.get(p.name, DEFAULT_ROLE), handing_hand(p)) for p in people]
     facts = _asserted_facts(source.path, source.digest)
     return separation_policy(facts, _robot_individual(facts, robot), handing)
 

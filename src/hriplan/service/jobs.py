@@ -3,7 +3,8 @@
 Every job takes plain data (the validated request as JSON-able dicts) and returns the response
 body as JSON text, so nothing but strings crosses the process boundary. Sessions are rebuilt
 from the state the server sends with each request; a worker keeps one PlanningSession per
-robot and hand postures and only re-applies the scene and constraints when they changed.
+robot and hand postures (planner.session.worker_session), shared by its jobs, and gives it the
+request's scene and constraints (rebuilding only when they changed).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from typing import Any
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.sparql import QueryLimits, prepare_query, run_query
 from hriplan.planner.problem import PlanningProblem
-from hriplan.planner.session import PlanningSession, PlanResult
+from hriplan.planner.session import PlanningSession, PlanResult, worker_session
 from hriplan.rules.explain import explain
 from hriplan.service.errors import RequestError
 from hriplan.service.negotiation import choose
@@ -37,8 +38,6 @@ from hriplan.tasks.pipeline import TaskRunner
 Reply = tuple[str, str]  # (body, media type)
 JSON = "application/json"
 
-_sessions: dict[str, PlanningSession] = {}  # per robot + hands
-_applied: dict[str, tuple[str, int]] = {}  # which session state (id, version) each one holds
 _task_bases: OrderedDict[str, dict[str, KnowledgeBase]] = OrderedDict()  # recent tasks' knowledge bases
 
 
@@ -84,7 +83,8 @@ def _plan_response(result: PlanResult, ros: bool) -> Reply:
 
 def solve(payload: dict[str, Any]) -> Reply:
     problem = PlanningProblem.model_validate(payload["problem"])
-    session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+    session = worker_session(problem.robot, problem.hands)
+    session.set_scene(problem.scene)
     session.set_constraints(problem.constraints)
     return _plan_response(
         session.plan(problem.start, problem.goal, problem.options, problem.group), bool(payload.get("ros"))
@@ -92,16 +92,12 @@ def solve(payload: dict[str, Any]) -> Reply:
 
 
 def _session(state: SessionState) -> PlanningSession:
-    """A planning session holding `state`: built once per robot and hands, then updated in place."""
-    key = json.dumps([state.robot, sorted(state.hands.items())])
-    if key not in _sessions:
-        _sessions[key] = PlanningSession(state.robot, state.scene, state.hands or None)
-    session = _sessions[key]
-    if _applied.get(key) != (state.id, state.version):
-        _applied.pop(key, None)  # a failed update must not look applied
-        session.set_scene(state.scene)
-        session.set_constraints(state.constraints)
-        _applied[key] = (state.id, state.version)
+    """The worker's session for the state's robot and hands, holding the state's scene and
+    constraints: set on every request, since other jobs plan on the same session (the scene it
+    already holds is no rebuild)."""
+    session = worker_session(state.robot, state.hands)
+    session.set_scene(state.scene)
+    session.set_constraints(state.constraints)
     return session
 
 

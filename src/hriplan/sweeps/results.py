@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 import time
-import uuid
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +19,7 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
 from hriplan import HriplanError
+from hriplan.files import atomic_path
 
 Row = dict[str, Any]
 
@@ -39,13 +39,12 @@ def to_table(rows: list[Row]) -> pa.Table:
     return pa.table({name: _column([row.get(name) for row in rows]) for name in names})
 
 
-def _write_atomic(table: pa.Table, path: Path, csv: bool = False) -> None:
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    if csv:
-        pacsv.write_csv(table, tmp)
-    else:
-        pq.write_table(table, tmp)
-    os.replace(tmp, path)
+def _write_table(table: pa.Table, path: Path, csv: bool = False) -> None:
+    with atomic_path(path) as tmp:
+        if csv:
+            pacsv.write_csv(table, tmp)
+        else:
+            pq.write_table(table, tmp)
 
 
 class ResultStore:
@@ -74,7 +73,7 @@ class ResultStore:
 
     def flush(self) -> None:
         if self._buffer:
-            _write_atomic(to_table(self._buffer), self.parts / f"part-{time.time_ns()}-{os.getpid()}.parquet")
+            _write_table(to_table(self._buffer), self.parts / f"part-{time.time_ns()}-{os.getpid()}.parquet")
             self._buffer = []
         self._last_flush = time.monotonic()
 
@@ -99,11 +98,11 @@ class ResultStore:
         parts = sorted(self.parts.glob("part-*.parquet"))
         rows = self.rows()
         if rows and (parts or not self.path.exists()):
-            _write_atomic(to_table(rows), self.path)
+            _write_table(to_table(rows), self.path)
         for part in parts:
             part.unlink()
         if csv and rows:
-            _write_atomic(to_table(rows), self.directory / "results.csv", csv=True)
+            _write_table(to_table(rows), self.directory / "results.csv", csv=True)
         return self.directory / "results.csv" if csv else self.path
 
 

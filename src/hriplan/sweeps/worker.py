@@ -1,15 +1,15 @@
 """Running one variant in a worker: derive, plan and validate every step as `hriplan plan` does.
 
-A worker keeps one planning session per robot and hand postures for its whole life, so robot
-loading and collision set-up happen once per worker, not once per variant. Each step becomes one
-result row: the varied values, derived constraint kinds, status and reason, planning time, path
-length, motion duration, the closest approach per person and the worst speed-and-separation
-margin (when the trajectory report carries per-person separation traces).
+A worker keeps one planning session per robot and hand postures for its whole life
+(planner.session.worker_session), so robot loading and collision set-up happen once per worker,
+not once per variant. Each step becomes one result row: the varied values, derived constraint
+kinds, status and reason, planning time, path length, motion duration, the closest approach per
+person and the worst speed-and-separation margin (when the trajectory report carries per-person
+separation traces).
 """
 
 from __future__ import annotations
 
-import json
 import os
 import socket
 import time
@@ -20,19 +20,6 @@ from hriplan.planner.outcome import Status
 from hriplan.sweeps.variants import Variant
 
 Row = dict[str, Any]
-
-_SESSIONS: dict[tuple[str, str], Any] = {}
-
-
-def session_for(variant: Variant) -> Any:
-    """This worker's planning session for the variant's robot and hands (built on first use)."""
-    from hriplan.planner.session import PlanningSession
-
-    task = variant.task
-    key = (task.robot, json.dumps(task.hands, sort_keys=True))
-    if key not in _SESSIONS:
-        _SESSIONS[key] = PlanningSession(task.robot, hands=task.hands or None)
-    return _SESSIONS[key]
 
 
 def variant_columns(variant: Variant) -> Row:
@@ -70,12 +57,13 @@ def separation_columns(report: Any, people: list[str]) -> Row:
 
 def run_variant(variant: Variant, plan: bool = True) -> list[Row]:
     """Every step of the variant as a row; a bad variant is one `error` row with the reason."""
+    from hriplan.planner.session import worker_session
     from hriplan.tasks.pipeline import TaskRunner
 
     began, cpu = time.perf_counter(), time.process_time()
     base = variant_columns(variant) | {"worker": f"{socket.gethostname()}:{os.getpid()}"}
     try:
-        session = session_for(variant) if plan else None
+        session = worker_session(variant.task.robot, variant.task.hands) if plan else None
         outcome = TaskRunner(variant.task, session=session).run(plan=plan)
     except HriplanError as exc:
         timing = {"wall_time": time.perf_counter() - began, "cpu_time": time.process_time() - cpu}

@@ -17,7 +17,7 @@ from hriplan.files import error_location
 from hriplan.ontology.situation import FillLevel, Name, Role
 from hriplan.planner.constraints.spec import Axis
 from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
-from hriplan.robots.human import HumanSpec, Side
+from hriplan.robots.human import HAND, HumanSpec, Side, hand_they_reach_out
 from hriplan.robots.scene import Obstacle, Shape
 from hriplan.robots.spatial import Pose
 
@@ -56,26 +56,16 @@ class TaskObject(_Strict):
 
 
 class TaskHuman(HumanSpec):
-    """A person (HumanSpec: posture, position, yaw, height, reach, margin) and their role."""
+    """A person (HumanSpec: posture, position, yaw, height, reach, margin), their role and the
+    hand they hand with."""
 
     model_config = ConfigDict(allow_inf_nan=False)
 
     name: Name
     role: Role
-    hand: Side = Field(
-        default="right",
-        description="The hand they hand or take with: the one they reach out if they reach out one, else the right.",
-    )
+    hand: Side = Field(default="right", description=HAND)
 
-    @model_validator(mode="after")
-    def _hand_they_reach_out(self) -> TaskHuman:
-        if "hand" not in self.model_fields_set and len(self.reach) == 1:
-            self.hand = next(iter(self.reach))
-        elif self.reach and self.hand not in self.reach:
-            raise ValueError(
-                f"{self.name} hands with the {self.hand} hand but reaches out only the {', '.join(self.reach)} one"
-            )
-        return self
+    _hand_they_reach_out = hand_they_reach_out
 
 
 class Table(_Strict):

@@ -261,10 +261,10 @@ class TaskRunner:
 
     def _session(self) -> PlanningSession:
         if self.session is None:
-            from hriplan.planner.session import PlanningSession
+            from hriplan.planner.session import worker_session
 
             self.progress("loading the robot and its collision model")
-            self.session = PlanningSession(self.task.robot, hands=self.task.hands or None)
+            self.session = worker_session(self.task.robot, self.task.hands)
         return self.session
 
     def _plan_step(

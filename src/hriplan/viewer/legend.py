@@ -5,8 +5,9 @@ from __future__ import annotations
 from html import escape
 
 from hriplan.planner.constraints.spec import OrientationConstraint
+from hriplan.planner.constraints.words import kind
 from hriplan.planner.trajectory import TrajectoryFile
-from hriplan.viewer.describe import describe, kind
+from hriplan.viewer.describe import describe
 from hriplan.viewer.scene import PERSON, SLOWED, TOOL_PATH
 from hriplan.viewer.volumes import INSIDE, KEEP_OUT, LINK_AXIS, ORIENTATION, OUTSIDE, colors
 

@@ -18,11 +18,12 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from hriplan.files import temporary_path
+from hriplan.files import atomic_path
 from hriplan.planner.constraints.spec import OrientationConstraint
+from hriplan.planner.constraints.words import kind
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.trajectory import TrajectoryFile
-from hriplan.viewer.describe import describe, kind
+from hriplan.viewer.describe import describe
 
 DPI = 110
 KEPT = "#2ca02c"
@@ -44,9 +45,8 @@ def write_plots(trajectory: TrajectoryFile, out_dir: str | Path) -> list[Path]:
     paths = []
     for name, figure in figures.items():
         path = out / f"{name}.png"
-        tmp = temporary_path(path)  # a figure is whole or absent, even on Ctrl-C
-        figure.savefig(tmp, dpi=DPI, format="png")
-        tmp.replace(path)
+        with atomic_path(path) as tmp:  # a figure is whole or absent, even on Ctrl-C
+            figure.savefig(tmp, dpi=DPI, format="png")
         paths.append(path)
     return paths
 

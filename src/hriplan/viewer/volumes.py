@@ -1,6 +1,6 @@
 """Constraints as things to see: volumes in their frames and orientation glyphs at the link.
 
-Geometry follows `planner/spec.py` exactly: box and sphere centred on the frame, cylinder from
+Geometry follows `planner/constraints/spec.py` exactly: box and sphere centred on the frame, cylinder from
 z = 0 to z = h, cone with its apex at the frame origin opening along +z. An orientation
 constraint is drawn at its link, oriented like its target: a shaft along each constrained axis
 with its tolerance cone (widening with the distance to the goal for a dynamic tolerance), or a

@@ -1,7 +1,7 @@
 """Import a Kautham problem file: robot, obstacles, constraints, controls and query.
 
-Kautham (the seed framework) describes constraints inside `<Robot>`; see
-shared/reference/kautham-constraints.md. Differences handled here:
+Kautham (the seed framework, iocroblab/kautham) describes constraints inside `<Robot>`.
+Differences handled here:
 - `<Joint name=...>` names the joint's CHILD LINK; hriplan names joints. Link names of other
   descriptions of the robot (Kautham's `right_hand_base_link`) are the robot's link aliases.
 - `<Origin rpy=...>` was built by Kautham as Rx(r) Ry(p) Rz(y), not the URDF convention; the

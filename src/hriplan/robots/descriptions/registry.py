@@ -1,7 +1,7 @@
 """Robot descriptions: MADAR and a single UR5, each its URDF and what an SRDF adds to it.
 
 The URDF is the single source of truth for kinematics and display; `hriplan robot urdf NAME`
-prints it. Numbers are from shared/reference/kautham-constraints.md. What the planner knows of
+prints it. Numbers are from the Kautham project's MADAR description. What the planner knows of
 a robot beyond its kinematics (arms, their tool frames and groups, hands, the base link) is a
 `RobotDescription`, as MoveIt keeps it in the SRDF: no code asks for a robot by name.
 """
@@ -119,7 +119,7 @@ class RobotDescription:
     arms: dict[str, ArmDescription]  # the first is the arm a step moves when nothing says which
     whole_group: str  # every arm joint, in the model's order
     # Other names of links, as other descriptions of the same robot spell them (same frame,
-    # checked by forward kinematics in tests/test_kautham.py).
+    # checked by forward kinematics in tests/formats/test_kautham.py).
     link_aliases: dict[str, str] = field(default_factory=dict)
 
     @property

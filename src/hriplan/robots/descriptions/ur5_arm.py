@@ -1,7 +1,7 @@
 """The UR5 arm in the DH-style frames of the MADAR / Kautham description.
 
-Joint origins and mesh placements are the published UR5 DH-style numbers (see
-shared/reference/kautham-constraints.md); joint limits, velocities and efforts are read from
+Joint origins and mesh placements are the published UR5 DH-style numbers (as the Kautham
+project's MADAR description has them); joint limits, velocities and efforts are read from
 example-robot-data's ur5_robot.urdf so they stay the UR5's own data.
 """
 
@@ -49,10 +49,6 @@ MESH_DIR = "ur_description/meshes/ur5"
 
 def joint_names(prefix: str = "") -> list[str]:
     return [f"{prefix}{j}_joint" for j in JOINTS]
-
-
-def link_names(prefix: str = "") -> list[str]:
-    return [f"{prefix}{name}" for name in LINKS]
 
 
 @functools.cache
