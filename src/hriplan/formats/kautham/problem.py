@@ -37,15 +37,7 @@ from hriplan.formats.kautham.controls import ControlSet, implicit_controls, read
 from hriplan.formats.kautham.obstacles import load_obstacle_model
 from hriplan.formats.kautham.reader import Reader, find_file
 from hriplan.planner.constraints.binding import check_groups
-from hriplan.planner.constraints.spec import (
-    BoxConstraint,
-    ConeConstraint,
-    ConstraintSet,
-    CylinderConstraint,
-    FrameRef,
-    OrientationConstraint,
-    SphereConstraint,
-)
+from hriplan.planner.constraints.spec import VOLUME_TYPES, ConstraintSet, FrameRef, OrientationConstraint
 from hriplan.planner.motion import JointTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.problem import PlanningProblem
@@ -53,8 +45,7 @@ from hriplan.robots.model import ROBOT_NAMES, Robot, load_robot
 from hriplan.robots.scene import Obstacle, Scene
 from hriplan.robots.spatial import Pose
 
-VOLUMES = {"box": BoxConstraint, "sphere": SphereConstraint, "cylinder": CylinderConstraint, "cone": ConeConstraint}
-TYPES = ("arm_orientation", *VOLUMES)
+TYPES = ("arm_orientation", *VOLUME_TYPES)
 # Kautham's UR5 and MADAR joints span +-2 pi (used when Kautham's robot URDF is not at hand).
 KAUTHAM_RANGE = (-2.0 * math.pi, 2.0 * math.pi)
 Warn = Callable[[str], None]
@@ -168,7 +159,9 @@ def _constraint(reader: Reader, robot: Robot, el: ET.Element, frames: Frames, wo
     values = [reader.number(params, n, where) for n in names]
     dims = {"size": tuple(values)} if kind == "box" else dict(zip(names, values))
     try:
-        return VOLUMES[kind](**common, **dims, frame=frame, region="inside" if region_name == "Inner" else "outside")
+        return VOLUME_TYPES[kind](
+            **common, **dims, frame=frame, region="inside" if region_name == "Inner" else "outside"
+        )
     except ValueError as exc:
         raise reader.fail(f"{where}: {exc.errors()[0]['msg']}") from None
 

@@ -100,6 +100,14 @@ class ConeConstraint(_Volume):
 
 
 VolumeConstraint = BoxConstraint | SphereConstraint | CylinderConstraint | ConeConstraint
+# The volume constraints by their `type` (what a file names them).
+VOLUME_TYPES: dict[str, type[_Volume]] = {
+    "box": BoxConstraint,
+    "sphere": SphereConstraint,
+    "cylinder": CylinderConstraint,
+    "cone": ConeConstraint,
+}
+
 ConstraintSpec = Annotated[
     OrientationConstraint | BoxConstraint | SphereConstraint | CylinderConstraint | ConeConstraint,
     Field(discriminator="type"),

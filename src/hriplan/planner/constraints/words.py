@@ -6,21 +6,27 @@ viewer's legend and plot titles (when a constraint carries no reason from the ru
 
 from __future__ import annotations
 
-from hriplan.planner.constraints.spec import (
-    BoxConstraint,
-    ConeConstraint,
-    ConstraintSpec,
-    CylinderConstraint,
-    FrameRef,
-    OrientationConstraint,
-    SphereConstraint,
-)
+from collections.abc import Callable
+
+from hriplan.planner.constraints.spec import ConstraintSpec, FrameRef
+
+# A volume's shape in words, by its `type`, given the words for its frame.
+SHAPES: dict[str, Callable[[ConstraintSpec, str], str]] = {
+    "box": lambda spec, where: f"a {' x '.join(f'{s:.2f}' for s in spec.size)} m box centred at {where}",
+    "sphere": lambda spec, where: f"a sphere of radius {spec.radius:g} m centred at {where}",
+    "cylinder": lambda spec, where: (
+        f"a cylinder of radius {spec.radius:g} m and height {spec.height:g} m standing at {where}"
+    ),
+    "cone": lambda spec, where: (
+        f"a cone of radius {spec.radius:g} m and height {spec.height:g} m with its apex at {where}"
+    ),
+}
 
 
 def describe(spec: ConstraintSpec) -> str:
     """One sentence on what a planner constraint asks of the robot."""
     where = _frame(spec.frame)
-    if isinstance(spec, OrientationConstraint):
+    if spec.type == "orientation":
         free = f", free to spin about its {'/'.join(spec.free_axes)} axis" if spec.free_axes else ""
         growth = (
             f", widening by {spec.tolerance_gradient:g} rad per metre from the goal" if spec.tolerance_gradient else ""
@@ -28,22 +34,14 @@ def describe(spec: ConstraintSpec) -> str:
         return (
             f"{spec.target_link} stays within {spec.tolerance:g} rad of its target orientation in {where}{free}{growth}"
         )
-    if isinstance(spec, BoxConstraint):
-        shape = f"a {' x '.join(f'{s:.2f}' for s in spec.size)} m box centred at {where}"
-    elif isinstance(spec, SphereConstraint):
-        shape = f"a sphere of radius {spec.radius:g} m centred at {where}"
-    elif isinstance(spec, CylinderConstraint):
-        shape = f"a cylinder of radius {spec.radius:g} m and height {spec.height:g} m standing at {where}"
-    else:
-        assert isinstance(spec, ConeConstraint)
-        shape = f"a cone of radius {spec.radius:g} m and height {spec.height:g} m with its apex at {where}"
+    shape = SHAPES[spec.type](spec, where)
     links = " (and so does every robot link)" if spec.keep_out_all_links else ""
     return f"{spec.target_link} stays {spec.region} {shape}{links}"
 
 
 def kind(spec: ConstraintSpec) -> str:
     """Short type label: `orientation`, `box inside`, `cylinder keep-out`, ..."""
-    if isinstance(spec, OrientationConstraint):
+    if spec.type == "orientation":
         return "orientation"
     region = "keep-out" if spec.keep_out_all_links else spec.region
     return f"{spec.type} {region}"
