@@ -201,6 +201,7 @@ def test_a_robot_is_its_description_not_its_name(monkeypatch):
         urdf=descriptions.ur5_urdf,
         base_link="base_link",
         whole_group="all",
+        postures={"ready": {}},
         arms={"main": descriptions.ArmDescription("", "tool", "main_arm")},
     )
     monkeypatch.setitem(descriptions.DESCRIPTIONS, "cell_ur5", main)

@@ -20,6 +20,7 @@ from pydantic import (
 )
 
 from hriplan import HriplanError
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.human import HumanSpec, Side
 from hriplan.robots.spatial import Pose
 
@@ -89,7 +90,7 @@ class Situation(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    robot: str = "madar"
+    robot: str = DEFAULT_ROBOT
     robot_base: Pose = Pose()
     task: SituationTask
     objects: list[SituationObject] = Field(default_factory=list)

@@ -27,6 +27,7 @@ from hriplan.planner.timing import time_parameterize
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
 from hriplan.planner.validate import densify, validate_path
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.ik import solve_two_arms
 from hriplan.robots.model import JointValues, Robot, load_robot
@@ -71,7 +72,7 @@ class PlanningSession:
     """A robot in a scene, ready to plan constrained motions again and again."""
 
     def __init__(
-        self, robot: str | Robot = "madar", scene: Scene | None = None, hands: dict[str, str] | None = None
+        self, robot: str | Robot = DEFAULT_ROBOT, scene: Scene | None = None, hands: dict[str, str] | None = None
     ) -> None:
         self.robot = robot if isinstance(robot, Robot) else load_robot(robot, hands)
         self.checker = CollisionChecker(self.robot, scene or Scene())

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from hriplan import HriplanError
 from hriplan.robots import urdf_xml as X
 from hriplan.robots.descriptions.allegro import add_allegro
+from hriplan.robots.descriptions.postures import MADAR_POSTURES, UR5_POSTURES
 from hriplan.robots.descriptions.ur5_arm import add_ur5
 
 MADAR_BASE = "madar_base_link"
@@ -118,6 +119,7 @@ class RobotDescription:
     base_link: str
     arms: dict[str, ArmDescription]  # the first is the arm a step moves when nothing says which
     whole_group: str  # every arm joint, in the model's order
+    postures: dict[str, dict[str, float]]  # named start configurations (joints not listed are 0)
     # Other names of links, as other descriptions of the same robot spell them (same frame,
     # checked by forward kinematics in tests/test_kautham.py).
     link_aliases: dict[str, str] = field(default_factory=dict)
@@ -134,6 +136,7 @@ DESCRIPTIONS = {
         urdf=madar_urdf,
         base_link=MADAR_BASE,
         whole_group="both_arms",
+        postures=MADAR_POSTURES,
         arms={side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand=True) for side in ("right", "left")},
         # Kautham's MADAR names the adapter and the hand's base (the Allegro palm) differently.
         link_aliases={"right_hand_adapter_link": "right_hand_adapter", "right_hand_base_link": "right_hand_palm_link"},
@@ -143,12 +146,25 @@ DESCRIPTIONS = {
         urdf=ur5_urdf,
         base_link="base_link",
         whole_group="arm",
+        postures=UR5_POSTURES,
         arms={"arm": ArmDescription("", "tool", "arm")},
     ),
 }
+# The robot a task, a problem, a situation or a session has when it names none.
+DEFAULT_ROBOT = "madar"
+# Every robot's named postures (the API's view of the descriptions).
+POSTURES = {name: description.postures for name, description in DESCRIPTIONS.items()}
 
 
 def description_of(name: str) -> RobotDescription:
     if name not in DESCRIPTIONS:
         raise HriplanError(f"unknown robot {name!r}; known robots: {', '.join(DESCRIPTIONS)}")
     return DESCRIPTIONS[name]
+
+
+def posture(robot: str, name: str) -> dict[str, float]:
+    """Joint values of one of a robot's named postures (joints not listed are 0)."""
+    postures = description_of(robot).postures
+    if name not in postures:
+        raise HriplanError(f"robot {robot!r} has no posture {name!r}; postures: {', '.join(postures)}")
+    return dict(postures[name])
