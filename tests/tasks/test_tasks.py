@@ -84,6 +84,14 @@ def test_handover_task_plans_both_steps_and_every_trajectory_validates():
             "start.posture: robot 'ur5' has no posture 'sitting'; postures: home, ready",
         ),
         (
+            "robot: ur5\nhands: {right: power}\nsteps: [{goal: {joints: {}}}]",
+            "hands: robot 'ur5' has no hand 'right'; hands: none",
+        ),
+        (
+            "hands: {right: fist}\nsteps: [{goal: {joints: {}}}]",
+            "hands.right: unknown hand posture 'fist'; choose one of",
+        ),
+        (
             "objects: [{name: cup, kind: Cup}]\nsteps: [{goal: {grasp: mug}}]",
             "steps.0: grasp 'mug' is not among the objects",
         ),

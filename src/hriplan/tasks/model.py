@@ -17,7 +17,7 @@ from hriplan.files import error_location
 from hriplan.ontology.situation import FillLevel, Name, Role
 from hriplan.planner.constraints.spec import Axis
 from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
-from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, DESCRIPTIONS, description_of
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, DESCRIPTIONS, HAND_MODELS, description_of, hand_model
 from hriplan.robots.human import HumanSpec, Side
 from hriplan.robots.scene import Obstacle, Shape
 from hriplan.robots.spatial import Pose
@@ -237,7 +237,15 @@ class TaskFile(_Strict):
     name: Name = "task"
     description: str = ""
     robot: str = Field(DEFAULT_ROBOT, json_schema_extra={"enum": list(DESCRIPTIONS)})
-    hands: dict[str, Literal["open", "power", "pinch"]] = Field(default_factory=dict)
+    hands: dict[str, str] = Field(
+        default_factory=dict,
+        json_schema_extra={
+            "additionalProperties": {
+                "enum": list(dict.fromkeys(p for m in HAND_MODELS.values() for p in m.postures)),
+                "type": "string",
+            }
+        },
+    )
     objects: list[TaskObject] = Field(default_factory=list)
     humans: list[TaskHuman] = Field(default_factory=list)
     scene: TaskScene = Field(default_factory=TaskScene)
@@ -256,12 +264,20 @@ class TaskFile(_Strict):
 
     @model_validator(mode="after")
     def _references(self) -> TaskFile:
-        postures = description_of(self.robot).postures
-        if self.start.posture not in postures:
+        description = description_of(self.robot)
+        if self.start.posture not in description.postures:
             raise ValueError(
                 f"start.posture: robot {self.robot!r} has no posture {self.start.posture!r}; "
-                f"postures: {', '.join(postures)}"
+                f"postures: {', '.join(description.postures)}"
             )
+        for side, posture in self.hands.items():
+            if side not in description.hands:
+                raise ValueError(
+                    f"hands: robot {self.robot!r} has no hand {side!r}; hands: {', '.join(description.hands) or 'none'}"
+                )
+            known = hand_model(description.arms[side].hand).postures
+            if posture not in known:
+                raise ValueError(f"hands.{side}: unknown hand posture {posture!r}; choose one of {', '.join(known)}")
         objects = {o.name for o in self.objects}
         humans = {h.name for h in self.humans}
         names = [o.name for o in self.objects] + [h.name for h in self.humans] + [t.name for t in self.scene.tables]

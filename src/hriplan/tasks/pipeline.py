@@ -26,7 +26,7 @@ from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import SUCCEEDED, Status
 from hriplan.planner.prepare import preparatory_goal
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
-from hriplan.robots.descriptions.registry import posture
+from hriplan.robots.descriptions.registry import hand_model, posture
 from hriplan.robots.model import Robot, arms_of, description_of, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
@@ -457,8 +457,11 @@ def _pairs(derivation: Derivation) -> list[tuple[str, ConstraintSpec]]:
 
 
 def _hands(task: TaskFile) -> dict[str, str]:
-    """The task's hand postures as a loaded robot reports them (unnamed hands open)."""
-    return {side: task.hands.get(side, "open") for side in description_of(task.robot).hands}
+    """The task's hand postures as a loaded robot reports them (an unnamed hand in its model's first)."""
+    description = description_of(task.robot)
+    return {
+        side: task.hands.get(side, hand_model(description.arms[side].hand).postures[0]) for side in description.hands
+    }
 
 
 def _with_reasons(trajectory: TrajectoryFile, derivation: Derivation) -> TrajectoryFile:

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from hriplan import HriplanError
 from hriplan.robots import urdf_xml as X
-from hriplan.robots.descriptions.allegro import add_allegro
+from hriplan.robots.descriptions.allegro import HAND_POSTURES, add_allegro, hand_joint_name, posture_values
 from hriplan.robots.descriptions.postures import MADAR_POSTURES, UR5_POSTURES
 from hriplan.robots.descriptions.ur5_arm import add_ur5
 
@@ -102,14 +102,34 @@ def ur5_urdf() -> str:
 
 
 @dataclass(frozen=True)
+class HandModel:
+    """A kind of robot hand: its finger postures and, per posture, the finger joint values."""
+
+    postures: tuple[str, ...]  # the first is the one a hand has when a task names none
+    joint_values: Callable[[str], dict[str, float]]  # posture -> value per the hand URDF's own joint name
+    joint_name: Callable[[str, str], str]  # (arm prefix, hand joint) -> the joint's name in the robot
+
+
+HAND_MODELS = {"allegro": HandModel(HAND_POSTURES, posture_values, hand_joint_name)}
+
+
+def hand_model(kind: str) -> HandModel:
+    if kind not in HAND_MODELS:
+        raise HriplanError(f"hand model {kind!r} is not supported; supported: {', '.join(HAND_MODELS)}")
+    return HAND_MODELS[kind]
+
+
+@dataclass(frozen=True)
 class ArmDescription:
     """One arm: the prefix of its joints (ur5_description's names), its tool frame, its planning
-    group, and whether a robot hand is on it."""
+    group, the kind of IK solver that solves it (robots/ik.py) and the model of the robot hand on
+    it (None: a bare flange)."""
 
     prefix: str
     tool_frame: str
     group: str
-    hand: bool = False
+    hand: str | None = None
+    ik: str = "ur5_analytic"
 
 
 @dataclass(frozen=True)
@@ -127,7 +147,7 @@ class RobotDescription:
     @property
     def hands(self) -> list[str]:
         """The arms with a robot hand (their postures are chosen per task)."""
-        return [arm for arm, description in self.arms.items() if description.hand]
+        return [arm for arm, description in self.arms.items() if description.hand is not None]
 
 
 DESCRIPTIONS = {
@@ -137,7 +157,10 @@ DESCRIPTIONS = {
         base_link=MADAR_BASE,
         whole_group="both_arms",
         postures=MADAR_POSTURES,
-        arms={side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand=True) for side in ("right", "left")},
+        arms={
+            side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand="allegro")
+            for side in ("right", "left")
+        },
         # Kautham's MADAR names the adapter and the hand's base (the Allegro palm) differently.
         link_aliases={"right_hand_adapter_link": "right_hand_adapter", "right_hand_base_link": "right_hand_palm_link"},
     ),
