@@ -200,6 +200,8 @@ def test_a_robot_is_its_description_not_its_name(monkeypatch):
 
     main = descriptions.RobotDescription(
         name="cell_ur5",
+        label="UR5 cell",
+        summary="A single arm",
         urdf=descriptions.ur5_urdf,
         base_link="base_link",
         whole_group="all",

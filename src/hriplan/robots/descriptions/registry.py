@@ -105,12 +105,13 @@ def ur5_urdf() -> str:
 class HandModel:
     """A kind of robot hand: its finger postures and, per posture, the finger joint values."""
 
+    label: str  # its name in words ("Allegro")
     postures: tuple[str, ...]  # the first is the one a hand has when a task names none
     joint_values: Callable[[str], dict[str, float]]  # posture -> value per the hand URDF's own joint name
     joint_name: Callable[[str, str], str]  # (arm prefix, hand joint) -> the joint's name in the robot
 
 
-HAND_MODELS = {"allegro": HandModel(HAND_POSTURES, posture_values, hand_joint_name)}
+HAND_MODELS = {"allegro": HandModel("Allegro", HAND_POSTURES, posture_values, hand_joint_name)}
 
 
 def hand_model(kind: str) -> HandModel:
@@ -122,19 +123,23 @@ def hand_model(kind: str) -> HandModel:
 @dataclass(frozen=True)
 class ArmDescription:
     """One arm: the prefix of its joints (ur5_description's names), its tool frame, its planning
-    group, the kind of IK solver that solves it (robots/ik.py) and the model of the robot hand on
-    it (None: a bare flange)."""
+    group, the kind of IK solver that solves it (robots/ik.py), the model of the robot hand on
+    it (None: a bare flange), the arm's model and the tool axis along a held object's axis."""
 
     prefix: str
     tool_frame: str
     group: str
     hand: str | None = None
     ik: str = "ur5_analytic"
+    model: str = "UR5"
+    object_axis: str = "-z"  # a bare flange holds an object out of it; a hand's tool frame says (+y)
 
 
 @dataclass(frozen=True)
 class RobotDescription:
     name: str
+    label: str  # its name in words ("MADAR"), for the ontology
+    summary: str  # what kind of robot it is ("Dual-arm mobile robot"), for the ontology
     urdf: Callable[[], str]
     base_link: str
     arms: dict[str, ArmDescription]  # the first is the arm a step moves when nothing says which
@@ -153,12 +158,14 @@ class RobotDescription:
 DESCRIPTIONS = {
     "madar": RobotDescription(
         name="madar",
+        label="MADAR",
+        summary="Dual-arm mobile robot",
         urdf=madar_urdf,
         base_link=MADAR_BASE,
         whole_group="both_arms",
         postures=MADAR_POSTURES,
         arms={
-            side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand="allegro")
+            side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand="allegro", object_axis="+y")
             for side in ("right", "left")
         },
         # Kautham's MADAR names the adapter and the hand's base (the Allegro palm) differently.
@@ -166,6 +173,8 @@ DESCRIPTIONS = {
     ),
     "ur5": RobotDescription(
         name="ur5",
+        label="UR5",
+        summary="A single arm",
         urdf=ur5_urdf,
         base_link="base_link",
         whole_group="arm",
