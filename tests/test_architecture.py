@@ -120,3 +120,23 @@ def test_the_check_finds_upward_relative_and_lazy_imports(tmp_path):
         "hriplan.viewer.page:1 imports hriplan.formats",
         "hriplan.viewer.page:1 imports hriplan.formats.reader",
     }
+
+
+def pinocchio_imports(src: Path = SRC) -> list[str]:
+    """Every module under tasks/ that imports pinocchio (the planning session does the kinematics)."""
+    found = []
+    for path in sorted((src / "hriplan" / "tasks").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
+            found += [f"{path.relative_to(src)}:{node.lineno}" for n in names if n.split(".")[0] == "pinocchio"]
+    return found
+
+
+def test_the_tasks_do_no_kinematics():
+    assert pinocchio_imports() == []

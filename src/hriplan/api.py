@@ -38,7 +38,7 @@ from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.session import PlanningSession, PlanResult
 from hriplan.planner.trajectory import TrajectoryFile, load_trajectory
-from hriplan.robots.descriptions.postures import POSTURES, posture
+from hriplan.robots.descriptions.registry import POSTURES, posture
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import AttachedObject, Box, Capsule, Cylinder, Obstacle, Scene, Sphere, table

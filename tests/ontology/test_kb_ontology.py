@@ -1,18 +1,22 @@
 """The ontology file itself: valid Turtle, documented terms, the classes and parameters the rules use."""
 
+from dataclasses import replace
+
 import pytest
 import rdflib
 from rdflib.namespace import OWL, RDF, RDFS
 
 from hriplan.ontology.ruleset import load_rules
-from hriplan.ontology.vocabulary import NAMESPACE, ONTOLOGY_IRI, ONTOLOGY_PATH
+from hriplan.ontology.vocabulary import NAMESPACE, ONTOLOGY_IRI, ontology_source
+from hriplan.robots.descriptions.registry import DESCRIPTIONS
+from hriplan.robots.model import load_robot
 
 HP = rdflib.Namespace(NAMESPACE)
 
 
 @pytest.fixture(scope="module")
 def graph() -> rdflib.Graph:
-    return rdflib.Graph().parse(ONTOLOGY_PATH, format="turtle")
+    return ontology_source().graph  # the file and the robot individuals generated with it
 
 
 def _terms(graph: rdflib.Graph, kind: rdflib.URIRef) -> set[rdflib.URIRef]:
@@ -136,3 +140,31 @@ def test_constraint_parameters_are_data_in_the_ontology(graph, kind, prop, value
     literal = graph.value(HP[kind], HP[prop])
     assert literal is not None and literal.datatype == rdflib.namespace.XSD.decimal
     assert float(literal) == pytest.approx(value)
+
+
+def test_the_robot_individuals_are_the_robot_descriptions(graph):
+    # Generated from robots/descriptions: each arm's joints (chain order), tool link and hand.
+    for name, description in DESCRIPTIONS.items():
+        robot = HP[name]
+        assert (robot, RDF.type, HP.Robot) in graph and str(graph.value(robot, HP.hasUrdfName)) == name
+        arms = {str(graph.value(a, HP.hasArmName)): a for a in graph.objects(robot, HP.hasArm)}
+        assert arms.keys() == description.arms.keys()
+        model = load_robot(name)
+        for arm, individual in arms.items():
+            joints = sorted(graph.objects(individual, HP.hasJoint), key=lambda j: int(graph.value(j, HP.hasChainIndex)))
+            assert [str(graph.value(j, HP.hasUrdfName)) for j in joints] == model.group_joints(model.arm_group(arm))
+            assert str(graph.value(graph.value(individual, HP.hasToolLink), HP.hasUrdfName)) == model.tool_frame(arm)
+            assert (graph.value(individual, HP.hasRobotHand) is not None) == (arm in description.hands)
+    assert str(graph.value(HP.madar, RDFS.comment)) == "Dual-arm mobile robot: two UR5 arms with Allegro hands."
+
+
+def test_a_changed_robot_description_is_a_new_ontology_version(monkeypatch):
+    # The reasoning cache is keyed by the digest: a description that changes the facts changes it.
+    before = ontology_source()
+    ur5 = DESCRIPTIONS["ur5"]
+    arm = replace(ur5.arms["arm"], object_axis="+z")
+    monkeypatch.setitem(DESCRIPTIONS, "ur5", replace(ur5, arms={"arm": arm}))
+    after = ontology_source()
+    assert after.digest != before.digest
+    assert (HP.ur5_arm, HP.hasObjectAxisInTool, rdflib.Literal("+z")) in after.graph
+    assert (HP.ur5_arm, HP.hasObjectAxisInTool, rdflib.Literal("-z")) in before.graph

@@ -1,5 +1,7 @@
 """MADAR and UR5 kinematics against an independent computation from the reference numbers."""
 
+from dataclasses import replace
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -198,9 +200,12 @@ def test_a_robot_is_its_description_not_its_name(monkeypatch):
 
     main = descriptions.RobotDescription(
         name="cell_ur5",
+        label="UR5 cell",
+        summary="A single arm",
         urdf=descriptions.ur5_urdf,
         base_link="base_link",
         whole_group="all",
+        postures={"ready": {}},
         arms={"main": descriptions.ArmDescription("", "tool", "main_arm")},
     )
     monkeypatch.setitem(descriptions.DESCRIPTIONS, "cell_ur5", main)
@@ -214,3 +219,22 @@ def test_a_robot_is_its_description_not_its_name(monkeypatch):
     result = session.plan(dict(zip(robot.joint_names, [0.0, -1.57, 1.57, 0.0, 0.0, 0.0])), goal, group="main_arm")
     assert result.solved, result.message
     assert result.trajectory.points[-1].positions[1] == pytest.approx(-1.2, abs=1e-6)
+
+
+def test_an_arm_names_its_ik_solver_and_its_hand_model(monkeypatch):
+    # The solver and the hand are picked by the description's data; an unknown kind is one line.
+    from hriplan.robots.descriptions import registry as descriptions
+    from hriplan.robots.ik import solve_ik
+
+    madar = descriptions.DESCRIPTIONS["madar"]
+    right = madar.arms["right"]
+    kdl = replace(madar, arms={**madar.arms, "right": replace(right, ik="kdl")})
+    monkeypatch.setitem(descriptions.DESCRIPTIONS, "madar_kdl", kdl)
+    robot = load_robot("madar_kdl")
+    with pytest.raises(HriplanError, match="the right arm's IK solver 'kdl' is not supported; supported: ur5_analytic"):
+        solve_ik(robot, "right", robot.frame_pose("right_tool", robot.q_neutral))
+    assert solve_ik(robot, "left", robot.frame_pose("left_tool", robot.q_neutral)).success
+    shadow = replace(madar, arms={**madar.arms, "right": replace(right, hand="shadow")})
+    monkeypatch.setitem(descriptions.DESCRIPTIONS, "madar_shadow", shadow)
+    with pytest.raises(HriplanError, match="hand model 'shadow' is not supported; supported: allegro"):
+        load_robot("madar_shadow")

@@ -21,7 +21,7 @@ import pytest
 from hriplan import HriplanError
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.validate import densify
-from hriplan.robots.descriptions.postures import posture
+from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Scene
 from hriplan.safety.approach import ApproachMonitor

@@ -26,7 +26,7 @@ from hriplan.planner.motion import JointTarget
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.timing import time_parameterize
-from hriplan.robots.descriptions.postures import posture
+from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
 from hriplan.robots.robot_geometry import robot_parts

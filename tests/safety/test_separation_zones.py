@@ -4,7 +4,7 @@ import pytest
 
 from hriplan.planner.motion import with_keep_out
 from hriplan.robots.collision import CollisionChecker
-from hriplan.robots.descriptions.postures import posture
+from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Scene

@@ -165,7 +165,7 @@ def test_a_session_follows_perception_updates_and_plans_against_them(client):
             "/constraints",
             {"robot": "r2d2", "steps": [{"goal": {"joints": {}}}]},
             422,
-            "robot: Input should be 'madar' or 'ur5'",
+            "robot: Value error, unknown robot 'r2d2'; known robots: madar, ur5",
             "robot",
         ),
         ("/solve", {"goal": {"type": "joints", "values": []}}, 422, "start: Field required", "start"),

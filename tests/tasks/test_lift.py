@@ -1,4 +1,4 @@
-"""A picked object is lifted straight off what it stands on (tasks/lift.py), then carried on."""
+"""A picked object is lifted straight off what it stands on (planner/lift.py), then carried on."""
 
 import json
 import subprocess
@@ -8,11 +8,12 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from hriplan.planner.lift import lift_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Obstacle, Scene, Sphere
 from hriplan.robots.spatial import Pose
-from hriplan.tasks.lift import LIFT, lift_path
+from hriplan.tasks.goals import LIFT
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
 
@@ -93,7 +94,7 @@ def test_a_lift_into_something_above_fails_with_the_reason():
     q = robot.configuration(CLEAR)
     tool = robot.frame_pose("right_tool", q)[:3, 3]
     clear = CollisionChecker(robot, Scene())
-    x, why = lift_path(robot, clear, "right", q)
+    x, why = lift_path(robot, clear, "right", q, LIFT)
     assert why == "" and x is not None
     risen = robot.frame_pose("right_tool", robot.configuration(x, "right_arm", base=q))[:3, 3]
     assert np.allclose(risen, tool + [0.0, 0.0, LIFT], atol=1e-5)
@@ -110,5 +111,5 @@ def test_a_lift_into_something_above_fails_with_the_reason():
         if not above.in_collision(q):
             break
     assert not above.in_collision(q) and height > 0.0
-    x, why = lift_path(robot, above, "right", q)
+    x, why = lift_path(robot, above, "right", q, LIFT)
     assert x is None and why.startswith(f"no valid IK solution {LIFT} m above the grasp")

@@ -5,7 +5,7 @@ from collections import Counter
 from hriplan.planner.motion import ToolTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.session import PlanningSession
-from hriplan.robots.descriptions.postures import posture
+from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.ik import rejection_message
 from hriplan.robots.scene import Scene, table
 from hriplan.robots.spatial import Pose

@@ -51,7 +51,7 @@ def test_a_held_object_is_where_the_hand_is():
     runner, _ = run(DATA / "glass_past_bystander.yaml", plan=False)
     glass = runner.knowledge_bases["put_down"].situation.object("glass")
     robot = load_robot("madar", {"right": "power", "left": "open"})
-    from hriplan.robots.descriptions.postures import posture
+    from hriplan.robots.descriptions.registry import posture
 
     tool = robot.frame_pose("right_tool", robot.configuration(posture("madar", "ready")))
     assert np.allclose(glass.pose.xyz, tool[:3, 3], atol=1e-9)  # not the origin of its `pose` field

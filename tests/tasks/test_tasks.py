@@ -78,7 +78,19 @@ def test_handover_task_plans_both_steps_and_every_trajectory_validates():
     "text, message",
     [
         ("steps: []", "steps: List should have at least 1 item"),
-        ("robot: pr2\nsteps: [{goal: {joints: {}}}]", "robot: Input should be 'madar' or 'ur5'"),
+        ("robot: pr2\nsteps: [{goal: {joints: {}}}]", "robot: unknown robot 'pr2'; known robots: madar, ur5"),
+        (
+            "robot: ur5\nstart: {posture: sitting}\nsteps: [{goal: {joints: {}}}]",
+            "start.posture: robot 'ur5' has no posture 'sitting'; postures: home, ready",
+        ),
+        (
+            "robot: ur5\nhands: {right: power}\nsteps: [{goal: {joints: {}}}]",
+            "hands: robot 'ur5' has no hand 'right'; hands: none",
+        ),
+        (
+            "hands: {right: fist}\nsteps: [{goal: {joints: {}}}]",
+            "hands.right: unknown hand posture 'fist'; choose one of",
+        ),
         (
             "objects: [{name: cup, kind: Cup}]\nsteps: [{goal: {grasp: mug}}]",
             "steps.0: grasp 'mug' is not among the objects",

@@ -20,6 +20,7 @@ from pydantic import (
 )
 
 from hriplan import HriplanError
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.human import HAND, HumanSpec, Side, hand_they_reach_out
 from hriplan.robots.spatial import Pose
 
@@ -92,7 +93,7 @@ class Situation(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    robot: str = "madar"
+    robot: str = DEFAULT_ROBOT
     robot_base: Pose = Pose()
     task: SituationTask
     objects: list[SituationObject] = Field(default_factory=list)

@@ -1,7 +1,9 @@
 """Where the ontology lives and how its terms are named: namespaces, prefixes, the Turtle file.
 
 owlready2 reads N-Triples but not Turtle, so the Turtle file is converted once per version of
-its text (keyed by the text's hash, which also keys the reasoning cache).
+its text (keyed by the text's hash, which also keys the reasoning cache). The robot individuals
+are generated from the robot descriptions (robot_individuals.py) and read with the file: the
+hash covers both, so a changed description is a new ontology version.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from hriplan import HriplanError
+from hriplan.ontology.robot_individuals import robot_turtle
 
 if TYPE_CHECKING:
     import rdflib
@@ -38,38 +41,42 @@ PREFIXES = {
 
 @dataclass(frozen=True)
 class OntologySource:
-    """One version of the ontology file: its text's hash, its triples, and them as N-Triples (for owlready2)."""
+    """One version of the ontology: the file, the robot individuals generated with it, the hash of
+    both, their triples, and them as N-Triples (for owlready2)."""
 
     path: Path
+    robots: str  # Turtle of the robot individuals (robot_individuals.py)
     digest: str
 
     @property
     def ntriples(self) -> bytes:
-        return _to_ntriples(self.path, self.digest)
+        return _to_ntriples(self.path, self.robots, self.digest)
 
     @property
     def graph(self) -> rdflib.Graph:
         """The ontology's triples (parsed once per version; do not modify)."""
-        return _parse(self.path, self.digest)
+        return _parse(self.path, self.robots, self.digest)
 
 
 def ontology_source(path: str | Path | None = None) -> OntologySource:
-    """The ontology at `path` (default: the packaged one), identified by its content hash."""
+    """The ontology at `path` (default: the packaged one) with the described robots, identified by
+    the hash of both."""
     path = Path(path) if path is not None else ONTOLOGY_PATH
     try:
         data = path.read_bytes()
     except OSError as exc:
         raise HriplanError(f"cannot read ontology {path}: {exc.strerror or exc}") from None
-    return OntologySource(path, hashlib.sha256(data).hexdigest())
+    robots = robot_turtle()
+    return OntologySource(path, robots, hashlib.sha256(data + b"\0" + robots.encode()).hexdigest())
 
 
 @functools.lru_cache(maxsize=8)
-def _to_ntriples(path: Path, digest: str) -> bytes:
-    return _parse(path, digest).serialize(format="nt", encoding="utf-8")
+def _to_ntriples(path: Path, robots: str, digest: str) -> bytes:
+    return _parse(path, robots, digest).serialize(format="nt", encoding="utf-8")
 
 
 @functools.lru_cache(maxsize=8)
-def _parse(path: Path, digest: str) -> rdflib.Graph:
+def _parse(path: Path, robots: str, digest: str) -> rdflib.Graph:
     import rdflib  # not needed when every result is cached
 
     graph = rdflib.Graph()
@@ -77,4 +84,5 @@ def _parse(path: Path, digest: str) -> rdflib.Graph:
         graph.parse(path, format="turtle")
     except Exception as exc:
         raise HriplanError(f"{path}: not valid Turtle: {str(exc).splitlines()[0]}") from None
+    graph.parse(data=robots, format="turtle")
     return graph

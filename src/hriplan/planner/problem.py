@@ -14,6 +14,7 @@ from hriplan.files import load_model
 from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.planner.motion import Target
 from hriplan.planner.options import PlanOptions
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.scene import Scene
 
 
@@ -22,7 +23,7 @@ class PlanningProblem(BaseModel):
 
     name: str = "problem"
     description: str = ""
-    robot: str = "madar"
+    robot: str = DEFAULT_ROBOT
     hands: dict[str, str] = Field(default_factory=dict)
     scene: Scene = Field(default_factory=Scene)
     constraints: ConstraintSet = Field(default_factory=ConstraintSet)

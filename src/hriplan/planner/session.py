@@ -16,10 +16,10 @@ import numpy as np
 from pydantic import BaseModel, model_validator
 
 from hriplan import HriplanError
-from hriplan.planner.constraints.binding import bind, set_goal_positions
+from hriplan.planner.constraints.binding import bind, resolve_frame, set_goal_positions
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
-from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec
-from hriplan.planner.motion import MotionResult, Target, plan_motion, with_keep_out
+from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec, OrientationConstraint
+from hriplan.planner.motion import JointTarget, MotionResult, Target, ToolTarget, plan_motion, with_keep_out
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.search.ompl_solver import ompl_seed
@@ -27,10 +27,12 @@ from hriplan.planner.timing import time_parameterize
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
 from hriplan.planner.validate import densify, validate_path
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.human import HumanSpec
+from hriplan.robots.ik import solve_two_arms
 from hriplan.robots.model import JointValues, Robot, load_robot
 from hriplan.robots.scene import Scene
-from hriplan.robots.spatial import Pose
+from hriplan.robots.spatial import Pose, Transform
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.safety.report import separation_report
 from hriplan.safety.separation import SeparationPolicy
@@ -70,7 +72,7 @@ class PlanningSession:
     """A robot in a scene, ready to plan constrained motions again and again."""
 
     def __init__(
-        self, robot: str | Robot = "madar", scene: Scene | None = None, hands: dict[str, str] | None = None
+        self, robot: str | Robot = DEFAULT_ROBOT, scene: Scene | None = None, hands: dict[str, str] | None = None
     ) -> None:
         self.robot = robot if isinstance(robot, Robot) else load_robot(robot, hands)
         self.checker = CollisionChecker(self.robot, scene or Scene())
@@ -97,6 +99,38 @@ class PlanningSession:
             raise HriplanError(f"the session has no constraint {constraint_id!r}")
         spec = self.constraints[constraint_id]
         self.constraints[constraint_id] = type(spec).model_validate({**spec.model_dump(), **changes})
+
+    # -- goals in the session's scene -------------------------------------------------------
+    def held_axes(
+        self, start: JointValues, in_tool: dict[str, Transform], constraints: list[tuple[str, ConstraintSpec]]
+    ) -> dict[str, np.ndarray]:
+        """Per arm holding an object (arm -> the object's pose in its tool frame): the world
+        direction the object's axis should keep: the target of an orientation constraint on that
+        arm (of the (arm, constraint) pairs: a blade pointing away), else its direction at `start`."""
+        q = self.robot.configuration(start)
+        held = {}
+        for arm, placement in in_tool.items():
+            tool = Transform(self.robot.frame_pose(self.robot.tool_frame(arm), q))
+            held[arm] = (tool * placement).rotation[:, 2].copy()
+            for on, spec in constraints:
+                if on == arm and isinstance(spec, OrientationConstraint):
+                    target = resolve_frame(spec.frame, self.robot, self.checker).rotation @ spec.target.rotation()
+                    held[arm] = (target @ placement.rotation)[:, 2].copy()
+        return held
+
+    def joint_goal(self, goals: list[ToolTarget], start: JointValues) -> JointTarget:
+        """Two arms' tool goals as one joint goal: IK for both, clear of each other and the scene."""
+        targets = [(g.arm, g.pose.matrix(), g.free_axes) for g in goals]
+        q = solve_two_arms(
+            self.robot,
+            targets[0],
+            targets[1],
+            self.robot.configuration(start),
+            lambda full: not self.checker.in_collision(full),
+        )
+        if q is None:
+            raise HriplanError("no collision-free configuration puts both arms at their goals")
+        return JointTarget(values=dict(zip(self.robot.joint_names, q.tolist())))
 
     # -- planning ------------------------------------------------------------------------
     def plan(

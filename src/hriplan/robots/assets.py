@@ -5,12 +5,13 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-import example_robot_data
-
 
 @functools.cache
 def robots_dir() -> Path:
-    """The `robots/` folder of the installed example-robot-data package."""
+    """The `robots/` folder of the installed example-robot-data package (imported here: it loads
+    pinocchio, which reading a robot description for the ontology does not need)."""
+    import example_robot_data
+
     return Path(example_robot_data.getModelPath("ur_description/urdf/ur5_robot.urdf")).resolve()
 
 

@@ -1,4 +1,5 @@
-"""Analytic inverse kinematics for the UR5 arms, so goals can be given as tool poses.
+"""Inverse kinematics, so goals can be given as tool poses, by the solver kind each arm's
+description names (`ArmDescription.ik`; today every arm is a UR5: `ur5_analytic`).
 
 `ur_analytic_ik` gives every closed-form UR5 branch (up to 8) in microseconds. Its base and
 flange frames coincide with our `{prefix}base_link` and `{prefix}wrist_3_link` and its joint
@@ -27,6 +28,11 @@ ORTHONORMAL_TOLERANCE = 1e-6
 POLISH_ITERATIONS = 10
 POLISH_DAMPING = 1e-6
 TWO_PI = 2.0 * math.pi
+# Per IK solver kind an arm description names: every closed-form solution for a flange pose
+# in the arm's base frame.
+IK_SOLVERS: dict[str, Callable[[np.ndarray], Sequence[np.ndarray]]] = {
+    "ur5_analytic": ur_analytic_ik.ur5.inverse_kinematics,
+}
 
 
 class IKResult(BaseModel):
@@ -45,6 +51,12 @@ class _Arm:
     def __init__(self, robot: Robot, arm: str, base_q: np.ndarray | None) -> None:
         self.tool = robot.tool_frame(arm)
         self.group = robot.arm_group(arm)
+        kind = robot.description.arms[arm].ik
+        if kind not in IK_SOLVERS:
+            raise HriplanError(
+                f"the {arm} arm's IK solver {kind!r} is not supported; supported: {', '.join(IK_SOLVERS)}"
+            )
+        self.solve = IK_SOLVERS[kind]
         prefix = robot.arms[arm][0]
         self.n = len(robot.group_indices(self.group))
         if base_q is None:
@@ -107,7 +119,7 @@ def _branches(arm: _Arm, target: np.ndarray, axis: int | None, samples: int) -> 
     for angle in angles:
         pose = target if axis is None else target @ _spin(axis, angle)
         flange = np.linalg.inv(arm.base) @ pose @ np.linalg.inv(arm.tool_in_wrist)
-        for q in ur_analytic_ik.ur5.inverse_kinematics(np.ascontiguousarray(flange)):
+        for q in arm.solve(np.ascontiguousarray(flange)):
             solutions.append(q)
             poses.append(pose)
     return np.reshape(solutions, (-1, arm.n)), np.reshape(poses, (-1, 4, 4))

@@ -15,8 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan import HriplanError
-from hriplan.robots.descriptions.allegro import HAND_POSTURES, hand_joint_name, posture_values
-from hriplan.robots.descriptions.registry import DESCRIPTIONS, RobotDescription, description_of
+from hriplan.robots.descriptions.registry import DESCRIPTIONS, RobotDescription, description_of, hand_model
 from hriplan.robots.descriptions.ur5_arm import joint_names
 from hriplan.robots.spatial import Pose
 
@@ -105,8 +104,10 @@ class Robot:
         """Configuration of the full URDF model: fingers at their postures, arms as given."""
         q = pin.neutral(self.full_model)
         for side, posture in self.hand_postures.items():
-            for joint, value in posture_values(posture).items():
-                jid = self.full_model.getJointId(hand_joint_name(f"{side}_", joint))
+            arm = self.description.arms[side]
+            hand = hand_model(arm.hand)
+            for joint, value in hand.joint_values(posture).items():
+                jid = self.full_model.getJointId(hand.joint_name(arm.prefix, joint))
                 q[self.full_model.joints[jid].idx_q] = value
         for name, value in arm_values.items():
             q[self.full_model.joints[self.full_model.getJointId(name)].idx_q] = value
@@ -230,16 +231,18 @@ def load_robot(
     hand_postures: Mapping[str, str] | None = None,
     base_pose: Pose | None = None,
 ) -> Robot:
-    """Load `madar` or `ur5`. MADAR's hands default to the open posture.
+    """Load `madar` or `ur5`. A hand has its model's first posture unless one is given (the Allegro's: open).
 
     Robots are cached per (name, hand postures, base pose): loading meshes takes about a second,
     and callers share the instance (so share a robot between threads only with care)."""
-    postures = {side: "open" for side in description_of(name).hands}
+    description = description_of(name)
+    hands = {side: hand_model(description.arms[side].hand) for side in description.hands}
+    postures = {side: hand.postures[0] for side, hand in hands.items()}
     for side, posture in (hand_postures or {}).items():
         if side not in postures:
             raise HriplanError(f"robot {name!r} has no hand {side!r}")
-        if posture not in HAND_POSTURES:
-            raise HriplanError(f"unknown hand posture {posture!r}; choose one of {', '.join(HAND_POSTURES)}")
+        if posture not in hands[side].postures:
+            raise HriplanError(f"unknown hand posture {posture!r}; choose one of {', '.join(hands[side].postures)}")
         postures[side] = posture
     return _cached_robot(RobotSpec(name, tuple(sorted(postures.items())), base_pose or Pose()))
 

@@ -109,7 +109,7 @@ class AttachedObject(BaseModel):
     shape: Shape
     arm: str
     grasp: Pose = Pose()  # the object's pose in the tool frame
-    # Obstacles it stands on while it is lifted off them (tasks/lift.py): not checked against it.
+    # Obstacles it stands on while it is lifted off them (planner/lift.py): not checked against it.
     resting_on: list[str] = Field(default_factory=list)
 
 

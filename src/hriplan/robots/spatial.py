@@ -13,6 +13,9 @@ import pinocchio as pin
 from pydantic import BaseModel, ConfigDict, field_validator, model_validator
 
 QUATERNION_NORM_TOLERANCE = 1e-3
+# A rigid transform to compose and invert (pinocchio's SE3): the one type for placing objects
+# relative to each other, so modules above the robot model compose poses without pinocchio.
+Transform = pin.SE3
 
 
 def _finite(values: tuple[float, ...], what: str) -> tuple[float, ...]:

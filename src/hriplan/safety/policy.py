@@ -17,7 +17,7 @@ from pathlib import Path
 from hriplan import HriplanError
 from hriplan.ontology.facts import Facts
 from hriplan.ontology.situation import Situation
-from hriplan.ontology.vocabulary import NAMESPACE, ontology_source
+from hriplan.ontology.vocabulary import NAMESPACE, OntologySource, ontology_source
 from hriplan.robots.human import HumanSpec, handing_hand
 from hriplan.safety.separation import ContactRegion, PersonSeparation, RobotStopping, SeparationPolicy
 
@@ -92,17 +92,16 @@ def default_policy(
         raise HriplanError(f"roles name {', '.join(unknown)}, who is not in the scene")
     source = ontology_source(ontology)
     handing = [(p.name, roles.get(p.name, DEFAULT_ROLE), handing_hand(p)) for p in people]
-    facts = _asserted_facts(source.path, source.digest)
+    facts = _asserted_facts(source)
     return separation_policy(facts, _robot_individual(facts, robot), handing)
 
 
 @functools.lru_cache(maxsize=4)
-def _asserted_facts(path: Path, digest: str) -> Facts:
+def _asserted_facts(source: OntologySource) -> Facts:
     """The ontology's own statements as Facts (direct types only): enough for parameter data."""
     import rdflib
 
-    graph = rdflib.Graph()
-    graph.parse(path, format="turtle")
+    graph = source.graph
     facts = Facts()
     for subject, predicate, value in graph:
         if not (isinstance(subject, rdflib.URIRef) and str(subject).startswith(NAMESPACE)):

@@ -10,6 +10,7 @@ from hriplan.planner.motion import Target
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.trajectory import TrajectoryFile
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.scene import Scene
 from hriplan.service.ros import JointTrajectory
 from hriplan.tasks.pipeline import StepOutcome
@@ -67,7 +68,7 @@ class SessionCreate(BaseModel):
     id: SessionId | None = Field(
         default=None, pattern=r"^[A-Za-z0-9_.-]{1,64}$", description="Chosen by the client, else generated."
     )
-    robot: str = "madar"
+    robot: str = DEFAULT_ROBOT
     hands: dict[str, str] = Field(default_factory=dict)
     scene: Scene = Field(default_factory=Scene)
     constraints: ConstraintSet = Field(default_factory=ConstraintSet)

@@ -10,12 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
 from hriplan import HriplanError
 from hriplan.planner.motion import JointTarget, Target, ToolTarget
 from hriplan.robots.bounding import frame_with_z
-from hriplan.robots.spatial import Pose
+from hriplan.robots.spatial import Pose, Transform
 from hriplan.tasks.grasps import object_length
 from hriplan.tasks.model import Goal as TaskGoal
 from hriplan.tasks.model import GraspGoal, HandOverGoal, InsertGoal, JointsGoal, PlaceGoal, TakeGoal, ToolPoseGoal
@@ -26,6 +25,8 @@ from hriplan.tasks.task_state import TaskState, handover_point
 # placed object is released this far above where it will stand.
 INSERTION_CLEARANCE = 0.02
 PLACE_CLEARANCE = 0.04
+# A pick ends with the object lifted straight up as far as a place releases it above its place.
+LIFT = PLACE_CLEARANCE
 TASK_KINDS = {
     HandOverGoal: "RobotToHumanHandover",
     TakeGoal: "HumanToRobotHandover",
@@ -54,7 +55,7 @@ def _half_length(state: TaskState, name: str) -> float:
     return length / 2.0
 
 
-def _to_object(arm: str, name: str, object_pose: pin.SE3, state: TaskState) -> ResolvedGoal:
+def _to_object(arm: str, name: str, object_pose: Transform, state: TaskState) -> ResolvedGoal:
     """The tool goal that brings the held (or grasped) object `name` to `object_pose`, by its
     grasp (state.grasps), the spin about the grasp axis free."""
     tool = object_pose * state.in_tool(name).inverse()
@@ -85,12 +86,12 @@ def resolve_goal(goal: TaskGoal, arm: str, state: TaskState, held_axis: np.ndarr
         return _to_object(arm, goal.hand_over, target, state)
     if isinstance(goal, PlaceGoal):
         _require_held(state, goal.place, arm)
-        release = pin.SE3(np.eye(3), np.array([0.0, 0.0, PLACE_CLEARANCE])) * goal.at.se3()
+        release = Transform(np.eye(3), np.array([0.0, 0.0, PLACE_CLEARANCE])) * goal.at.se3()
         return ResolvedGoal(_to_object(arm, goal.place, release, state).goal, goal.place, goal.at)
     _require_held(state, goal.insert, arm)
     hole = state.pose(goal.into).se3()
     lift = _half_length(state, goal.insert) + _half_length(state, goal.into) + INSERTION_CLEARANCE
-    return _to_object(arm, goal.insert, hole * pin.SE3(np.eye(3), np.array([0.0, 0.0, lift])), state)
+    return _to_object(arm, goal.insert, hole * Transform(np.eye(3), np.array([0.0, 0.0, lift])), state)
 
 
 def _require_held(state: TaskState, name: str, arm: str) -> None:

@@ -12,12 +12,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pinocchio as pin
 
 from hriplan import HriplanError
 from hriplan.ontology.facts import Facts
 from hriplan.robots.bounding import frame_with_z
 from hriplan.robots.scene import Box, Cone, Cylinder, Shape, Sphere
+from hriplan.robots.spatial import Transform
 
 AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
 
@@ -28,11 +28,11 @@ class Grasp:
     axis: str  # signed tool axis along the held object's z axis
     offset: float = 0.0  # where the hand closes: from the centre along the object's z, per length
 
-    def object_in_tool(self, length: float) -> pin.SE3:
+    def object_in_tool(self, length: float) -> Transform:
         """Pose of the held object in the tool frame: its z along `axis`, the grasp point at the tool."""
         z = np.zeros(3)
         z[AXIS_INDEX[self.axis[1]]] = -1.0 if self.axis[0] == "-" else 1.0
-        return pin.SE3(frame_with_z(z), -self.offset * length * z)
+        return Transform(frame_with_z(z), -self.offset * length * z)
 
 
 def object_length(shape: Shape | None) -> float:

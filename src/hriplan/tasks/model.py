@@ -11,12 +11,13 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationError, field_validator, model_validator
 
 from hriplan.files import error_location
 from hriplan.ontology.situation import FillLevel, Name, Role
 from hriplan.planner.constraints.spec import Axis
 from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, DESCRIPTIONS, HAND_MODELS, description_of, hand_model
 from hriplan.robots.human import HAND, HumanSpec, Side, hand_they_reach_out
 from hriplan.robots.scene import Obstacle, Shape
 from hriplan.robots.spatial import Pose
@@ -83,7 +84,11 @@ class TaskScene(_Strict):
 class Start(_Strict):
     """Named posture, then joint values on top of it."""
 
-    posture: Literal["home", "ready"] = "ready"
+    posture: str = Field(
+        "ready",
+        description="One of the robot's named postures (its description's).",
+        json_schema_extra={"enum": list(dict.fromkeys(p for d in DESCRIPTIONS.values() for p in d.postures))},
+    )
     joints: dict[str, Finite] = Field(default_factory=dict)
 
 
@@ -221,8 +226,16 @@ class Planning(_Strict):
 class TaskFile(_Strict):
     name: Name = "task"
     description: str = ""
-    robot: Literal["madar", "ur5"] = "madar"
-    hands: dict[str, Literal["open", "power", "pinch"]] = Field(default_factory=dict)
+    robot: str = Field(DEFAULT_ROBOT, json_schema_extra={"enum": list(DESCRIPTIONS)})
+    hands: dict[str, str] = Field(
+        default_factory=dict,
+        json_schema_extra={
+            "additionalProperties": {
+                "enum": list(dict.fromkeys(p for m in HAND_MODELS.values() for p in m.postures)),
+                "type": "string",
+            }
+        },
+    )
     objects: list[TaskObject] = Field(default_factory=list)
     humans: list[TaskHuman] = Field(default_factory=list)
     scene: TaskScene = Field(default_factory=TaskScene)
@@ -233,8 +246,28 @@ class TaskFile(_Strict):
         default_factory=list, description="Extra rule files (paths relative to the task file)."
     )
 
+    @field_validator("robot")
+    @classmethod
+    def _known_robot(cls, name: str) -> str:
+        description_of(name)  # an unknown name is an error naming the known ones
+        return name
+
     @model_validator(mode="after")
     def _references(self) -> TaskFile:
+        description = description_of(self.robot)
+        if self.start.posture not in description.postures:
+            raise ValueError(
+                f"start.posture: robot {self.robot!r} has no posture {self.start.posture!r}; "
+                f"postures: {', '.join(description.postures)}"
+            )
+        for side, posture in self.hands.items():
+            if side not in description.hands:
+                raise ValueError(
+                    f"hands: robot {self.robot!r} has no hand {side!r}; hands: {', '.join(description.hands) or 'none'}"
+                )
+            known = hand_model(description.arms[side].hand).postures
+            if posture not in known:
+                raise ValueError(f"hands.{side}: unknown hand posture {posture!r}; choose one of {', '.join(known)}")
         objects = {o.name for o in self.objects}
         humans = {h.name for h in self.humans}
         names = [o.name for o in self.objects] + [h.name for h in self.humans] + [t.name for t in self.scene.tables]

@@ -12,31 +12,29 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pinocchio as pin
 from pydantic import BaseModel, Field
 
 from hriplan import HriplanError
 from hriplan.ontology.assertions import arm_individual
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation, SituationHuman, SituationObject, SituationTask
-from hriplan.planner.constraints.binding import resolve_frame
-from hriplan.planner.constraints.spec import OrientationConstraint
+from hriplan.planner.constraints.spec import ConstraintSpec
+from hriplan.planner.kinematics import carried_paths, tool_poses
+from hriplan.planner.lift import lift_path, supports
 from hriplan.planner.motion import JointTarget, MotionResult, Target, ToolTarget, plan_motion
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import SUCCEEDED, Status
+from hriplan.planner.prepare import preparatory_goal
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
-from hriplan.robots.descriptions.postures import posture
-from hriplan.robots.ik import solve_two_arms
+from hriplan.robots.descriptions.registry import hand_model, posture
 from hriplan.robots.model import Robot, arms_of, description_of, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
-from hriplan.tasks.goals import ResolvedGoal, after_step, resolve_goal, task_kind
+from hriplan.tasks.goals import LIFT, ResolvedGoal, after_step, resolve_goal, task_kind
 from hriplan.tasks.grasps import Grasp, allowed_grasps
-from hriplan.tasks.lift import LIFT, lift_path, supports
 from hriplan.tasks.model import GraspGoal, Step, TaskFile, step_name
-from hriplan.tasks.prepare import preparatory_goal
 from hriplan.tasks.task_state import TaskState
 
 if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is planned
@@ -46,8 +44,6 @@ Progress = Callable[[str], None]
 # Motions the pipeline adds to a task step, named after it: a turn in place before, a lift after a pick.
 PREPARE, LIFT_OFF = "_prepare", "_lift"
 ADDED_MOTIONS = {PREPARE: "the preparatory motion before", LIFT_OFF: "the lift after"}
-# Spacing of the joint-space samples at which a carried object's path is recorded (rad).
-PATH_STEP = 0.05
 
 
 class StepOutcome(BaseModel):
@@ -277,18 +273,18 @@ class TaskRunner:
         outcome: StepOutcome,
     ) -> tuple[list[StepOutcome], dict[str, float]]:
         """Plan the step, after a preparatory motion if its start violates one of its orientation
-        or cone constraints (tasks/prepare.py), and lift what it picks off its support (lift.py)."""
+        or cone constraints (planner/prepare.py), and lift what it picks off its support (planner/lift.py)."""
         session = self._session()
         session.set_scene(outcome.scene)
         goal = resolved[0].goal if len(resolved) == 1 else self._joint_goal(resolved, start)
         prepared = (
-            preparatory_goal(session.robot, session.checker, outcome.derivation.constraints, start)
+            preparatory_goal(session.robot, session.checker, _pairs(outcome.derivation), start)
             if len(outcome.arms) == 1
             else None
         )
         outcomes = []
         if prepared is not None:
-            turned = {c.spec.id for c in prepared.violated}
+            turned = set(prepared.violated)
             kept = [c for c in outcome.derivation.constraints if c.spec.id not in turned]
             prep = outcome.model_copy(
                 update={
@@ -319,7 +315,7 @@ class TaskRunner:
     def _lift(
         self, goal: GraspGoal, resolved: ResolvedGoal, state: TaskState, start: dict[str, float], grasped: StepOutcome
     ) -> tuple[StepOutcome | None, dict[str, float]]:
-        """After a pick, lift the object straight off what it stands on (tasks/lift.py), timed and
+        """After a pick, lift the object straight off what it stands on (planner/lift.py), timed and
         validated under the pick's constraints; None if it stands on nothing."""
         session, robot, (arm,) = self._session(), self._session().robot, grasped.arms
         held = replace(
@@ -343,7 +339,7 @@ class TaskRunner:
             }
         )
         session.set_scene(lifting)
-        x_lift, why = lift_path(robot, session.checker, arm, q)
+        x_lift, why = lift_path(robot, session.checker, arm, q, LIFT)
         outcome = grasped.model_copy(
             update={"name": f"{grasped.name}{LIFT_OFF}", "kind": "Transport", "scene": lifting, "trajectory": None}
         )
@@ -399,9 +395,8 @@ class TaskRunner:
             derivation.separation,
         )
         if motion.solved and rederive:
-            _, derivation = self.derive_step(
-                step, index, state, carried_paths(robot, start, motion, outcome.name, self.knowledge_bases)
-            )
+            carries = self.knowledge_bases[outcome.name].situation.task.carries
+            _, derivation = self.derive_step(step, index, state, carried_paths(robot, start, motion, carries))
             if derivation.constraint_set() != outcome.derivation.constraint_set():  # user rules may depend on the path
                 session.set_constraints(derivation.constraint_set())
                 motion = plan_motion(
@@ -444,62 +439,29 @@ class TaskRunner:
         the target of an orientation constraint on that arm (a blade pointing away), else its
         direction at `start`."""
         session = self._session()
-        robot = session.robot
         session.set_scene(scene)
-        q = robot.configuration(start)
-        held = {}
-        for obj, arm in state.held_by_arm.items():
-            tool = pin.SE3(robot.frame_pose(robot.tool_frame(arm), q))
-            held[arm] = (tool * state.in_tool(obj)).rotation[:, 2].copy()
-            for c in derivation.constraints:
-                if c.arm == arm and isinstance(c.spec, OrientationConstraint):
-                    target = resolve_frame(c.spec.frame, robot, session.checker).rotation @ c.spec.target.rotation()
-                    held[arm] = (target @ state.in_tool(obj).rotation)[:, 2].copy()
-        return held
+        in_tool = {arm: state.in_tool(obj) for obj, arm in state.held_by_arm.items()}
+        return session.held_axes(start, in_tool, _pairs(derivation))
 
     def _joint_goal(self, resolved: list[ResolvedGoal], start: dict[str, float]) -> JointTarget:
-        """Two arms' tool goals as one joint goal: IK for both, clear of each other and the scene."""
-        session = self._session()
-        robot, checker = session.robot, session.checker
-        targets = []
-        for r in resolved:
-            if not isinstance(r.goal, ToolTarget):
-                raise HriplanError("a step with several goals needs a tool or object goal for each arm")
-            targets.append((r.goal.arm, r.goal.pose.matrix(), r.goal.free_axes))
-        q = solve_two_arms(
-            robot, targets[0], targets[1], robot.configuration(start), lambda full: not checker.in_collision(full)
-        )
-        if q is None:
-            raise HriplanError("no collision-free configuration puts both arms at their goals")
-        return JointTarget(values=dict(zip(robot.joint_names, q.tolist())))
+        """Two arms' tool goals as one joint goal (the session's IK for both, clear of the scene)."""
+        goals = [r.goal for r in resolved]
+        if not all(isinstance(g, ToolTarget) for g in goals):
+            raise HriplanError("a step with several goals needs a tool or object goal for each arm")
+        return self._session().joint_goal(goals, start)
 
 
-def tool_poses(robot: Robot, joints: dict[str, float]) -> dict[str, Pose]:
-    """World pose of every arm's tool frame at the given joint values."""
-    q = robot.configuration(joints)
-    return {arm: Pose.from_matrix(robot.frame_pose(robot.tool_frame(arm), q)) for arm in robot.arms}
-
-
-def carried_paths(
-    robot: Robot, start: dict[str, float], motion: MotionResult, step: str, knowledge_bases: dict[str, KnowledgeBase]
-) -> dict[str, list[tuple[float, float, float]]]:
-    """Where each object the step carries passes (its centre at its arm's tool frame), every
-    PATH_STEP rad of joint motion along the planned path."""
-    carries = knowledge_bases[step].situation.task.carries
-    from hriplan.planner.validate import densify
-
-    states = densify(list(np.array(motion.path)), PATH_STEP)
-    paths: dict[str, list[tuple[float, float, float]]] = {obj: [] for obj in carries}
-    for x in states:
-        q = robot.configuration(dict(start) | dict(zip(motion.joint_names, x)))
-        for obj, arm in carries.items():
-            paths[obj].append(tuple(float(v) for v in robot.frame_pose(robot.tool_frame(arm), q)[:3, 3]))
-    return paths
+def _pairs(derivation: Derivation) -> list[tuple[str, ConstraintSpec]]:
+    """The derived constraints as (arm, constraint) pairs, as the planning session takes them."""
+    return [(c.arm, c.spec) for c in derivation.constraints]
 
 
 def _hands(task: TaskFile) -> dict[str, str]:
-    """The task's hand postures as a loaded robot reports them (unnamed hands open)."""
-    return {side: task.hands.get(side, "open") for side in description_of(task.robot).hands}
+    """The task's hand postures as a loaded robot reports them (an unnamed hand in its model's first)."""
+    description = description_of(task.robot)
+    return {
+        side: task.hands.get(side, hand_model(description.arms[side].hand).postures[0]) for side in description.hands
+    }
 
 
 def _with_reasons(trajectory: TrajectoryFile, derivation: Derivation) -> TrajectoryFile:

@@ -9,11 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import pinocchio as pin
 
 from hriplan.robots.human import HELD_OBJECT_OFFSET, Human, HumanSpec
 from hriplan.robots.scene import AttachedObject, Box, Cone, Cylinder, Obstacle, Scene, Shape, Sphere, table
-from hriplan.robots.spatial import Pose
+from hriplan.robots.spatial import Pose, Transform
 from hriplan.tasks.grasps import Grasp, object_length
 from hriplan.tasks.model import TaskFile, TaskHuman, TaskObject
 
@@ -33,14 +32,14 @@ def in_hand_pose(person: TaskHuman) -> Pose:
     return Pose(xyz=tuple(float(v) for v in centre))
 
 
-def handover_point(person: TaskHuman, shape: Shape | None, rotation: np.ndarray) -> pin.SE3:
+def handover_point(person: TaskHuman, shape: Shape | None, rotation: np.ndarray) -> Transform:
     """Where an object turned by `rotation` is handed to a person: in front of their active hand,
     its face nearest them as far from the palm as an upright can's (a long knife lying along the
     way they face goes further out, so it does not reach into their hand)."""
     frame = Human(human_spec(person)).frame(f"{person.hand}_hand")
     forward = frame.rotation[:, 0]
     offset = max(HELD_OBJECT_OFFSET, NEAR_FACE_CLEARANCE + extent_along(shape, rotation, forward))
-    return pin.SE3(rotation, frame.translation + forward * offset)
+    return Transform(rotation, frame.translation + forward * offset)
 
 
 def extent_along(shape: Shape | None, rotation: np.ndarray, direction: np.ndarray) -> float:
@@ -94,7 +93,7 @@ class TaskState:
             return Pose.from_se3(self.tools[arm].se3() * self.in_tool(name))
         return self.poses[name]
 
-    def in_tool(self, name: str) -> pin.SE3:
+    def in_tool(self, name: str) -> Transform:
         """Pose of a held (or about to be held) object in its arm's tool frame, by its grasp."""
         return self.grasps[name].object_in_tool(object_length(self.object(name).shape))
 

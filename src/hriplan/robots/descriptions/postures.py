@@ -1,8 +1,7 @@
-"""Named robot postures: collision-free configurations a task can start from."""
+"""Named robot postures, each robot's own (`RobotDescription.postures`): collision-free
+configurations a task can start from (joints not listed are 0)."""
 
 from __future__ import annotations
-
-from hriplan import HriplanError
 
 _FOLDED = {"shoulder_lift_joint": -2.2, "elbow_joint": 1.2}  # arm folded to its side, clear of the torso
 # Right tool 0.6 m in front of MADAR at table height, a held can upright (from the handover scenario).
@@ -15,26 +14,14 @@ _RIGHT_FORWARD = {
     "wrist_3_joint": 2.632,
 }
 
-POSTURES: dict[str, dict[str, dict[str, float]]] = {
-    "madar": {
-        "home": {f"{side}_{j}": v for side in ("right", "left") for j, v in _FOLDED.items()},
-        "ready": {
-            **{f"right_{j}": v for j, v in _RIGHT_FORWARD.items()},
-            **{f"left_{j}": v for j, v in _FOLDED.items()},
-        },
-    },
-    "ur5": {
-        "home": {"shoulder_lift_joint": -1.57},
-        "ready": {"shoulder_lift_joint": -1.2, "elbow_joint": 1.5, "wrist_1_joint": -1.9, "wrist_2_joint": -1.57},
+MADAR_POSTURES: dict[str, dict[str, float]] = {
+    "home": {f"{side}_{j}": v for side in ("right", "left") for j, v in _FOLDED.items()},
+    "ready": {
+        **{f"right_{j}": v for j, v in _RIGHT_FORWARD.items()},
+        **{f"left_{j}": v for j, v in _FOLDED.items()},
     },
 }
-
-
-def posture(robot: str, name: str) -> dict[str, float]:
-    """Joint values of a named posture (joints not listed are 0)."""
-    try:
-        return dict(POSTURES[robot][name])
-    except KeyError:
-        raise HriplanError(
-            f"robot {robot!r} has no posture {name!r}; postures: {', '.join(POSTURES.get(robot, {}))}"
-        ) from None
+UR5_POSTURES: dict[str, dict[str, float]] = {
+    "home": {"shoulder_lift_joint": -1.57},
+    "ready": {"shoulder_lift_joint": -1.2, "elbow_joint": 1.5, "wrist_1_joint": -1.9, "wrist_2_joint": -1.57},
+}

@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 
 from hriplan import HriplanError
 from hriplan.robots import urdf_xml as X
-from hriplan.robots.descriptions.allegro import add_allegro
+from hriplan.robots.descriptions.allegro import HAND_POSTURES, add_allegro, hand_joint_name, posture_values
+from hriplan.robots.descriptions.postures import MADAR_POSTURES, UR5_POSTURES
 from hriplan.robots.descriptions.ur5_arm import add_ur5
 
 MADAR_BASE = "madar_base_link"
@@ -101,23 +102,49 @@ def ur5_urdf() -> str:
 
 
 @dataclass(frozen=True)
+class HandModel:
+    """A kind of robot hand: its finger postures and, per posture, the finger joint values."""
+
+    label: str  # its name in words ("Allegro")
+    postures: tuple[str, ...]  # the first is the one a hand has when a task names none
+    joint_values: Callable[[str], dict[str, float]]  # posture -> value per the hand URDF's own joint name
+    joint_name: Callable[[str, str], str]  # (arm prefix, hand joint) -> the joint's name in the robot
+
+
+HAND_MODELS = {"allegro": HandModel("Allegro", HAND_POSTURES, posture_values, hand_joint_name)}
+
+
+def hand_model(kind: str) -> HandModel:
+    if kind not in HAND_MODELS:
+        raise HriplanError(f"hand model {kind!r} is not supported; supported: {', '.join(HAND_MODELS)}")
+    return HAND_MODELS[kind]
+
+
+@dataclass(frozen=True)
 class ArmDescription:
     """One arm: the prefix of its joints (ur5_description's names), its tool frame, its planning
-    group, and whether a robot hand is on it."""
+    group, the kind of IK solver that solves it (robots/ik.py), the model of the robot hand on
+    it (None: a bare flange), the arm's model and the tool axis along a held object's axis."""
 
     prefix: str
     tool_frame: str
     group: str
-    hand: bool = False
+    hand: str | None = None
+    ik: str = "ur5_analytic"
+    model: str = "UR5"
+    object_axis: str = "-z"  # a bare flange holds an object out of it; a hand's tool frame says (+y)
 
 
 @dataclass(frozen=True)
 class RobotDescription:
     name: str
+    label: str  # its name in words ("MADAR"), for the ontology
+    summary: str  # what kind of robot it is ("Dual-arm mobile robot"), for the ontology
     urdf: Callable[[], str]
     base_link: str
     arms: dict[str, ArmDescription]  # the first is the arm a step moves when nothing says which
     whole_group: str  # every arm joint, in the model's order
+    postures: dict[str, dict[str, float]]  # named start configurations (joints not listed are 0)
     # Other names of links, as other descriptions of the same robot spell them (same frame,
     # checked by forward kinematics in tests/formats/test_kautham.py).
     link_aliases: dict[str, str] = field(default_factory=dict)
@@ -125,30 +152,51 @@ class RobotDescription:
     @property
     def hands(self) -> list[str]:
         """The arms with a robot hand (their postures are chosen per task)."""
-        return [arm for arm, description in self.arms.items() if description.hand]
+        return [arm for arm, description in self.arms.items() if description.hand is not None]
 
 
 DESCRIPTIONS = {
     "madar": RobotDescription(
         name="madar",
+        label="MADAR",
+        summary="Dual-arm mobile robot",
         urdf=madar_urdf,
         base_link=MADAR_BASE,
         whole_group="both_arms",
-        arms={side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand=True) for side in ("right", "left")},
+        postures=MADAR_POSTURES,
+        arms={
+            side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand="allegro", object_axis="+y")
+            for side in ("right", "left")
+        },
         # Kautham's MADAR names the adapter and the hand's base (the Allegro palm) differently.
         link_aliases={"right_hand_adapter_link": "right_hand_adapter", "right_hand_base_link": "right_hand_palm_link"},
     ),
     "ur5": RobotDescription(
         name="ur5",
+        label="UR5",
+        summary="A single arm",
         urdf=ur5_urdf,
         base_link="base_link",
         whole_group="arm",
+        postures=UR5_POSTURES,
         arms={"arm": ArmDescription("", "tool", "arm")},
     ),
 }
+# The robot a task, a problem, a situation or a session has when it names none.
+DEFAULT_ROBOT = "madar"
+# Every robot's named postures (the API's view of the descriptions).
+POSTURES = {name: description.postures for name, description in DESCRIPTIONS.items()}
 
 
 def description_of(name: str) -> RobotDescription:
     if name not in DESCRIPTIONS:
         raise HriplanError(f"unknown robot {name!r}; known robots: {', '.join(DESCRIPTIONS)}")
     return DESCRIPTIONS[name]
+
+
+def posture(robot: str, name: str) -> dict[str, float]:
+    """Joint values of one of a robot's named postures (joints not listed are 0)."""
+    postures = description_of(robot).postures
+    if name not in postures:
+        raise HriplanError(f"robot {robot!r} has no posture {name!r}; postures: {', '.join(postures)}")
+    return dict(postures[name])

@@ -19,12 +19,11 @@ import numpy as np
 
 from hriplan.planner.constraints.binding import bind
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
-from hriplan.planner.constraints.spec import ConeConstraint, OrientationConstraint
+from hriplan.planner.constraints.spec import ConeConstraint, ConstraintSpec, OrientationConstraint
 from hriplan.planner.motion import ToolTarget
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
 from hriplan.robots.spatial import Pose
-from hriplan.rules.infer import DerivedConstraint
 
 VIOLATION = 1e-4  # as the planner's validation tolerance
 ENTRY = 0.8  # where on its axis a cone is entered, as a fraction of its height from the apex
@@ -32,40 +31,39 @@ ENTRY = 0.8  # where on its axis a cone is entered, as a fraction of its height 
 
 class Preparation(NamedTuple):
     goal: ToolTarget
-    violated: list[DerivedConstraint]  # the constraints the preparatory motion brings the tool within
+    violated: list[str]  # the ids of the constraints the preparatory motion brings the tool within
     what: str  # "turns the held object in place onto sharp_end_away_scissors", for messages
 
 
 def preparatory_goal(
-    robot: Robot, checker: CollisionChecker, constraints: list[DerivedConstraint], start: dict[str, float]
+    robot: Robot, checker: CollisionChecker, constraints: list[tuple[str, ConstraintSpec]], start: dict[str, float]
 ) -> Preparation | None:
-    """The tool goal that brings one arm's tool within every orientation and cone constraint the
-    start violates (the first violated one's arm); None when the start meets them all."""
+    """The tool goal that brings one arm's tool within every orientation and cone constraint (of
+    the (arm, constraint) pairs) the start violates (the first violated one's arm); None when the
+    start meets them all."""
     q = robot.configuration(start)
     violated = []
-    for c in constraints:
-        if isinstance(c.spec, (OrientationConstraint, ConeConstraint)) and (
-            not violated or c.arm == violated[0][0].arm
-        ):
-            (bound,) = bind([c.spec], robot, checker)
-            if ConstraintEvaluator(robot, [bound], robot.arm_group(c.arm), q).margins(q).max() > VIOLATION:
-                violated.append((c, bound))
+    for arm, spec in constraints:
+        if isinstance(spec, (OrientationConstraint, ConeConstraint)) and (not violated or arm == violated[0][0]):
+            (bound,) = bind([spec], robot, checker)
+            if ConstraintEvaluator(robot, [bound], robot.arm_group(arm), q).margins(q).max() > VIOLATION:
+                violated.append((arm, spec, bound))
     if not violated:
         return None
-    arm = violated[0][0].arm
+    arm = violated[0][0]
     target, free_axes, what = robot.frame_pose(robot.tool_frame(arm), q), [], []
-    for c, bound in violated:
-        if isinstance(c.spec, OrientationConstraint):
-            target[:3, :3] = bound.frame.rotation @ c.spec.target.rotation()
-            free_axes = c.spec.free_axes
-            what.append(f"turns the held object onto {c.spec.id}")
+    for _, spec, bound in violated:
+        if isinstance(spec, OrientationConstraint):
+            target[:3, :3] = bound.frame.rotation @ spec.target.rotation()
+            free_axes = spec.free_axes
+            what.append(f"turns the held object onto {spec.id}")
         else:
-            target[:3, 3] = bound.frame.act(np.array([0.0, 0.0, ENTRY * c.spec.height]))
-            what.append(f"brings the tool into {c.spec.id}")
-    if any(isinstance(c.spec, ConeConstraint) for c, _ in violated):
+            target[:3, 3] = bound.frame.act(np.array([0.0, 0.0, ENTRY * spec.height]))
+            what.append(f"brings the tool into {spec.id}")
+    if any(isinstance(spec, ConeConstraint) for _, spec, _ in violated):
         free_axes = []  # a position and the orientation it has, or the one turned onto
     return Preparation(
         ToolTarget(arm=arm, pose=Pose.from_matrix(target), free_axes=free_axes),
-        [c for c, _ in violated],
+        [spec.id for _, spec, _ in violated],
         " and ".join(what),
     )
