@@ -100,7 +100,9 @@ def test_unknown_ontology_class_or_arm_is_reported(tmp_path):
     path.write_text(
         "objects: [{name: thing, kind: Teapot, held_by: right}]\nsteps: [{goal: {place: thing, at: {xyz: [0.4, 0.7, 0.9]}}}]"
     )
-    with pytest.raises(HriplanError, match="Teapot"):
+    with pytest.raises(
+        HriplanError, match="object 'thing' has kind 'Teapot', not a PhysicalObject class of the ontology"
+    ):
         TaskRunner(load_task(path)).run(plan=False)
 
 
