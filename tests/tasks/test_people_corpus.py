@@ -14,6 +14,8 @@ import yaml
 
 from hriplan.planner.constraints.spec import CylinderConstraint, OrientationConstraint
 from hriplan.planner.replay import PlannedWorld
+from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
+from hriplan.robots.descriptions.ur5_arm import joint_names
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
@@ -85,23 +87,56 @@ def test_the_independent_check_sees_a_link_surface_in_a_keep_out_and_a_tilted_cu
     robot = UrdfRobot("madar", {"right": "open", "left": "open"})
     robot.configure({})
     elbow = robot.pose("right_fore_arm_link").translation
-    # a keep-out cylinder whose side passes 2 cm from the forearm link's origin: the origin is
-    # outside, the link's surface (its collision mesh) is not
+    along = robot.pose("right_wrist_1_link").translation - elbow
+    across = np.cross(along, [0.0, 0.0, 1.0])
+    # a thin upright keep-out cylinder whose side passes 2 cm from the forearm's axis: every link
+    # origin is outside, the forearm's surface (its collision mesh) is not
     keep_out = CylinderConstraint(
         id="k",
         joints=["j"],
         target_link="right_tool",
         region="outside",
         keep_out_all_links=True,
-        radius=0.3,
+        radius=0.05,
         height=2.0,
     )
     frame = np.eye(4)
-    frame[:3, 3] = elbow - np.array([0.32, 0.0, 1.0])
-    local = (elbow - frame[:3, 3])[None]
-    assert outside_distance(keep_out, local)[0] == pytest.approx(0.02)
+    frame[:3, 3] = elbow + 0.3 * along + 0.07 * across / np.linalg.norm(across) - np.array([0.0, 0.0, 1.0])
+    origins = np.array([robot.pose(f.name).translation for f in robot.model.frames if f.name.startswith("right_")])
+    assert outside_distance(keep_out, origins - frame[:3, 3]).min() > 0.0
     surface, link = robot.surface_distance(keep_out, frame, "right_")
     assert surface < 0.0 and link.startswith("right_"), (surface, link)
+    # the same through a written trajectory: the tool is outside, the breach is the forearm's surface
+    tool = robot.pose("right_tool").translation
+    assert outside_distance(keep_out, (tool - frame[:3, 3])[None])[0] > 0.0
+    joints = joint_names("right_")
+    written = TrajectoryFile(
+        robot="madar",
+        step="s",
+        hands={"right": "open", "left": "open"},
+        joint_names=joints,
+        points=[
+            TrajectoryPoint(time_from_start=t, positions=[0.0] * 6, velocities=[0.0] * 6, accelerations=[0.0] * 6)
+            for t in (0.0, 1.0)
+        ],
+        constraints=[
+            ResolvedConstraint(
+                spec=keep_out.model_copy(update={"joints": joints}), frame_in_world=Pose(xyz=frame[:3, 3])
+            )
+        ],
+        report=TrajectoryReport(
+            status="solved",
+            planner="-",
+            space="-",
+            planning_time=0,
+            duration=0,
+            path_length=0,
+            states_checked=1,
+            max_violation={},
+        ),
+    )
+    breaches = constraint_violations(written)
+    assert len(breaches) == 2 and all(b.startswith("s: k right_") for b in breaches), breaches
     upright = OrientationConstraint(
         id="u",
         joints=["j"],
