@@ -6,6 +6,9 @@ import sys
 import numpy as np
 import pinocchio as pin
 
+from hriplan.planner.trajectory import TrajectoryFile
+from independent import constraint_violations
+
 
 def run(*args):
     return subprocess.run([sys.executable, "-m", "hriplan.cli", *args], capture_output=True, text=True, timeout=300)
@@ -60,6 +63,7 @@ def test_solve_writes_a_validated_trajectory(tmp_path):
     data = json.loads(out.read_text())
     assert data["schema"] == "hriplan.trajectory" and data["joint_names"][0] == "right_shoulder_pan_joint"
     assert all(v <= 1e-4 for v in data["report"]["max_violation"].values())
+    assert constraint_violations(TrajectoryFile.model_validate(data)) == []
 
 
 def test_solve_failures_have_exit_codes(tmp_path):

@@ -7,6 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from hriplan.planner.trajectory import TrajectoryFile
+from independent import constraint_violations
+
 ROOT = Path(__file__).parents[2]
 HANDOVER = ROOT / "examples" / "handover_full_can_receiver.yaml"
 
@@ -31,6 +34,7 @@ def test_plan_writes_a_trajectory_and_reports_json(planned):
     assert report["solved"] and report["files"] == [str(out / "handover.json")]
     step = report["steps"][0]
     assert step["kind"] == "RobotToHumanHandover" and step["report"]["max_violation"]["upright_can"] <= 1e-4
+    assert constraint_violations(TrajectoryFile.model_validate_json((out / "handover.json").read_text())) == []
     ids = {c["spec"]["id"] for c in step["derivation"]["constraints"]}
     assert {"upright_can", "approach_cone_bob", "shared_workspace_bob", "exclusion_box_bob"} <= ids
     assert all(c["rules"] and c["facts"] for c in step["derivation"]["constraints"])

@@ -14,6 +14,7 @@ import pytest
 from hriplan import HriplanError
 from hriplan.formats.kautham import import_kautham
 from hriplan.planner.constraints.spec import BoxConstraint, ConeConstraint, OrientationConstraint
+from independent import constraint_violations
 
 FIXTURE = Path(__file__).parents[1] / "data" / "kautham_madar_handover.xml"
 
@@ -114,6 +115,7 @@ def test_an_imported_problem_plans():
         result.trajectory.report.max_violation["upright"] <= 1e-4
         and result.trajectory.report.max_violation["workspace"] <= 1e-4
     )
+    assert constraint_violations(result.trajectory) == []
 
 
 # -- Kautham's own format: controls files, models folder, Home, link aliases ------------------

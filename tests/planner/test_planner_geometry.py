@@ -22,6 +22,7 @@ from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
 EPS = 1e-6
+EPS_JAC = 1e-7  # central differences of the evaluator rows
 SHAPES = {
     "box": lambda p: G.box_sd(p, (0.4, 0.3, 0.2)),
     "sphere": lambda p: G.sphere_sd(p, 0.3),
@@ -101,7 +102,7 @@ def test_evaluator_jacobians_match_finite_differences(madar, rng):
     bound[0].p_goal = np.array([0.1, 0.6, 1.0])
     evaluator = ConstraintEvaluator(madar, bound, "right_arm", np.zeros(12))
     assert evaluator.n_equality == 2 + 3 + 1
-    eps = 1e-7
+    checked = total = 0
     for x in rng.uniform(-3, 3, (30, 6)):
         for rows, jac, offset in (
             (evaluator.deadzone, evaluator.deadzone_jacobian, 10.0),
@@ -109,6 +110,17 @@ def test_evaluator_jacobians_match_finite_differences(madar, rng):
         ):
             f = functools.partial(rows, offset=offset) if offset is not None else rows
             analytic = jac(x, offset) if offset is not None else jac(x)
-            numeric = np.column_stack([(f(x + eps * e) - f(x - eps * e)) / (2 * eps) for e in np.eye(6)])
-            good = np.abs(numeric - analytic).max(axis=1) < 1e-5
-            assert good.sum() >= len(good) - 1  # at most one row at a kink (log3 near pi, box edges)
+            smooth = _smooth_rows(f, x)
+            numeric = np.column_stack([(f(x + EPS_JAC * e) - f(x - EPS_JAC * e)) / (2 * EPS_JAC) for e in np.eye(6)])
+            wrong = np.abs(numeric - analytic).max(axis=1) >= 1e-5
+            assert not (wrong & smooth).any(), (x, np.flatnonzero(wrong & smooth))
+            checked, total = checked + smooth.sum(), total + len(smooth)
+    assert checked >= 0.9 * total  # kinks are rare: nearly every row of every sample is compared
+
+
+def _smooth_rows(f, x: np.ndarray, h: float = 1e-5) -> np.ndarray:
+    """Rows whose one-sided differences agree at x: away from a kink (log3 near pi, a box edge,
+    |twist| at 0), found from the values alone, not from the analytic Jacobian under test."""
+    forward = np.column_stack([(f(x + h * e) - f(x)) / h for e in np.eye(len(x))])
+    backward = np.column_stack([(f(x) - f(x - h * e)) / h for e in np.eye(len(x))])
+    return np.abs(forward - backward).max(axis=1) < 1e-3

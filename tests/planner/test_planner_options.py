@@ -17,6 +17,7 @@ from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.search.ompl_solver import ompl_seed
 from hriplan.planner.session import PlanningSession
 from hriplan.robots.spatial import Pose
+from independent import constraint_violations
 
 SCENARIOS = Path(__file__).parents[2] / "benchmarks" / "scenarios"
 
@@ -126,3 +127,4 @@ def test_a_start_inside_its_dynamic_tolerance_is_planned(problem, goal_kind):
         bound = 0.1 + 0.5 * np.linalg.norm(robot.frame_pose("tool", q)[:3, 3] - p_goal)
         assert np.arccos(np.clip(-tool_z(robot, q)[2], -1, 1)) <= bound + 1e-4
     assert PlannedWorld.load(result.trajectory).validate().valid
+    assert constraint_violations(result.trajectory) == []

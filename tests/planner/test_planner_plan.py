@@ -13,6 +13,7 @@ from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import load_trajectory
 from hriplan.planner.validate import densify, validate_path
 from hriplan.robots.spatial import Pose
+from independent import constraint_violations
 
 
 @pytest.fixture(scope="module")
@@ -152,6 +153,7 @@ def test_other_spaces_solve_an_open_problem(problem, session, space, formulation
         session.move_obstacle("block", Pose(xyz=(0.45, 0.0, 0.125)))
     assert result.solved, result.message
     assert result.trajectory.report.max_violation["upright"] <= 1e-4
+    assert constraint_violations(result.trajectory) == []
 
 
 def test_keep_out_zone_applies_to_every_link(problem):

@@ -15,6 +15,7 @@ from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import load_robot
+from independent import constraint_violations
 
 SCENARIOS = Path(__file__).parents[2] / "benchmarks" / "scenarios"
 
@@ -68,6 +69,7 @@ def test_left_arm_alone_plans_times_and_replays_with_the_right_arm_folded(left_a
     world = PlannedWorld.load(trajectory)  # what the viewer, the plots and `hriplan validate` rebuild
     assert world.joint_values(world.positions[3])["right_elbow_joint"] == pytest.approx(1.2)
     assert world.validate().valid
+    assert constraint_violations(trajectory) == []
 
 
 def test_time_is_a_public_stage_after_planning(handover):

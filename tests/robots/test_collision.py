@@ -124,7 +124,7 @@ def test_carried_object_is_checked_against_the_scene_but_not_its_hand(madar):
 def test_scene_rejects_duplicate_names():
     with pytest.raises(ValueError, match="repeated: a"):
         Scene(obstacles=[Obstacle(name="a", shape=Sphere(radius=0.1)), Obstacle(name="a", shape=Sphere(radius=0.2))])
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"size\.1\n  Input should be greater than 0"):
         Box(size=(0.1, -1.0, 0.1))
 
 

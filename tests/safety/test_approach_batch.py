@@ -2,7 +2,8 @@
 
 References that do not share the code under test: coal.distance per capsule pair; for the
 monitor, the per-point computation it replaced (kept here): coal's closest points through
-`CollisionChecker.person_pairs`, point velocities from pinocchio's joint Jacobians. coal's GJK
+`CollisionChecker.person_pairs`, point velocities from pinocchio's joint Jacobians, and the
+ISO/TS 15066 limits by the formulas written below (SSM and PFL, not `hriplan.safety.separation`). coal's GJK
 (palm, adapter, can) converges to 1e-6 from a guess that depends on what its model computed
 before; both sides walk the same points in the same order from fresh models, so they agree to
 rounding and the tolerances can stay tight.
@@ -27,7 +28,7 @@ from hriplan.robots.scene import Scene
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.safety.capsule_distance import capsule_distances
 from hriplan.safety.policy import default_policy
-from hriplan.safety.separation import SeparationPolicy, allowed_speed, minimum_separation
+from hriplan.safety.separation import SeparationPolicy, allowed_speed
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
 
@@ -138,6 +139,54 @@ def test_capsule_distances_broadcast_one_capsule_against_many():
             np.testing.assert_allclose(batch[i], alone, atol=1e-15)
 
 
+# -- ISO/TS 15066 limits, written here from the standard -------------------------------------
+def _s0(robot, person) -> float:
+    """Speed and separation monitoring: S_p = S_h + S_r + S_s + C + Z_d + Z_r with S_h = v_h (T_r + T_s),
+    S_r = v_r T_r, S_s = v_r T_s / 2 (constant deceleration); at v_r = 0 it is S_0."""
+    t_r, t_s = robot.reaction_time, robot.stopping_time
+    return (
+        person.approach_speed * (t_r + t_s) + person.intrusion + person.sensor_uncertainty + robot.position_uncertainty
+    )
+
+
+def _ssm(robot, person, separation: float) -> float:
+    """S_p(v_r) <= S solved for v_r: (S - S_0) / (T_r + T_s / 2), 0 inside S_0."""
+    return max(separation - _s0(robot, person), 0.0) / (robot.reaction_time + robot.stopping_time / 2.0)
+
+
+def _pfl(robot, person, region) -> float:
+    """Transient contact: v_rel,max = F_max / sqrt(mu k), mu = (1/m_H + 1/m_R)^-1, less the
+    person's own speed v_h (v_rel is relative)."""
+    mu = 1.0 / (1.0 / region.effective_mass + 1.0 / robot.moving_mass)
+    return max(region.transient_force / math.sqrt(mu * region.spring_constant) - person.approach_speed, 0.0)
+
+
+def _allowed(robot, person, separation: float, capsule: str) -> float:
+    """SSM, or at a contact region the larger of SSM and the PFL cap."""
+    region = next((c for c in person.contact if capsule in c.capsules), None)
+    ssm = _ssm(robot, person, separation)
+    return ssm if region is None else max(ssm, _pfl(robot, person, region))
+
+
+def test_the_policy_limits_are_the_standards_formulas(handover):
+    """The project's allowed speed against the formulas above, for the handover's policy, at
+    separations from inside S_0 to 2 m, on a body capsule and on the receiving hand; the stopping
+    term matters here (without it the limit is over 1.5x as lenient), so dropping it is caught."""
+    policy = handover[1]
+    robot = policy.robot
+    person = next(p for p in policy.people if p.contact)
+    hand = person.contact[0].capsules[0]
+    assert robot.stopping_time > 0.0
+    for separation in np.linspace(0.0, 2.0, 41):
+        for capsule in ("torso", hand):
+            assert allowed_speed(robot, person, separation, capsule) == pytest.approx(
+                _allowed(robot, person, separation, capsule), rel=1e-12, abs=1e-12
+            ), (separation, capsule)
+    far = _s0(robot, person) + 0.5
+    lenient = (far - _s0(robot, person)) / robot.reaction_time
+    assert lenient > 1.5 * _ssm(robot, person, far)
+
+
 # -- the monitor against the per-point computation it replaced ---------------------------------
 def _reference(
     session: PlanningSession, policy: SeparationPolicy, group: str, q0: np.ndarray, x: np.ndarray, dx: np.ndarray
@@ -170,13 +219,13 @@ def _reference(
                 approach = float(np.linalg.norm(v))
             else:
                 approach = float(v @ (pairs.person_point[k] - pairs.robot_point[k]) / d)
-            values.append((d, approach, allowed_speed(policy.robot, person, d, pairs.capsules[k]), contact, k))
+            values.append((d, approach, _allowed(policy.robot, person, d, pairs.capsules[k]), contact, k))
         stopped = [row for row in values if row[2] <= 0.0]
         if stopped:
             d, _, _, _, k = min(stopped, key=lambda row: row[0])
             return (
                 f"{pairs.parts[k]} passes {d:.3f} m from {person.name}/{pairs.capsules[k]}, inside the minimum "
-                f"protective separation {minimum_separation(policy.robot, person):.3f} m of ISO/TS 15066 "
+                f"protective separation {_s0(policy.robot, person):.3f} m of ISO/TS 15066 "
                 f"(the robot would have to stand still there)"
             )
         binding = min(values, key=lambda row: row[2] - row[1])

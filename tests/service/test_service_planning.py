@@ -18,6 +18,7 @@ from service_server import shared_server, wait_for_workers
 
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.trajectory import TrajectoryFile
+from independent import constraint_violations
 
 ROOT = Path(__file__).resolve().parents[2]
 TASK_YAML = (ROOT / "examples" / "handover_full_can.yaml").read_text()
@@ -85,6 +86,7 @@ def test_a_yaml_task_is_planned_validated_and_given_as_joint_trajectories(client
         check_joint_trajectory(body["joint_trajectories"][step["name"]], step["trajectory"])
         trajectory = TrajectoryFile.model_validate(step["trajectory"])
         assert PlannedWorld.load(trajectory).validate().valid  # the replay validator, not the planner's own result
+        assert constraint_violations(trajectory) == []  # geometry apart from the planner's
         assert {c["spec"]["id"] for c in step["trajectory"]["constraints"]} == {
             c["spec"]["id"] for c in step["derivation"]["constraints"]
         }
@@ -148,6 +150,7 @@ def test_a_session_follows_perception_updates_and_plans_against_them(client):
     assert second["solved"] and {o["name"] for o in second["trajectory"]["scene"]["obstacles"]} >= {"crate"}
     assert [h["name"] for h in second["trajectory"]["scene"]["humans"]][-1] == "dana"
     assert PlannedWorld.load(TrajectoryFile.model_validate(second["trajectory"])).validate().valid
+    assert constraint_violations(TrajectoryFile.model_validate(second["trajectory"])) == []
     clash = client.put("/sessions/cell/obstacles/dana", json={**box, "name": "dana"})
     assert clash.status_code == 409 and "repeated: dana" in clash.json()["error"]
     assert client.delete("/sessions/cell/obstacles/crate").json()["version"] == 3

@@ -38,10 +38,17 @@ def test_lists_json_and_grids():
 
 
 @pytest.mark.parametrize(
-    "text", ["planning.seed", "=1,2", "planning.seed=3:1:1", "planning.seed=1:2:0", "humans.b.position=[1:2:1"]
+    "text, says",
+    [
+        ("planning.seed", r"--vary takes PATH=VALUES \(e.g. planning.seed=1,2,3\), got 'planning.seed'"),
+        ("=1,2", r"--vary takes PATH=VALUES .*, got '=1,2'"),
+        ("planning.seed=3:1:1", r"--vary planning.seed: range '3:1:1' needs LOW:HIGH:STEP with LOW <= HIGH"),
+        ("planning.seed=1:2:0", r"--vary planning.seed: range '1:2:0' needs LOW:HIGH:STEP with .* STEP > 0"),
+        ("humans.b.position=[1:2:1", r"--vary humans.b.position: a grid is \[RANGE, RANGE, ...\], got '\[1:2:1'"),
+    ],
 )
-def test_malformed_vary_is_an_error(text):
-    with pytest.raises(HriplanError):
+def test_malformed_vary_is_an_error(text, says):
+    with pytest.raises(HriplanError, match=f"^{says}"):
         parse_vary(text)
 
 

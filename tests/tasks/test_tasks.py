@@ -9,6 +9,7 @@ from hriplan import HriplanError
 from hriplan.planner.replay import PlannedWorld
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
+from independent import constraint_violations
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 
@@ -67,6 +68,7 @@ def test_handover_task_plans_both_steps_and_every_trajectory_validates():
     for step in outcome.steps:
         check = PlannedWorld.load(step.trajectory).validate()
         assert check.valid, check.message
+        assert constraint_violations(step.trajectory) == []
     # where the can was put: upright, above the requested place, released 4 cm higher
     robot = runner.session.robot
     end = dict(place.trajectory.start) | dict(zip(place.trajectory.joint_names, place.trajectory.points[-1].positions))
@@ -112,7 +114,9 @@ def test_unknown_ontology_class_or_arm_is_reported(tmp_path):
     path.write_text(
         "objects: [{name: thing, kind: Teapot, held_by: right}]\nsteps: [{goal: {place: thing, at: {xyz: [0.4, 0.7, 0.9]}}}]"
     )
-    with pytest.raises(HriplanError, match="Teapot"):
+    with pytest.raises(
+        HriplanError, match="object 'thing' has kind 'Teapot', not a PhysicalObject class of the ontology"
+    ):
         TaskRunner(load_task(path)).run(plan=False)
 
 
@@ -135,3 +139,4 @@ def test_every_shipped_example_plans_and_validates(example):
     assert outcome.solved, [(s.name, s.status, s.message) for s in outcome.steps]
     for step in outcome.steps:
         assert PlannedWorld.load(step.trajectory).validate().valid
+        assert constraint_violations(step.trajectory) == []
