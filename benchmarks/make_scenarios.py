@@ -11,14 +11,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from hriplan.planner.constraints.spec import (
-    BoxConstraint,
-    ConeConstraint,
-    ConstraintSet,
-    CylinderConstraint,
-    FrameRef,
-    OrientationConstraint,
-)
+from hriplan.planner.constraints import spec
 from hriplan.planner.motion import JointTarget
 from hriplan.planner.problem import PlanningProblem
 from hriplan.robots.collision import CollisionChecker
@@ -75,17 +68,19 @@ def _both_arms(
     return q
 
 
-def _upright(joints: list[str], link: str, axis: str, target: Pose, **tolerance) -> OrientationConstraint:
+def _upright(joints: list[str], link: str, axis: str, target: Pose, **tolerance) -> spec.OrientationConstraint:
     """Keep the tool's orientation (a held cup upright), free to spin about `axis`."""
     tolerance = tolerance or {"tolerance": 0.1}
-    return OrientationConstraint(
+    return spec.OrientationConstraint(
         id="upright", joints=joints, target_link=link, free_axes=[axis], target=target, **tolerance
     )
 
 
-def _box(name: str, joints: list[str], link: str, size, centre) -> BoxConstraint:
+def _box(name: str, joints: list[str], link: str, size, centre) -> spec.BoxConstraint:
     """Keep the tool inside an axis-aligned box centred at `centre` (world frame)."""
-    return BoxConstraint(id=name, joints=joints, target_link=link, size=size, frame=FrameRef(offset=Pose(xyz=centre)))
+    return spec.BoxConstraint(
+        id=name, joints=joints, target_link=link, size=size, frame=spec.FrameRef(offset=Pose(xyz=centre))
+    )
 
 
 def _ur5_block_scene(humans: list[HumanSpec] = ()) -> Scene:
@@ -133,11 +128,11 @@ def madar_handover() -> PlanningProblem:
     checker = CollisionChecker(robot, scene)
     joints = robot.group_joints("right_arm")
     # Approach cone: apex at the receiver's palm, axis along the receiver's front (to the robot).
-    cone_frame = FrameRef(entity="receiver/right_hand", offset=Pose(rpy=(0.0, np.pi / 2, 0.0)))
+    cone_frame = spec.FrameRef(entity="receiver/right_hand", offset=Pose(rpy=(0.0, np.pi / 2, 0.0)))
     constraints = [
         _upright(joints, "right_tool", "y", MADAR_UPRIGHT),
         _box("shared_workspace", joints, "right_tool", (1.0, 0.8, 0.8), (0.1, 0.75, 1.0)),
-        ConeConstraint(
+        spec.ConeConstraint(
             id="approach_cone", joints=joints, target_link="right_tool", radius=0.3, height=0.55, frame=cone_frame
         ),
     ]
@@ -185,7 +180,7 @@ def madar_peg_in_hole() -> PlanningProblem:
     for side in ("right", "left"):
         joints = robot.group_joints(f"{side}_arm")
         constraints.append(
-            OrientationConstraint(
+            spec.OrientationConstraint(
                 id=f"{side}_alignment",
                 joints=joints,
                 target_link=f"{side}_tool",
@@ -196,7 +191,7 @@ def madar_peg_in_hole() -> PlanningProblem:
             )
         )
         constraints.append(
-            CylinderConstraint(
+            spec.CylinderConstraint(
                 id=f"{side}_keep_out_supervisor",
                 joints=joints,
                 target_link=f"{side}_tool",
@@ -204,7 +199,7 @@ def madar_peg_in_hole() -> PlanningProblem:
                 radius=0.45,
                 height=2.0,
                 keep_out_all_links=True,
-                frame=FrameRef(entity="supervisor/base"),
+                frame=spec.FrameRef(entity="supervisor/base"),
             )
         )
     base = robot.configuration({})
@@ -320,7 +315,7 @@ def _problem(
         description=description,
         robot=robot.name,
         scene=scene,
-        constraints=ConstraintSet(constraints=constraints),
+        constraints=spec.ConstraintSet(constraints=constraints),
         start=dict(zip(robot.joint_names, start)),
         goal=JointTarget(values=dict(zip(robot.group_joints(group), robot.group_values(goal, group)))),
         **({"group": group} if group else {}),
@@ -393,7 +388,7 @@ def madar_volumes_only() -> PlanningProblem:
         update={
             "name": "f_madar_volumes_only",
             "description": "MADAR hands an empty can over: approach cone and shared workspace only",
-            "constraints": ConstraintSet(constraints=volumes),
+            "constraints": spec.ConstraintSet(constraints=volumes),
         }
     )
 

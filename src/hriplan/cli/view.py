@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -29,10 +29,7 @@ def view(
     from hriplan.viewer import write_viewer
 
     file_output(output)
-    plan = load_for_task(trajectory, task, quiet)
-    with _writing(output), progress(quiet) as report:
-        report("drawing the robot, the people and the constraints")
-        path = write_viewer(plan, output)
+    path = _drawn(trajectory, task, quiet, output, "drawing the robot, the people and the constraints", write_viewer)
     typer.echo(f"viewer written to {path} ({path.stat().st_size / 1e6:.1f} MB); open it in a browser")
 
 
@@ -46,10 +43,7 @@ def plot(
     from hriplan.viewer import write_plots
 
     directory_output(output)
-    plan = load_for_task(trajectory, task, quiet)
-    with _writing(output), progress(quiet) as report:
-        report("replaying the motion and drawing the figures")
-        paths = write_plots(plan, output)
+    paths = _drawn(trajectory, task, quiet, output, "replaying the motion and drawing the figures", write_plots)
     typer.echo("\n".join(f"figure written to {p}" for p in paths))
 
 
@@ -60,3 +54,11 @@ def _writing(output: Path) -> Iterator[None]:
         yield
     except OSError as exc:
         raise HriplanError(f"cannot write {output}: {exc.strerror or exc}") from None
+
+
+def _drawn(trajectory: Path, task: Path | None, quiet: bool, output: Path, stage: str, draw: Callable) -> Any:
+    """Load the plan (with its task, if given), then draw it into `output` under a progress line."""
+    plan = load_for_task(trajectory, task, quiet)
+    with _writing(output), progress(quiet) as report:
+        report(stage)
+        return draw(plan, output)

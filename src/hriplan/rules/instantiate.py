@@ -211,29 +211,26 @@ def _exclusion_box(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> 
     )
 
 
-def _keep_out_cylinder(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
-    return CylinderConstraint(
+def _keep_out(volume: type[ConstraintSpec], frame: str, arm: Arm, cid: str, **dimensions: float) -> ConstraintSpec:
+    """A volume around a person that the tool and every robot link stay outside."""
+    return volume(
         id=cid,
         joints=arm.joints,
         target_link=arm.tool,
-        frame=FrameRef(entity=f"{anchor}/base"),
+        frame=FrameRef(entity=frame),
         region="outside",
         keep_out_all_links=True,
-        radius=ctx.param(kind, "hasSeparationDistance"),
-        height=ctx.param(kind, "hasHeight"),
+        **dimensions,
     )
+
+
+def _keep_out_cylinder(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    radius, height = ctx.param(kind, "hasSeparationDistance"), ctx.param(kind, "hasHeight")
+    return _keep_out(CylinderConstraint, f"{anchor}/base", arm, cid, radius=radius, height=height)
 
 
 def _keep_out_sphere(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
-    return SphereConstraint(
-        id=cid,
-        joints=arm.joints,
-        target_link=arm.tool,
-        frame=FrameRef(entity=f"{anchor}/head"),
-        region="outside",
-        keep_out_all_links=True,
-        radius=ctx.param(kind, "hasSeparationDistance"),
-    )
+    return _keep_out(SphereConstraint, f"{anchor}/head", arm, cid, radius=ctx.param(kind, "hasSeparationDistance"))
 
 
 FORMS: dict[str, Form] = {

@@ -380,35 +380,21 @@ class TaskRunner:
         decides the velocity rules), then time it under the derived velocity scale."""
         session, robot = self._session(), self._session().robot
         derivation, arms = outcome.derivation, outcome.arms
-        session.set_constraints(derivation.constraint_set())
         group = robot.arm_group(arms[0]) if len(arms) == 1 else robot.default_group
         options = self._options()
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
-        motion = plan_motion(
-            robot,
-            session.checker,
-            list(session.constraints.values()),
-            start,
-            goal,
-            options,
-            group,
-            derivation.separation,
-        )
+
+        def plan(derivation: Derivation) -> MotionResult:
+            session.set_constraints(derivation.constraint_set())
+            constraints = list(session.constraints.values())
+            return plan_motion(robot, session.checker, constraints, start, goal, options, group, derivation.separation)
+
+        motion = plan(derivation)
         if motion.solved and rederive:
             carries = self.knowledge_bases[outcome.name].situation.task.carries
             _, derivation = self.derive_step(step, index, state, carried_paths(robot, start, motion, carries))
             if derivation.constraint_set() != outcome.derivation.constraint_set():  # user rules may depend on the path
-                session.set_constraints(derivation.constraint_set())
-                motion = plan_motion(
-                    robot,
-                    session.checker,
-                    list(session.constraints.values()),
-                    start,
-                    goal,
-                    options,
-                    group,
-                    derivation.separation,
-                )
+                motion = plan(derivation)
         outcome = outcome.model_copy(update={"derivation": derivation})
         if not motion.solved:
             return outcome.model_copy(update={"status": motion.status, "message": motion.message}), start
