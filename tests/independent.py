@@ -19,6 +19,20 @@ from hriplan.robots.descriptions.allegro import hand_joint_name, posture_values
 from hriplan.robots.descriptions.registry import description_of
 
 
+def nearest(shape_a: coal.ShapeBase, at_a: pin.SE3, shape_b: coal.ShapeBase, at_b: pin.SE3) -> coal.DistanceResult:
+    """coal's distance between two placed shapes, with their nearest points."""
+    result = coal.DistanceResult()
+    coal.distance(
+        shape_a,
+        coal.Transform3s(at_a.rotation, at_a.translation),
+        shape_b,
+        coal.Transform3s(at_b.rotation, at_b.translation),
+        coal.DistanceRequest(),
+        result,
+    )
+    return result
+
+
 def outside_distance(spec, local: np.ndarray) -> np.ndarray:
     """Per point (rows of `local`, in the constraint frame): > 0 outside the closed solid, by at
     least that much along some axis (a bound, not the exact distance, except for the sphere)."""

@@ -12,22 +12,7 @@ from hriplan.robots.human import HumanSpec
 from hriplan.robots.robot_geometry import robot_parts
 from hriplan.robots.scene import AttachedObject, Box, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
-
-# Right hand forward at about (0, 0.9, 1.05), left arm folded up: collision free (checked below).
-RIGHT = dict(
-    zip(
-        [
-            "right_shoulder_pan_joint",
-            "right_shoulder_lift_joint",
-            "right_elbow_joint",
-            "right_wrist_1_joint",
-            "right_wrist_2_joint",
-            "right_wrist_3_joint",
-        ],
-        [0.788, 0.215, -0.332, -0.338, 0.585, -0.427],
-    )
-)
-CLEAR = {**RIGHT, "left_shoulder_lift_joint": -2.2, "left_elbow_joint": 1.2}
+from madar_states import CLEAR
 
 
 def test_fitted_capsule_contains_every_point(rng):

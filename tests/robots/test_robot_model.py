@@ -21,15 +21,7 @@ ORIGINS = [
     ((0, -0.09465, 0), (np.pi / 2, 0, 0)),
     ((0, 0.0823, 0), (np.pi / 2, np.pi, np.pi)),
 ]
-LINKS = [
-    "base_link",
-    "shoulder_link",
-    "upper_arm_link",
-    "fore_arm_link",
-    "wrist_1_link",
-    "wrist_2_link",
-    "wrist_3_link",
-]
+LINKS = [f"{n}_link" for n in ("base", "shoulder", "upper_arm", "fore_arm", "wrist_1", "wrist_2", "wrist_3")]
 
 
 def rot(axis, a):

@@ -27,17 +27,8 @@ from hriplan.rules.explain import explain
 from hriplan.rules.geometry import bearing, box_between, rotation_with_axis
 from hriplan.rules.infer import Derivation, DerivedConstraint, derive, infer_constraints
 
-RIGHT_ARM = [
-    f"right_{j}"
-    for j in (
-        "shoulder_pan_joint",
-        "shoulder_lift_joint",
-        "elbow_joint",
-        "wrist_1_joint",
-        "wrist_2_joint",
-        "wrist_3_joint",
-    )
-]
+UR5_JOINTS = [f"{j}_joint" for j in ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")]
+RIGHT_ARM = [f"right_{j}" for j in UR5_JOINTS]
 
 
 @pytest.fixture(scope="module")
@@ -188,14 +179,7 @@ def test_a_peg_follows_the_holes_axis_with_a_tolerance_growing_from_the_goal(der
     alignment = constraints(derived("insertion_ur5"))["alignment_peg1"]
     spec = alignment.spec
     assert isinstance(spec, OrientationConstraint)
-    assert spec.joints == [
-        "shoulder_pan_joint",
-        "shoulder_lift_joint",
-        "elbow_joint",
-        "wrist_1_joint",
-        "wrist_2_joint",
-        "wrist_3_joint",
-    ]
+    assert spec.joints == UR5_JOINTS
     assert spec.target_link == "tool" and spec.free_axes == ["z"]
     assert (spec.tolerance, spec.tolerance_gradient) == (0.02, 0.3)
     hole_axis = situation("insertion_ur5").object("hole1").pose.rotation()[:, 2]  # tilted by 0.2 rad

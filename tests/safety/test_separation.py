@@ -26,6 +26,7 @@ from hriplan.planner.motion import JointTarget
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.timing import time_parameterize
+from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
@@ -48,6 +49,7 @@ from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
 from hriplan.viewer.plots import write_plots
 from hriplan.viewer.scene import build_drawing
+from independent import nearest
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 ROBOT = RobotStopping(reaction_time=0.1, stopping_time=0.2, position_uncertainty=0.02, moving_mass=10.0)
@@ -178,15 +180,8 @@ def _independent_worst(
             travel = policy.robot.reaction_time + policy.robot.stopping_time / 2
             for (_, _, geometry), m_now, m_later in zip(parts, now, later):
                 for name, capsule, placement in caps:
-                    result = coal.DistanceResult()
-                    d = coal.distance(
-                        geometry,
-                        coal.Transform3s(m_now.rotation, m_now.translation),
-                        capsule,
-                        coal.Transform3s(placement.rotation, placement.translation),
-                        coal.DistanceRequest(),
-                        result,
-                    )
+                    result = nearest(geometry, m_now, capsule, placement)
+                    d = result.min_distance
                     p_robot, p_person = result.getNearestPoint1(), result.getNearestPoint2()
                     velocity = (m_later.act(m_now.actInv(p_robot)) - p_robot) / h
                     region = next((c for c in person.contact if name in c.capsules), None)
@@ -215,22 +210,12 @@ def test_the_demo_keeps_the_speed_limit_near_the_giver_at_every_sample(demo):
     for step in demo.steps:
         traj, policy = step.trajectory, step.derivation.separation
         assert policy is not None and policy.person("alice").role == "Giver"
-        points = traj.points
-        worst_speed, worst_gap = _independent_worst(
-            traj.robot,
-            traj.hands,
-            traj.scene,
-            traj.start,
-            traj.joint_names,
-            np.array([p.positions for p in points]),
-            np.array([p.velocities for p in points]),
-            policy,
-        )
+        worst_speed, worst_gap = _trajectory_worst(traj, policy)
         assert worst_speed >= -0.02, f"{step.name}: {worst_speed:.4f} m/s over the allowed speed"
         assert worst_gap > 0.0, f"{step.name}: a moving part is {-worst_gap:.3f} m inside the minimum separation"
         trace = traj.report.separation[0]
         assert trace.person == "alice" and trace.worst_margin == pytest.approx(worst_speed, abs=0.02)
-        assert len(trace.allowed_speed) == len(points)
+        assert len(trace.allowed_speed) == len(traj.points)
         slowed.append(max(a / b for a, b in zip(trace.approach_speed, trace.allowed_speed) if a is not None and b))
     # Leaving the giver's hand is held to the contact cap (1.239 - 0.5 m/s at her lower arm) ...
     assert slowed[1] == pytest.approx(1.0, abs=0.02)
@@ -267,18 +252,17 @@ def test_examples_keep_the_speed_limit_at_every_sample(example):
     assert outcome.solved, [s.message for s in outcome.steps]
     for step in outcome.steps:
         traj = step.trajectory
-        points = traj.points
-        worst_speed, worst_gap = _independent_worst(
-            traj.robot,
-            traj.hands,
-            traj.scene,
-            traj.start,
-            traj.joint_names,
-            np.array([p.positions for p in points]),
-            np.array([p.velocities for p in points]),
-            step.derivation.separation,
-        )
+        worst_speed, worst_gap = _trajectory_worst(traj, step.derivation.separation)
         assert worst_speed >= -0.02 and worst_gap > 0.0, (step.name, worst_speed, worst_gap)
+
+
+def _trajectory_worst(traj: TrajectoryFile, policy: SeparationPolicy) -> tuple[float, float]:
+    """`_independent_worst` over every point of a written trajectory."""
+    positions = np.array([p.positions for p in traj.points])
+    velocities = np.array([p.velocities for p in traj.points])
+    return _independent_worst(
+        traj.robot, traj.hands, traj.scene, traj.start, traj.joint_names, positions, velocities, policy
+    )
 
 
 # -- timing near and far from people ---------------------------------------------------------

@@ -75,17 +75,15 @@ def test_ray_and_local_give_the_same_results(tmp_path, ray_runtime):
     assert kinds["Full"] > kinds["Empty"]
 
 
+def _derive_locally(variants, folder, work):
+    """A derive-only sweep on two local workers, each variant run by `work`."""
+    return run_sweep(variants, folder, LocalEngine(2), plan=False, work=work, progress=False)
+
+
 def test_rerun_skips_finished_variants_and_widening_runs_only_the_new(tmp_path, log_dir):
     def sweep(seeds: str) -> int:
         variants = expand(GIVE, [parse_vary(f"planning.seed={seeds}")])
-        return run_sweep(
-            variants,
-            tmp_path / "s",
-            LocalEngine(2),
-            plan=False,
-            work=partial(helpers.counting, log_dir),
-            progress=False,
-        ).ran
+        return _derive_locally(variants, tmp_path / "s", partial(helpers.counting, log_dir)).ran
 
     assert sweep("1,2") == 2 and len(helpers.calls(log_dir)) == 2
     assert sweep("1,2") == 0 and len(helpers.calls(log_dir)) == 2
@@ -110,14 +108,7 @@ def test_a_dying_worker_is_retried_once_then_recorded(tmp_path, log_dir, engine,
 
 def test_a_worker_that_dies_once_is_retried_and_its_variant_kept(tmp_path, log_dir):
     variants = expand(GIVE, [parse_vary("planning.seed=6:8:1")])
-    run_sweep(
-        variants,
-        tmp_path / "s",
-        LocalEngine(2),
-        plan=False,
-        work=partial(helpers.dies_once_on_seed_7, log_dir),
-        progress=False,
-    )
+    _derive_locally(variants, tmp_path / "s", partial(helpers.dies_once_on_seed_7, log_dir))
     assert sorted(r["status"] for r in _by_key(tmp_path / "s").values()) == ["derived"] * 3
 
 

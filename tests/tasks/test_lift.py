@@ -16,22 +16,9 @@ from hriplan.robots.spatial import Pose
 from hriplan.tasks.goals import LIFT
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
+from madar_states import CLEAR
 
 DATA = Path(__file__).parents[1] / "data" / "people"
-RIGHT = dict(
-    zip(
-        [
-            "right_shoulder_pan_joint",
-            "right_shoulder_lift_joint",
-            "right_elbow_joint",
-            "right_wrist_1_joint",
-            "right_wrist_2_joint",
-            "right_wrist_3_joint",
-        ],
-        [0.788, 0.215, -0.332, -0.338, 0.585, -0.427],
-    )
-)
-CLEAR = {**RIGHT, "left_shoulder_lift_joint": -2.2, "left_elbow_joint": 1.2}
 
 
 def object_bottoms(robot, trajectory, name: str) -> np.ndarray:

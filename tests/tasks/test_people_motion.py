@@ -12,6 +12,7 @@ from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
+from independent import nearest
 
 DATA = Path(__file__).parents[1] / "data" / "people"
 EXAMPLES = Path(__file__).parents[2] / "examples"
@@ -148,16 +149,7 @@ def mesh_separation(robot, trajectory, person: str, contact: tuple[str, ...]) ->
             placed.append((tool * held.grasp.se3(), held.shape.geometry()))
         for where, shape in placed:
             for name, capsule, at in capsules:
-                result = coal.DistanceResult()
-                coal.distance(
-                    shape,
-                    coal.Transform3s(where.rotation, where.translation),
-                    capsule,
-                    coal.Transform3s(at.rotation, at.translation),
-                    coal.DistanceRequest(),
-                    result,
-                )
-                best = min(best, (result.min_distance, name))
+                best = min(best, (nearest(shape, where, capsule, at).min_distance, name))
     return best
 
 

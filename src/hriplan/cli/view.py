@@ -18,13 +18,13 @@ TrajectoryArgument = Annotated[
     Path, typer.Argument(help="A trajectory file written by `hriplan plan` or `solve -o`.", show_default=False)
 ]
 
+HtmlOutput = Annotated[Path, typer.Option("-o", "--output", help="The HTML file to write.", show_default=False)]
+FiguresOutput = Annotated[
+    Path, typer.Option("-o", "--output", help="The directory for the figures.", show_default=False)
+]
 
-def view(
-    trajectory: TrajectoryArgument,
-    output: Annotated[Path, typer.Option("-o", "--output", help="The HTML file to write.", show_default=False)],
-    task: TaskOption = None,
-    quiet: Quiet = False,
-) -> None:
+
+def view(trajectory: TrajectoryArgument, output: HtmlOutput, task: TaskOption = None, quiet: Quiet = False) -> None:
     """Write an offline 3D viewer of a plan: robot, people, scene, constraints, path, animation."""
     from hriplan.viewer import write_viewer
 
@@ -33,12 +33,7 @@ def view(
     typer.echo(f"viewer written to {path} ({path.stat().st_size / 1e6:.1f} MB); open it in a browser")
 
 
-def plot(
-    trajectory: TrajectoryArgument,
-    output: Annotated[Path, typer.Option("-o", "--output", help="The directory for the figures.", show_default=False)],
-    task: TaskOption = None,
-    quiet: Quiet = False,
-) -> None:
+def plot(trajectory: TrajectoryArgument, output: FiguresOutput, task: TaskOption = None, quiet: Quiet = False) -> None:
     """Write figures of a plan: constraint margins, joint positions, velocities, accelerations, distance to people."""
     from hriplan.viewer import write_plots
 
