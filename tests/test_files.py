@@ -100,8 +100,8 @@ def test_a_key_given_twice_names_both_lines_at_any_depth(tmp_path: Path):
 
 
 def test_an_output_is_written_whole_through_a_temporary_file(tmp_path: Path):
-    target = tmp_path / "deep" / "out.json"
-    assert temporary_path(target) == tmp_path / "deep" / "out.json.tmp"
+    target = tmp_path / "deep" / "er" / "out.json"
+    assert temporary_path(target) == tmp_path / "deep" / "er" / "out.json.tmp"
     assert write_atomically(target, "caf\u00e9") == target
     assert target.read_bytes() == "caf\u00e9".encode()
     assert sorted(p.name for p in target.parent.iterdir()) == ["out.json"]
@@ -137,6 +137,8 @@ def test_the_error_location_drops_a_goals_union_tag():
     assert error_location(("goal", "x")) == "goal.x"  # the last part is never a tag
     assert error_location(("goals", 0, "x", "x")) == "goals.0.x"
     assert error_location(("goals", "x", "x")) == "goals.x.x"  # a tag comes two after goals
+    assert error_location(("x", "y", "y", "goals")) == "x.y.y.goals"  # two before the first part is no part
+    assert error_location(("a", "a", "goal")) == "a.a.goal"  # the first part is never a tag
     assert error_location(()) == "(top level)"
 
 

@@ -118,6 +118,16 @@ def test_on_the_cone_surface_the_gradient_is_the_outward_normal():
 unit = st.tuples(coord, coord, coord).map(np.array).filter(lambda v: np.linalg.norm(v) > 0.1)
 
 
+def test_orientation_errors_at_zero_have_a_zero_gradient():
+    """No rotation (or u = v) has no direction to turn back along: the gradient is 0, not NaN."""
+    for angle, grad in (
+        G.rotation_angle(np.eye(3)),
+        G.axis_angle(np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0])),
+    ):
+        assert angle == 0.0 and np.array_equal(grad, np.zeros(3))
+    assert G.axis_angle(np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, -1.0]))[0] == pytest.approx(math.pi)
+
+
 @given(u=unit, v=unit, w=unit)
 def test_axis_angle_is_the_angle_between_the_axes_and_its_gradient_moves_u(u: np.ndarray, v: np.ndarray, w: np.ndarray):
     u, v = u / np.linalg.norm(u), v / np.linalg.norm(v)
