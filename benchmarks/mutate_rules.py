@@ -25,7 +25,7 @@ from hriplan.rules import infer  # noqa: F401
 
 ROOT = Path(__file__).resolve().parents[1]
 RULES = sorted((ROOT / "src/hriplan/rules").glob("*.rules"))
-TESTS = ["tests/rules/test_rules_situations.py"]
+TESTS = ["tests/rules/test_rules_situations.py", "tests/rules/test_rule_files_mutants.py"]
 HEADER = re.compile(r"^\[(\w+)\]\s*$")
 LITERALS = {'"Full"': '"Partial"', '"Partial"': '"Full"', '"Empty"': '"Full"', "true": "false"}
 
