@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 import pytest
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, field_validator
 
 from hriplan import HriplanError
 from hriplan.files import error_location, load_model, read_data, read_text, temporary_path, write_atomically
@@ -32,6 +32,7 @@ def test_a_text_file_is_read_as_utf8(tmp_path: Path):
 def test_a_missing_file_a_directory_and_binary_content_are_named(tmp_path: Path):
     assert _error(read_text, tmp_path / "no.yaml") == f"{tmp_path / 'no.yaml'}: no such file"
     assert _error(read_text, tmp_path, "task file") == f"{tmp_path}: is a directory, not a task file"
+    assert _error(read_text, tmp_path) == f"{tmp_path}: is a directory, not a file"
     (tmp_path / "b.yaml").write_bytes(b"a: 1\x00")
     assert _error(read_text, tmp_path / "b.yaml", "task file") == (
         f"{tmp_path / 'b.yaml'}: not a text file (binary content), expected a task file"
@@ -80,6 +81,28 @@ def test_bad_syntax_names_the_line(tmp_path: Path):
     assert message.startswith(f"{tmp_path / 't.yaml'}: line 3: not valid YAML (") and "Mark" not in message
 
 
+def test_a_character_yaml_refuses_is_named(tmp_path: Path):
+    """A control character is a YAML reader error: it has no problem mark, so no line."""
+    (tmp_path / "t.yaml").write_bytes(b"a: 1\nb: \x01\n")
+    with pytest.raises(HriplanError) as info:
+        read_data(tmp_path / "t.yaml")
+    assert str(info.value).startswith(
+        f"{tmp_path / 't.yaml'}: line ?: not valid YAML (unacceptable character #x0001: special characters"
+    )
+
+
+@pytest.mark.xfail(strict=True, reason="bug: files.py read_data gives the YAML reader error on two lines")
+def test_a_character_yaml_refuses_is_one_line(tmp_path: Path):
+    (tmp_path / "t.yaml").write_bytes(b"a: 1\nb: \x01\n")
+    _error(read_data, tmp_path / "t.yaml")
+
+
+@pytest.mark.xfail(strict=True, raises=TypeError, reason="bug: files.py construct_mapping hashes a list key")
+def test_a_collection_as_a_key_is_one_line(tmp_path: Path):
+    (tmp_path / "t.yaml").write_text("? [1, 2]\n: 3\n")
+    assert "line 1" in _error(read_data, tmp_path / "t.yaml")
+
+
 @pytest.mark.parametrize("constant", ["NaN", "Infinity", "-Infinity"])
 def test_json_constants_that_json_does_not_allow_are_refused(tmp_path: Path, constant: str):
     (tmp_path / "t.json").write_text(f'{{"a": {constant}}}')
@@ -113,6 +136,13 @@ class _Goal(BaseModel):
     model_config = ConfigDict(extra="forbid")
     speed: float
 
+    @field_validator("speed")
+    @classmethod
+    def _not_too_fast(cls, speed: float) -> float:
+        if speed > 10.0:
+            raise ValueError("faster than 10 m/s")
+        return speed
+
 
 class _File(BaseModel):
     model_config = ConfigDict(extra="forbid")
@@ -124,6 +154,8 @@ def test_a_model_error_is_file_field_problem(tmp_path: Path):
     assert _error(load_model, tmp_path / "t.yaml", _File) == (
         f"{tmp_path / 't.yaml'}: goals.1.speed: Input should be a valid number, unable to parse string as a number"
     )
+    (tmp_path / "v.yaml").write_text("goals:\n  - speed: 11\n")
+    assert _error(load_model, tmp_path / "v.yaml", _File) == f"{tmp_path / 'v.yaml'}: goals.0.speed: faster than 10 m/s"
     (tmp_path / "ok.json").write_text(json.dumps({"goals": [{"speed": 2}]}))
     assert load_model(tmp_path / "ok.json", _File) == _File(goals=[_Goal(speed=2.0)])
 

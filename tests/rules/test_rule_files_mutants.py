@@ -47,3 +47,15 @@ def test_a_sharp_object_that_is_not_a_tool_gets_no_tool_rules(tmp_path, cache):
     sharp_glass = _variant(tmp_path, cache, "handover_knife_glass", "glass4", sharp=True)
     assert "SharpEndAway" not in _kinds(sharp_glass, "glass4")
     assert "SharpEndAway" in _kinds(sharp_glass, "knife1")
+
+
+def test_a_giver_handing_to_the_robot_gets_the_handover_constraints_and_a_receiver_does_not(tmp_path, cache):
+    """Kills dropping define_giver or an atom of the take_* rules: no example situation has a giver."""
+    data = json.loads((EXAMPLES_DIR / "handover_can.json").read_text())
+    data["task"]["kind"] = "HumanToRobotHandover"
+    person = data["humans"][0]  # bob, the task's human
+    for role, expected in (("Giver", True), ("Receiver", False)):
+        person["role"] = role
+        (tmp_path / "s.json").write_text(json.dumps(data))
+        kinds = set(_kinds(derive(KnowledgeBase(load_situation(tmp_path / "s.json"), cache=cache)), person["name"]))
+        assert ({"ApproachCone", "SharedWorkspaceBox", "ReceiverExclusionBox"} <= kinds) == expected, role
