@@ -11,14 +11,16 @@ import os
 import numpy as np
 import pinocchio as pin
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import Phase, assume, given, settings
 from hypothesis import strategies as st
 
 from hriplan.planner.constraints import geometry as G
 
 # Reproducible and short; `make mutation` runs each property on fewer examples (many mutants).
 settings.register_profile("ci", max_examples=200, deadline=None, derandomize=True)
-settings.register_profile("mutation", max_examples=25, deadline=None, derandomize=True)
+settings.register_profile(
+    "mutation", max_examples=25, deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate]
+)
 settings.load_profile(os.environ.get("HRIPLAN_HYPOTHESIS_PROFILE", "ci"))
 
 coord = st.floats(-2.0, 2.0, allow_nan=False)
@@ -116,6 +118,19 @@ def test_on_the_cone_surface_the_gradient_is_the_outward_normal():
 
 
 unit = st.tuples(coord, coord, coord).map(np.array).filter(lambda v: np.linalg.norm(v) > 0.1)
+
+
+def test_at_the_centre_of_a_sphere_the_gradient_is_up():
+    assert G.sphere_sd(np.zeros(3), 0.5) == (-0.5, pytest.approx([0.0, 0.0, 1.0]))
+
+
+def test_a_half_turn_twists_by_plus_pi_and_a_half_turn_swing_has_no_twist_gradient():
+    """q = (0, z): w = 0 is not flipped, so the twist stays in (-pi, pi]; a half-turn about x has
+    s = c = 0 (no twist defined) and gives a zero gradient, not NaN."""
+    z = np.array([0.0, 0.0, 1.0])
+    assert G.twist_angle(np.diag([-1.0, -1.0, 1.0]), z)[0] == pytest.approx(math.pi)
+    angle, grad = G.twist_angle(np.diag([1.0, -1.0, -1.0]), z)
+    assert angle == 0.0 and np.array_equal(grad, np.zeros(3))
 
 
 def test_orientation_errors_at_zero_have_a_zero_gradient():

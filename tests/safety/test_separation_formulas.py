@@ -9,14 +9,16 @@ import os
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import Phase, given, settings
 from hypothesis import strategies as st
 
 from hriplan.safety import separation as S
 
 # Reproducible and short; `make mutation` runs each property on fewer examples (many mutants).
 settings.register_profile("ci", max_examples=200, deadline=None, derandomize=True)
-settings.register_profile("mutation", max_examples=25, deadline=None, derandomize=True)
+settings.register_profile(
+    "mutation", max_examples=25, deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate]
+)
 settings.load_profile(os.environ.get("HRIPLAN_HYPOTHESIS_PROFILE", "ci"))
 
 small = st.floats(0.0, 1.0)
