@@ -28,16 +28,16 @@ points = st.tuples(coord, coord, coord).map(np.array)
 lengths = st.floats(0.05, 1.5)
 
 
-def _inside(shape: str, p: np.ndarray, a: float, b: float, c: float) -> bool:
+def _inside(shape: str, p: np.ndarray, a: float, b: float, c: float, tol: float = 0.0) -> bool:
     x, y, z = p
     rho = math.hypot(x, y)
     if shape == "box":
-        return abs(x) <= a / 2 and abs(y) <= b / 2 and abs(z) <= c / 2
+        return abs(x) <= a / 2 + tol and abs(y) <= b / 2 + tol and abs(z) <= c / 2 + tol
     if shape == "sphere":
-        return float(p @ p) <= a * a
+        return math.sqrt(float(p @ p)) <= a + tol
     if shape == "cylinder":
-        return rho <= a and 0.0 <= z <= b
-    return 0.0 <= z <= b and rho * b <= a * z  # cone: apex at the origin, radius a at z = b
+        return rho <= a + tol and -tol <= z <= b + tol
+    return -tol <= z <= b + tol and rho * b <= a * z + tol  # cone: apex at the origin, radius a at z = b
 
 
 def _sd(shape: str, a: float, b: float, c: float):
@@ -83,30 +83,47 @@ def test_the_gradient_is_a_unit_vector_to_the_nearest_surface_point(
     assert (sd(p + h * grad)[0] - d) / h == pytest.approx(1.0, abs=1e-3)
 
 
-@pytest.mark.parametrize("shape", SHAPES)
-@given(a=lengths, b=lengths, c=lengths, u=st.floats(0.0, 1.0), w=st.floats(0.0, 1.0), face=st.integers(0, 5))
-def test_the_signed_distance_is_zero_on_the_surface(
-    shape: str, a: float, b: float, c: float, u: float, w: float, face: int
-):
+def _surface_point(shape: str, a: float, b: float, c: float, u: float, w: float, face: int) -> np.ndarray:
+    """A point on the solid's surface, from two parameters in [0, 1] and a face number."""
     angle = 2.0 * math.pi * u
     if shape == "box":
         p = np.array([(u - 0.5) * a, (w - 0.5) * b, (w - 0.5) * c])
         axis, sign = face % 3, (1.0 if face < 3 else -1.0)
         p[axis] = sign * (a, b, c)[axis] / 2
-    elif shape == "sphere":
+        return p
+    if shape == "sphere":
         polar = math.pi * w
-        p = a * np.array([math.sin(polar) * math.cos(angle), math.sin(polar) * math.sin(angle), math.cos(polar)])
-    elif shape == "cylinder":
-        on_side = face % 2 == 0
-        rho, z = (a, w * b) if on_side else (w * a, b * (face % 4 == 1))
-        p = np.array([rho * math.cos(angle), rho * math.sin(angle), z])
-    else:
-        z = w * b
-        rho = a * z / b if face % 2 == 0 else w * a  # the slant or the top
-        p = np.array([rho * math.cos(angle), rho * math.sin(angle), z if face % 2 == 0 else b])
-    d, grad = _sd(shape, a, b, c)(p)
+        return a * np.array([math.sin(polar) * math.cos(angle), math.sin(polar) * math.sin(angle), math.cos(polar)])
+    if shape == "cylinder":
+        rho, z = (a, w * b) if face % 2 == 0 else (w * a, b * (face % 4 == 1))
+        return np.array([rho * math.cos(angle), rho * math.sin(angle), z])
+    z = w * b
+    rho = a * z / b if face % 2 == 0 else w * a  # the slant or the top
+    return np.array([rho * math.cos(angle), rho * math.sin(angle), z if face % 2 == 0 else b])
+
+
+surface = {"u": st.floats(0.0, 1.0), "w": st.floats(0.0, 1.0), "face": st.integers(0, 5)}
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+@given(a=lengths, b=lengths, c=lengths, **surface)
+def test_the_signed_distance_is_zero_on_the_surface(
+    shape: str, a: float, b: float, c: float, u: float, w: float, face: int
+):
+    d, grad = _sd(shape, a, b, c)(_surface_point(shape, a, b, c, u, w, face))
     assert d == pytest.approx(0.0, abs=1e-12)
     assert np.linalg.norm(grad) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+@given(p=points, a=lengths, b=lengths, c=lengths, **surface)
+def test_the_distance_is_to_the_nearest_point_of_the_solid(
+    shape: str, p: np.ndarray, a: float, b: float, c: float, u: float, w: float, face: int
+):
+    """|d| is at most the distance to any surface point, and p - d grad is a point of the solid."""
+    d, grad = _sd(shape, a, b, c)(p)
+    assert abs(d) <= np.linalg.norm(p - _surface_point(shape, a, b, c, u, w, face)) + 1e-9
+    assert _inside(shape, p - d * grad, a, b, c, tol=1e-9)
 
 
 def test_on_the_cone_surface_the_gradient_is_the_outward_normal():
