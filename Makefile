@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test lint bench mutation clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -35,6 +35,14 @@ bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/bench_planner.py
 	$(BIN)/python benchmarks/bench_reasoning.py
 	$(BIN)/python benchmarks/bench_cli.py
+
+# Not part of `make test` (too slow for CI): mutants of the safety-critical modules against the fast
+# tests that reach them ([tool.mutmut] in pyproject.toml), one worker; then the rule files' mutants.
+mutation: $(VENV)/.installed-test
+	rm -rf mutants
+	HRIPLAN_HYPOTHESIS_PROFILE=mutation $(BIN)/mutmut run --max-children 1
+	$(BIN)/mutmut results
+	$(BIN)/python benchmarks/mutate_rules.py
 
 clean:
 	rm -rf $(VENV)
