@@ -10,7 +10,7 @@ import pytest
 from pydantic import BaseModel, ConfigDict, field_validator
 
 from hriplan import HriplanError
-from hriplan.files import error_location, load_model, read_data, read_text, temporary_path, write_atomically
+from hriplan.files import atomic_path, error_location, load_model, read_data, read_text, temporaries, write_atomically
 from hriplan.tasks.load import load_task
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -124,7 +124,10 @@ def test_a_key_given_twice_names_both_lines_at_any_depth(tmp_path: Path):
 
 def test_an_output_is_written_whole_through_a_temporary_file(tmp_path: Path):
     target = tmp_path / "deep" / "er" / "out.json"
-    assert temporary_path(target) == tmp_path / "deep" / "er" / "out.json.tmp"
+    with atomic_path(target) as tmp:
+        assert tmp.parent == target.parent and tmp.name.startswith(".out.json.") and tmp.suffix == ".tmp"
+        assert temporaries(target) == [tmp] and not target.exists()  # nothing at the target until the end
+    assert temporaries(target) == [] and target.read_bytes() == b""
     assert write_atomically(target, "caf\u00e9") == target
     assert target.read_bytes() == "caf\u00e9".encode()
     assert sorted(p.name for p in target.parent.iterdir()) == ["out.json"]
@@ -171,7 +174,7 @@ def test_the_error_location_drops_a_goals_union_tag():
     assert error_location(("goals", "x", "x")) == "goals.x.x"  # a tag comes two after goals
     assert error_location(("x", "y", "y", "goals")) == "x.y.y.goals"  # two before the first part is no part
     assert error_location(("a", "a", "goal")) == "a.a.goal"  # the first part is never a tag
-    assert error_location(()) == "(top level)"
+    assert error_location(()) == ""
 
 
 def test_a_task_file_loads_and_its_errors_are_one_line(tmp_path: Path):

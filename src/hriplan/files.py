@@ -131,18 +131,23 @@ def load_model(path: str | Path, model: type[M]) -> M:
     try:
         return model.model_validate(data)
     except ValidationError as exc:
-        first = exc.errors()[0]
-        raise HriplanError(
-            f"{path}: {error_location(first['loc'])}: {first['msg'].removeprefix('Value error, ')}"
-        ) from None
+        raise HriplanError(f"{path}: {validation_message(exc)}") from None
+
+
+def validation_message(exc: ValidationError) -> str:
+    """A validation's first error as `FIELD: what is wrong`; an error of the whole model (a check
+    across fields, which names its fields itself) is only what is wrong."""
+    first = exc.errors()[0]
+    where, what = error_location(first["loc"]), first["msg"].removeprefix("Value error, ")
+    return f"{where}: {what}" if where else what
 
 
 def error_location(loc: tuple[int | str, ...]) -> str:
-    """`steps.0.goal.joints` for a pydantic error location: a goal's union tag, which repeats the
-    goal's key (`goal.joints.joints`), is dropped."""
+    """`steps.0.goal.joints` for a pydantic error location ("" for the whole model): a goal's union
+    tag, which repeats the goal's key (`goal.joints.joints`), is dropped."""
 
     def is_tag(k: int) -> bool:
         after_goal = loc[k - 1] == "goal" or (k > 1 and loc[k - 2] == "goals")
         return 0 < k < len(loc) - 1 and loc[k + 1] == loc[k] and after_goal
 
-    return ".".join(str(p) for k, p in enumerate(loc) if not is_tag(k)) or "(top level)"
+    return ".".join(str(p) for k, p in enumerate(loc) if not is_tag(k))

@@ -251,13 +251,13 @@ CASES: list[Case] = [
     C(
         "task_unknown_robot",
         "constraints {d}/t.yaml",
-        "robot: Input should be 'madar' or 'ur5'",
+        "robot: unknown robot 'pr2'; known robots: madar, ur5",
         t__yaml=task(robot="pr2"),
     ),
     C(
         "task_bad_hand_posture",
         "constraints {d}/t.yaml",
-        "hands.right: Input should be 'open', 'power' or 'pinch'",
+        "t.yaml: hands.right: unknown hand posture 'fist'; choose one of open, power, pinch",
         t__yaml=task(robot="madar", hands={"right": "fist"}),
     ),
     C(
@@ -371,7 +371,7 @@ CASES: list[Case] = [
     C(
         "task_bad_start_posture",
         "constraints {d}/t.yaml",
-        "start.posture: Input should be 'home' or 'ready'",
+        "t.yaml: start.posture: robot 'ur5' has no posture 'dance'; postures: home, ready",
         t__yaml=task(start={"posture": "dance"}),
     ),
     C(

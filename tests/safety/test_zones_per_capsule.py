@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hriplan.robots.collision import CollisionChecker
-from hriplan.robots.descriptions.postures import posture
+from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Scene

@@ -20,6 +20,7 @@ from pydantic import (
 )
 
 from hriplan import HriplanError
+from hriplan.files import validation_message
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.human import HAND, HumanSpec, Side, hand_they_reach_out
 from hriplan.robots.spatial import Pose
@@ -149,6 +150,4 @@ def load_situation(path: str | Path) -> Situation:
     except OSError as exc:
         raise HriplanError(f"cannot read situation {path}: {exc.strerror or exc}") from None
     except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "(top level)"
-        raise HriplanError(f"{path}: {where}: {first['msg']}") from None
+        raise HriplanError(f"{path}: {validation_message(exc)}") from None

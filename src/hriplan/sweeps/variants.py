@@ -22,6 +22,7 @@ import numpy as np
 from pydantic import BaseModel, ValidationError
 
 from hriplan import HriplanError
+from hriplan.files import validation_message
 from hriplan.tasks.model import TaskFile
 
 
@@ -182,10 +183,8 @@ def _validated(data: dict[str, Any], values: dict[str, Any], source: str) -> Var
     try:
         task = TaskFile.model_validate(data)
     except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "(top level)"
         shown = ", ".join(f"{p}={json.dumps(v)}" for p, v in values.items())
-        raise HriplanError(f"variant {shown}: {where}: {first['msg']}") from None
+        raise HriplanError(f"variant {shown}: {validation_message(exc)}") from None
     return Variant(key=task_key(task), source=source, values=values, task=task)
 
 

@@ -13,7 +13,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationError, field_validator, model_validator
 
-from hriplan.files import error_location
+from hriplan.files import validation_message
 from hriplan.ontology.situation import FillLevel, Name, Role
 from hriplan.planner.constraints.spec import Axis
 from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
@@ -218,8 +218,7 @@ class Planning(_Strict):
         try:
             PlanOptions(**self.model_dump(exclude_none=True))
         except ValidationError as exc:
-            first = exc.errors()[0]
-            raise ValueError(f"{error_location(first['loc'])}: {first['msg']}") from None
+            raise ValueError(validation_message(exc)) from None
         return self
 
 
