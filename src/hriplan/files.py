@@ -52,6 +52,8 @@ class _UniqueKeyLoader(yaml.SafeLoader):
         for key_node, _ in node.value:
             key = self.construct_object(key_node, deep=True)
             line = key_node.start_mark.line + 1
+            if isinstance(key, list | dict):
+                raise HriplanError(f"line {line}: a key must be a single value, not a {type(key).__name__}")
             if key in seen:
                 raise HriplanError(f"line {line}: key {key!r} is given twice (first at line {seen[key]})")
             seen[key] = line
@@ -80,6 +82,11 @@ def read_data(path: str | Path) -> Any:
         raise HriplanError(f"{path}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
     except ValueError as exc:  # a NaN or Infinity constant in JSON
         raise HriplanError(f"{path}: not valid JSON ({exc})") from None
+    except yaml.reader.ReaderError as exc:  # a character YAML does not allow in its text
+        line = text[: exc.position].count("\n") + 1
+        raise HriplanError(
+            f"{path}: line {line}: not valid YAML (character U+{exc.character:04X} is not allowed)"
+        ) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         raise HriplanError(
