@@ -88,3 +88,23 @@ def test_deriving_constraints_loads_no_visual_mesh():
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
+
+
+def test_a_hand_posture_whose_finger_values_change_is_fitted_again(cache, monkeypatch):
+    # Before: the parts were keyed by the posture's name only, so new finger values under the same
+    # name read back the old fingers from disk (found when the release posture was tuned).
+    from hriplan.robots import model
+    from hriplan.robots.descriptions import allegro
+
+    def fingers(robot) -> list[np.ndarray]:
+        return [p.placement.translation.copy() for p in _parts(robot, 0.0) if "right_hand_finger_3" in p.name]
+
+    model._cached_robot.cache_clear()
+    before = load_robot("madar", {"right": "open"})
+    thumb = fingers(before)
+    monkeypatch.setitem(allegro._THUMB, "open", (1.3, 0.0, 0.0, 0.0))
+    model._cached_robot.cache_clear()
+    after = load_robot("madar", {"right": "open"})
+    assert before.finger_values != after.finger_values
+    assert max(np.linalg.norm(a - b) for a, b in zip(thumb, fingers(after))) > 0.01
+    model._cached_robot.cache_clear()

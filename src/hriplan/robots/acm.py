@@ -33,7 +33,7 @@ MESH = "mesh"  # the reason of pairs checked on their meshes rather than their f
 
 def _key(robot: Robot, parts: tuple[RobotPart, ...], samples: int) -> str:
     shapes = [(p.name, p.joint, p.placement.homogeneous.round(6).tolist(), _shape_key(p.geometry)) for p in parts]
-    text = repr((RULES, robot.urdf, robot.spec.hand_postures, shapes, samples))
+    text = repr((RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, shapes, samples))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

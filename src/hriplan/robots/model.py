@@ -100,16 +100,21 @@ class Robot:
             if frame.parentJoint == 0 and frame.name != "universe":
                 frame.placement = base * frame.placement
 
-    def full_configuration(self, arm_values: Mapping[str, float]) -> np.ndarray:
-        """Configuration of the full URDF model: fingers at their postures, arms as given."""
-        q = pin.neutral(self.full_model)
+    @functools.cached_property
+    def finger_values(self) -> tuple[tuple[str, float], ...]:
+        """Every finger joint's value at its hand's posture (what caches of fitted shapes are keyed
+        by, with the posture names: a posture whose values change is fitted again)."""
+        values = []
         for side, posture in self.hand_postures.items():
             arm = self.description.arms[side]
             hand = hand_model(arm.hand)
-            for joint, value in hand.joint_values(posture).items():
-                jid = self.full_model.getJointId(hand.joint_name(arm.prefix, joint))
-                q[self.full_model.joints[jid].idx_q] = value
-        for name, value in arm_values.items():
+            values += [(hand.joint_name(arm.prefix, j), v) for j, v in hand.joint_values(posture).items()]
+        return tuple(sorted(values))
+
+    def full_configuration(self, arm_values: Mapping[str, float]) -> np.ndarray:
+        """Configuration of the full URDF model: fingers at their postures, arms as given."""
+        q = pin.neutral(self.full_model)
+        for name, value in [*self.finger_values, *arm_values.items()]:
             q[self.full_model.joints[self.full_model.getJointId(name)].idx_q] = value
         return q
 
