@@ -257,7 +257,7 @@ CASES: list[Case] = [
     C(
         "task_bad_hand_posture",
         "constraints {d}/t.yaml",
-        "t.yaml: hands.right: unknown hand posture 'fist'; choose one of open, power, pinch",
+        "t.yaml: hands.right: unknown hand posture 'fist'; choose one of open, power, pinch, release",
         t__yaml=task(robot="madar", hands={"right": "fist"}),
     ),
     C(

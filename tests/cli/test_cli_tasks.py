@@ -31,7 +31,10 @@ def test_plan_writes_a_trajectory_and_reports_json(planned):
     result, out = planned
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
-    assert report["solved"] and report["files"] == [str(out / "handover.json")]
+    assert report["solved"] and report["files"] == [
+        str(out / "handover.json"),
+        str(out / "handover.hand_over_release.json"),
+    ]
     step = report["steps"][0]
     assert step["kind"] == "RobotToHumanHandover" and step["report"]["max_violation"]["upright_can"] <= 1e-4
     assert constraint_violations(TrajectoryFile.model_validate_json((out / "handover.json").read_text())) == []
@@ -124,9 +127,19 @@ def test_query_with_a_task_answers_for_every_step():
 def test_plan_of_a_task_writes_one_viewer_page_for_all_its_steps(tmp_path):
     result = run("plan", TWO_STEPS, "-o", tmp_path / "can.json", "--html", tmp_path / "can.html", "--seed", "1", "-q")
     assert result.returncode == 0, result.stderr
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["can.html", "can.place_can.json", "can.take_can.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "can.html",
+        "can.place_can.json",
+        "can.place_can_release.json",
+        "can.take_can.json",
+    ]
     html = (tmp_path / "can.html").read_text()
-    assert "step 1: take_can" in html and "step 2: place_can" in html and 'id="hriplan-commands-1"' in html
+    assert (
+        "step 1: take_can" in html
+        and "step 2: place_can" in html
+        and "step 3: place_can_release" in html
+        and 'id="hriplan-commands-1"' in html
+    )
 
 
 def test_seed_and_project_start_reach_the_planner_from_the_file_and_the_command_line(tmp_path, monkeypatch):

@@ -150,8 +150,9 @@ def test_a_planned_row_reproduces_a_direct_plan_of_its_task(monkeypatch):
     from hriplan.tasks.pipeline import TaskRunner
 
     variant = expand(GIVE, [parse_vary("planning.seed=3")])[0]
-    (row,) = run_variant(variant)
+    row, release = run_variant(variant)
     assert row["status"] == "solved" and row["step"] == "hand_over"
+    assert (release["status"], release["step"]) == ("solved", "hand_over_release")
     direct = TaskRunner(TaskFile.model_validate_json(row["task"])).run(plan=True).steps[0]
     report = direct.trajectory.report
     assert row["path_length"] == pytest.approx(report.path_length, rel=1e-9)
@@ -164,10 +165,12 @@ def test_a_planned_row_reproduces_a_direct_plan_of_its_task(monkeypatch):
     points = [p.positions for p in direct.trajectory.points]
     length = sum(sum((a - b) ** 2 for a, b in zip(p, q)) ** 0.5 for p, q in zip(points, points[1:]))
     assert row["path_length"] == pytest.approx(length, rel=0.05)
-    # a second variant on the same robot and hands reuses this worker's session
-    (session,) = session_module._WORKER_SESSIONS.values()
+    # a second variant on the same robot and hands reuses this worker's sessions (the task's
+    # hands, and the hand opened to let go)
+    sessions = list(session_module._WORKER_SESSIONS.values())
+    assert sorted(s.robot.hand_postures["right"] for s in sessions) == ["power", "release"]
     run_variant(expand(GIVE, [parse_vary("planning.seed=4")])[0])
-    assert list(session_module._WORKER_SESSIONS.values()) == [session]
+    assert list(session_module._WORKER_SESSIONS.values()) == sessions
 
 
 def test_batch_keys_files_and_a_failed_derivation_is_an_error_row(tmp_path):

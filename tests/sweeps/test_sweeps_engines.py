@@ -68,7 +68,7 @@ def test_ray_and_local_give_the_same_results(tmp_path, ray_runtime):
             "min_separation.bob",
         ):
             assert row.get(column) == remote[k].get(column), (k, column)
-    planned_rows = [r for r in local.values() if r["status"] == "solved"]
+    planned_rows = [r for r in local.values() if r["status"] == "solved" and not r["step"].endswith("_release")]
     assert len(planned_rows) == 2 and all(r["path_length"] > 0 for r in planned_rows)
     # the rules see each variant's facts: a full can brings constraints an empty one does not
     kinds = {r["vary.objects.can.fill_level"]: set(r["constraint_kinds"].split(",")) for r in planned_rows}

@@ -62,7 +62,7 @@ def test_a_glass_carried_past_a_bystander_is_slowed_by_its_closest_approach_alon
     runner, outcome = run(DATA / "glass_past_bystander.yaml")
     derived_before_planning = TaskRunner(load_task(DATA / "glass_past_bystander.yaml")).run(plan=False).steps[0]
     assert derived_before_planning.derivation.velocity_scale == 1.0  # at the start she is 1.45 m away
-    (step,) = outcome.steps
+    step, _ = outcome.steps  # the carry, then backing away from the glass put down
     assert step.status == "solved", step.message
     assert step.derivation.velocity_scale == 0.5 and step.trajectory.report.velocity_scale == 0.5
     (slow,) = step.derivation.velocity
@@ -82,7 +82,7 @@ def inside_cone(points: np.ndarray, frame: np.ndarray, radius: float, height: fl
 
 def test_a_seated_receiver_is_approached_inside_a_cone_aimed_at_the_start():
     runner, outcome = run(DATA / "seated_receiver_empty_can.yaml")
-    (step,) = outcome.steps
+    step, _ = outcome.steps  # the handover, then backing away from the can handed over
     assert step.status == "solved", step.message  # before: invalid_start, 0.04 outside the cone
     cone = next(c for c in step.trajectory.constraints if isinstance(c.spec, ConeConstraint))
     outside = inside_cone(
@@ -155,9 +155,10 @@ def mesh_separation(robot, trajectory, person: str, contact: tuple[str, ...]) ->
 
 def test_scissors_held_upright_are_turned_in_place_then_handed_over_blades_away():
     runner, outcome = run(DATA / "scissors_one_step.yaml")
-    assert [s.name for s in outcome.steps] == ["hand_over_prepare", "hand_over"], [s.message for s in outcome.steps]
+    names = [s.name for s in outcome.steps]
+    assert names == ["hand_over_prepare", "hand_over", "hand_over_release"], [s.message for s in outcome.steps]
     assert all(s.status == "solved" for s in outcome.steps)
-    prepare, hand_over = outcome.steps
+    prepare, hand_over, _ = outcome.steps
     assert "sharp_end_away_scissors" not in {c.spec.id for c in prepare.derivation.constraints}
     # Blades (tool +y holds the scissors' axis) point away from bob, towards the robot (-y), within
     # 0.5 rad at every instant of the handover; at its start they did not (the scissors were upright).
@@ -208,8 +209,9 @@ def test_a_full_glass_is_picked_from_the_side_above_the_table_lifted_brought_int
         ("pick_lift", "solved"),
         ("hand_over_prepare", "solved"),
         ("hand_over", "solved"),
+        ("hand_over_release", "solved"),
     ]
-    pick, lift, prepare, hand_over = (s.trajectory for s in outcome.steps)
+    pick, lift, prepare, hand_over, _ = (s.trajectory for s in outcome.steps)
     robot = runner.session.robot
     (glass,) = lift.scene.attached
     # held 4 cm (40% of its 10 cm) above its middle, its axis along the tool's y

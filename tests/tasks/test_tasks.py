@@ -57,8 +57,8 @@ def test_provenance_names_rules_and_facts():
 def test_handover_task_plans_both_steps_and_every_trajectory_validates():
     runner = TaskRunner(load_task(EXAMPLES / "handover_full_can.yaml"))
     outcome = runner.run(plan=True)
-    assert outcome.solved and [s.name for s in outcome.steps] == ["take_can", "place_can"]
-    take, place = outcome.steps
+    assert outcome.solved and [s.name for s in outcome.steps] == ["take_can", "place_can", "place_can_release"]
+    take, place, _ = outcome.steps
     assert take.trajectory.scene.attached == [] and [a.name for a in place.trajectory.scene.attached] == ["coke_can"]
     reasons = {c.spec.id: c.reason for c in place.trajectory.constraints}
     assert reasons["upright_coke_can"].startswith("A full open container")

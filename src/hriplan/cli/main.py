@@ -66,7 +66,9 @@ def _postures(items: list[str]) -> dict[str, str]:
     return postures
 
 
-HandOption = Annotated[list[str], typer.Option("--hand", help="Hand posture, SIDE=open|power|pinch (repeatable).")]
+HandOption = Annotated[
+    list[str], typer.Option("--hand", help="Hand posture, SIDE=open|power|pinch|release (repeatable).")
+]
 
 
 RobotName = Annotated[str | None, typer.Argument(help="madar or ur5 (none: list the robots).", show_default=False)]

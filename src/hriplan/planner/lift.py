@@ -1,4 +1,4 @@
-"""Lifting a grasped object off what it stands on: the retreat after a pick.
+"""The short straight tool motions around a grasp: the lift after a pick, the retreat after a release.
 
 An object standing on a table touches it, so once grasped it cannot leave in a collision-free
 motion: every start would be "in collision (cup - table)". As a place ends with the object
@@ -6,11 +6,18 @@ released a clearance above its place, a pick ends with the object lifted that fa
 (the task runner says how far): the tool rises in a straight joint-space line from the grasp to its
 IK solution that much higher, nearest the grasp. While lifting, the object is not checked against what it stands on
 (`AttachedObject.resting_on`); instead the lift must rise at every dense state (the object can
-only move away from its support) and end clear of it. Everything else is checked as in any
-motion, and the lift is timed and validated like one (tasks/pipeline.py).
+only move away from its support) and end clear of it.
+
+A released object (put down, handed over, inserted) is still between the fingers, so nothing
+could follow a release: the hand opens and backs away along its approach axis (the tool's -z),
+the released object touched by that hand only at the first dense states, until it is clear.
+Both motions are checked like any other otherwise, and timed and validated like one
+(tasks/pipeline.py).
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -18,37 +25,146 @@ from hriplan.planner.validate import densify
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import Robot
+from hriplan.robots.scene import Scene
 
-# A lift may drift sideways this much (m) and must rise by at least this much between dense states.
+# A straight tool motion may drift sideways this much (m) and must advance at least this much
+# between dense states.
 SIDEWAYS = 0.005
-RISE = -1e-6
+ADVANCE = -1e-6
 STEP = 0.01  # rad, as the planner's validation
+WAYPOINT = 0.02  # m between the IK solutions a straight tool motion follows
+# How far a hand backs away after a release, shortest first: the first that leaves the released
+# object clear of the hand, open and closed.
+RETREATS = (0.06, 0.09, 0.12, 0.16)
 
 
 def supports(checker: CollisionChecker, q: np.ndarray, obj: str) -> list[str]:
-    """The obstacles the held object `obj` touches at `q` (what it stands on)."""
+    """The obstacles the object `obj` touches at `q` (what it stands on, or the hand around it)."""
     return sorted({c.b if c.a == obj else c.a for c in checker.contacts(q) if obj in (c.a, c.b)})
+
+
+def straight_tool_path(
+    robot: Robot, checker: CollisionChecker, arm: str, q_start: np.ndarray, move: np.ndarray, what: str
+) -> tuple[list[np.ndarray] | None, str]:
+    """The arm's waypoints (the start first) for the tool moved by the world vector `move` from
+    `q_start`: an IK solution every WAYPOINT m, each nearest the one before and valid on
+    `checker`; at every state of the joint lines between them (10 mrad apart) the tool advances
+    along `move` and is at most SIDEWAYS off the line. Or None and why (`what` names the target
+    in the message)."""
+    group = robot.arm_group(arm)
+    tool = robot.frame_pose(robot.tool_frame(arm), q_start)
+    length = float(np.linalg.norm(move))
+    waypoints = [robot.group_values(q_start, group)]
+    for fraction in np.linspace(0.0, 1.0, max(2, int(np.ceil(length / WAYPOINT)) + 1))[1:]:
+        target = tool.copy()
+        target[:3, 3] += fraction * move
+        base = robot.configuration(waypoints[-1], group, base=q_start)
+        ik = solve_ik(
+            robot, arm, target, base_q=base, reference=waypoints[-1], is_valid=lambda q: not checker.in_collision(q)
+        )
+        if not ik.success:
+            return None, f"no valid IK solution {what}: {ik.message}"
+        waypoints.append(np.asarray(ik.q, dtype=float))
+    direction = move / length
+    along, drift = [], 0.0
+    for x in densify(waypoints, STEP):
+        at = robot.frame_pose(robot.tool_frame(arm), robot.configuration(x, group, base=q_start))[:3, 3] - tool[:3, 3]
+        along.append(float(at @ direction))
+        drift = max(drift, float(np.linalg.norm(at - along[-1] * direction)))
+    if np.diff(along).min(initial=0.0) < ADVANCE or drift > SIDEWAYS:
+        return None, f"the straight line {what} is not straight (drifts {drift:.3f} m sideways)"
+    return waypoints, ""
 
 
 def lift_path(
     robot: Robot, checker: CollisionChecker, arm: str, q_grasp: np.ndarray, height: float
-) -> tuple[np.ndarray | None, str]:
-    """The arm's values `height` above the grasp, reached by a straight joint line that rises all
-    the way (checked on `checker`, whose scene lets the object touch its supports), or None and why."""
-    group = robot.arm_group(arm)
-    tool = robot.frame_pose(robot.tool_frame(arm), q_grasp)
-    target = tool.copy()
-    target[2, 3] += height
-    x_grasp = robot.group_values(q_grasp, group)
-    ik = solve_ik(robot, arm, target, base_q=q_grasp, reference=x_grasp, is_valid=lambda q: not checker.in_collision(q))
-    if not ik.success:
-        return None, f"no valid IK solution {height} m above the grasp: {ik.message}"
-    x_lift = np.asarray(ik.q, dtype=float)
-    heights, drift = [], 0.0
-    for x in densify([x_grasp, x_lift], STEP):
-        at = robot.frame_pose(robot.tool_frame(arm), robot.configuration(x, group, base=q_grasp))[:3, 3]
-        heights.append(at[2])
-        drift = max(drift, float(np.linalg.norm(at[:2] - tool[:2, 3])))
-    if np.diff(heights).min(initial=0.0) < RISE or drift > SIDEWAYS:
-        return None, f"the straight lift does not rise straight up (drifts {drift:.3f} m sideways)"
-    return x_lift, ""
+) -> tuple[list[np.ndarray] | None, str]:
+    """The arm's waypoints to `height` above the grasp, rising straight all the way (checked on
+    `checker`, whose scene lets the object touch its supports), or None and why."""
+    return straight_tool_path(robot, checker, arm, q_grasp, np.array([0.0, 0.0, height]), f"{height} m above the grasp")
+
+
+def retreat_directions(robot: Robot, arm: str, arrival: list[np.ndarray]) -> list[tuple[str, np.ndarray]]:
+    """The ways a hand may back away from where the configurations `arrival` (the released step's
+    motion, the last at the release) bring it, in order: away from the palm (the tool's -z), back
+    the way it came (from the last tool position at least WAYPOINT away), straight up."""
+    tool = [robot.frame_pose(robot.tool_frame(arm), q) for q in arrival]
+    ways = [("away from the palm", -tool[-1][:3, 2])]
+    came = next(
+        (t[:3, 3] - tool[-1][:3, 3] for t in reversed(tool) if np.linalg.norm(t[:3, 3] - tool[-1][:3, 3]) >= WAYPOINT),
+        None,
+    )
+    if came is not None:
+        ways.append(("back the way it came", came / np.linalg.norm(came)))
+    return [*ways, ("straight up", np.array([0.0, 0.0, 1.0]))]
+
+
+def retreat_path(
+    hands: Sequence[Robot],
+    closed: Robot,
+    arm: str,
+    arrival: list[np.ndarray],
+    released: str,
+    touching: Scene,
+    free: Scene,
+) -> tuple[Robot | None, list[np.ndarray] | None, str]:
+    """A retreat from the release (the last of the configurations `arrival` that brought the
+    hand there): the first of the robots `hands` (the hand opened, then as it closed) whose hand
+    is clear at the release but for the released object, and the arm's waypoints along the first
+    of the retreat_directions and RETREATS that works: straight, valid in the `touching` scene
+    (where this hand may touch the released object) at every dense state, touching `released`
+    (in the `free` scene, without that allowance) only on a first stretch, and at the end clear
+    of everything in the `free` scene with that hand and the hand `closed` (as the next step has
+    it). Or (None, None, why each way failed)."""
+    q_release, failures = arrival[-1], []
+    next_start = CollisionChecker(closed, free)
+    for hand in hands:
+        checker, untouched = CollisionChecker(hand, touching), CollisionChecker(hand, free)
+        posture = hand.hand_postures.get(arm, "bare")
+        if checker.in_collision(q_release):
+            failures.append(f"the hand {posture} at the release collides: {_contacts(checker, q_release)}")
+            continue
+        for way, direction in retreat_directions(hand, arm, arrival):
+            waypoints, why = _retreat_along(hand, arm, q_release, released, direction, checker, untouched, next_start)
+            if waypoints is not None:
+                return hand, waypoints, ""
+            failures.append(f"the hand {posture}, {way}: {why}")
+    return None, None, "; ".join(failures)
+
+
+def _retreat_along(
+    opened: Robot,
+    arm: str,
+    q_release: np.ndarray,
+    released: str,
+    direction: np.ndarray,
+    checker: CollisionChecker,
+    untouched: CollisionChecker,
+    next_start: CollisionChecker,
+) -> tuple[list[np.ndarray] | None, str]:
+    """The first of RETREATS along `direction` that retreat_path accepts, or None and why (the
+    farthest that had a straight path, else the first)."""
+    group, told = opened.arm_group(arm), ""
+    for distance in RETREATS:
+        waypoints, why = straight_tool_path(opened, checker, arm, q_release, direction * distance, f"{distance} m away")
+        told = why if not told else told
+        if waypoints is None:
+            continue
+        states = [opened.configuration(x, group, base=q_release) for x in densify(waypoints, STEP)]
+        hit = next((q for q in states if checker.in_collision(q)), None)
+        if hit is not None:
+            told = f"{distance} m away it collides: {_contacts(checker, hit)}"
+            continue
+        touches = [any(released in (c.a, c.b) for c in untouched.contacts(q)) for q in states]
+        if touches[-1] or (False in touches and True in touches[touches.index(False) :]):
+            told = f"{distance} m away the hand {'still' if touches[-1] else 'again'} touches {released}"
+            continue
+        if next_start.in_collision(states[-1]):
+            told = f"{distance} m away the next step would start in collision: {_contacts(next_start, states[-1])}"
+            continue
+        return waypoints, ""
+    return None, told
+
+
+def _contacts(checker: CollisionChecker, q: np.ndarray) -> str:
+    return ", ".join(f"{c.a} - {c.b}" for c in checker.contacts(q)[:3])

@@ -7,6 +7,7 @@ centre at the tool frame) and the spin about that axis is left free for IK to ch
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,10 +15,20 @@ import numpy as np
 from hriplan import HriplanError
 from hriplan.planner.motion import JointTarget, Target, ToolTarget
 from hriplan.robots.bounding import frame_with_z
+from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.spatial import Pose, Transform
 from hriplan.tasks.grasps import object_length
 from hriplan.tasks.model import Goal as TaskGoal
-from hriplan.tasks.model import GraspGoal, HandOverGoal, InsertGoal, JointsGoal, PlaceGoal, TakeGoal, ToolPoseGoal
+from hriplan.tasks.model import (
+    GraspGoal,
+    HandOverGoal,
+    InsertGoal,
+    JointsGoal,
+    PlaceGoal,
+    PostureGoal,
+    TakeGoal,
+    ToolPoseGoal,
+)
 from hriplan.tasks.task_state import TaskState, handover_point
 
 # The planned motion stops short of contact; the last centimetres (setting an object down, pushing
@@ -63,14 +74,24 @@ def _to_object(arm: str, name: str, object_pose: Transform, state: TaskState) ->
     return ResolvedGoal(goal, name, Pose.from_se3(object_pose))
 
 
-def resolve_goal(goal: TaskGoal, arm: str, state: TaskState, held_axis: np.ndarray | None = None) -> ResolvedGoal:
+def resolve_goal(
+    goal: TaskGoal,
+    arm: str,
+    state: TaskState,
+    held_axis: np.ndarray | None = None,
+    arm_joints: Sequence[str] = (),
+) -> ResolvedGoal:
     """The motion goal of a step's goal for `arm`, and what it is about.
 
     `held_axis`: the world direction the held object's axis should have at the goal (kept from
     now, or turned onto an orientation constraint: scissors pointed away from the receiver),
-    else it arrives upright."""
+    else it arrives upright. `arm_joints`: the arm's joints, which a posture goal sets (those
+    its posture does not list to 0)."""
     if isinstance(goal, JointsGoal):
         return ResolvedGoal(JointTarget(values=goal.joints), None)
+    if isinstance(goal, PostureGoal):
+        values = posture(state.task.robot, goal.posture)
+        return ResolvedGoal(JointTarget(values={j: values.get(j, 0.0) for j in arm_joints}), None)
     if isinstance(goal, ToolPoseGoal):
         return ResolvedGoal(ToolTarget(arm=arm, pose=goal.tool_pose, free_axes=goal.free_axes), None)
     if isinstance(goal, GraspGoal):

@@ -96,6 +96,12 @@ class JointsGoal(_Strict):
     joints: dict[str, Finite]
 
 
+class PostureGoal(_Strict):
+    """One of the robot's named postures, for the arms the step moves."""
+
+    posture: str
+
+
 class ToolPoseGoal(_Strict):
     tool_pose: Pose
     free_axes: list[Axis] = Field(default_factory=list)
@@ -128,6 +134,7 @@ class InsertGoal(_Strict):
 
 GOAL_KINDS = {
     "joints": JointsGoal,
+    "posture": PostureGoal,
     "tool_pose": ToolPoseGoal,
     "grasp": GraspGoal,
     "hand_over": HandOverGoal,
@@ -149,6 +156,7 @@ def _goal_kind(value: object) -> str | None:
 
 Goal = Annotated[
     Annotated[JointsGoal, Tag("joints")]
+    | Annotated[PostureGoal, Tag("posture")]
     | Annotated[ToolPoseGoal, Tag("tool_pose")]
     | Annotated[GraspGoal, Tag("grasp")]
     | Annotated[HandOverGoal, Tag("hand_over")]
@@ -284,6 +292,11 @@ class TaskFile(_Strict):
                 )
         for k, step in enumerate(self.steps):
             for goal in [step.goal, *step.goals]:
+                if isinstance(goal, PostureGoal) and goal.posture not in description.postures:
+                    raise ValueError(
+                        f"steps.{k}: robot {self.robot!r} has no posture {goal.posture!r}; "
+                        f"postures: {', '.join(description.postures)}"
+                    )
                 for field in ("grasp", "hand_over", "take", "place", "insert", "into"):
                     value = getattr(goal, field, None)
                     if value is not None and value not in objects:

@@ -7,7 +7,6 @@ provenance -> planning scene and goal -> plan -> validated, timed trajectory.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,7 +19,7 @@ from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation, SituationHuman, SituationObject, SituationTask
 from hriplan.planner.constraints.spec import ConstraintSpec
 from hriplan.planner.kinematics import carried_paths, tool_poses
-from hriplan.planner.lift import lift_path, supports
+from hriplan.planner.lift import lift_path, retreat_path, supports
 from hriplan.planner.motion import JointTarget, MotionResult, Target, ToolTarget, plan_motion
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import SUCCEEDED, Status
@@ -34,16 +33,29 @@ from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
 from hriplan.tasks.goals import LIFT, ResolvedGoal, after_step, resolve_goal, task_kind
 from hriplan.tasks.grasps import Grasp, allowed_grasps
-from hriplan.tasks.model import GraspGoal, Step, TaskFile, step_name
+from hriplan.tasks.model import (
+    Goal,
+    GraspGoal,
+    HandOverGoal,
+    InsertGoal,
+    PlaceGoal,
+    PostureGoal,
+    Step,
+    TaskFile,
+    step_name,
+)
 from hriplan.tasks.task_state import TaskState
 
 if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is planned
     from hriplan.planner.session import PlanningSession
 
 Progress = Callable[[str], None]
-# Motions the pipeline adds to a task step, named after it: a turn in place before, a lift after a pick.
-PREPARE, LIFT_OFF = "_prepare", "_lift"
-ADDED_MOTIONS = {PREPARE: "the preparatory motion before", LIFT_OFF: "the lift after"}
+# Motions the pipeline adds to a task step, named after it: a turn in place before, a lift after a
+# pick, the hand opening and backing away after a release.
+PREPARE, LIFT_OFF, RELEASE = "_prepare", "_lift", "_release"
+ADDED_MOTIONS = {PREPARE: "the preparatory motion before", LIFT_OFF: "the lift after", RELEASE: "the retreat after"}
+# Goals at whose end the arm lets its object go.
+RELEASING = (PlaceGoal, HandOverGoal, InsertGoal)
 
 
 class StepOutcome(BaseModel):
@@ -233,7 +245,7 @@ class TaskRunner:
         }
         scene = state.scene(touched)
         held = self._held_axes(start, state, derivation, scene) if plan else {}
-        resolved = [resolve_goal(g, arm, state, held.get(arm)) for g, arm in zip(goals, arms)]
+        resolved = [resolve_goal(g, arm, state, held.get(arm), self._arm_joints(g, arm)) for g, arm in zip(goals, arms)]
         outcome = StepOutcome(
             name=kb.situation.task.name,
             kind=kb.situation.task.kind,
@@ -249,6 +261,13 @@ class TaskRunner:
         if grasps and planned[-1].status != Status.SOLVED:
             planned[-1] = planned[-1].model_copy(update={"message": f"{planned[-1].message} (holding {grasps})"})
         return planned, end, resolved
+
+    def _arm_joints(self, goal: Goal, arm: str) -> list[str]:
+        """The arm's joints, for a goal that sets them all (a posture); [] for any other goal."""
+        if not isinstance(goal, PostureGoal):
+            return []
+        robot = self._robot()
+        return robot.group_joints(robot.arm_group(arm))
 
     def _robot(self) -> Robot:
         return (
@@ -310,6 +329,9 @@ class TaskRunner:
         if final.status == Status.SOLVED and isinstance(step.goal, GraspGoal) and not step.goals:
             lift, end = self._lift(step.goal, resolved[0], state, end, final)
             outcomes += [lift] if lift is not None else []
+        if final.status == Status.SOLVED and isinstance(step.goal, RELEASING) and not step.goals:
+            retreat, end = self._release(step.goal, resolved[0], state, end, final)
+            outcomes.append(retreat)
         return outcomes, end
 
     def _lift(
@@ -318,12 +340,7 @@ class TaskRunner:
         """After a pick, lift the object straight off what it stands on (planner/lift.py), timed and
         validated under the pick's constraints; None if it stands on nothing."""
         session, robot, (arm,) = self._session(), self._session().robot, grasped.arms
-        held = replace(
-            state,
-            held_by_arm=dict(state.held_by_arm),
-            held_by_person=dict(state.held_by_person),
-            poses=dict(state.poses),
-        )
+        held = state.copied()
         after_step(goal, resolved, arm, held)
         scene = held.scene()
         session.set_scene(scene)
@@ -339,16 +356,16 @@ class TaskRunner:
             }
         )
         session.set_scene(lifting)
-        x_lift, why = lift_path(robot, session.checker, arm, q, LIFT)
+        path, why = lift_path(robot, session.checker, arm, q, LIFT)
         outcome = grasped.model_copy(
             update={"name": f"{grasped.name}{LIFT_OFF}", "kind": "Transport", "scene": lifting, "trajectory": None}
         )
         group = robot.arm_group(arm)
-        if x_lift is not None:
+        if path is not None:
             session.set_scene(scene)
-            if session.checker.in_collision(robot.configuration(x_lift, group, base=q)):
-                x_lift, why = None, f"{LIFT} m up it still touches {', '.join(resting)}"
-        if x_lift is None:
+            if session.checker.in_collision(robot.configuration(path[-1], group, base=q)):
+                path, why = None, f"{LIFT} m up it still touches {', '.join(resting)}"
+        if path is None:
             return outcome.model_copy(
                 update={
                     "status": Status.UNREACHABLE_GOAL,
@@ -356,15 +373,81 @@ class TaskRunner:
                 }
             ), start
         session.set_scene(lifting)
-        session.set_constraints(grasped.derivation.constraint_set())
+        return self._straight(session, outcome, arm, q, path, grasped.derivation, start)
+
+    def _release(
+        self,
+        goal: PlaceGoal | HandOverGoal | InsertGoal,
+        resolved: ResolvedGoal,
+        state: TaskState,
+        start: dict[str, float],
+        done: StepOutcome,
+    ) -> tuple[StepOutcome, dict[str, float]]:
+        """After a place, a handover or an insertion the hand opens (to its hand model's
+        `released` posture where that is clear, else it stays as the task closes it) and backs
+        straight away (planner/lift.py), touching the released object only at first, and ends
+        where the hand, either way, is clear of it: any step can follow. Timed and validated under
+        the step's constraints but those on the released object."""
+        (arm,) = done.arms
+        obj = resolved.moved_object
+        after = state.copied()
+        after_step(goal, resolved, arm, after)
+        closed = self._session()
+        hand = description_of(self.task.robot).arms[arm].hand
+        sessions = [closed]
+        if hand is not None and closed.robot.hand_postures.get(arm) != hand_model(hand).released:
+            from hriplan.planner.session import worker_session
+
+            released = closed.robot.hand_postures | {arm: hand_model(hand).released}
+            sessions.insert(0, worker_session(self.task.robot, released))
+        scene = after.scene({obj: arm})
+        q = closed.robot.configuration(start)
+        came = done.trajectory
+        arrival = [closed.robot.configuration(dict(zip(came.joint_names, p.positions)), base=q) for p in came.points]
+        robots = [s.robot for s in sessions]
+        used, path, why = retreat_path(robots, closed.robot, arm, arrival, obj, scene, after.scene())
+        kept = done.derivation.model_copy(
+            update={"constraints": [c for c in done.derivation.constraints if c.anchor != obj]}
+        )
+        outcome = done.model_copy(
+            update={
+                "name": f"{done.name}{RELEASE}",
+                "kind": "Transport",
+                "scene": scene,
+                "derivation": kept,
+                "trajectory": None,
+            }
+        )
+        if path is None:
+            return outcome.model_copy(
+                update={"status": Status.UNREACHABLE_GOAL, "message": f"backing away from {obj}: {why}"}
+            ), start
+        opened = sessions[robots.index(used)]
+        opened.set_scene(scene)
+        return self._straight(opened, outcome, arm, q, path, kept, start)
+
+    def _straight(
+        self,
+        session: PlanningSession,
+        outcome: StepOutcome,
+        arm: str,
+        q: np.ndarray,
+        path: list[np.ndarray],
+        derivation: Derivation,
+        start: dict[str, float],
+    ) -> tuple[StepOutcome, dict[str, float]]:
+        """A straight tool motion of `arm` from `q` through its waypoints `path` (the first is
+        `q`'s), timed and validated on `session` (its scene as set) under `derivation`."""
+        robot, group = session.robot, session.robot.arm_group(arm)
+        session.set_constraints(derivation.constraint_set())
         motion = MotionResult(
             status=Status.SOLVED,
             group=group,
             joint_names=robot.group_joints(group),
             start=dict(zip(robot.joint_names, q.tolist())),
-            path=[robot.group_values(q, group).tolist(), x_lift.tolist()],
+            path=[np.asarray(x).tolist() for x in path],
         )
-        return self._timed(outcome, motion, grasped.derivation, start)
+        return self._timed(outcome, motion, derivation, start, session)
 
     def _motion(
         self,
@@ -401,12 +484,17 @@ class TaskRunner:
         return self._timed(outcome, motion, derivation, start)
 
     def _timed(
-        self, outcome: StepOutcome, motion: MotionResult, derivation: Derivation, start: dict[str, float]
+        self,
+        outcome: StepOutcome,
+        motion: MotionResult,
+        derivation: Derivation,
+        start: dict[str, float],
+        session: PlanningSession | None = None,
     ) -> tuple[StepOutcome, dict[str, float]]:
         """Time a planned motion under the derivation's velocity scale and people, on the session's
-        scene and constraints; the outcome with its trajectory, and where it ends."""
+        (default: the task's) scene and constraints; the outcome with its trajectory, and where it ends."""
         options = self._options().model_copy(update={"velocity_scale": derivation.velocity_scale})
-        result = self._session().time(motion, options, safety=derivation.separation)
+        result = (session or self._session()).time(motion, options, safety=derivation.separation)
         if not result.solved:
             return outcome.model_copy(update={"status": result.status, "message": result.message}), start
         trajectory = _with_reasons(result.trajectory, derivation).model_copy(

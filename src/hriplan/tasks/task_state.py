@@ -6,7 +6,7 @@ and the planning scene (obstacles, carried objects, people) is rebuilt from it f
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -76,6 +76,17 @@ class TaskState:
                 state.held_by_person[obj.name] = obj.in_hand_of
             state.poses[obj.name] = obj.pose
         return state
+
+    def copied(self) -> TaskState:
+        """A copy to change (what a motion added to a step sees) without changing this state."""
+        return replace(
+            self,
+            held_by_arm=dict(self.held_by_arm),
+            held_by_person=dict(self.held_by_person),
+            poses=dict(self.poses),
+            tools=dict(self.tools),
+            grasps=dict(self.grasps),
+        )
 
     def object(self, name: str) -> TaskObject:
         return next(o for o in self.task.objects if o.name == name)

@@ -10,17 +10,25 @@ from typing import Literal
 
 from hriplan.robots.assets import asset, resolve_package_uri
 
-HandPosture = Literal["open", "power", "pinch"]
-HAND_POSTURES: tuple[str, ...] = ("open", "power", "pinch")
+HandPosture = Literal["open", "power", "pinch", "release"]
+# `release`: how the hand lets an object go (fingers straight, the thumb still opposed but
+# straight), opening without swinging the thumb out into what the object stands on.
+HAND_POSTURES: tuple[str, ...] = ("open", "power", "pinch", "release")
 
 # Per finger (index 0-3, middle 4-7, ring 8-11, thumb 12-15) the joint values in radians.
 _FINGER = {
     "open": (0.0, 0.0, 0.0, 0.0),
+    "release": (0.0, 0.0, 0.0, 0.0),
     "power": (0.0, 1.1, 1.1, 0.9),
     "pinch_active": (0.0, 0.9, 0.6, 0.5),
     "pinch_tucked": (0.0, 1.5, 1.6, 1.5),
 }
-_THUMB = {"open": (0.3, 0.0, 0.0, 0.0), "power": (1.3, 0.6, 0.7, 0.7), "pinch": (1.2, 0.5, 0.8, 0.6)}
+_THUMB = {
+    "open": (0.3, 0.0, 0.0, 0.0),
+    "release": (1.3, 0.0, 0.0, 0.0),
+    "power": (1.3, 0.6, 0.7, 0.7),
+    "pinch": (1.2, 0.5, 0.8, 0.6),
+}
 
 
 def posture_values(posture: str) -> dict[str, float]:

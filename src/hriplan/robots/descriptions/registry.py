@@ -107,11 +107,12 @@ class HandModel:
 
     label: str  # its name in words ("Allegro")
     postures: tuple[str, ...]  # the first is the one a hand has when a task names none
+    released: str  # the posture it opens to when it lets an object go
     joint_values: Callable[[str], dict[str, float]]  # posture -> value per the hand URDF's own joint name
     joint_name: Callable[[str, str], str]  # (arm prefix, hand joint) -> the joint's name in the robot
 
 
-HAND_MODELS = {"allegro": HandModel("Allegro", HAND_POSTURES, posture_values, hand_joint_name)}
+HAND_MODELS = {"allegro": HandModel("Allegro", HAND_POSTURES, "release", posture_values, hand_joint_name)}
 
 
 def hand_model(kind: str) -> HandModel:
