@@ -10,7 +10,6 @@ from typing import Literal
 
 from hriplan.robots.assets import asset, resolve_package_uri
 
-HandPosture = Literal["open", "power", "pinch", "release"]
 # `release`: how the hand lets an object go (fingers straight, the thumb still opposed but
 # straight), opening without swinging the thumb out into what the object stands on.
 HAND_POSTURES: tuple[str, ...] = ("open", "power", "pinch", "release")
