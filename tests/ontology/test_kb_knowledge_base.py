@@ -2,7 +2,6 @@
 
 Pellet is the reference, so these tests run with it (the in-process reasoner: test_kb_fast)."""
 
-import time
 
 import owlready2
 import pytest
@@ -99,17 +98,13 @@ def test_turtle_export_reparses_and_holds_asserted_and_inferred_triples(kb):
 
 
 def test_a_cached_situation_never_starts_the_jvm_again(kb, handover, cache, no_java):
-    start = time.perf_counter()
-    again = KnowledgeBase(handover, cache=cache)
-    assert time.perf_counter() - start < 0.05
+    again = KnowledgeBase(handover, cache=cache)  # no_java fails the test if the reasoner starts
     assert again.facts == kb.facts
 
 
 def test_the_disk_cache_serves_a_new_process(kb, handover, cache, no_java):
     fresh = ReasoningCache(cache.directory)  # what another process would see
-    start = time.perf_counter()
-    again = KnowledgeBase(handover, cache=fresh)
-    assert time.perf_counter() - start < 0.05
+    again = KnowledgeBase(handover, cache=fresh)  # no_java fails the test if the reasoner starts
     assert again.facts == kb.facts
     assert (cache.directory / f"{kb.key}.json").exists() and (cache.directory / f"{kb.key}.nt").exists()
     graph = again.graph  # the reasoned graph comes from disk too
