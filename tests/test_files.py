@@ -177,3 +177,14 @@ def test_a_task_file_loads_and_its_errors_are_one_line(tmp_path: Path):
     assert task.steps and task.robot == "madar"
     (tmp_path / "t.yaml").write_text("name: t\nsteps: []\n")
     assert _error(load_task, tmp_path / "t.yaml").startswith(f"{tmp_path / 't.yaml'}: steps: ")
+
+
+def test_json_keys_given_twice_and_yaml_values_json_cannot_hold_are_refused(tmp_path: Path):
+    (tmp_path / "t.json").write_text('{"a": {"b": 1, "b": 2}}')
+    assert _error(read_data, tmp_path / "t.json") == f"{tmp_path / 't.json'}: key 'b' is given twice"
+    (tmp_path / "t.yaml").write_text("a:\n  - {when: 2026-12-02}\n")
+    assert _error(read_data, tmp_path / "t.yaml") == (
+        f"{tmp_path / 't.yaml'}: a.0.when: a date value, which JSON has no type for"
+    )
+    (tmp_path / "n.yaml").write_text("a: " + "[" * 5000 + "]" * 5000 + "\n")
+    assert _error(read_data, tmp_path / "n.yaml") == f"{tmp_path / 'n.yaml'}: nested too deeply"

@@ -47,6 +47,8 @@ def read_text(path: str | Path, what: str = "file") -> str:
 class _UniqueKeyLoader(yaml.SafeLoader):
     """YAML's safe loader, refusing a key given twice in one mapping (YAML would keep the last)."""
 
+    aliases = True
+
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
         seen: dict[Any, int] = {}
         for key_node, _ in node.value:
@@ -59,39 +61,90 @@ class _UniqueKeyLoader(yaml.SafeLoader):
             seen[key] = line
         return super().construct_mapping(node, deep)
 
+    def compose_node(self, parent, index):
+        if not self.aliases and self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            raise yaml.MarkedYAMLError(
+                problem="aliases are not accepted in request bodies", problem_mark=event.start_mark
+            )
+        return super().compose_node(parent, index)
+
+
+class _UniqueKeyLoaderNoAliases(_UniqueKeyLoader):
+    """The same, refusing anchors and aliases: a few bytes of aliases can expand to gigabytes."""
+
+    aliases = False
+
 
 def _reject_constant(name: str) -> float:
     raise ValueError(f"{name} is not a number JSON allows")
 
 
-def read_data(path: str | Path) -> Any:
-    """The content of a JSON file (`.json`) or a YAML file (anything else), which must be a mapping."""
-    path = Path(path)
-    text = read_text(path, "JSON file" if path.suffix == ".json" else "YAML file")
-    if not text.strip():
-        raise HriplanError(f"{path}: the file is empty")
+def _unique_pairs(pairs: list[tuple[str, Any]]) -> dict:
+    data = dict(pairs)
+    if len(data) < len(pairs):
+        seen: set[str] = set()
+        twice = next(key for key, _ in pairs if key in seen or seen.add(key))
+        raise HriplanError(f"key {twice!r} is given twice")
+    return data
+
+
+JSON_TYPES = (dict, list, str, int, float, bool, type(None))
+
+
+def _not_json(data: Any, path: str = "") -> str | None:
+    """Where in `data` a value JSON has no type for lies (a YAML date, binary, set), if anywhere."""
+    if isinstance(data, dict):
+        return next((w for k, v in data.items() if (w := _not_json(v, f"{path}.{k}" if path else str(k)))), None)
+    if isinstance(data, list):
+        return next((w for i, v in enumerate(data) if (w := _not_json(v, f"{path}.{i}" if path else str(i)))), None)
+    if not isinstance(data, JSON_TYPES):
+        return f"{path or 'the top level'}: a {type(data).__name__} value, which JSON has no type for"
+    return None
+
+
+def parse_data(text: str, syntax: str, *, aliases: bool = True) -> Any:
+    """The value of a JSON (`syntax` "json") or YAML text, as JSON would hold it. Every problem is an
+    HriplanError of one line saying where: bad syntax, a key given twice, a value JSON has no type
+    for (a YAML date, binary, set), NaN or Infinity, nesting too deep, or (without `aliases`) a
+    YAML alias. Files (`read_data`) and the service's request bodies both read through it."""
     try:
-        data = (
-            json.loads(text, parse_constant=_reject_constant)
-            if path.suffix == ".json"
-            else yaml.load(text, _UniqueKeyLoader)
-        )
-    except HriplanError as exc:  # a key given twice
-        raise HriplanError(f"{path}: {exc}") from None
+        if syntax == "json":
+            data = json.loads(text, parse_constant=_reject_constant, object_pairs_hook=_unique_pairs)
+        else:
+            data = yaml.load(text, _UniqueKeyLoader if aliases else _UniqueKeyLoaderNoAliases)
+    except HriplanError:  # a key given twice
+        raise
+    except RecursionError:
+        raise HriplanError("nested too deeply") from None
     except json.JSONDecodeError as exc:
-        raise HriplanError(f"{path}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
+        raise HriplanError(f"line {exc.lineno}: not valid JSON ({exc.msg})") from None
     except ValueError as exc:  # a NaN or Infinity constant in JSON
-        raise HriplanError(f"{path}: not valid JSON ({exc})") from None
+        raise HriplanError(f"not valid JSON ({exc})") from None
     except yaml.reader.ReaderError as exc:  # a character YAML does not allow in its text
         line = text[: exc.position].count("\n") + 1
-        raise HriplanError(
-            f"{path}: line {line}: not valid YAML (character U+{exc.character:04X} is not allowed)"
-        ) from None
+        raise HriplanError(f"line {line}: not valid YAML (character U+{exc.character:04X} is not allowed)") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         raise HriplanError(
-            f"{path}: line {mark.line + 1 if mark else '?'}: not valid YAML ({getattr(exc, 'problem', exc)})"
+            f"line {mark.line + 1 if mark else '?'}: not valid YAML ({getattr(exc, 'problem', exc)})"
         ) from None
+    if (where := _not_json(data)) is not None:
+        raise HriplanError(where)
+    return data
+
+
+def read_data(path: str | Path) -> Any:
+    """The content of a JSON file (`.json`) or a YAML file (anything else), which must be a mapping."""
+    path = Path(path)
+    syntax = "json" if path.suffix == ".json" else "yaml"
+    text = read_text(path, f"{syntax.upper()} file")
+    if not text.strip():
+        raise HriplanError(f"{path}: the file is empty")
+    try:
+        data = parse_data(text, syntax)
+    except HriplanError as exc:
+        raise HriplanError(f"{path}: {exc}") from None
     if not isinstance(data, dict):
         raise HriplanError(f"{path}: expected a mapping of fields at the top level, got {type(data).__name__}")
     return data

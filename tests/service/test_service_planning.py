@@ -185,7 +185,7 @@ def test_bad_yaml_or_json_is_a_400_saying_so(client):
     response = client.post("/constraints", content="name: t\nsteps:\n  - goal: [a\n", headers=YAML)
     assert response.status_code == 400 and response.json()["error"].startswith("body: line 4: not valid YAML")
     response = client.post("/solve", content="{bad json", headers={"content-type": "application/json"})
-    assert response.status_code == 400 and response.json()["error"].startswith("body: not valid JSON (")
+    assert response.status_code == 400 and response.json()["error"].startswith("body: line 1: not valid JSON (")
 
 
 def test_a_worker_killed_mid_plan_fails_only_its_request_and_is_replaced(server, client):
@@ -279,3 +279,25 @@ def test_a_worker_plans_every_session_request_in_its_own_world_on_its_one_sessio
     session.set_scene(Scene())  # what a task job on this worker does
     assert [o.name for o in jobs._session(cell).checker.scene.obstacles] == ["crate"]
     assert jobs._session(SessionState.model_validate({"id": "c", "robot": "madar"})) is not session
+
+
+@pytest.mark.parametrize(
+    ("body", "content_type", "error"),
+    [
+        # The CLI refuses these files; before, the service kept the last key and derived no upright constraint.
+        (
+            "name: t\nfill_level: Full\nfill_level: Empty\n",
+            "application/yaml",
+            "body: line 3: key 'fill_level' is given twice (first at line 2)",
+        ),
+        ('{"name": "t", "name": "u"}', "application/json", "body: key 'name' is given twice"),
+        # Valid YAML that JSON has no type for was a 500.
+        ("name: t\nwhen: 2026-12-02\n", "application/yaml", "body: when: a date value, which JSON has no type for"),
+        ("name: !!binary aGVsbG8=\n", "application/yaml", "body: name: a bytes value, which JSON has no type for"),
+        ("name: t\nsteps: !!set {a, b}\n", "application/yaml", "body: steps: a set value, which JSON has no type for"),
+        ("name: t\nsteps: " + "[" * 5000 + "]" * 5000 + "\n", "application/yaml", "body: nested too deeply"),
+    ],
+)
+def test_a_body_is_read_like_a_file(client, body: str, content_type: str, error: str):
+    response = client.post("/constraints", content=body, headers={"content-type": content_type})
+    assert response.status_code == 400 and response.json()["error"] == error

@@ -1,8 +1,9 @@
-"""The server's edge (plain ASGI): bearer token, body size limit, YAML bodies as JSON.
+"""The server's edge (plain ASGI): bearer token, body size limit, one reader for bodies.
 
 It runs before routing, so an oversized or unauthorised request is refused before anything
-parses it. YAML bodies (`application/yaml`) become JSON here, so each route has one schema
-(the file format) and YAML errors get the same one-line message as `hriplan` on a file.
+parses it. JSON and YAML bodies (`application/yaml`) are read here by the reader `hriplan` uses
+for files and handed on as JSON, so each route has one schema (the file format) and a body gets
+the same one-line message as the same text in a file (a key given twice included).
 """
 
 from __future__ import annotations
@@ -10,36 +11,26 @@ from __future__ import annotations
 import hmac
 import json
 
-import yaml
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from hriplan import HriplanError
+from hriplan.files import parse_data
 
 YAML_TYPES = ("application/yaml", "application/x-yaml", "text/yaml", "text/x-yaml")
 
 
-class _NoAliases(yaml.SafeLoader):
-    """YAML without anchors and aliases: a few bytes of aliases can expand to gigabytes."""
-
-    def compose_node(self, parent, index):
-        if self.check_event(yaml.AliasEvent):
-            event = self.peek_event()
-            raise yaml.MarkedYAMLError(
-                problem="aliases are not accepted in request bodies", problem_mark=event.start_mark
-            )
-        return super().compose_node(parent, index)
-
-
-def yaml_to_json(body: bytes) -> bytes:
-    """A YAML document as JSON bytes; a ValueError says where it is not valid YAML."""
+def body_as_json(body: bytes, syntax: str) -> bytes:
+    """A JSON or YAML request body as JSON bytes, read by the same reader as files (a key given
+    twice, a value JSON has no type for, deep nesting: one line); YAML aliases are refused, since a
+    few bytes of them can expand to gigabytes. A ValueError says what is wrong."""
     try:
-        data = yaml.load(body.decode("utf-8"), Loader=_NoAliases)
+        text = body.decode("utf-8")
     except UnicodeDecodeError:
         raise ValueError("body: not UTF-8 text") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        raise ValueError(
-            f"body: line {mark.line + 1 if mark else '?'}: not valid YAML ({getattr(exc, 'problem', exc)})"
-        ) from None
-    return json.dumps(data).encode()
+    try:
+        return json.dumps(parse_data(text, syntax, aliases=False)).encode()
+    except HriplanError as exc:
+        raise ValueError(f"body: {exc}") from None
 
 
 async def _refuse(send: Send, status: int, message: str, headers: list[tuple[bytes, bytes]] = ()) -> None:  # type: ignore[assignment]
@@ -85,9 +76,10 @@ class Guard:
             if len(body) > self.body_limit:
                 await _refuse(send, 413, f"the request body is larger than the limit of {self.body_limit} bytes")
                 return
-        if headers.get("content-type", "").split(";")[0].strip().lower() in YAML_TYPES:
+        content_type = headers.get("content-type", "").split(";")[0].strip().lower()
+        if content_type in YAML_TYPES or (content_type == "application/json" and body.strip()):
             try:
-                body = bytearray(yaml_to_json(bytes(body)))
+                body = bytearray(body_as_json(bytes(body), "json" if content_type == "application/json" else "yaml"))
             except ValueError as exc:
                 await _refuse(send, 400, str(exc))
                 return
