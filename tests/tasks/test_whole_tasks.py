@@ -33,6 +33,12 @@ STEPS = {
     ],
     "handover_then_ready": ["hand_over", "hand_over_release", "back"],
     "two_arms_in_sequence": ["put_cup", "put_cup_release", "pick_bottle", "pick_bottle_lift"],
+    "two_objects_two_arms": [
+        *("pick_cup", "pick_cup_lift", "place_cup", "place_cup_release"),
+        *("pick_bottle", "pick_bottle_lift", "place_bottle", "place_bottle_release", "home"),
+    ],
+    "take_place_ready": ["take_1", "place_1", "place_1_release", "back"],
+    "pick_hand_over_ready": ["pick", "pick_lift", "give_prepare", "give", "give_release", "back"],
 }
 
 
@@ -173,3 +179,12 @@ def test_a_posture_goal_ends_at_the_posture_for_the_arm_it_moves():
     assert set(end) == {j for j in end if j.startswith("right_")} and len(end) == 6
     assert all(abs(v - home.get(j, 0.0)) < 1e-6 for j, v in end.items()), end
     assert abs(end["right_shoulder_lift_joint"] - home["right_shoulder_lift_joint"]) < 1e-6
+
+
+def test_both_arms_go_to_a_posture_in_one_step():
+    """Two posture goals in one step were refused ("needs a tool or object goal for each arm")."""
+    _, _, outcome = run("two_objects_two_arms")
+    last, home = outcome.steps[-1].trajectory, posture("madar", "home")
+    end = dict(last.start) | dict(zip(last.joint_names, last.points[-1].positions))
+    arm_joints = [j for j in end if j.startswith(("right_", "left_")) and "hand" not in j]
+    assert len(arm_joints) == 12 and max(abs(end[j] - home.get(j, 0.0)) for j in arm_joints) < 1e-6

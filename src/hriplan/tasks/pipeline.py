@@ -518,10 +518,16 @@ class TaskRunner:
         return session.held_axes(start, in_tool, _pairs(derivation))
 
     def _joint_goal(self, resolved: list[ResolvedGoal], start: dict[str, float]) -> JointTarget:
-        """Two arms' tool goals as one joint goal (the session's IK for both, clear of the scene)."""
+        """Two arms' goals as one joint goal: joint and posture goals side by side, tool goals by
+        the session's IK for both, clear of the scene."""
         goals = [r.goal for r in resolved]
+        if all(isinstance(g, JointTarget) for g in goals):
+            return JointTarget(values={joint: value for g in goals for joint, value in g.values.items()})
         if not all(isinstance(g, ToolTarget) for g in goals):
-            raise HriplanError("a step with several goals needs a tool or object goal for each arm")
+            raise HriplanError(
+                "a step with several goals needs the same kind of goal for each arm: joints or postures, "
+                "or tool and object goals"
+            )
         return self._session().joint_goal(goals, start)
 
 
