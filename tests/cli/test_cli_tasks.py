@@ -1,13 +1,19 @@
 """The task commands of `hriplan`: plan, constraints, explain, query, validate, import-kautham, schema."""
 
+import base64
+import gzip
 import json
+import re
+import struct
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+import umsgpack
 
-from hriplan.planner.trajectory import TrajectoryFile
+from hriplan.planner.trajectory import TrajectoryFile, load_trajectory
 from independent import constraint_violations
 
 ROOT = Path(__file__).parents[2]
@@ -105,6 +111,67 @@ def test_view_and_plot_take_reasons_from_the_task(planned, tmp_path):
     assert "A full open container spills" in html.read_text()
     plotted = run("plot", out / "handover.json", "--task", HANDOVER, "-o", tmp_path / "figs")
     assert plotted.returncode == 0 and (tmp_path / "figs" / "margins.png").stat().st_size > 10_000
+
+
+def drawn_transforms(html: str, step: int = 0) -> dict[str, np.ndarray]:
+    """Every placement the page's drawing of `step` sends (path -> 4x4), decoded here from the
+    page's own format: base64 of gzip of length-framed msgpack meshcat commands."""
+    block = re.search(rf'id="hriplan-commands-{step}">([^<]*)<', html).group(1)
+    framed = gzip.decompress(base64.b64decode(block))
+    placed = {}
+    at = 0
+    while at < len(framed):
+        (size,) = struct.unpack_from("<I", framed, at)
+        command = umsgpack.unpackb(framed[at + 4 : at + 4 + size])
+        at += 4 + size
+        if command["type"] == "set_transform":
+            placed[command["path"]] = np.array(command["matrix"], dtype=float).reshape(4, 4).T  # column-major
+    return placed
+
+
+def test_view_with_a_task_draws_each_volume_at_its_frame(planned, tmp_path):
+    """The approach cone hangs from bob's right hand: its apex is drawn where his palm reaches
+    (the task's reach point, which his arm's IK meets to 0.1 mm) plus the cone's offset turned by
+    his yaw; a volume in the world frame stays at its offset. (Drawn at the origin before.)"""
+    _, out = planned
+    html = tmp_path / "plan.html"
+    viewed = run("view", out / "handover.json", "--task", HANDOVER, "-o", html, "-q")
+    assert viewed.returncode == 0, viewed.stderr
+    placed = drawn_transforms(html.read_text())
+    derived = json.loads(run("constraints", HANDOVER, "--json", "-q").stdout)["steps"][0]["derivation"]
+    frames = {c["spec"]["id"]: c["spec"]["frame"] for c in derived["constraints"]}
+    cone = frames["approach_cone_bob"]
+    assert cone["entity"] == "bob/right_hand"
+    yaw = -1.5708  # bob's, in the task file
+    turn = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    apex = np.array([0.05, 1.05, 1.05]) + turn @ np.array(cone["offset"]["xyz"])
+    assert np.allclose(placed["/constraints/approach_cone_bob"][:3, 3], apex, atol=1e-3)
+    workspace = frames["shared_workspace_bob"]
+    assert workspace["entity"] == "world"
+    assert np.allclose(placed["/constraints/shared_workspace_bob"][:3, 3], workspace["offset"]["xyz"], atol=1e-4)
+
+
+def test_a_planned_trajectory_keeps_the_rules_and_facts_behind_each_constraint(planned):
+    """The file holds each constraint's provenance as the derivation gave it, and reads back."""
+    result, out = planned
+    derived = {c["spec"]["id"]: c for c in json.loads(result.stdout)["steps"][0]["derivation"]["constraints"]}
+    written = load_trajectory(out / "handover.json")
+    assert {c.spec.id for c in written.constraints} == set(derived)
+    for constraint in written.constraints:
+        origin = derived[constraint.spec.id]
+        assert (constraint.kind, constraint.anchor, constraint.rules, constraint.facts, constraint.reason) == (
+            origin["kind"],
+            origin["anchor"],
+            origin["rules"],
+            origin["facts"],
+            origin["reason"],
+        )
+    cone = next(c for c in written.constraints if c.spec.id == "approach_cone_bob")
+    assert (cone.kind, cone.anchor) == ("ApproachCone", "bob")
+    assert {"handover_approach_cone", "define_receiver"} <= set(cone.rules)
+    assert "bob has role Receiver" in cone.facts
+    on_disk = json.loads((out / "handover.json").read_text())["constraints"]
+    assert all(c["rules"] and c["facts"] and c["kind"] for c in on_disk)
 
 
 TWO_STEPS = ROOT / "examples" / "handover_full_can.yaml"
