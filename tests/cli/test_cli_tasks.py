@@ -113,7 +113,7 @@ def test_view_and_plot_take_reasons_from_the_task(planned, tmp_path):
     assert plotted.returncode == 0 and (tmp_path / "figs" / "margins.png").stat().st_size > 10_000
 
 
-def drawn_transforms(html: str, step: int = 0) -> dict[str, np.ndarray]:
+def drawn_transforms(html: str, step: int = 1) -> dict[str, np.ndarray]:
     """Every placement the page's drawing of `step` sends (path -> 4x4), decoded here from the
     page's own format: base64 of gzip of length-framed msgpack meshcat commands."""
     block = re.search(rf'id="hriplan-commands-{step}">([^<]*)<', html).group(1)
@@ -205,7 +205,7 @@ def test_plan_of_a_task_writes_one_viewer_page_for_all_its_steps(tmp_path):
         "step 1: take_can" in html
         and "step 2: place_can" in html
         and "step 3: place_can_release" in html
-        and 'id="hriplan-commands-1"' in html
+        and 'id="hriplan-commands-3"' in html
     )
 
 
