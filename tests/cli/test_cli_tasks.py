@@ -174,6 +174,38 @@ def test_a_planned_trajectory_keeps_the_rules_and_facts_behind_each_constraint(p
     assert all(c["rules"] and c["facts"] and c["kind"] for c in on_disk)
 
 
+def test_a_person_in_the_robot_and_a_start_in_a_slab_are_one_short_line(tmp_path):
+    """A person standing where MADAR stands is bad input naming them and a part they overlap; a
+    start inside a slab lists a few of its two dozen colliding pairs and says how many there are."""
+    task = (ROOT / "examples" / "handover_full_can.yaml").read_text()
+    (tmp_path / "inside.yaml").write_text(
+        task.replace("position: [0.0, 1.45]", "position: [0.0, 0.1]").replace(
+            "[0.05, 1.05, 1.05]", "[0.05, 0.45, 1.05]"
+        )
+    )
+    inside = run("plan", tmp_path / "inside.yaml", "-q", "-o", tmp_path / "inside.json")
+    assert inside.returncode == 2 and inside.stdout == ""
+    (line,) = inside.stderr.splitlines()
+    assert re.fullmatch(
+        r"error: alice overlaps the robot at the start: their (left|right|middle)_\w+ is inside \w+ "
+        r"\(and \d+ more pairs\); place alice farther from the robot",
+        line,
+    ), line
+    slab = "{name: slab, position: [0.0, 0.2], size: [2.0, 2.0, 0.8], top: 1.2}"
+    (tmp_path / "slab.yaml").write_text(
+        "robot: madar\nscene: {tables: [" + slab + "]}\nsteps: [{goal: {joints: {right_elbow_joint: 1.0}}}]\n"
+    )
+    stuck = run("plan", tmp_path / "slab.yaml", "-q", "-o", tmp_path / "slab.json")
+    assert stuck.returncode == 1
+    (line,) = stuck.stderr.splitlines()
+    assert (
+        line.startswith("planning failed at step step1 (invalid_start): start is in collision: ") and len(line) <= 300
+    )
+    listed, more, total = re.fullmatch(r".*collision: (.*) and (\d+) more \((\d+) pairs in all\)", line).groups()
+    pairs = listed.split(", ")
+    assert len(pairs) + int(more) == int(total) > 20 and all(p.endswith(" - slab") for p in pairs)
+
+
 TWO_STEPS = ROOT / "examples" / "handover_full_can.yaml"
 
 

@@ -100,6 +100,22 @@ class PlanningSession:
         spec = self.constraints[constraint_id]
         self.constraints[constraint_id] = type(spec).model_validate({**spec.model_dump(), **changes})
 
+    def check_people_clear(self, start: JointValues) -> None:
+        """A person placed in the robot (a position typed wrong) is a mistake in the input, not
+        something to plan around: one line naming the person and the part they overlap (the
+        deepest pair), and how many pairs do."""
+        q = self.robot.configuration(start)
+        for person in self.checker.humans:
+            pairs = self.checker.person_pairs(q, person)
+            overlapping = np.flatnonzero(pairs.distance <= 0.0)
+            if overlapping.size:
+                k = overlapping[np.argmin(pairs.distance[overlapping])]
+                others = f" (and {overlapping.size - 1} more pairs)" if overlapping.size > 1 else ""
+                raise HriplanError(
+                    f"{person} overlaps the robot at the start: their {pairs.capsules[k]} is inside "
+                    f"{pairs.parts[k]}{others}; place {person} farther from the robot"
+                )
+
     def resolve(self, constraints: Iterable[ConstraintSpec]) -> list[ResolvedConstraint]:
         """The enabled constraints with their frames placed in the session's scene (a person's
         hand, an obstacle), as a trajectory planned here would record them."""

@@ -43,7 +43,7 @@ from hriplan.tasks.model import (
     TaskFile,
     step_name,
 )
-from hriplan.tasks.task_state import TaskState
+from hriplan.tasks.task_state import TaskState, human_spec
 
 if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is planned
     from hriplan.planner.session import PlanningSession
@@ -191,6 +191,10 @@ class TaskRunner:
         time is tried in each grasp the rules allow, most preferred first, until the step plans."""
         task, state, robot = self.task, TaskState.initial(self.task), self._robot()
         start = posture(task.robot, task.start.posture) | task.start.joints
+        if plan and task.humans:
+            session = self._session()
+            session.set_scene(Scene(humans=[human_spec(h) for h in task.humans]))
+            session.check_people_clear(start)
         state.tools = tool_poses(robot, start)
         outcomes = []
         for index, step in enumerate(task.steps):
