@@ -50,6 +50,10 @@ TASK = {
 }
 
 
+# A slab through the UR5 at its start: a dozen parts collide with it.
+SLAB = {"name": "slab", "shape": {"type": "box", "size": [2.0, 2.0, 0.6]}, "pose": {"xyz": [0.0, 0.0, 0.5]}}
+
+
 def task(**changes) -> str:
     """The base task with `changes` (dotted paths like `steps.0.goal`) applied, as YAML."""
     data = copy.deepcopy(TASK)
@@ -494,6 +498,46 @@ CASES: list[Case] = [
         "steps.0 (move): goal: elbow_joint = 10 rad is beyond its limits",
         absent=("out",),
         t__yaml=task(**{GOAL: {"joints": {"elbow_joint": 10.0}}}),
+    ),
+    C(
+        "task_body_reach_without_height",
+        "constraints {d}/t.yaml",
+        "humans.0.reach.right.body.up: Field required",
+        t__yaml=task(humans__0__reach={"right": {"forward": 0.3}}),
+    ),
+    C(
+        "task_body_reach_unknown_direction",
+        "constraints {d}/t.yaml",
+        "humans.0.reach.right.body.ahead: Extra inputs are not permitted",
+        t__yaml=task(humans__0__reach={"right": {"ahead": 0.3, "up": 1.0}}),
+    ),
+    C(
+        "task_reach_neither_form",
+        "constraints {d}/t.yaml",
+        "humans.0.reach.left: a reach is a world point [x, y, z] or, relative to the body, {forward, left, up}",
+        t__yaml=task(humans__0__reach={"left": "near"}),
+    ),
+    C(
+        "task_body_reach_out_of_arm",
+        "plan {d}/t.yaml -q -o {d}/out/t.json",
+        "bob's right hand cannot reach",
+        absent=("out",),
+        t__yaml=task(humans__0__reach={"right": {"forward": 2.0, "up": 1.0}}),
+    ),
+    C(
+        "task_person_inside_the_robot",
+        "plan {d}/t.yaml -q -o {d}/out/t.json",
+        "bob overlaps the robot at the start: their ",
+        absent=("out",),
+        t__yaml=task(humans__0__position=[0.1, 0.0]),
+    ),
+    C(
+        "task_start_in_a_slab",
+        "plan {d}/t.yaml -q -o {d}/out/t.json",
+        "start is in collision: ",
+        code=1,
+        absent=("out",),
+        t__yaml=task(scene={"obstacles": [SLAB]}),
     ),
     C(
         "task_joint_beyond_limit_constraints",
