@@ -172,6 +172,12 @@ def test_a_planned_trajectory_keeps_the_rules_and_facts_behind_each_constraint(p
     assert "bob has role Receiver" in cone.facts
     on_disk = json.loads((out / "handover.json").read_text())["constraints"]
     assert all(c["rules"] and c["facts"] and c["kind"] for c in on_disk)
+    # `explain` reads it back from the file, in the words it gives for the task
+    from_file = run("explain", out / "handover.json", "-q")
+    from_task = run("explain", HANDOVER, "-q")
+    assert from_file.returncode == from_task.returncode == 0, from_file.stderr
+    said = [line for line in from_file.stdout.splitlines() if line.startswith(("  kind:", "  rules:", "  facts:"))]
+    assert len(said) == 3 * len(written.constraints) and all(line in from_task.stdout.splitlines() for line in said)
 
 
 def test_a_person_in_the_robot_and_a_start_in_a_slab_are_one_short_line(tmp_path):

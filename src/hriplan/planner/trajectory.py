@@ -8,6 +8,7 @@ schema is versioned.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -110,6 +111,16 @@ class TrajectoryFile(BaseModel):
     def save(self, path: str | Path) -> None:
         """Write atomically: a partly written trajectory never replaces a good one."""
         write_atomically(path, self.model_dump_json(indent=1, by_alias=True))
+
+
+def is_trajectory_file(path: str | Path) -> bool:
+    """Does `path` hold a trajectory (a JSON object naming this schema)? For commands that take a
+    task or a trajectory; anything unreadable is not one (the task reader then says why)."""
+    try:
+        data = json.loads(Path(path).read_bytes())
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and data.get("schema") == SCHEMA
 
 
 def load_trajectory(path: str | Path) -> TrajectoryFile:
