@@ -532,6 +532,13 @@ CASES: list[Case] = [
         t__yaml=task(humans__0__position=[0.1, 0.0]),
     ),
     C(
+        "problem_person_inside_the_robot",
+        "solve {d}/p.json -o {d}/o.json",
+        "human overlaps the robot at the start: their ",
+        absent=("o.json",),
+        p__json=problem(scene__humans=[{"name": "human", "position": [0.0, 0.1], "yaw": 0.0}]),
+    ),
+    C(
         "task_start_in_a_slab",
         "plan {d}/t.yaml -q -o {d}/out/t.json",
         "start is in collision: ",
