@@ -212,6 +212,28 @@ def test_a_person_in_the_robot_and_a_start_in_a_slab_are_one_short_line(tmp_path
     assert len(pairs) + int(more) == int(total) > 20 and all(p.endswith(" - slab") for p in pairs)
 
 
+def test_a_reach_relative_to_the_body_derives_what_the_world_point_it_names_does(tmp_path):
+    """bob at (0, 1.45) facing -y (yaw -90 deg): 0.4 m ahead of him and 0.05 m to his left (+x)
+    at 1.05 m is the world point (0.05, 1.05, 1.05) of the example; the constraints (whose cone
+    is aimed from his hand) come out the same. Moved back and to the side, he still reaches out
+    0.4 m in front of him; the world point is left out of his reach."""
+    world = "reach: {right: [0.05, 1.05, 1.05]}"
+    body = "reach: {right: {forward: 0.4, left: 0.05, up: 1.05}}"
+    text = HANDOVER.read_text()
+    assert world in text
+    (tmp_path / "body.yaml").write_text(text.replace(world, body))
+    from_world = run("constraints", HANDOVER, "-q")
+    from_body = run("constraints", tmp_path / "body.yaml", "-q")
+    assert from_world.returncode == from_body.returncode == 0, from_body.stderr
+    assert from_body.stdout == from_world.stdout
+    moved = "position: [0.3, 1.75]"
+    (tmp_path / "moved_world.yaml").write_text(text.replace("position: [0.0, 1.45]", moved))
+    (tmp_path / "moved_body.yaml").write_text(text.replace("position: [0.0, 1.45]", moved).replace(world, body))
+    left_behind = run("constraints", tmp_path / "moved_world.yaml", "-q")
+    assert left_behind.returncode == 2 and "bob's right hand cannot reach [0.05, 1.05, 1.05]" in left_behind.stderr
+    assert run("constraints", tmp_path / "moved_body.yaml", "-q").returncode == 0
+
+
 TWO_STEPS = ROOT / "examples" / "handover_full_can.yaml"
 
 
