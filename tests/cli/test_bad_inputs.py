@@ -1016,3 +1016,14 @@ def test_ctrl_c_stops_planning_within_a_second(tmp_path: Path) -> None:
     assert process.returncode == 130
     assert [line for line in lines if not line.startswith("... ")] == ["interrupted\n"]
     assert not (tmp_path / "out").exists() and not list(tmp_path.rglob("*.tmp"))
+
+
+def test_explain_of_a_problems_trajectory_says_no_rule_made_its_constraints(tmp_path: Path, trajectory_text: str):
+    """A planning problem's constraints come from its file, not from rules: `explain` says so for
+    each instead of printing empty rules and facts."""
+    (tmp_path / "traj.json").write_text(trajectory_text)
+    result = CliRunner().invoke(app, ["explain", str(tmp_path / "traj.json")])
+    assert result.exit_code == 0, result.output
+    ids = [c["spec"]["id"] for c in json.loads(trajectory_text)["constraints"]]
+    assert ids and result.stdout.count("no rule made it (a planning problem's constraint)") == len(ids)
+    assert all(f"{i}: " in result.stdout for i in ids) and "kind:" not in result.stdout
