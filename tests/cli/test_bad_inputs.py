@@ -50,6 +50,10 @@ TASK = {
 }
 
 
+# A slab through the UR5 at its start: a dozen parts collide with it.
+SLAB = {"name": "slab", "shape": {"type": "box", "size": [2.0, 2.0, 0.6]}, "pose": {"xyz": [0.0, 0.0, 0.5]}}
+
+
 def task(**changes) -> str:
     """The base task with `changes` (dotted paths like `steps.0.goal`) applied, as YAML."""
     data = copy.deepcopy(TASK)
@@ -494,6 +498,53 @@ CASES: list[Case] = [
         "steps.0 (move): goal: elbow_joint = 10 rad is beyond its limits",
         absent=("out",),
         t__yaml=task(**{GOAL: {"joints": {"elbow_joint": 10.0}}}),
+    ),
+    C(
+        "task_body_reach_without_height",
+        "constraints {d}/t.yaml",
+        "humans.0.reach.right.body.up: Field required",
+        t__yaml=task(humans__0__reach={"right": {"forward": 0.3}}),
+    ),
+    C(
+        "task_body_reach_unknown_direction",
+        "constraints {d}/t.yaml",
+        "humans.0.reach.right.body.ahead: Extra inputs are not permitted",
+        t__yaml=task(humans__0__reach={"right": {"ahead": 0.3, "up": 1.0}}),
+    ),
+    C(
+        "task_reach_neither_form",
+        "constraints {d}/t.yaml",
+        "humans.0.reach.left: a reach is a world point [x, y, z] or, relative to the body, {forward, left, up}",
+        t__yaml=task(humans__0__reach={"left": "near"}),
+    ),
+    C(
+        "task_body_reach_out_of_arm",
+        "plan {d}/t.yaml -q -o {d}/out/t.json",
+        "bob's right hand cannot reach",
+        absent=("out",),
+        t__yaml=task(humans__0__reach={"right": {"forward": 2.0, "up": 1.0}}),
+    ),
+    C(
+        "task_person_inside_the_robot",
+        "plan {d}/t.yaml -q -o {d}/out/t.json",
+        "bob overlaps the robot at the start: their ",
+        absent=("out",),
+        t__yaml=task(humans__0__position=[0.1, 0.0]),
+    ),
+    C(
+        "problem_person_inside_the_robot",
+        "solve {d}/p.json -o {d}/o.json",
+        "human overlaps the robot at the start: their ",
+        absent=("o.json",),
+        p__json=problem(scene__humans=[{"name": "human", "position": [0.0, 0.1], "yaw": 0.0}]),
+    ),
+    C(
+        "task_start_in_a_slab",
+        "plan {d}/t.yaml -q -o {d}/out/t.json",
+        "start is in collision: ",
+        code=1,
+        absent=("out",),
+        t__yaml=task(scene={"obstacles": [SLAB]}),
     ),
     C(
         "task_joint_beyond_limit_constraints",
@@ -965,3 +1016,14 @@ def test_ctrl_c_stops_planning_within_a_second(tmp_path: Path) -> None:
     assert process.returncode == 130
     assert [line for line in lines if not line.startswith("... ")] == ["interrupted\n"]
     assert not (tmp_path / "out").exists() and not list(tmp_path.rglob("*.tmp"))
+
+
+def test_explain_of_a_problems_trajectory_says_no_rule_made_its_constraints(tmp_path: Path, trajectory_text: str):
+    """A planning problem's constraints come from its file, not from rules: `explain` says so for
+    each instead of printing empty rules and facts."""
+    (tmp_path / "traj.json").write_text(trajectory_text)
+    result = CliRunner().invoke(app, ["explain", str(tmp_path / "traj.json")])
+    assert result.exit_code == 0, result.output
+    ids = [c["spec"]["id"] for c in json.loads(trajectory_text)["constraints"]]
+    assert ids and result.stdout.count("no rule made it (a planning problem's constraint)") == len(ids)
+    assert all(f"{i}: " in result.stdout for i in ids) and "kind:" not in result.stdout

@@ -1,13 +1,19 @@
 """The task commands of `hriplan`: plan, constraints, explain, query, validate, import-kautham, schema."""
 
+import base64
+import gzip
 import json
+import re
+import struct
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+import umsgpack
 
-from hriplan.planner.trajectory import TrajectoryFile
+from hriplan.planner.trajectory import TrajectoryFile, load_trajectory
 from independent import constraint_violations
 
 ROOT = Path(__file__).parents[2]
@@ -107,6 +113,127 @@ def test_view_and_plot_take_reasons_from_the_task(planned, tmp_path):
     assert plotted.returncode == 0 and (tmp_path / "figs" / "margins.png").stat().st_size > 10_000
 
 
+def drawn_transforms(html: str, step: int = 1) -> dict[str, np.ndarray]:
+    """Every placement the page's drawing of `step` sends (path -> 4x4), decoded here from the
+    page's own format: base64 of gzip of length-framed msgpack meshcat commands."""
+    block = re.search(rf'id="hriplan-commands-{step}">([^<]*)<', html).group(1)
+    framed = gzip.decompress(base64.b64decode(block))
+    placed = {}
+    at = 0
+    while at < len(framed):
+        (size,) = struct.unpack_from("<I", framed, at)
+        command = umsgpack.unpackb(framed[at + 4 : at + 4 + size])
+        at += 4 + size
+        if command["type"] == "set_transform":
+            placed[command["path"]] = np.array(command["matrix"], dtype=float).reshape(4, 4).T  # column-major
+    return placed
+
+
+def test_view_with_a_task_draws_each_volume_at_its_frame(planned, tmp_path):
+    """The approach cone hangs from bob's right hand: its apex is drawn where his palm reaches
+    (the task's reach point, which his arm's IK meets to 0.1 mm) plus the cone's offset turned by
+    his yaw; a volume in the world frame stays at its offset. (Drawn at the origin before.)"""
+    _, out = planned
+    html = tmp_path / "plan.html"
+    viewed = run("view", out / "handover.json", "--task", HANDOVER, "-o", html, "-q")
+    assert viewed.returncode == 0, viewed.stderr
+    placed = drawn_transforms(html.read_text())
+    derived = json.loads(run("constraints", HANDOVER, "--json", "-q").stdout)["steps"][0]["derivation"]
+    frames = {c["spec"]["id"]: c["spec"]["frame"] for c in derived["constraints"]}
+    cone = frames["approach_cone_bob"]
+    assert cone["entity"] == "bob/right_hand"
+    yaw = -1.5708  # bob's, in the task file
+    turn = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    apex = np.array([0.05, 1.05, 1.05]) + turn @ np.array(cone["offset"]["xyz"])
+    assert np.allclose(placed["/constraints/approach_cone_bob"][:3, 3], apex, atol=1e-3)
+    workspace = frames["shared_workspace_bob"]
+    assert workspace["entity"] == "world"
+    assert np.allclose(placed["/constraints/shared_workspace_bob"][:3, 3], workspace["offset"]["xyz"], atol=1e-4)
+
+
+def test_a_planned_trajectory_keeps_the_rules_and_facts_behind_each_constraint(planned):
+    """The file holds each constraint's provenance as the derivation gave it, and reads back."""
+    result, out = planned
+    derived = {c["spec"]["id"]: c for c in json.loads(result.stdout)["steps"][0]["derivation"]["constraints"]}
+    written = load_trajectory(out / "handover.json")
+    assert {c.spec.id for c in written.constraints} == set(derived)
+    for constraint in written.constraints:
+        origin = derived[constraint.spec.id]
+        assert (constraint.kind, constraint.anchor, constraint.rules, constraint.facts, constraint.reason) == (
+            origin["kind"],
+            origin["anchor"],
+            origin["rules"],
+            origin["facts"],
+            origin["reason"],
+        )
+    cone = next(c for c in written.constraints if c.spec.id == "approach_cone_bob")
+    assert (cone.kind, cone.anchor) == ("ApproachCone", "bob")
+    assert {"handover_approach_cone", "define_receiver"} <= set(cone.rules)
+    assert "bob has role Receiver" in cone.facts
+    on_disk = json.loads((out / "handover.json").read_text())["constraints"]
+    assert all(c["rules"] and c["facts"] and c["kind"] for c in on_disk)
+    # `explain` reads it back from the file, in the words it gives for the task
+    from_file = run("explain", out / "handover.json", "-q")
+    from_task = run("explain", HANDOVER, "-q")
+    assert from_file.returncode == from_task.returncode == 0, from_file.stderr
+    said = [line for line in from_file.stdout.splitlines() if line.startswith(("  kind:", "  rules:", "  facts:"))]
+    assert len(said) == 3 * len(written.constraints) and all(line in from_task.stdout.splitlines() for line in said)
+
+
+def test_a_person_in_the_robot_and_a_start_in_a_slab_are_one_short_line(tmp_path):
+    """A person standing where MADAR stands is bad input naming them and a part they overlap; a
+    start inside a slab lists a few of its two dozen colliding pairs and says how many there are."""
+    task = (ROOT / "examples" / "handover_full_can.yaml").read_text()
+    (tmp_path / "inside.yaml").write_text(
+        task.replace("position: [0.0, 1.45]", "position: [0.0, 0.1]").replace(
+            "[0.05, 1.05, 1.05]", "[0.05, 0.45, 1.05]"
+        )
+    )
+    inside = run("plan", tmp_path / "inside.yaml", "-q", "-o", tmp_path / "inside.json")
+    assert inside.returncode == 2 and inside.stdout == ""
+    (line,) = inside.stderr.splitlines()
+    assert re.fullmatch(
+        r"error: alice overlaps the robot at the start: their (left|right|middle)_\w+ is inside \w+ "
+        r"\(and \d+ more pairs\); place alice farther from the robot",
+        line,
+    ), line
+    slab = "{name: slab, position: [0.0, 0.2], size: [2.0, 2.0, 0.8], top: 1.2}"
+    (tmp_path / "slab.yaml").write_text(
+        "robot: madar\nscene: {tables: [" + slab + "]}\nsteps: [{goal: {joints: {right_elbow_joint: 1.0}}}]\n"
+    )
+    stuck = run("plan", tmp_path / "slab.yaml", "-q", "-o", tmp_path / "slab.json")
+    assert stuck.returncode == 1
+    (line,) = stuck.stderr.splitlines()
+    assert (
+        line.startswith("planning failed at step step1 (invalid_start): start is in collision: ") and len(line) <= 300
+    )
+    listed, more, total = re.fullmatch(r".*collision: (.*) and (\d+) more \((\d+) pairs in all\)", line).groups()
+    pairs = listed.split(", ")
+    assert len(pairs) + int(more) == int(total) > 20 and all(p.endswith(" - slab") for p in pairs)
+
+
+def test_a_reach_relative_to_the_body_derives_what_the_world_point_it_names_does(tmp_path):
+    """bob at (0, 1.45) facing -y (yaw -90 deg): 0.4 m ahead of him and 0.05 m to his left (+x)
+    at 1.05 m is the world point (0.05, 1.05, 1.05) of the example; the constraints (whose cone
+    is aimed from his hand) come out the same. Moved back and to the side, he still reaches out
+    0.4 m in front of him; the world point is left out of his reach."""
+    world = "reach: {right: [0.05, 1.05, 1.05]}"
+    body = "reach: {right: {forward: 0.4, left: 0.05, up: 1.05}}"
+    text = HANDOVER.read_text()
+    assert world in text
+    (tmp_path / "body.yaml").write_text(text.replace(world, body))
+    from_world = run("constraints", HANDOVER, "-q")
+    from_body = run("constraints", tmp_path / "body.yaml", "-q")
+    assert from_world.returncode == from_body.returncode == 0, from_body.stderr
+    assert from_body.stdout == from_world.stdout
+    moved = "position: [0.3, 1.75]"
+    (tmp_path / "moved_world.yaml").write_text(text.replace("position: [0.0, 1.45]", moved))
+    (tmp_path / "moved_body.yaml").write_text(text.replace("position: [0.0, 1.45]", moved).replace(world, body))
+    left_behind = run("constraints", tmp_path / "moved_world.yaml", "-q")
+    assert left_behind.returncode == 2 and "bob's right hand cannot reach [0.05, 1.05, 1.05]" in left_behind.stderr
+    assert run("constraints", tmp_path / "moved_body.yaml", "-q").returncode == 0
+
+
 TWO_STEPS = ROOT / "examples" / "handover_full_can.yaml"
 
 
@@ -138,7 +265,7 @@ def test_plan_of_a_task_writes_one_viewer_page_for_all_its_steps(tmp_path):
         "step 1: take_can" in html
         and "step 2: place_can" in html
         and "step 3: place_can_release" in html
-        and 'id="hriplan-commands-1"' in html
+        and 'id="hriplan-commands-3"' in html
     )
 
 

@@ -171,3 +171,17 @@ def test_a_remembered_build_is_the_build_and_in_place_updates_survive_a_rebuild(
     mine.obstacles.append(Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=tuple(tool))))
     checker.set_scene(mine)
     assert checker.in_collision(q)
+
+
+def test_a_long_list_of_colliding_pairs_is_cut_to_one_line_with_its_count():
+    """A person inside the robot touches dozens of parts: the message lists what fits in the
+    width and says how many more there are; a short list is left whole."""
+    from hriplan.robots.collision import Contact, listed_contacts
+
+    many = [Contact(f"link_{k}", f"alice/segment_{k}") for k in range(60)]
+    line = listed_contacts(many, 200)
+    shown = line.split(" and ")[0].split(", ")
+    assert len(line) <= 200 and line.endswith(f"and {60 - len(shown)} more (60 pairs in all)")
+    assert shown == [f"link_{k} - alice/segment_{k}" for k in range(len(shown))] and len(shown) >= 4
+    assert listed_contacts(many[:2], 200) == "link_0 - alice/segment_0, link_1 - alice/segment_1"
+    assert listed_contacts([Contact("a" * 300, "b")] * 3, 200) == "3 colliding pairs"

@@ -36,6 +36,26 @@ def test_reaching_puts_the_palm_on_the_target(human):
         human.pose(HumanSpec(position=(1.5, 0.3), yaw=np.pi, reach={"right": (-2.0, 0.0, 1.0)}))
 
 
+def test_a_reach_relative_to_the_body_moves_and_turns_with_the_person(human):
+    """forward along the way they face, left to their left, up from the floor: the palm is there,
+    and moving the person moves it by the same displacement (a world reach stays behind)."""
+    body = {"right": {"forward": 0.4, "left": -0.15, "up": 1.05}}
+    yaw = -np.pi / 2  # facing -y: their left is +x, their right -x
+    human.pose(HumanSpec.model_validate({"position": (0.0, 1.45), "yaw": yaw, "reach": body}))
+    palm = human.frame("right_hand").translation.copy()
+    assert np.allclose(palm, (-0.15, 1.05, 1.05), atol=1e-3)
+    for displacement in [(0.3, 0.0), (-0.2, 0.35), (0.1, -0.1)]:
+        moved = (0.0 + displacement[0], 1.45 + displacement[1])
+        human.pose(HumanSpec.model_validate({"position": moved, "yaw": yaw, "reach": body}))
+        assert np.allclose(human.frame("right_hand").translation - palm, (*displacement, 0.0), atol=2e-3)
+    # turned a quarter to their left (facing +x), the hand is 0.4 m ahead in +x and 0.15 m to -y
+    human.pose(HumanSpec.model_validate({"position": (0.0, 1.45), "yaw": 0.0, "reach": body}))
+    assert np.allclose(human.frame("right_hand").translation, (0.4, 1.45 - 0.15, 1.05), atol=1e-3)
+    world = {"right": tuple(palm)}
+    human.pose(HumanSpec(position=(0.3, 1.45), yaw=yaw, reach=world))
+    assert np.allclose(human.frame("right_hand").translation, palm, atol=1e-3)
+
+
 def test_seated_person_is_lower(human):
     human.pose(HumanSpec(position=(1.5, 0.3), yaw=np.pi, posture="seated"))
     seated = human.frame("head").translation[2]

@@ -9,6 +9,7 @@ import contextlib
 import fcntl
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -26,10 +27,13 @@ from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.viewer import write_plots, write_task_viewer, write_viewer
+from hriplan.viewer.drawing import Drawing
+from hriplan.viewer.page import render_page
 from hriplan.viewer.scene import build_drawing
 
 SCENARIO = Path(__file__).parents[2] / "benchmarks" / "scenarios" / "b_madar_handover.json"
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+NODE = shutil.which("node")
 
 
 @pytest.fixture(scope="module")
@@ -366,17 +370,33 @@ def test_a_task_is_one_page_with_a_step_selector(browser, trajectory, tmp_path):
     page = write_task_viewer(_two_steps(trajectory), tmp_path / "task.html")
     html = page.read_text()
     assert [p.name for p in tmp_path.iterdir()] == ["task.html"]
-    assert '<option value="0">step 1: reach</option><option value="1">step 2: back</option>' in html
+    assert '<option value="1">step 1: reach</option><option value="2">step 2: back</option>' in html
     assert "worst margin" in html and " m</span>" in html and "0 or below (negative) means kept" in html
     url = page.resolve().as_uri()
-    browser.page("Page.navigate", url=f"{url}#step=1&t=0")
+    browser.page("Page.navigate", url=f"{url}#step=2&t=0")
     browser.wait_for("document.body && document.body.dataset.shownTime === '0'")
     shown = browser.evaluate(
         "[document.getElementById('hriplan-step').value, "
         "[...document.querySelectorAll('.hriplan-step-legend')].map(l => l.hidden)]"
     )
-    assert shown == ["1", [True, False]]
+    assert shown == ["2", [True, False]]
     assert browser.problems() == []
+
+
+def test_the_address_counts_steps_from_1_as_the_selector_does(tmp_path):
+    """`#step=K` opens the step the selector calls "step K" (it opened step K + 1): the page's
+    own step function, run in node, on addresses a person would type."""
+    html = render_page([("reach", Drawing(), 1.0, "first"), ("back", Drawing(), 1.0, "second")], "two steps")
+    assert '<option value="1">step 1: reach</option><option value="2">step 2: back</option>' in html
+    assert '<div class="hriplan-step-legend" data-step="2">second</div>' in html and 'id="hriplan-commands-2"' in html
+    if NODE is None:
+        pytest.skip("no node to run the page's script")
+    source = re.search(r"^function hriplanStep\(.*?^}$", html, re.S | re.M).group(0)
+    asked = {"#step=1": 1, "#step=2&t=0.5": 2, "#t=0.5&step=2": 2, "": 1, "#t=3": 1, "#step=0": 1, "#step=9": 2}
+    script = f"{source}\nconsole.log(JSON.stringify({json.dumps(list(asked))}.map(hash => hriplanStep(hash, 2))))"
+    ran = subprocess.run([NODE, "-e", script], capture_output=True, text=True, timeout=60)
+    assert ran.returncode == 0, ran.stderr
+    assert json.loads(ran.stdout) == list(asked.values())
 
 
 PROJECT_ROBOT = """(() => {  // screen positions of every robot part and scene object, and the legend's box

@@ -24,6 +24,7 @@ def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_jso
     if isinstance(problem.goal, JointTarget) and isinstance(problem.goal.values, dict):
         check_joint_values(problem.goal.values, problem.robot, f"{path}: goal")
     session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+    session.check_people_clear(problem.start)
     session.set_constraints(problem.constraints)
     options = problem.options if seed is None else problem.options.model_copy(update={"seed": seed})
     safety = default_policy(problem.robot, problem.scene.humans, problem.roles)  # ISO/TS 15066

@@ -180,10 +180,23 @@ def constraints(
         typer.echo("\n".join(constraint_lines(step.derivation)) or "  no constraints")
 
 
-def explain(task: TaskArgument, quiet: Quiet = False, reasoner: ReasonerOption = "fast") -> None:
+def explain(
+    task: Annotated[
+        Path,
+        typer.Argument(
+            help="A task file (YAML or JSON), or a trajectory file: why its constraints were there.", show_default=False
+        ),
+    ],
+    quiet: Quiet = False,
+    reasoner: ReasonerOption = "fast",
+) -> None:
     """The full reasoning chain in words: for every constraint, the rules and the facts."""
+    from hriplan.planner.trajectory import is_trajectory_file, load_trajectory
     from hriplan.rules.explain import explain as explain_derivation
 
+    if is_trajectory_file(task):  # the reasons kept with a planned motion, not derived again
+        typer.echo(explain_derivation(load_trajectory(task)))
+        return
     with progress(quiet) as report:
         outcome = _runner(task, report).run(plan=False)
     for step in outcome.steps:

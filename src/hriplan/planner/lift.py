@@ -22,7 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from hriplan.planner.validate import densify
-from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.collision import LISTED_WIDTH, CollisionChecker, listed_contacts
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import Robot
 from hriplan.robots.scene import Scene
@@ -167,4 +167,4 @@ def _retreat_along(
 
 
 def _contacts(checker: CollisionChecker, q: np.ndarray) -> str:
-    return ", ".join(f"{c.a} - {c.b}" for c in checker.contacts(q)[:3])
+    return listed_contacts(checker.contacts(q), LISTED_WIDTH // 2)  # one of several failures in a message

@@ -28,7 +28,7 @@ from hriplan.planner.options import PlanOptions, check_options
 from hriplan.planner.outcome import Status
 from hriplan.planner.search.arm_shortcut import arm_subgroups, straighten_arms
 from hriplan.planner.validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
-from hriplan.robots.collision import ZONE_NAMING, CollisionChecker, SeparationZones
+from hriplan.robots.collision import ZONE_NAMING, CollisionChecker, SeparationZones, listed_contacts
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import JointValues, Robot
 from hriplan.robots.spatial import Pose
@@ -106,12 +106,12 @@ class _Problem:
         return ", ".join(bad)
 
     def describe_collisions(self, x: np.ndarray) -> str:
-        return ", ".join(f"{c.a} - {c.b}" for c in self.checker.contacts(self.evaluator.full(x)))
+        return listed_contacts(self.checker.contacts(self.evaluator.full(x)))
 
     def collision_message(self, what: str, x: np.ndarray) -> str:
         """ "start is in collision: ...", or, if only people's minimum separations are entered, that."""
         contacts = self.checker.contacts(self.evaluator.full(x))
-        listed = ", ".join(f"{c.a} - {c.b}" for c in contacts)
+        listed = listed_contacts(contacts)
         if contacts and all(ZONE_NAMING in c.a + c.b for c in contacts):
             return f"{what} is inside a person's minimum separation of ISO/TS 15066 (the robot would have to stand still): {listed}"
         return f"{what} is in collision: {listed}"

@@ -16,7 +16,7 @@ import numpy as np
 from pydantic import BaseModel, model_validator
 
 from hriplan import HriplanError
-from hriplan.planner.constraints.binding import bind, resolve_frame, set_goal_positions
+from hriplan.planner.constraints.binding import BoundConstraint, bind, resolve_frame, set_goal_positions
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec, OrientationConstraint
 from hriplan.planner.motion import JointTarget, MotionResult, Target, ToolTarget, plan_motion, with_keep_out
@@ -99,6 +99,27 @@ class PlanningSession:
             raise HriplanError(f"the session has no constraint {constraint_id!r}")
         spec = self.constraints[constraint_id]
         self.constraints[constraint_id] = type(spec).model_validate({**spec.model_dump(), **changes})
+
+    def check_people_clear(self, start: JointValues) -> None:
+        """A person placed in the robot (a position typed wrong) is a mistake in the input, not
+        something to plan around: one line naming the person and the part they overlap (the
+        deepest pair), and how many pairs do."""
+        q = self.robot.configuration(start)
+        for person in self.checker.humans:
+            pairs = self.checker.person_pairs(q, person)
+            overlapping = np.flatnonzero(pairs.distance <= 0.0)
+            if overlapping.size:
+                k = overlapping[np.argmin(pairs.distance[overlapping])]
+                others = f" (and {overlapping.size - 1} more pairs)" if overlapping.size > 1 else ""
+                raise HriplanError(
+                    f"{person} overlaps the robot at the start: their {pairs.capsules[k]} is inside "
+                    f"{pairs.parts[k]}{others}; place {person} farther from the robot"
+                )
+
+    def resolve(self, constraints: Iterable[ConstraintSpec]) -> list[ResolvedConstraint]:
+        """The enabled constraints with their frames placed in the session's scene (a person's
+        hand, an obstacle), as a trajectory planned here would record them."""
+        return _resolved(bind(list(constraints), self.robot, self.checker))
 
     # -- goals in the session's scene -------------------------------------------------------
     def held_axes(
@@ -255,14 +276,7 @@ class PlanningSession:
             TrajectoryPoint(time_from_start=t, positions=p, velocities=v, accelerations=a)
             for t, p, v, a in zip(timed.times, timed.positions, timed.velocities, timed.accelerations)
         ]
-        constraints = [
-            ResolvedConstraint(
-                spec=c.spec,
-                frame_in_world=Pose.from_se3(c.frame),
-                goal_position=None if c.p_goal is None else c.p_goal.tolist(),
-            )
-            for c in bound
-        ]
+        constraints = _resolved(bound)
         start = dict(zip(self.robot.joint_names, q0.tolist()))
         return TrajectoryFile(
             robot=self.robot.name,
@@ -274,6 +288,18 @@ class PlanningSession:
             constraints=constraints,
             report=report,
         )
+
+
+def _resolved(bound: Iterable[BoundConstraint]) -> list[ResolvedConstraint]:
+    """Bound constraints as a trajectory records them: each frame's pose in the world."""
+    return [
+        ResolvedConstraint(
+            spec=c.spec,
+            frame_in_world=Pose.from_se3(c.frame),
+            goal_position=None if c.p_goal is None else c.p_goal.tolist(),
+        )
+        for c in bound
+    ]
 
 
 _WORKER_SESSIONS: dict[tuple[str, tuple[tuple[str, str], ...]], PlanningSession] = {}

@@ -1,12 +1,14 @@
 """Trajectory files: a validated, time-parameterised motion plus what it had to respect.
 
 JointTrajectory-like points, the constraints resolved in the world frame (their semantics are
-in `spec.py`), and a report: planning time, path length, worst margin per constraint, minimum
-robot-human distance. The schema is versioned.
+in `spec.py`) with why each one is there (the rules and the facts behind it), and a report:
+planning time, path length, worst margin per constraint, minimum robot-human distance. The
+schema is versioned.
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -33,13 +35,25 @@ class TrajectoryPoint(BaseModel):
     accelerations: list[Finite]
 
 
-class ResolvedConstraint(BaseModel):
-    """A constraint as planned: its specification and its frame's pose in the world."""
+class ConstraintOrigin(BaseModel):
+    """Why a constraint is there, as the rules derived it (rules/provenance.py): the kind they
+    required, what it is about, the rules and the facts their bodies matched, and the rules'
+    rationale. Kept with a trajectory so that a motion says why it was constrained; empty for a
+    constraint that no rule made (a problem file's)."""
+
+    kind: str = ""  # ontology constraint kind, e.g. UprightFull
+    anchor: str = ""  # the object or person it is about
+    rules: list[str] = Field(default_factory=list)  # rules that required it, then the rules behind their facts
+    facts: list[str] = Field(default_factory=list)  # the matched facts, in words
+    reason: str = ""  # one line: the rationale of the rules that required it
+
+
+class ResolvedConstraint(ConstraintOrigin):
+    """A constraint as planned: its specification, its frame's pose in the world, and its origin."""
 
     spec: ConstraintSpec
     frame_in_world: Pose
     goal_position: list[float] | None = None  # target link at the goal (dynamic tolerance)
-    reason: str = ""  # one line: why this constraint is there (from the rules, when they made it)
 
 
 class TrajectoryReport(BaseModel):
@@ -97,6 +111,16 @@ class TrajectoryFile(BaseModel):
     def save(self, path: str | Path) -> None:
         """Write atomically: a partly written trajectory never replaces a good one."""
         write_atomically(path, self.model_dump_json(indent=1, by_alias=True))
+
+
+def is_trajectory_file(path: str | Path) -> bool:
+    """Does `path` hold a trajectory (a JSON object naming this schema)? For commands that take a
+    task or a trajectory; anything unreadable is not one (the task reader then says why)."""
+    try:
+        data = json.loads(Path(path).read_bytes())
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and data.get("schema") == SCHEMA
 
 
 def load_trajectory(path: str | Path) -> TrajectoryFile:

@@ -11,6 +11,7 @@ standing on a table must not collide through its capsule, which reaches 8 cm bel
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import coal
@@ -33,6 +34,29 @@ ZONE_NAMING = "minimum separation"
 class Contact:
     a: str
     b: str
+
+
+# A list of colliding pairs in a message is cut to this many characters, so that the message's
+# line stays within 300 (a person standing in the robot touches dozens of its parts: the whole
+# list made one line of 12,600 characters).
+LISTED_WIDTH = 200
+
+
+def listed_contacts(contacts: Sequence[Contact], width: int = LISTED_WIDTH) -> str:
+    """Colliding pairs in one line of at most `width` characters: as many as fit, then how many
+    more and how many in all, so that a message stays readable and still says how bad it is."""
+    pairs = [f"{c.a} - {c.b}" for c in contacts]
+    if len(", ".join(pairs)) <= width:
+        return ", ".join(pairs)
+    shown: list[str] = []
+    for pair in pairs:
+        tail = f" and {len(pairs) - len(shown) - 1} more ({len(pairs)} pairs in all)"
+        if len(", ".join([*shown, pair]) + tail) > width:
+            break
+        shown.append(pair)
+    if not shown:  # names longer than the line
+        return f"{len(pairs)} colliding pairs"
+    return f"{', '.join(shown)} and {len(pairs) - len(shown)} more ({len(pairs)} pairs in all)"
 
 
 @dataclass(frozen=True)

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Literal, TypeVar
+from typing import Annotated, Literal, TypeVar
 
 import coal
 import numpy as np
 import pinocchio as pin
 from example_robot_data.human import HumanLoader
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
 
 from hriplan import HriplanError
 from hriplan.robots.assets import resolve_package_uri
@@ -54,6 +54,35 @@ DEFAULT_WEIGHT = 75.0
 HELD_OBJECT_OFFSET = 0.19
 
 
+class BodyReach(BaseModel):
+    """Where a hand reaches, relative to the person's body, so that it moves and turns with them
+    (a sweep over where a person stands then moves their hand too): `forward` along the way they
+    face, `left` to their left (negative: their right), `up` above the floor, in metres."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    forward: float = 0.0
+    left: float = 0.0
+    up: float = Field(gt=0.0)
+
+
+def _reach_form(value: object) -> str | None:
+    """A reach's form by its shape: a mapping is body-relative, a list a world point."""
+    if isinstance(value, (dict, BodyReach)):
+        return "body"
+    return "world" if isinstance(value, (list, tuple)) else None
+
+
+Reach = Annotated[
+    Annotated[tuple[float, float, float], Tag("world")] | Annotated[BodyReach, Tag("body")],
+    Discriminator(
+        _reach_form,
+        custom_error_type="reach_form",
+        custom_error_message="a reach is a world point [x, y, z] or, relative to the body, {forward, left, up}",
+    ),
+]
+
+
 class HumanSpec(BaseModel):
     """Where a person is and how they stand; the model faces +x of its base frame at yaw 0."""
 
@@ -64,8 +93,18 @@ class HumanSpec(BaseModel):
     position: tuple[float, float] = (1.0, 0.0)
     yaw: float = np.pi
     height: float | None = Field(default=None, gt=0.5, lt=2.5)
-    reach: dict[Side, tuple[float, float, float]] = Field(default_factory=dict)
+    reach: dict[Side, Reach] = Field(default_factory=dict)
     margin: float = Field(default=0.0, ge=0.0)
+
+    def reach_point(self, side: Side) -> np.ndarray:
+        """The world point the `side` hand reaches to: a body-relative reach turned by the
+        person's yaw and set at their position, a world point as it is."""
+        target = self.reach[side]
+        if not isinstance(target, BodyReach):
+            return np.asarray(target, dtype=float)
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        x, y = self.position
+        return np.array([x + c * target.forward - s * target.left, y + s * target.forward + c * target.left, target.up])
 
 
 def handing_hand(person: HumanSpec, named: Side | None = None) -> Side:
@@ -209,8 +248,8 @@ class Human:
         # The loader fixes the root joint's rotation (its y-up mesh frame to z-up): conjugate.
         root = self.model.jointPlacements[1]
         q[:7] = pin.SE3ToXYZQUAT(root.inverse() * self._base_placement(q) * root)
-        for side, target in spec.reach.items():
-            q = self._reach(q, side, np.asarray(target, dtype=float))
+        for side in spec.reach:
+            q = self._reach(q, side, spec.reach_point(side))
         return q
 
     def _iq(self, joint: str) -> int:

@@ -18,6 +18,7 @@ from hriplan.ontology.cache import ReasoningCache
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.situation import Situation
 from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec
+from hriplan.planner.trajectory import ConstraintOrigin
 from hriplan.rules.instantiate import Arm, Context, Form, anchored_arms, form_of
 from hriplan.rules.provenance import Provenance
 from hriplan.safety.policy import situation_policy
@@ -26,14 +27,9 @@ from hriplan.safety.separation import SeparationPolicy
 CONSTRAINED_BY = "isConstrainedBy"
 
 
-class Derived(BaseModel):
-    """Why something was derived: the kind required, what it is about, the rules and facts."""
-
-    kind: str  # ontology constraint kind, e.g. UprightFull
-    anchor: str  # the object or person it is about
-    rules: list[str]  # rules that required it, then the rules behind the facts they matched
-    facts: list[str]  # the matched facts, in words
-    reason: str  # the rationale of the rules that required it
+class Derived(ConstraintOrigin):
+    """Something the rules derived, with why (the kind required, what it is about, the rules and
+    facts: the origin a trajectory keeps of each of its constraints)."""
 
 
 class DerivedConstraint(Derived):

@@ -24,11 +24,10 @@ from hriplan.planner.motion import JointTarget, MotionResult, Target, ToolTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import SUCCEEDED, Status
 from hriplan.planner.prepare import preparatory_goal
-from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile
+from hriplan.planner.trajectory import ConstraintOrigin, ResolvedConstraint, TrajectoryFile
 from hriplan.robots.descriptions.registry import hand_model, posture
 from hriplan.robots.model import Robot, arms_of, description_of, load_robot
 from hriplan.robots.scene import Scene
-from hriplan.robots.spatial import Pose
 from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
 from hriplan.tasks.goals import LIFT, ResolvedGoal, after_step, resolve_goal, task_kind
@@ -44,7 +43,7 @@ from hriplan.tasks.model import (
     TaskFile,
     step_name,
 )
-from hriplan.tasks.task_state import TaskState
+from hriplan.tasks.task_state import TaskState, human_spec
 
 if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is planned
     from hriplan.planner.session import PlanningSession
@@ -192,6 +191,10 @@ class TaskRunner:
         time is tried in each grasp the rules allow, most preferred first, until the step plans."""
         task, state, robot = self.task, TaskState.initial(self.task), self._robot()
         start = posture(task.robot, task.start.posture) | task.start.joints
+        if plan and task.humans:
+            session = self._session()
+            session.set_scene(Scene(humans=[human_spec(h) for h in task.humans]))
+            session.check_people_clear(start)
         state.tools = tool_poses(robot, start)
         outcomes = []
         for index, step in enumerate(task.steps):
@@ -497,8 +500,12 @@ class TaskRunner:
         result = (session or self._session()).time(motion, options, safety=derivation.separation)
         if not result.solved:
             return outcome.model_copy(update={"status": result.status, "message": result.message}), start
-        trajectory = _with_reasons(result.trajectory, derivation).model_copy(
-            update={"task": self.task.name, "step": outcome.name}
+        trajectory = result.trajectory.model_copy(
+            update={
+                "task": self.task.name,
+                "step": outcome.name,
+                "constraints": _with_origins(result.trajectory.constraints, derivation),
+            }
         )
         end = dict(start) | dict(zip(trajectory.joint_names, trajectory.points[-1].positions))
         return outcome.model_copy(update={"status": Status.SOLVED, "trajectory": trajectory}), end
@@ -544,18 +551,20 @@ def _hands(task: TaskFile) -> dict[str, str]:
     }
 
 
-def _with_reasons(trajectory: TrajectoryFile, derivation: Derivation) -> TrajectoryFile:
+def _with_origins(constraints: list[ResolvedConstraint], derivation: Derivation) -> list[ResolvedConstraint]:
+    """Each constraint with why the rules made it (its kind, anchor, rules, facts and reason)."""
     by_id = {c.spec.id: c for c in derivation.constraints}
-    constraints = [
-        c.model_copy(update={"reason": by_id[c.spec.id].reason}) if c.spec.id in by_id else c
-        for c in trajectory.constraints
+    origin = set(ConstraintOrigin.model_fields)
+    return [
+        c.model_copy(update=by_id[c.spec.id].model_dump(include=origin)) if c.spec.id in by_id else c
+        for c in constraints
     ]
-    return trajectory.model_copy(update={"constraints": constraints})
 
 
 def against_task(trajectory: TrajectoryFile, runner: TaskRunner) -> TrajectoryFile:
-    """The trajectory with its step's constraints (and reasons) and scene as the task derives
-    them now, so it can be re-checked or shown against the task rather than its own record."""
+    """The trajectory with its step's constraints (their frames placed in the step's scene, and
+    why the rules made them) and scene as the task derives them now, so it can be re-checked or
+    shown against the task rather than its own record."""
     outcome = runner.run(plan=False)
     step = next((s for s in outcome.steps if s.name == trajectory.step), None)
     if step is None:
@@ -568,7 +577,7 @@ def against_task(trajectory: TrajectoryFile, runner: TaskRunner) -> TrajectoryFi
                 f"does not re-derive: validate it against its own record (without --task)"
             )
         raise HriplanError(f"the trajectory's step {trajectory.step!r} is not a step of task {runner.task.name!r}")
-    resolved = [
-        ResolvedConstraint(spec=c.spec, frame_in_world=Pose(), reason=c.reason) for c in step.derivation.constraints
-    ]
-    return trajectory.model_copy(update={"constraints": resolved, "scene": step.scene})
+    session = runner._session()
+    session.set_scene(step.scene)
+    resolved = session.resolve(c.spec for c in step.derivation.constraints)
+    return trajectory.model_copy(update={"constraints": _with_origins(resolved, step.derivation), "scene": step.scene})

@@ -9,7 +9,8 @@ instant: a link to a moment of the plan, and what the browser test uses.
 
 A task's page holds every step (`write_task_viewer`): a selector at the top picks the step,
 `#step=K` in the address says which one is shown (the page reloads with that step's drawing,
-legend and animation).
+legend and animation). Steps count from 1 everywhere a person sees them: the selector's "step
+K", `#step=K` and the page's element ids and values.
 """
 
 from __future__ import annotations
@@ -34,19 +35,22 @@ from hriplan.viewer.scene import build_drawing
 CLIENT = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
 
 SCRIPT = """
+function hriplanStep(hash, count) {  // the step `#step=K` asks for: 1 to count, else the first
+  const asked = /[#&]step=([0-9]+)/.exec(hash);
+  return asked ? Math.min(Math.max(parseInt(asked[1]), 1), count) : 1;
+}
 (async function () {
   const steps = JSON.parse(document.getElementById("hriplan-plan").textContent).steps;
-  const asked = /[#&]step=([0-9]+)/.exec(location.hash);
-  const index = asked ? Math.min(parseInt(asked[1]), steps.length - 1) : 0;
-  const plan = steps[index];
+  const step = hriplanStep(location.hash, steps.length);
+  const plan = steps[step - 1];
   const selector = document.getElementById("hriplan-step");
-  selector.value = String(index);
+  selector.value = String(step);
   selector.addEventListener("change", () => { location.hash = "step=" + selector.value; location.reload(); });
   document.querySelectorAll(".hriplan-step-legend").forEach(
-    legend => { legend.hidden = legend.dataset.step !== String(index); });
+    legend => { legend.hidden = legend.dataset.step !== String(step); });
   const viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
   window.viewer = viewer;
-  const text = atob(document.getElementById("hriplan-commands-" + index).textContent.trim());
+  const text = atob(document.getElementById("hriplan-commands-" + step).textContent.trim());
   const packed = Uint8Array.from(text, c => c.charCodeAt(0));
   const unzipped = new Blob([packed]).stream().pipeThrough(new DecompressionStream("gzip"));
   const bytes = new Uint8Array(await new Response(unzipped).arrayBuffer());
@@ -140,14 +144,15 @@ def render_page(steps: list[tuple[str, Drawing, float, str]], title: str) -> str
         }
     ).replace("</", "<\\/")
     options = "".join(
-        f'<option value="{k}">step {k + 1}: {escape(name)}</option>' for k, (name, *_) in enumerate(steps)
+        f'<option value="{k}">step {k}: {escape(name)}</option>' for k, (name, *_) in enumerate(steps, start=1)
     )
     legends = "".join(
-        f'<div class="hriplan-step-legend" data-step="{k}">{legend}</div>' for k, (*_, legend) in enumerate(steps)
+        f'<div class="hriplan-step-legend" data-step="{k}">{legend}</div>'
+        for k, (*_, legend) in enumerate(steps, start=1)
     )
     commands = "\n".join(
         f'<script type="application/octet-stream" id="hriplan-commands-{k}">{_commands(drawing)}</script>'
-        for k, (_, drawing, *_) in enumerate(steps)
+        for k, (_, drawing, *_) in enumerate(steps, start=1)
     )
     return PAGE.format(
         title=escape(title),
