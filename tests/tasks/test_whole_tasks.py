@@ -33,6 +33,8 @@ STEPS = {
     ],
     "handover_then_ready": ["hand_over", "hand_over_release", "back"],
     "two_arms_in_sequence": ["put_cup", "put_cup_release", "pick_bottle", "pick_bottle_lift"],
+    "soup_bowl_held_top": ["put_down_prepare", "put_down", "put_down_release"],
+    "soup_bowl_held_searched": ["put_down_prepare", "put_down", "put_down_release"],
 }
 
 

@@ -105,8 +105,10 @@ def situation_for(
     state: TaskState,
     paths: dict[str, list[tuple[float, float, float]]] | None = None,
 ) -> Situation:
-    """The facts of one step: the task kind, who is involved, what is carried, where things are
-    (held objects where the hand is) and, once a motion is planned, the carried objects' `paths`."""
+    """The facts of one step: the task kind, who is involved, what is carried (what the arms hold
+    as the step starts: an object grasped or taken in it is not carried on the way to it), where
+    things are (held objects where the hand is) and, once a motion is planned, the carried
+    objects' `paths`."""
     paths = paths or {}
     arms = step_arms(task, step, state)
     goals = step.goals or [step.goal]
@@ -114,7 +116,6 @@ def situation_for(
     targets = {g.insert: g.into for g in goals if getattr(g, "into", None)}
     target = next(iter(targets.values())) if len(set(targets.values())) == 1 else None
     carries = {obj: arm for obj, arm in state.held_by_arm.items() if arm in arms}
-    carries |= closing_on(step, arms)  # the hand arrives as it will hold what it grasps or takes
     objects = [
         SituationObject(
             name=o.name,
