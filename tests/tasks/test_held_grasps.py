@@ -89,3 +89,13 @@ def test_a_stated_grasp_the_kind_does_not_afford_is_one_error(tmp_path):
     (tmp_path / "t.yaml").write_text(task)
     with pytest.raises(HriplanError, match="^soup is held by HandleGrasp, which its kind does not afford; it affords "):
         TaskRunner(load_task(tmp_path / "t.yaml")).run(plan=False)
+
+
+def test_a_bowl_put_down_then_picked_again_is_searched_again(tmp_path):
+    # Failed before: the first step's chosen grasp was passed on as a recorded grasp name, so the
+    # second step's search raised "soup is held by Grasp(...) in the trajectory".
+    task = (DATA / "soup_bowl_held_searched.yaml").read_text()
+    task = task.replace("planning:", "  - {name: pick_up, goal: {grasp: soup}}\nplanning:")
+    (tmp_path / "t.yaml").write_text(task)
+    outcome = TaskRunner(load_task(tmp_path / "t.yaml")).run(plan=False)
+    assert [s.name for s in outcome.steps] == ["put_down", "pick_up"]

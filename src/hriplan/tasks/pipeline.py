@@ -202,8 +202,8 @@ class TaskRunner:
         outcomes = []
         for index, step in enumerate(task.steps):
             choices = self._grasp_choices(step, index, state, grasps or {})
-            for grasps in choices if plan else choices[:1]:
-                state.grasps |= grasps
+            for choice in choices if plan else choices[:1]:
+                state.grasps |= choice
                 planned, end, resolved = self._step(step, index, state, start, plan)
                 if planned[-1].status in SUCCEEDED:
                     break
