@@ -247,11 +247,12 @@ def test_a_knife_between_two_people_on_either_side_points_straight_down(cache):
     np.testing.assert_allclose(spec.target.rotation()[:, 1], [0.0, 0.0, -1.0], atol=1e-12)
 
 
-def test_no_sharp_end_down_for_a_knife_far_from_people_handed_over_or_about_to_be_grasped(derived, cache):
+def test_no_sharp_end_down_for_a_knife_far_from_people_handed_over_or_about_to_be_grasped_or_a_cup(derived, cache):
     far = derive(KnowledgeBase(knife_near(("col", 3.0, 2.0)), cache=cache))
     grasping = knife_near(("col", 1.0, 1.5)).model_copy(deep=True)
     grasping.task.carries = {}  # the hand on its way to the knife is empty
-    for derivation in (far, derived("handover_knife_glass"), derive(KnowledgeBase(grasping, cache=cache))):
+    cup = derived("transport_hot_cup")  # a blunt cup carried near col
+    for derivation in (far, derived("handover_knife_glass"), derive(KnowledgeBase(grasping, cache=cache)), cup):
         assert not any(c.kind == "SharpEndDown" for c in derivation.constraints)
         assert not any(v.kind == "ReducedVelocitySharp" for v in derivation.velocity)
 
