@@ -393,15 +393,7 @@ class TaskRunner:
         )
         session.set_scene(lifting)
         path, why = lift_path(robot, session.checker, arm, q, LIFT)
-        outcome = grasped.model_copy(
-            update={
-                "name": f"{grasped.name}{LIFT_OFF}",
-                "kind": "Transport",
-                "scene": lifting,
-                "derivation": derivation,
-                "trajectory": None,
-            }
-        )
+        outcome = _added_motion(grasped, LIFT_OFF, lifting, derivation)
         group = robot.arm_group(arm)
         if path is not None:
             session.set_scene(scene)
@@ -451,15 +443,7 @@ class TaskRunner:
         kept = done.derivation.model_copy(
             update={"constraints": [c for c in done.derivation.constraints if c.anchor != obj]}
         )
-        outcome = done.model_copy(
-            update={
-                "name": f"{done.name}{RELEASE}",
-                "kind": "Transport",
-                "scene": scene,
-                "derivation": kept,
-                "trajectory": None,
-            }
-        )
+        outcome = _added_motion(done, RELEASE, scene, kept)
         if path is None:
             return outcome.model_copy(
                 update={"status": Status.UNREACHABLE_GOAL, "message": f"backing away from {obj}: {why}"}
@@ -565,6 +549,13 @@ class TaskRunner:
         if not all(isinstance(g, ToolTarget) for g in goals):
             raise HriplanError("a step with several goals needs a tool or object goal for each arm")
         return self._session().joint_goal(goals, start)
+
+
+def _added_motion(done: StepOutcome, suffix: str, scene: Scene, derivation: Derivation) -> StepOutcome:
+    """The outcome, still unplanned, of a transport the pipeline adds after the step `done` (a
+    lift, a retreat), named after it and planned in `scene` under `derivation`."""
+    update = {"name": f"{done.name}{suffix}", "kind": "Transport", "scene": scene, "derivation": derivation}
+    return done.model_copy(update=update | {"trajectory": None})
 
 
 def _pairs(derivation: Derivation) -> list[tuple[str, ConstraintSpec]]:
