@@ -33,6 +33,23 @@ def nearest(shape_a: coal.ShapeBase, at_a: pin.SE3, shape_b: coal.ShapeBase, at_
     return result
 
 
+def hand_distances(trajectory, hands: dict[str, str], arm: str, shape: coal.ShapeBase, at: np.ndarray) -> np.ndarray:
+    """Per written point, the least distance from the URDF collision meshes of the arm's hand
+    (fingers at the `hands` postures) to `shape` placed at `at` (4x4; negative: penetrating)."""
+    robot = UrdfRobot(trajectory.robot, hands)
+    where = pin.SE3(at[:3, :3], at[:3, 3])
+    out = []
+    for point in trajectory.points:
+        robot.configure(dict(trajectory.start) | dict(zip(trajectory.joint_names, point.positions)))
+        placed = zip(robot.geometry.geometryObjects, robot.geometry_data.oMg)
+        out.append(
+            min(
+                nearest(g.geometry, m, shape, where).min_distance for g, m in placed if g.name.startswith(f"{arm}_hand")
+            )
+        )
+    return np.array(out)
+
+
 def outside_distance(spec, local: np.ndarray) -> np.ndarray:
     """Per point (rows of `local`, in the constraint frame): > 0 outside the closed solid, by at
     least that much along some axis (a bound, not the exact distance, except for the sphere)."""

@@ -283,6 +283,24 @@ CASES: list[Case] = [
         t__yaml=task(objects__0__held_by="arm", objects__0__in_hand_of="bob"),
     ),
     C(
+        "task_held_by_an_arm_the_robot_lacks",
+        "constraints {d}/t.yaml",
+        "object 'cup' is held by arm 'right'; robot 'ur5' has the arms arm",
+        t__yaml=task(objects__0__held_by="right"),
+    ),
+    C(
+        "task_held_by_unknown_field",
+        "constraints {d}/t.yaml",
+        "objects.0.held_by.grip: Extra inputs are not permitted",
+        t__yaml=task(objects__0__held_by={"arm": "arm", "grip": "top"}),
+    ),
+    C(
+        "task_held_by_a_grasp_without_a_hand",
+        "constraints {d}/t.yaml",
+        "cup is held by TopGrasp, but ur5_arm has no robot hand to hold it by a grasp",
+        t__yaml=task(objects__0__held_by={"arm": "arm", "grasp": "TopGrasp"}),
+    ),
+    C(
         "task_in_hand_of_nobody",
         "constraints {d}/t.yaml",
         "object 'cup' is in the hand of 'zoe', who is not among the humans",

@@ -210,6 +210,53 @@ def test_no_sharp_end_rule_for_a_knife_not_handed_over_or_a_blunt_object(derived
     assert not any(c.kind == "SharpEndAway" for c in derived(name).constraints)
 
 
+def knife_near(*people: tuple[str, float, float]) -> Situation:
+    """A knife carried by the right arm 0.8 m in front of MADAR (facing +y), collaborators at (x, y)."""
+    return Situation.model_validate(
+        {
+            "task": {"name": "carry", "kind": "Transport", "arms": ["right"], "carries": {"knife": "right"}},
+            "objects": [{"name": "knife", "kind": "Knife", "pose": {"xyz": [0.3, 0.8, 1.0]}, "grasp_axis": "+y"}],
+            "humans": [{"name": n, "role": "Collaborator", "position": [x, y], "yaw": 0.0} for n, x, y in people],
+        }
+    )
+
+
+def test_a_knife_carried_near_a_collaborator_points_down_and_away_from_him_at_half_speed(cache):
+    derivation = derive(KnowledgeBase(knife_near(("col", 1.0, 1.5)), cache=cache))
+    down = constraints(derivation)["sharp_end_down_knife"]
+    spec = down.spec
+    assert isinstance(spec, OrientationConstraint) and spec.frame.entity == "world" and spec.joints == RIGHT_ARM
+    away = -np.array([1.0, 1.5]) / math.hypot(1.0, 1.5)  # from col towards the robot's base
+    blade = math.cos(0.5) * np.array([0.0, 0.0, -1.0]) + math.sin(0.5) * np.append(away, 0.0)
+    np.testing.assert_allclose(spec.target.rotation()[:, 1], blade, atol=1e-12)  # the knife's axis: tool +y
+    assert spec.free_axes == ["y"] and spec.tolerance == 0.5 and spec.tolerance_gradient == 0.0
+    assert down.rules[0] == "sharp_end_down_near_human" and "knife is near col" in down.facts
+    (slow,) = derivation.velocity
+    assert (slow.kind, slow.anchor, slow.value, derivation.velocity_scale) == (
+        "ReducedVelocitySharp",
+        "knife",
+        0.5,
+        0.5,
+    )
+    assert slow.rules[0] == "slow_sharp_tool_near_human"
+
+
+def test_a_knife_between_two_people_on_either_side_points_straight_down(cache):
+    derivation = derive(KnowledgeBase(knife_near(("a", 0.5, 0.0), ("b", -0.5, 0.0)), cache=cache))
+    spec = constraints(derivation)["sharp_end_down_knife"].spec
+    np.testing.assert_allclose(spec.target.rotation()[:, 1], [0.0, 0.0, -1.0], atol=1e-12)
+
+
+def test_no_sharp_end_down_for_a_knife_far_from_people_handed_over_or_about_to_be_grasped_or_a_cup(derived, cache):
+    far = derive(KnowledgeBase(knife_near(("col", 3.0, 2.0)), cache=cache))
+    grasping = knife_near(("col", 1.0, 1.5)).model_copy(deep=True)
+    grasping.task.carries = {}  # the hand on its way to the knife is empty
+    cup = derived("transport_hot_cup")  # a blunt cup carried near col
+    for derivation in (far, derived("handover_knife_glass"), derive(KnowledgeBase(grasping, cache=cache)), cup):
+        assert not any(c.kind == "SharpEndDown" for c in derivation.constraints)
+        assert not any(v.kind == "ReducedVelocitySharp" for v in derivation.velocity)
+
+
 # -- 6. fragile or hot objects near people: reduced velocity ---------------------------------
 
 

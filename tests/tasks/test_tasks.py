@@ -31,7 +31,8 @@ def test_rules_decide_differently_per_example():
     assert bystander.region == "outside" and bystander.keep_out_all_links and bystander.frame.entity == "dana/base"
     scissors = derived("handover_scissors")
     assert "sharp_end_away_scissors" in scissors["hand_over"]
-    assert list(scissors["turn_blades"]) == ["keep_out_bob"]  # bob waits for the handover: kept out meanwhile
+    # bob waits for the handover: kept out meanwhile, the blades carried near him pointing down and away
+    assert set(scissors["turn_blades"]) == {"keep_out_bob", "sharp_end_down_scissors"}
     pegs = derived("peg_in_hole_supervised")["bring_pegs"]
     for side in ("right", "left"):
         alignment = pegs[f"{side}_alignment_peg_{side}"].spec
@@ -120,17 +121,20 @@ def test_unknown_ontology_class_or_arm_is_reported(tmp_path):
         TaskRunner(load_task(path)).run(plan=False)
 
 
-def test_taking_from_a_giver_gets_the_handover_constraints_and_upright(tmp_path):
-    take = derived("handover_full_can")["take_can"]
-    assert {"approach_cone_alice", "shared_workspace_alice", "exclusion_box_alice", "upright_coke_can"} == set(take)
+def test_taking_from_a_giver_gets_the_handover_constraints_and_the_upright_once_held(tmp_path):
+    # Before: the take's empty hand was already held upright (the can counted as carried on the way to it).
+    steps = derived("handover_full_can")
+    take = steps["take_can"]
+    assert {"approach_cone_alice", "shared_workspace_alice", "exclusion_box_alice"} == set(take)
+    assert "upright_coke_can" in steps["place_can"]
     assert "take_approach_cone" in take["approach_cone_alice"].rules
     # the same task with a collaborator instead of a giver: no handover constraints
     text = (EXAMPLES / "handover_full_can.yaml").read_text().replace("role: Giver", "role: Collaborator")
     path = tmp_path / "collaborator.yaml"
     path.write_text(text)
     outcome = TaskRunner(load_task(path)).run(plan=False)
-    ids = {c.spec.id for c in outcome.steps[0].derivation.constraints}
-    assert "approach_cone_alice" not in ids and "upright_coke_can" in ids
+    take, place = ({c.spec.id for c in s.derivation.constraints} for s in outcome.steps)
+    assert "approach_cone_alice" not in take and "upright_coke_can" in place
 
 
 @pytest.mark.parametrize("example", sorted(p.stem for p in EXAMPLES.glob("*.yaml")))

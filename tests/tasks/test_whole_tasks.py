@@ -22,7 +22,7 @@ from hriplan.robots.scene import Obstacle, Sphere
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
-from independent import UrdfRobot, constraint_violations
+from independent import UrdfRobot, constraint_violations, hand_distances
 
 DATA = Path(__file__).parents[1] / "data" / "whole_tasks"
 STEPS = {
@@ -39,28 +39,9 @@ STEPS = {
     ],
     "take_place_ready": ["take_1", "place_1", "place_1_release", "back"],
     "pick_hand_over_ready": ["pick", "pick_lift", "give_prepare", "give", "give_release", "back"],
+    "soup_bowl_held_top": ["put_down_prepare", "put_down", "put_down_release"],
+    "soup_bowl_held_searched": ["put_down_prepare", "put_down", "put_down_release"],
 }
-
-
-def hand_distances(trajectory, hands: dict[str, str], arm: str, obstacle) -> np.ndarray:
-    """Per written point, the least distance from the arm's hand meshes to the obstacle's shape."""
-    robot = UrdfRobot(trajectory.robot, hands)
-    shape = coal.Cylinder(obstacle.shape.radius, obstacle.shape.height)
-    at = obstacle.pose.matrix()
-    where = coal.Transform3s(at[:3, :3], at[:3, 3])
-    out = []
-    for point in trajectory.points:
-        robot.configure(dict(trajectory.start) | dict(zip(trajectory.joint_names, point.positions)))
-        best = np.inf
-        for g, placed in zip(robot.geometry.geometryObjects, robot.geometry_data.oMg):
-            if g.name.startswith(f"{arm}_hand"):
-                result = coal.DistanceResult()
-                best = min(
-                    best,
-                    coal.distance(g.geometry, coal.Transform3s(placed), shape, where, coal.DistanceRequest(), result),
-                )
-        out.append(best)
-    return np.array(out)
 
 
 @functools.cache
@@ -97,7 +78,8 @@ def test_a_released_object_is_left_where_it_was_put_and_the_hand_backs_away_clea
         (released,) = [o for o in step.trajectory.scene.obstacles if o.touched_by == arm]
         recorded = dict(step.trajectory.hands)
         for hands in (recorded, recorded | {arm: task.hands[arm]}):  # as it backs away, as the next step has it
-            d = hand_distances(step.trajectory, hands, arm, released)
+            shape = coal.Cylinder(released.shape.radius, released.shape.height)
+            d = hand_distances(step.trajectory, hands, arm, shape, released.pose.matrix())
             assert d[-1] > 0.0, (step.name, hands)
             clear = int(np.argmax(d > 0.0))
             assert (d[clear:] > 0.0).all(), (step.name, hands, d)  # once clear, it stays clear

@@ -85,6 +85,8 @@ class TrajectoryFile(BaseModel):
     joint_names: list[str]
     start: dict[str, float] = Field(default_factory=dict)  # every joint of the robot at the start
     scene: Scene = Field(default_factory=Scene)  # what the motion was checked against
+    # A task step's grasps: each object held (or closed on) -> the ontology grasp it is held by.
+    grasps: dict[str, str] = Field(default_factory=dict)
     points: list[TrajectoryPoint]
     constraints: list[ResolvedConstraint]
     report: TrajectoryReport

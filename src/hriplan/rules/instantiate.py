@@ -128,6 +128,20 @@ def _pointing_away(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> 
     return _orientation(ctx, kind, ctx.situation.object(anchor), arm, cid, away, FrameRef(entity=f"{human.name}/base"))
 
 
+def _pointing_down_away(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> ConstraintSpec:
+    """The object's z axis tilted from straight down towards the robot, away from each person it
+    comes near (their directions to the robot summed); straight down if those cancel."""
+    robot = np.array(ctx.robot_xy())
+    away = np.zeros(2)
+    for name in ctx.facts.get(anchor, "isNear"):
+        towards = robot - np.array(ctx.situation.human(str(name)).position)
+        away += towards / max(float(np.linalg.norm(towards)), 1e-9)
+    tilt, norm = ctx.param(kind, "hasTilt"), float(np.linalg.norm(away))
+    side = np.append(away / norm, 0.0) if norm > 1e-6 else np.zeros(3)
+    direction = math.cos(tilt) * np.array([0.0, 0.0, -1.0]) + math.sin(tilt) * side
+    return _orientation(ctx, kind, ctx.situation.object(anchor), arm, cid, direction, FrameRef())
+
+
 def _orientation(
     ctx: Context, kind: str, obj: SituationObject, arm: Arm, cid: str, direction: np.ndarray, frame: FrameRef
 ) -> OrientationConstraint:
@@ -237,6 +251,7 @@ FORMS: dict[str, Form] = {
     "UprightKind": Form("object", _upright),
     "AlignmentKind": Form("object", _alignment),
     "PointingAwayKind": Form("object", _pointing_away),
+    "PointingDownAwayKind": Form("object", _pointing_down_away),
     "ApproachConeKind": Form("human", _approach_cone),
     "WorkspaceBoxKind": Form("human", _workspace_box),
     "ExclusionBoxKind": Form("human", _exclusion_box),

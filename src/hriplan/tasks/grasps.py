@@ -61,9 +61,28 @@ def allowed_grasps(facts: Facts, obj: str, arm_individual: str, usual_axis: str)
             f"no grasp of {obj} is allowed: the rules require {', '.join(sorted(required))}, "
             f"its kind affords {', '.join(sorted(afforded))}"
         )
-    grasps = sorted((str(n) for n in names), key=lambda n: (facts.number(n, "hasPreference"), n))
-    found = [Grasp(n, str(facts.one(n, "hasGraspAxis")), facts.number(n, "hasGraspOffset")) for n in grasps]
-    for g in found:
-        if g.axis not in ("+x", "-x", "+y", "-y", "+z", "-z"):
-            raise HriplanError(f"grasp {g.name} has axis {g.axis!r} in the ontology; use one of +x, -x, +y, -y, +z, -z")
-    return found
+    return [
+        _grasp(facts, n) for n in sorted((str(n) for n in names), key=lambda n: (facts.number(n, "hasPreference"), n))
+    ]
+
+
+def stated_grasp(facts: Facts, obj: str, name: str, arm_individual: str) -> Grasp:
+    """The grasp a task says `obj` is held by from the start: any grasp its kind affords. The
+    rules' required grasps are about closing a hand on it (a hand closing over a full bowl's rim
+    spills it), which happened before the task, so they do not rule a stated grasp out."""
+    if not facts.get(arm_individual, "hasRobotHand"):
+        raise HriplanError(f"{obj} is held by {name}, but {arm_individual} has no robot hand to hold it by a grasp")
+    afforded = sorted(map(str, facts.get(obj, "affordsGrasp")))
+    if name not in afforded:
+        raise HriplanError(
+            f"{obj} is held by {name}, which its kind does not afford; it affords {', '.join(afforded) or 'no grasp'}"
+        )
+    return _grasp(facts, name)
+
+
+def _grasp(facts: Facts, name: str) -> Grasp:
+    """A grasp individual of the ontology: its tool axis and offset."""
+    grasp = Grasp(name, str(facts.one(name, "hasGraspAxis")), facts.number(name, "hasGraspOffset"))
+    if grasp.axis not in ("+x", "-x", "+y", "-y", "+z", "-z"):
+        raise HriplanError(f"grasp {name} has axis {grasp.axis!r} in the ontology; use one of +x, -x, +y, -y, +z, -z")
+    return grasp

@@ -30,6 +30,14 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
+class HeldBy(_Strict):
+    """A robot arm holding an object at the start, and the grasp it holds it by (an ontology
+    grasp its kind affords; none: the grasps the rules allow are tried, as for a first pick)."""
+
+    arm: str
+    grasp: Name | None = None
+
+
 class TaskObject(_Strict):
     """An object; its z axis is its own axis (up out of a container, along a peg or a hole)."""
 
@@ -44,16 +52,36 @@ class TaskObject(_Strict):
     shape: Shape | None = Field(
         default=None, description="Collision shape (centred); none: the object is not an obstacle."
     )
-    held_by: str | None = Field(default=None, description="A robot arm holding it at the start.")
+    held_by: HeldBy | None = Field(
+        default=None,
+        description="A robot arm holding it at the start: `right`, or `{arm: right, grasp: TopGrasp}`.",
+        json_schema_extra=lambda schema: schema["anyOf"].insert(0, {"type": "string"}),
+    )
     in_hand_of: Name | None = Field(
         default=None, description="A person holding it at the start (in their active hand)."
     )
+
+    @field_validator("held_by", mode="before")
+    @classmethod
+    def _arm_alone(cls, value: object) -> object:
+        """`held_by: right` is the arm alone, its grasp unstated."""
+        return {"arm": value} if isinstance(value, str) else value
 
     @model_validator(mode="after")
     def _one_holder(self) -> TaskObject:
         if self.held_by and self.in_hand_of:
             raise ValueError(f"object {self.name!r} cannot be held by the robot and by {self.in_hand_of!r} at once")
         return self
+
+    @property
+    def holding_arm(self) -> str | None:
+        """The arm holding it at the start, if one does."""
+        return self.held_by.arm if self.held_by else None
+
+    @property
+    def stated_grasp(self) -> str | None:
+        """The grasp the task says it is held by at the start, if it says."""
+        return self.held_by.grasp if self.held_by else None
 
 
 class TaskHuman(HumanSpec):
@@ -286,6 +314,11 @@ class TaskFile(_Strict):
         if repeated:
             raise ValueError(f"step names must be unique (each names its trajectory); repeated: {', '.join(repeated)}")
         for obj in self.objects:
+            if obj.holding_arm is not None and obj.holding_arm not in description.arms:
+                raise ValueError(
+                    f"object {obj.name!r} is held by arm {obj.holding_arm!r}; robot {self.robot!r} has the arms "
+                    f"{', '.join(description.arms)}"
+                )
             if obj.in_hand_of and obj.in_hand_of not in humans:
                 raise ValueError(
                     f"object {obj.name!r} is in the hand of {obj.in_hand_of!r}, who is not among the humans"

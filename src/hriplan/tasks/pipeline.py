@@ -31,7 +31,7 @@ from hriplan.robots.scene import Scene
 from hriplan.rules.infer import Derivation, derive
 from hriplan.rules.instantiate import Context
 from hriplan.tasks.goals import LIFT, ResolvedGoal, after_step, resolve_goal, task_kind
-from hriplan.tasks.grasps import Grasp, allowed_grasps
+from hriplan.tasks.grasps import Grasp, allowed_grasps, stated_grasp
 from hriplan.tasks.model import (
     Goal,
     GraspGoal,
@@ -90,6 +90,13 @@ def step_arms(task: TaskFile, step: Step, state: TaskState) -> list[str]:
     return [next(iter(description_of(task.robot).arms))]
 
 
+def closing_on(step: Step, arms: list[str]) -> dict[str, str]:
+    """The objects a step's hands close on at its end (grasped or taken) -> the arm closing on
+    each: it holds them from then on, not on its way to them."""
+    goals = step.goals or [step.goal]
+    return {obj: arm for g, arm in zip(goals, arms) if (obj := getattr(g, "take", None) or getattr(g, "grasp", None))}
+
+
 def situation_for(
     task: TaskFile,
     step: Step,
@@ -97,8 +104,10 @@ def situation_for(
     state: TaskState,
     paths: dict[str, list[tuple[float, float, float]]] | None = None,
 ) -> Situation:
-    """The facts of one step: the task kind, who is involved, what is carried, where things are
-    (held objects where the hand is) and, once a motion is planned, the carried objects' `paths`."""
+    """The facts of one step: the task kind, who is involved, what is carried (what the arms hold
+    as the step starts: an object grasped or taken in it is not carried on the way to it), where
+    things are (held objects where the hand is) and, once a motion is planned, the carried
+    objects' `paths`."""
     paths = paths or {}
     arms = step_arms(task, step, state)
     goals = step.goals or [step.goal]
@@ -106,11 +115,6 @@ def situation_for(
     targets = {g.insert: g.into for g in goals if getattr(g, "into", None)}
     target = next(iter(targets.values())) if len(set(targets.values())) == 1 else None
     carries = {obj: arm for obj, arm in state.held_by_arm.items() if arm in arms}
-    # An object this step grasps or takes is moved by it too: the hand arrives as it will hold it.
-    for goal, arm in zip(goals, arms):
-        taken = getattr(goal, "take", None) or getattr(goal, "grasp", None)
-        if taken is not None:
-            carries[taken] = arm
     objects = [
         SituationObject(
             name=o.name,
@@ -185,10 +189,12 @@ class TaskRunner:
         self.knowledge_bases[situation.task.name] = kb
         return kb, derivation
 
-    def run(self, plan: bool = True) -> TaskOutcome:
+    def run(self, plan: bool = True, grasps: dict[str, str] | None = None) -> TaskOutcome:
         """Derive (and plan, unless `plan` is False) every step. Without planning, a step starts
         where the previous one's goal puts the tools. An object the step moves for the first
-        time is tried in each grasp the rules allow, most preferred first, until the step plans."""
+        time is held by the grasp the task states for it, else tried in each grasp the rules
+        allow, most preferred first, until the step plans. `grasps` (object -> grasp name, as a
+        trajectory records them) fixes the grasp of those objects instead."""
         task, state, robot = self.task, TaskState.initial(self.task), self._robot()
         start = posture(task.robot, task.start.posture) | task.start.joints
         if plan and task.humans:
@@ -198,9 +204,9 @@ class TaskRunner:
         state.tools = tool_poses(robot, start)
         outcomes = []
         for index, step in enumerate(task.steps):
-            choices = self._grasp_choices(step, index, state)
-            for grasps in choices if plan else choices[:1]:
-                state.grasps |= grasps
+            choices = self._grasp_choices(step, index, state, grasps or {})
+            for choice in choices if plan else choices[:1]:
+                state.grasps |= choice
                 planned, end, resolved = self._step(step, index, state, start, plan)
                 if planned[-1].status in SUCCEEDED:
                     break
@@ -217,19 +223,33 @@ class TaskRunner:
                 state.tools |= {r.goal.arm: r.goal.pose for r in resolved if isinstance(r.goal, ToolTarget)}
         return TaskOutcome(task=task.name, steps=outcomes)
 
-    def _grasp_choices(self, step: Step, index: int, state: TaskState) -> list[dict[str, Grasp]]:
+    def _grasp_choices(
+        self, step: Step, index: int, state: TaskState, recorded: dict[str, str]
+    ) -> list[dict[str, Grasp]]:
         """The grasps to try for the objects the step is the first to hold (held from the start,
         grasped or taken now): each allowed grasp of the first such object, in order of
-        preference, the others in their preferred one. [{}] when every grasp is already fixed."""
+        preference, the others in their preferred one; an object held from the start by a stated
+        grasp, or one in `recorded`, only in that one. [{}] when every grasp is already fixed."""
         kb, _ = self.derive_step(step, index, state)
         robot = kb.situation.robot
         usual = object_axes(kb, list(arms_of(self.task.robot)))
-        holders = dict(state.held_by_arm) | dict(kb.situation.task.carries)
-        options = {
-            obj: allowed_grasps(kb.facts, obj, arm_individual(robot, arm), usual[arm])
-            for obj, arm in holders.items()
-            if obj not in state.grasps
-        }
+        holders = dict(state.held_by_arm) | closing_on(step, kb.situation.task.arms)
+        options = {}
+        for obj, arm in holders.items():
+            if obj in state.grasps:
+                continue
+            stated, hand = state.object(obj).stated_grasp, arm_individual(robot, arm)
+            if stated is not None and obj in state.held_by_arm:
+                options[obj] = [stated_grasp(kb.facts, obj, stated, hand)]
+            else:
+                options[obj] = allowed_grasps(kb.facts, obj, hand, usual[arm])
+            if obj in recorded:
+                options[obj] = [g for g in options[obj] if g.name == recorded[obj]]
+                if not options[obj]:
+                    raise HriplanError(
+                        f"{obj} is held by {recorded[obj]} in the trajectory, a grasp the task does not allow it "
+                        f"at step {step_name(step, index)!r}"
+                    )
         if not options:
             return [{}]
         first, *others = options
@@ -243,9 +263,7 @@ class TaskRunner:
         kb, derivation = self.derive_step(step, index, state)
         arms = kb.situation.task.arms
         goals = step.goals or [step.goal]
-        touched = {
-            obj: arm for g, arm in zip(goals, arms) if (obj := getattr(g, "take", None) or getattr(g, "grasp", None))
-        }
+        touched = closing_on(step, arms)
         scene = state.scene(touched)
         held = self._held_axes(start, state, derivation, scene) if plan else {}
         resolved = [resolve_goal(g, arm, state, held.get(arm), self._arm_joints(g, arm)) for g, arm in zip(goals, arms)]
@@ -259,10 +277,18 @@ class TaskRunner:
         )
         if not plan:
             return [outcome], start, resolved
-        grasps = ", ".join(f"{o} by {g.name}" for o, g in state.grasps.items() if o in kb.situation.task.carries)
+        holding = {o: g.name for o, g in state.grasps.items() if o in kb.situation.task.carries | touched}
         planned, end = self._plan_step(step, index, state, resolved, start, outcome)
-        if grasps and planned[-1].status != Status.SOLVED:
+        if holding and planned[-1].status != Status.SOLVED:
+            grasps = ", ".join(f"{o} by {g}" for o, g in holding.items())
             planned[-1] = planned[-1].model_copy(update={"message": f"{planned[-1].message} (holding {grasps})"})
+        # Each trajectory records the grasps it holds its objects by: `validate --task` re-derives with them.
+        planned = [
+            p.model_copy(update={"trajectory": p.trajectory.model_copy(update={"grasps": holding})})
+            if p.trajectory is not None
+            else p
+            for p in planned
+        ]
         return planned, end, resolved
 
     def _arm_joints(self, goal: Goal, arm: str) -> list[str]:
@@ -330,7 +356,7 @@ class TaskRunner:
         final, end = self._motion(step, index, state, goal, start, outcome)
         outcomes.append(final)
         if final.status == Status.SOLVED and isinstance(step.goal, GraspGoal) and not step.goals:
-            lift, end = self._lift(step.goal, resolved[0], state, end, final)
+            lift, end = self._lift(step, index, step.goal, resolved[0], state, end, final)
             outcomes += [lift] if lift is not None else []
         if final.status == Status.SOLVED and isinstance(step.goal, RELEASING) and not step.goals:
             retreat, end = self._release(step.goal, resolved[0], state, end, final)
@@ -338,13 +364,23 @@ class TaskRunner:
         return outcomes, end
 
     def _lift(
-        self, goal: GraspGoal, resolved: ResolvedGoal, state: TaskState, start: dict[str, float], grasped: StepOutcome
+        self,
+        step: Step,
+        index: int,
+        goal: GraspGoal,
+        resolved: ResolvedGoal,
+        state: TaskState,
+        start: dict[str, float],
+        grasped: StepOutcome,
     ) -> tuple[StepOutcome | None, dict[str, float]]:
         """After a pick, lift the object straight off what it stands on (planner/lift.py), timed and
-        validated under the pick's constraints; None if it stands on nothing."""
+        validated under the pick's constraints derived with the object now held (its own rules
+        apply from here); None if it stands on nothing."""
         session, robot, (arm,) = self._session(), self._session().robot, grasped.arms
         held = state.copied()
         after_step(goal, resolved, arm, held)
+        held.tools = tool_poses(robot, start)
+        _, derivation = self.derive_step(step, index, held)
         scene = held.scene()
         session.set_scene(scene)
         q = robot.configuration(start)
@@ -360,9 +396,7 @@ class TaskRunner:
         )
         session.set_scene(lifting)
         path, why = lift_path(robot, session.checker, arm, q, LIFT)
-        outcome = grasped.model_copy(
-            update={"name": f"{grasped.name}{LIFT_OFF}", "kind": "Transport", "scene": lifting, "trajectory": None}
-        )
+        outcome = _added_motion(grasped, LIFT_OFF, lifting, derivation)
         group = robot.arm_group(arm)
         if path is not None:
             session.set_scene(scene)
@@ -376,7 +410,7 @@ class TaskRunner:
                 }
             ), start
         session.set_scene(lifting)
-        return self._straight(session, outcome, arm, q, path, grasped.derivation, start)
+        return self._straight(session, outcome, arm, q, path, derivation, start)
 
     def _release(
         self,
@@ -412,15 +446,7 @@ class TaskRunner:
         kept = done.derivation.model_copy(
             update={"constraints": [c for c in done.derivation.constraints if c.anchor != obj]}
         )
-        outcome = done.model_copy(
-            update={
-                "name": f"{done.name}{RELEASE}",
-                "kind": "Transport",
-                "scene": scene,
-                "derivation": kept,
-                "trajectory": None,
-            }
-        )
+        outcome = _added_motion(done, RELEASE, scene, kept)
         if path is None:
             return outcome.model_copy(
                 update={"status": Status.UNREACHABLE_GOAL, "message": f"backing away from {obj}: {why}"}
@@ -538,6 +564,13 @@ class TaskRunner:
         return self._session().joint_goal(goals, start)
 
 
+def _added_motion(done: StepOutcome, suffix: str, scene: Scene, derivation: Derivation) -> StepOutcome:
+    """The outcome, still unplanned, of a transport the pipeline adds after the step `done` (a
+    lift, a retreat), named after it and planned in `scene` under `derivation`."""
+    update = {"name": f"{done.name}{suffix}", "kind": "Transport", "scene": scene, "derivation": derivation}
+    return done.model_copy(update=update | {"trajectory": None})
+
+
 def _pairs(derivation: Derivation) -> list[tuple[str, ConstraintSpec]]:
     """The derived constraints as (arm, constraint) pairs, as the planning session takes them."""
     return [(c.arm, c.spec) for c in derivation.constraints]
@@ -565,7 +598,7 @@ def against_task(trajectory: TrajectoryFile, runner: TaskRunner) -> TrajectoryFi
     """The trajectory with its step's constraints (their frames placed in the step's scene, and
     why the rules made them) and scene as the task derives them now, so it can be re-checked or
     shown against the task rather than its own record."""
-    outcome = runner.run(plan=False)
+    outcome = runner.run(plan=False, grasps=trajectory.grasps)
     step = next((s for s in outcome.steps if s.name == trajectory.step), None)
     if step is None:
         added = next(

@@ -70,8 +70,8 @@ class TaskState:
     def initial(cls, task: TaskFile) -> TaskState:
         state = cls(task)
         for obj in task.objects:
-            if obj.held_by:
-                state.held_by_arm[obj.name] = obj.held_by
+            if obj.holding_arm:
+                state.held_by_arm[obj.name] = obj.holding_arm
             elif obj.in_hand_of:
                 state.held_by_person[obj.name] = obj.in_hand_of
             state.poses[obj.name] = obj.pose
