@@ -129,8 +129,9 @@ def _no_points(t: dict) -> None:
     t["points"] = []
 
 
-def _one_point(t: dict) -> None:
-    t["points"] = t["points"][:1]
+def _one_point_moving(t: dict) -> None:
+    t["points"] = t["points"][2:3]
+    t["points"][0]["time_from_start"] = 0.0
 
 
 def _unknown_robot(t: dict) -> None:
@@ -173,7 +174,7 @@ TRAJECTORY_MUTATIONS = {
     "inf_velocity": (_inf_velocity, "inf"),
     "short_positions": (_short_positions, "positions"),
     "no_points": (_no_points, "points"),
-    "one_point": (_one_point, "points"),
+    "one_point_moving": (_one_point_moving, "at rest"),
     "unknown_robot": (_unknown_robot, "pr2"),
     "unknown_joint": (_unknown_joint, "knee_joint"),
     "schema_version": (_schema_version, "schema_version"),

@@ -55,6 +55,7 @@ class TrajectoryReport(BaseModel):
     min_human_distance: float | None = None
     closest_pair: tuple[str, str] | None = None
     velocity_scale: float = 1.0
+    rests: int = 0  # waypoints where the timed motion stops so as not to round a corner off the validated path
     calls: dict[str, int] = Field(default_factory=dict)
     separation: list[SeparationTrace] = Field(default_factory=list)  # per person, when timed for people
 
@@ -77,9 +78,12 @@ class TrajectoryFile(BaseModel):
 
     @model_validator(mode="after")
     def _a_motion(self) -> TrajectoryFile:
-        """At least two points, one value per joint each, times from 0 strictly increasing."""
-        if len(self.points) < 2:
-            raise ValueError(f"a trajectory needs at least 2 points, got {len(self.points)}")
+        """At least one point (one alone: a motion whose start is its goal), one value per joint
+        each, times from 0 strictly increasing."""
+        if not self.points:
+            raise ValueError("a trajectory needs at least 1 point, got 0")
+        if len(self.points) == 1 and any(self.points[0].velocities + self.points[0].accelerations):
+            raise ValueError("points.0: a trajectory of one point (its start is its goal) is at rest")
         n = len(self.joint_names)
         for k, p in enumerate(self.points):
             if not len(p.positions) == len(p.velocities) == len(p.accelerations) == n:

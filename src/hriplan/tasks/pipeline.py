@@ -501,7 +501,8 @@ class TaskRunner:
             update={"task": self.task.name, "step": outcome.name}
         )
         end = dict(start) | dict(zip(trajectory.joint_names, trajectory.points[-1].positions))
-        return outcome.model_copy(update={"status": Status.SOLVED, "trajectory": trajectory}), end
+        solved = {"status": Status.SOLVED, "trajectory": trajectory, "message": result.message or outcome.message}
+        return outcome.model_copy(update=solved), end
 
     def _options(self) -> PlanOptions:
         return PlanOptions(**self.task.planning.model_dump(exclude_none=True))
