@@ -13,10 +13,11 @@ from typer.testing import CliRunner
 import hriplan.planner.session as session_module
 from hriplan.cli.main import app
 from hriplan.planner.constraints.spec import BoxConstraint
-from hriplan.planner.motion import JointTarget, MotionResult
+from hriplan.planner.motion import JointTarget, MotionResult, plan_motion
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import load_trajectory
+from hriplan.planner.validate import PathValidation
 from hriplan.robots.model import arms_of
 from hriplan.robots.spatial import Pose
 from independent import UrdfRobot
@@ -103,6 +104,8 @@ def test_a_path_that_leaves_even_with_a_rest_at_every_corner_fails_with_the_reas
         status="solved", group=group, joint_names=names, start=start, path=[A.tolist(), B.tolist(), C.tolist()]
     )
     real = session_module.validate_path
+    planned = PathValidation(valid=True, states_checked=3, constraints=[])  # as the planner validated it
+    motion = motion.model_copy(update={"validation": planned})
     calls = []
 
     def never_valid(*args, **kwargs):
@@ -142,3 +145,56 @@ def test_a_task_step_that_stays_put_is_solved_and_validates(tmp_path):
     assert len(trajectory.points) == 1
     checked = runner.invoke(app, ["validate", str(tmp_path / "stay.json")])
     assert checked.exit_code == 0 and "checked 1 states" in checked.output
+
+
+def test_a_path_made_outside_the_planner_that_breaks_a_constraint_names_it(ur5):
+    """A lift or a retreat is a straight line made outside the planner: it is validated before it
+    is timed, and a constraint it breaks is named (not 'the timed trajectory left the path')."""
+    session, group, tool = ur5
+    names = session.robot.group_joints(group)
+    urdf = UrdfRobot("ur5", {})
+    low = min(_tool(urdf, names, x, tool)[2] for x in np.linspace(A, C, 20))
+    ceiling = BoxConstraint(  # the tool stays below a ceiling the path rises through
+        id="below_shelf",
+        joints=names,
+        target_link=tool,
+        size=(4.0, 4.0, 1.0),
+        frame={"offset": {"xyz": [0, 0, low - 0.49]}},
+    )
+    session.set_constraints([ceiling])
+    start = dict(zip(session.robot.joint_names, session.robot.configuration(A, group).tolist()))
+    motion = MotionResult(status="solved", group=group, joint_names=names, start=start, path=[A.tolist(), C.tolist()])
+    result = session.time(motion, PlanOptions())
+    assert result.status == "invalid_path" and result.message == "the path breaks constraint below_shelf violated"
+
+
+def test_a_search_that_times_out_says_which_constraint_the_direct_motion_breaks(ur5):
+    """A keep-out slab through the robot's axis between the tool's start and goal: no path
+    exists, and the timeout names the constraint in the way (a preparatory turn's message quotes it)."""
+    session, group, tool = ur5
+    names = session.robot.group_joints(group)
+    urdf = UrdfRobot("ur5", {})
+    goal = A + np.array([1.2, 0, 0, 0, 0, 0])
+    azimuths = [np.arctan2(*_tool(urdf, names, x, tool)[1::-1]) for x in (A, goal)]
+    between = float(np.mean(azimuths))  # a vertical plane through z at this azimuth parts the two
+    wall = BoxConstraint(
+        id="glass_wall",
+        joints=names,
+        target_link=tool,
+        region="outside",
+        size=(8.0, 0.3, 8.0),
+        frame={"offset": {"rpy": [0.0, 0.0, between]}},
+    )
+    session.set_constraints([wall])
+    start = dict(zip(session.robot.joint_names, session.robot.configuration(A, group).tolist()))
+    result = plan_motion(
+        session.robot,
+        session.checker,
+        [wall],
+        start,
+        JointTarget(values=goal.tolist()),
+        PlanOptions(time_limit=0.5, seed=1),
+        group,
+    )
+    assert result.status == "timeout"
+    assert "; the straight joint line to the goal leaves glass_wall (by 0.15)" in result.message  # half its thickness

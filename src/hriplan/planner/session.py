@@ -196,6 +196,10 @@ class PlanningSession:
             else ApproachMonitor(self.robot, self.checker, safety, motion.group, q0)
         )
         with with_keep_out(self.checker, bound):
+            # A path made outside the planner (a lift, a retreat) is validated first, as the planner's are.
+            given = None if motion.validation else validate_path(evaluator, self.checker, path, options.validation_step)
+            if given is not None and not given.valid:
+                return PlanResult(status=Status.INVALID_PATH, motion=motion, message=f"the path breaks {given.message}")
             timed, check, message = self._time_and_check(path, evaluator, motion.group, options, monitor)
         if timed is None:
             return PlanResult(status=Status.TIMING_FAILED, motion=motion, message=message)
