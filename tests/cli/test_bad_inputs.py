@@ -568,6 +568,18 @@ CASES: list[Case] = [
         t__yaml=task(planning={"time_limit": "long"}),
     ),
     C(
+        "task_speed_factor_above_one",
+        "constraints {d}/t.yaml",
+        "planning.safety_margin.speed_factor: Input should be less than or equal to 1",
+        t__yaml=task(planning={"safety_margin": {"speed_factor": 1.5}}),
+    ),
+    C(
+        "task_padding_negative",
+        "constraints {d}/t.yaml",
+        "planning.safety_margin.padding: Input should be greater than or equal to 0",
+        t__yaml=task(planning={"safety_margin": {"padding": -0.1}}),
+    ),
+    C(
         "task_planner_unknown",
         "constraints {d}/t.yaml",
         "planning.planner: Input should be 'CBiRRT'",

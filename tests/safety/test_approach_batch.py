@@ -28,7 +28,7 @@ from hriplan.robots.scene import Scene
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.safety.capsule_distance import capsule_distances
 from hriplan.safety.policy import default_policy
-from hriplan.safety.separation import SeparationPolicy, allowed_speed
+from hriplan.safety.separation import SafetyMargin, SeparationPolicy, allowed_speed
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
 
@@ -219,14 +219,17 @@ def _reference(
                 approach = float(np.linalg.norm(v))
             else:
                 approach = float(v @ (pairs.person_point[k] - pairs.robot_point[k]) / d)
-            values.append((d, approach, _allowed(policy.robot, person, d, pairs.capsules[k]), contact, k))
+            margin = policy.margin  # the padding taken off the separation, the factor below the cap
+            allowed = margin.speed_factor * _allowed(policy.robot, person, d - margin.padding, pairs.capsules[k])
+            values.append((d, approach, allowed, contact, k))
         stopped = [row for row in values if row[2] <= 0.0]
         if stopped:
             d, _, _, _, k = min(stopped, key=lambda row: row[0])
             return (
                 f"{pairs.parts[k]} passes {d:.3f} m from {person.name}/{pairs.capsules[k]}, inside the minimum "
-                f"protective separation {_s0(policy.robot, person):.3f} m of ISO/TS 15066 "
-                f"(the robot would have to stand still there)"
+                f"protective separation {_s0(policy.robot, person):.3f} m of ISO/TS 15066 and the padding "
+                f"{policy.margin.padding:g} m ({_s0(policy.robot, person) + policy.margin.padding:.3f} m; the robot "
+                f"would have to stand still there)"
             )
         binding = min(values, key=lambda row: row[2] - row[1])
         scale = min((row[2] / row[1] for row in values if row[1] > 0.0), default=math.inf)
@@ -298,7 +301,9 @@ def test_the_batched_monitor_follows_every_person_and_their_moves():
         HumanSpec(name="ann", position=(0.9, 1.5), yaw=-1.6, reach={"left": (0.95, 1.1, 1.1)}),
     ]
     session = PlanningSession("madar", Scene(humans=people), hands={"right": "open"})
-    policy = default_policy("madar", people, {"sam": "Supervisor", "ann": "Giver"})
+    policy = default_policy("madar", people, {"sam": "Supervisor", "ann": "Giver"}).model_copy(
+        update={"margin": SafetyMargin(padding=0.0, speed_factor=0.9)}  # the sweep passes 0.317 m from sam
+    )
     q0, xs, dxs = _right_arm_sweep(session)
     monitor = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
     monitor.speed_scale(xs, dxs)

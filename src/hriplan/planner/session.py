@@ -206,7 +206,10 @@ class PlanningSession:
         trajectory = self._file(motion, bound, timed, check, options, scene, evaluator.full(path[0]))
         if monitor is not None:
             report = trajectory.report.model_copy(
-                update={"separation": separation_report(monitor, timed.positions, timed.velocities)}
+                update={
+                    "separation": separation_report(monitor, timed.positions, timed.velocities),
+                    "safety_margin": safety.margin,
+                }
             )
             trajectory = trajectory.model_copy(update={"report": report})
         return PlanResult(

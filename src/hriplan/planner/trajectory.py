@@ -18,6 +18,7 @@ from hriplan.planner.outcome import Status
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.safety.report import SeparationTrace
+from hriplan.safety.separation import SafetyMargin
 
 SCHEMA = "hriplan.trajectory"
 SCHEMA_VERSION = 1
@@ -58,6 +59,7 @@ class TrajectoryReport(BaseModel):
     rests: int = 0  # waypoints where the timed motion stops so as not to round a corner off the validated path
     calls: dict[str, int] = Field(default_factory=dict)
     separation: list[SeparationTrace] = Field(default_factory=list)  # per person, when timed for people
+    safety_margin: SafetyMargin | None = None  # kept beyond ISO/TS 15066's limits, when timed for people
 
 
 class TrajectoryFile(BaseModel):
