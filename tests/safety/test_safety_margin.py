@@ -4,7 +4,7 @@ padding is still approached within the standard's own limits.
 Everything here is apart from `hriplan.safety`: the robot's collision meshes from the URDF
 (tests/independent.py), the carried can as a coal cylinder, the person's capsules grown in the
 test, point velocities by finite differences of the URDF's kinematics, and the SSM and PFL
-formulas written below from the standard (as in test_approach_batch.py).
+formulas written from the standard in tests/independent.py (as test_approach_batch.py uses them).
 """
 
 from __future__ import annotations
@@ -21,27 +21,10 @@ from hriplan.robots.model import arms_of
 from hriplan.safety.separation import NO_MARGIN, SafetyMargin
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
-from independent import UrdfRobot
+from independent import UrdfRobot, iso_allowed
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 STEP = 1e-4  # s: the finite difference that gives each point's velocity
-
-
-def _s0(robot, person) -> float:
-    """S_0 = v_h (T_r + T_s) + C + Z_d + Z_r (S_p at robot speed 0)."""
-    t = robot.reaction_time + robot.stopping_time
-    return person.approach_speed * t + person.intrusion + person.sensor_uncertainty + robot.position_uncertainty
-
-
-def _iso_allowed(robot, person, separation: float, capsule: str) -> float:
-    """SSM: (S - S_0) / (T_r + T_s / 2), 0 inside S_0; at a contact region at least the PFL cap
-    F_max / sqrt(mu k) - v_h, mu = (1/m_H + 1/m_R)^-1."""
-    ssm = max(separation - _s0(robot, person), 0.0) / (robot.reaction_time + robot.stopping_time / 2.0)
-    region = next((c for c in person.contact if capsule in c.capsules), None)
-    if region is None:
-        return ssm
-    mu = 1.0 / (1.0 / region.effective_mass + 1.0 / robot.moving_mass)
-    return max(ssm, region.transient_force / math.sqrt(mu * region.spring_constant) - person.approach_speed)
 
 
 def _handover(margin: SafetyMargin):
@@ -115,7 +98,7 @@ def _step_worst(step, paddings: list[float]) -> dict[float, float]:
                             approach = float(np.linalg.norm(velocity))
                         else:
                             approach = float(velocity @ (result.getNearestPoint2() - robot_point) / d)
-                        allowed = _iso_allowed(policy.robot, person, d, capsule.name)
+                        allowed = iso_allowed(policy.robot, person, d, capsule.name)
                         worst[padding] = min(worst[padding], allowed - approach)
     return worst
 
