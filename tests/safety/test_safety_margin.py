@@ -146,3 +146,8 @@ def test_validate_rechecks_with_the_margin_the_file_records(tmp_path):
     trajectory.model_copy(update={"report": stricter}).save(tmp_path / "strict.json")
     refused = runner.invoke(app, ["validate", str(tmp_path / "strict.json")])
     assert refused.exit_code == 1 and "speed factor 0.5): EXCEEDED" in refused.output
+    # A file written before margins were recorded is held to ISO/TS 15066's limits exactly.
+    older = trajectory.report.model_copy(update={"safety_margin": None})
+    trajectory.model_copy(update={"report": older}).save(tmp_path / "older.json")
+    iso = runner.invoke(app, ["validate", str(tmp_path / "older.json")])
+    assert iso.exit_code == 0 and "(ISO/TS 15066, padding 0 m, speed factor 1): kept" in iso.output
