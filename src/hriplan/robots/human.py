@@ -16,7 +16,6 @@ import numpy as np
 import pinocchio as pin
 from example_robot_data.human import HumanLoader
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from scipy.spatial import ConvexHull
 
 from hriplan import HriplanError
 from hriplan.robots.assets import resolve_package_uri
@@ -130,6 +129,8 @@ def _loaded(
 
 
 def _fitted(height: float | None) -> dict:
+    from scipy.spatial import ConvexHull  # only when fitting (the fit cache serves `constraints` without scipy)
+
     loader = HumanLoader(height=height, weight=DEFAULT_WEIGHT if height else None)
     model, visual = loader.robot.model, loader.robot.visual_model
     points: dict[str, list[np.ndarray]] = {s: [] for s in SEGMENTS}
