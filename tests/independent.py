@@ -11,6 +11,8 @@ nothing from `hriplan.planner.constraints` or `hriplan.safety`.
 
 from __future__ import annotations
 
+import math
+
 import coal
 import numpy as np
 import pinocchio as pin
@@ -172,3 +174,34 @@ def constraint_violations(trajectory, slack: float = 1e-3) -> list[str]:
                     f"{trajectory.step}: {' '.join(where)} broken by {worst:.4f} at t={point.time_from_start:.2f}"
                 )
     return breaches
+
+
+# -- ISO/TS 15066 limits, written here from the standard (not hriplan.safety.separation) ---------
+def iso_minimum_separation(robot, person) -> float:
+    """Speed and separation monitoring: S_p = S_h + S_r + S_s + C + Z_d + Z_r with S_h = v_h (T_r + T_s),
+    S_r = v_r T_r, S_s = v_r T_s / 2 (constant deceleration); at v_r = 0 it is S_0."""
+    t_r, t_s = robot.reaction_time, robot.stopping_time
+    return (
+        person.approach_speed * (t_r + t_s) + person.intrusion + person.sensor_uncertainty + robot.position_uncertainty
+    )
+
+
+def iso_ssm(robot, person, separation: float) -> float:
+    """S_p(v_r) <= S solved for v_r: (S - S_0) / (T_r + T_s / 2), 0 inside S_0."""
+    return max(separation - iso_minimum_separation(robot, person), 0.0) / (
+        robot.reaction_time + robot.stopping_time / 2.0
+    )
+
+
+def iso_pfl(robot, person, region) -> float:
+    """Transient contact: v_rel,max = F_max / sqrt(mu k), mu = (1/m_H + 1/m_R)^-1, less the
+    person's own speed v_h (v_rel is relative)."""
+    mu = 1.0 / (1.0 / region.effective_mass + 1.0 / robot.moving_mass)
+    return max(region.transient_force / math.sqrt(mu * region.spring_constant) - person.approach_speed, 0.0)
+
+
+def iso_allowed(robot, person, separation: float, capsule: str) -> float:
+    """SSM, or at a contact region the larger of SSM and the PFL cap."""
+    region = next((c for c in person.contact if capsule in c.capsules), None)
+    ssm = iso_ssm(robot, person, separation)
+    return ssm if region is None else max(ssm, iso_pfl(robot, person, region))

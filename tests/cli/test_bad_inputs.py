@@ -133,8 +133,9 @@ def _no_points(t: dict) -> None:
     t["points"] = []
 
 
-def _one_point(t: dict) -> None:
-    t["points"] = t["points"][:1]
+def _one_point_moving(t: dict) -> None:
+    t["points"] = t["points"][2:3]
+    t["points"][0]["time_from_start"] = 0.0
 
 
 def _unknown_robot(t: dict) -> None:
@@ -177,7 +178,7 @@ TRAJECTORY_MUTATIONS = {
     "inf_velocity": (_inf_velocity, "inf"),
     "short_positions": (_short_positions, "positions"),
     "no_points": (_no_points, "points"),
-    "one_point": (_one_point, "points"),
+    "one_point_moving": (_one_point_moving, "at rest"),
     "unknown_robot": (_unknown_robot, "pr2"),
     "unknown_joint": (_unknown_joint, "knee_joint"),
     "schema_version": (_schema_version, "schema_version"),
@@ -634,6 +635,18 @@ CASES: list[Case] = [
         "constraints {d}/t.yaml",
         "planning.time_limit: Input should be a valid number",
         t__yaml=task(planning={"time_limit": "long"}),
+    ),
+    C(
+        "task_speed_factor_above_one",
+        "constraints {d}/t.yaml",
+        "planning.safety_margin.speed_factor: Input should be less than or equal to 1",
+        t__yaml=task(planning={"safety_margin": {"speed_factor": 1.5}}),
+    ),
+    C(
+        "task_padding_negative",
+        "constraints {d}/t.yaml",
+        "planning.safety_margin.padding: Input should be greater than or equal to 0",
+        t__yaml=task(planning={"safety_margin": {"padding": -0.1}}),
     ),
     C(
         "task_planner_unknown",

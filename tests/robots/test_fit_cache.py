@@ -53,7 +53,7 @@ def test_the_robot_parts_read_back_are_the_parts_fitted(cache):
 
 def test_the_person_read_back_is_the_person_fitted(cache):
     data = human._fitted(None)
-    model, capsules, frames = human._loaded.__wrapped__(None)  # through the cache file
+    model, capsules, frames, hulls = human._loaded.__wrapped__(None)  # through the cache file
     assert len(list(cache.glob("human-*.json"))) == 1
     assert [c["name"] for c in data["capsules"]] == [c.name for c in capsules]
     assert [c["radius"] for c in data["capsules"]] == [c.radius for c in capsules]
@@ -62,6 +62,7 @@ def test_the_person_read_back_is_the_person_fitted(cache):
     assert model == fresh and model.names[1] == "root_joint"  # the scaled body, free flyer first
     assert frames["right_hand"][0] == data["frames"]["right_hand"][0]
     assert np.array_equal(frames["head"][1].homogeneous, np.array(data["frames"]["head"][1]))
+    assert [(j, h.tolist()) for j, h in hulls] == [(j, h) for j, h in data["hulls"]]
 
 
 @pytest.mark.parametrize(

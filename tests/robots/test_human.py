@@ -12,16 +12,47 @@ def human():
     return Human(HumanSpec(position=(1.5, 0.3), yaw=np.pi))
 
 
-def lowest_point(human):
+def lowest_capsule_point(human):
     return min(
         p.translation[2] - abs(p.rotation[2, 2]) * c.length / 2 - c.radius
         for c, p in zip(human.capsules, human.capsule_placements())
     )
 
 
-def test_standing_person_stands_on_the_floor_where_placed(human):
+def lowest_mesh_point(human):
+    """The lowest vertex of the person's body meshes, posed here from the loader's own visual model
+    with pinocchio (not hriplan's fitted data)."""
+    import coal
+    import pinocchio as pin
+    from example_robot_data.human import HumanLoader
+
+    from hriplan.robots.assets import resolve_package_uri
+
+    loader = HumanLoader()
+    model, visual = loader.robot.model, loader.robot.visual_model
+    data, geometry = model.createData(), visual.createData()
+    pin.forwardKinematics(model, data, human.q)
+    pin.updateGeometryPlacements(model, data, visual, geometry)
+    lowest = np.inf
+    for g, placement in zip(visual.geometryObjects, geometry.oMg):
+        mesh = coal.MeshLoader().load(resolve_package_uri(g.meshPath), np.asarray(g.meshScale))
+        world = np.asarray(mesh.vertices()) @ placement.rotation.T + placement.translation
+        lowest = min(lowest, float(world[:, 2].min()))
+    return lowest
+
+
+@pytest.mark.parametrize("posture", ["standing", "seated"])
+def test_a_person_stands_on_the_floor_where_placed(human, posture):
+    """The soles on the floor (they floated 6.6 cm above it, the foot capsules' bottom on it);
+    the capsules, which contain the meshes, reach below it."""
+    human.pose(HumanSpec(position=(1.5, 0.3), yaw=np.pi, posture=posture))
+    assert lowest_mesh_point(human) == pytest.approx(0.0, abs=5e-3)
+    assert lowest_capsule_point(human) < 0.0
+    assert np.allclose(human.frame("base").translation, (1.5, 0.3, 0.0))
+
+
+def test_standing_person_is_where_placed(human):
     human.pose(HumanSpec(position=(1.5, 0.3), yaw=np.pi))
-    assert lowest_point(human) == pytest.approx(0.0, abs=1e-9)
     head = human.frame("head").translation
     assert 1.55 < head[2] < 1.85 and np.allclose(head[:2], (1.5, 0.3), atol=0.05)
     # facing -x (yaw pi): the right hand is on the +y side

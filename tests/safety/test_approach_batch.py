@@ -3,7 +3,7 @@
 References that do not share the code under test: coal.distance per capsule pair; for the
 monitor, the per-point computation it replaced (kept here): coal's closest points through
 `CollisionChecker.person_pairs`, point velocities from pinocchio's joint Jacobians, and the
-ISO/TS 15066 limits by the formulas written below (SSM and PFL, not `hriplan.safety.separation`). coal's GJK
+ISO/TS 15066 limits by the formulas written in tests/independent.py (SSM and PFL, not `hriplan.safety.separation`). coal's GJK
 (palm, adapter, can) converges to 1e-6 from a guess that depends on what its model computed
 before; both sides walk the same points in the same order from fresh models, so they agree to
 rounding and the tolerances can stay tight.
@@ -28,9 +28,12 @@ from hriplan.robots.scene import Scene
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.safety.capsule_distance import capsule_distances
 from hriplan.safety.policy import default_policy
-from hriplan.safety.separation import SeparationPolicy, allowed_speed
+from hriplan.safety.separation import SafetyMargin, SeparationPolicy, allowed_speed
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
+from independent import iso_allowed as _allowed
+from independent import iso_minimum_separation as _s0
+from independent import iso_ssm as _ssm
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 FIELDS = ("separation", "body_separation", "allowed", "approach", "scale")
@@ -139,33 +142,7 @@ def test_capsule_distances_broadcast_one_capsule_against_many():
             np.testing.assert_allclose(batch[i], alone, atol=1e-15)
 
 
-# -- ISO/TS 15066 limits, written here from the standard -------------------------------------
-def _s0(robot, person) -> float:
-    """Speed and separation monitoring: S_p = S_h + S_r + S_s + C + Z_d + Z_r with S_h = v_h (T_r + T_s),
-    S_r = v_r T_r, S_s = v_r T_s / 2 (constant deceleration); at v_r = 0 it is S_0."""
-    t_r, t_s = robot.reaction_time, robot.stopping_time
-    return (
-        person.approach_speed * (t_r + t_s) + person.intrusion + person.sensor_uncertainty + robot.position_uncertainty
-    )
-
-
-def _ssm(robot, person, separation: float) -> float:
-    """S_p(v_r) <= S solved for v_r: (S - S_0) / (T_r + T_s / 2), 0 inside S_0."""
-    return max(separation - _s0(robot, person), 0.0) / (robot.reaction_time + robot.stopping_time / 2.0)
-
-
-def _pfl(robot, person, region) -> float:
-    """Transient contact: v_rel,max = F_max / sqrt(mu k), mu = (1/m_H + 1/m_R)^-1, less the
-    person's own speed v_h (v_rel is relative)."""
-    mu = 1.0 / (1.0 / region.effective_mass + 1.0 / robot.moving_mass)
-    return max(region.transient_force / math.sqrt(mu * region.spring_constant) - person.approach_speed, 0.0)
-
-
-def _allowed(robot, person, separation: float, capsule: str) -> float:
-    """SSM, or at a contact region the larger of SSM and the PFL cap."""
-    region = next((c for c in person.contact if capsule in c.capsules), None)
-    ssm = _ssm(robot, person, separation)
-    return ssm if region is None else max(ssm, _pfl(robot, person, region))
+# -- ISO/TS 15066 limits, written from the standard in tests/independent.py ---------------------
 
 
 def test_the_policy_limits_are_the_standards_formulas(handover):
@@ -219,14 +196,17 @@ def _reference(
                 approach = float(np.linalg.norm(v))
             else:
                 approach = float(v @ (pairs.person_point[k] - pairs.robot_point[k]) / d)
-            values.append((d, approach, _allowed(policy.robot, person, d, pairs.capsules[k]), contact, k))
+            margin = policy.margin  # the padding taken off the separation, the factor below the cap
+            allowed = margin.speed_factor * _allowed(policy.robot, person, d - margin.padding, pairs.capsules[k])
+            values.append((d, approach, allowed, contact, k))
         stopped = [row for row in values if row[2] <= 0.0]
         if stopped:
             d, _, _, _, k = min(stopped, key=lambda row: row[0])
             return (
                 f"{pairs.parts[k]} passes {d:.3f} m from {person.name}/{pairs.capsules[k]}, inside the minimum "
-                f"protective separation {_s0(policy.robot, person):.3f} m of ISO/TS 15066 "
-                f"(the robot would have to stand still there)"
+                f"protective separation {_s0(policy.robot, person):.3f} m of ISO/TS 15066 and the padding "
+                f"{policy.margin.padding:g} m ({_s0(policy.robot, person) + policy.margin.padding:.3f} m; the robot "
+                f"would have to stand still there)"
             )
         binding = min(values, key=lambda row: row[2] - row[1])
         scale = min((row[2] / row[1] for row in values if row[1] > 0.0), default=math.inf)
@@ -298,7 +278,9 @@ def test_the_batched_monitor_follows_every_person_and_their_moves():
         HumanSpec(name="ann", position=(0.9, 1.5), yaw=-1.6, reach={"left": (0.95, 1.1, 1.1)}),
     ]
     session = PlanningSession("madar", Scene(humans=people), hands={"right": "open"})
-    policy = default_policy("madar", people, {"sam": "Supervisor", "ann": "Giver"})
+    policy = default_policy("madar", people, {"sam": "Supervisor", "ann": "Giver"}).model_copy(
+        update={"margin": SafetyMargin(padding=0.0, speed_factor=0.9)}  # the sweep passes 0.317 m from sam
+    )
     q0, xs, dxs = _right_arm_sweep(session)
     monitor = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
     monitor.speed_scale(xs, dxs)

@@ -15,7 +15,7 @@ ANN = PersonSeparation(name="ann", role="Observer", approach_speed=1.6, intrusio
 
 
 def _sample(separation, allowed, approach):
-    return PersonSample(separation, separation + 0.1, allowed, approach, math.inf, "wrist", "ann/head")
+    return PersonSample(separation, separation + 0.1, allowed, allowed, approach, math.inf, "wrist", "ann/head")
 
 
 # Per point (its position is the point's index): far (no moving part faces her), approaching

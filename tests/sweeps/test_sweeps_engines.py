@@ -44,7 +44,7 @@ def ray_runtime():
 
 
 def test_ray_and_local_give_the_same_results(tmp_path, ray_runtime):
-    derive = expand(TAKE, [parse_vary("humans.alice.position=[-0.1:0.1:0.1, 1.35:1.45:0.1]")])
+    derive = expand(TAKE, [parse_vary("humans.alice.position=[-0.2:0.0:0.1, 1.35:1.45:0.1]")])
     # a generous time limit: the machine is shared, and a seeded plan is only repeatable if it finishes
     planned = expand(GIVE, [parse_vary("planning.time_limit=120"), parse_vary("objects.can.fill_level=Full,Empty")])
     results = {}

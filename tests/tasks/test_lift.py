@@ -101,3 +101,4 @@ def test_a_lift_into_something_above_fails_with_the_reason():
     assert not above.in_collision(q) and height > 0.0
     x, why = lift_path(robot, above, "right", q, LIFT)
     assert x is None and why.startswith(f"no valid IK solution {LIFT} m above the grasp")
+    assert "collides: " in why and " - ball" in why  # what bound it (before: "rejected by is_valid")

@@ -104,12 +104,13 @@ def test_a_seated_receiver_is_approached_inside_a_cone_aimed_at_the_start():
 
 
 def test_a_hand_held_out_just_above_the_knees_is_not_met_it_is_inside_the_minimum_separation():
-    # Bob's palm is 10 cm above his thighs, well inside S_0 = 0.22 m: any robot hand meeting it would
-    # have to stand still (ISO/TS 15066 SSM). The goal is refused, naming the thighs and S_0.
+    # Bob's palm is 16 cm above his thighs, well inside S_0 = 0.22 m: any robot hand meeting it would
+    # have to stand still (ISO/TS 15066 SSM). The goal is refused, naming the thighs and S_0 (with
+    # the padding). (10 cm when seated people floated 6.6 cm above the floor.)
     runner, outcome = run(DATA / "seated_receiver_knife.yaml")
     failed = outcome.steps[-1]
     assert (failed.name, failed.status) == ("hand_over", "unreachable_goal")
-    assert "bob/left_upperleg (minimum separation 0.225 m)" in failed.message
+    assert "bob/left_upperleg (minimum separation 0.275 m)" in failed.message  # S_0 + padding 0.05 + slack
     assert "meet the person farther from the body parts named" in failed.message
     # independently: the palm centre the robot must reach, against the thigh capsule's own segment
     spec = runner.task.humans[0]
@@ -119,7 +120,7 @@ def test_a_hand_held_out_just_above_the_knees_is_not_met_it_is_inside_the_minimu
     ends = [placement.act(np.array([0.0, 0.0, h * thigh.length / 2])) for h in (-1, 1)]
     palm = np.array(spec.reach["right"])
     t = np.clip((palm - ends[0]) @ (ends[1] - ends[0]) / np.sum((ends[1] - ends[0]) ** 2), 0.0, 1.0)
-    assert np.linalg.norm(palm - (ends[0] + t * (ends[1] - ends[0]))) - thigh.radius < 0.12
+    assert np.linalg.norm(palm - (ends[0] + t * (ends[1] - ends[0]))) - thigh.radius < 0.17
 
 
 def mesh_separation(robot, trajectory, person: str, contact: tuple[str, ...]) -> tuple[float, str]:

@@ -1,5 +1,5 @@
 """Whole tasks: a step after a place or a handover with the same hand, both arms in sequence, a
-posture goal (tests/data/whole_tasks/). Before the release, every step after a place started
+posture goal, a step already where it goes (tests/data/whole_tasks/). Before the release, every step after a place started
 "in collision: right_hand_finger_0 - cup".
 
 Each release is re-checked on the URDF's collision meshes (tests/independent.py), apart from the
@@ -32,6 +32,7 @@ STEPS = {
         *("pick_2", "pick_2_lift", "place_2", "place_2_release"),
     ],
     "handover_then_ready": ["hand_over", "hand_over_release", "back"],
+    "hot_mug_to_seated_receiver": ["hand_over", "hand_over_release", "back", "stay"],
     "two_arms_in_sequence": ["put_cup", "put_cup_release", "pick_bottle", "pick_bottle_lift"],
     "two_objects_two_arms": [
         *("pick_cup", "pick_cup_lift", "place_cup", "place_cup_release"),

@@ -40,7 +40,9 @@ def summarize(outcome: TaskOutcome, verbose: bool = False) -> str:
     for step in outcome.steps:
         head = f"step {step.name} ({step.kind}, {'/'.join(step.arms)} arm): {step.status}"
         traj = step.trajectory
-        if traj is not None:
+        if traj is not None and len(traj.points) == 1:
+            head += f": {step.message}"
+        elif traj is not None:
             report = traj.report
             distance = (
                 f", closest to a person {report.min_human_distance:.3f} m"

@@ -246,6 +246,7 @@ def validate(
     people against ISO/TS 15066 at every written point (exit 1 if it fails)."""
     from hriplan.planner.replay import PlannedWorld
     from hriplan.safety.policy import default_policy
+    from hriplan.safety.separation import NO_MARGIN
 
     plan_file = load_for_task(trajectory, task, quiet)
     world = PlannedWorld.load(plan_file)
@@ -258,8 +259,12 @@ def validate(
     speed = None
     if plan_file.report.separation and plan_file.scene.humans:  # timed for people: re-check it, by their roles
         roles = {trace.person: trace.role for trace in plan_file.report.separation if trace.role}
-        speed = world.speed_check(default_policy(plan_file.robot, plan_file.scene.humans, roles))
-        typer.echo(f"speed and separation (ISO/TS 15066): {'kept' if speed.kept else 'EXCEEDED'}, {speed.message}")
+        margin = plan_file.report.safety_margin or NO_MARGIN  # as the file was timed
+        policy = default_policy(plan_file.robot, plan_file.scene.humans, roles).model_copy(update={"margin": margin})
+        speed = world.speed_check(policy)
+        typer.echo(
+            f"speed and separation (ISO/TS 15066, {margin}): {'kept' if speed.kept else 'EXCEEDED'}, {speed.message}"
+        )
     if not result.valid:
         typer.echo(f"invalid: {result.message}", err=True)
         raise typer.Exit(1)

@@ -60,7 +60,13 @@ def straight_tool_path(
         target[:3, 3] += fraction * move
         base = robot.configuration(waypoints[-1], group, base=q_start)
         ik = solve_ik(
-            robot, arm, target, base_q=base, reference=waypoints[-1], is_valid=lambda q: not checker.in_collision(q)
+            robot,
+            arm,
+            target,
+            base_q=base,
+            reference=waypoints[-1],
+            is_valid=lambda q: not checker.in_collision(q),
+            why_invalid=lambda q: [f"collides: {c.a} - {c.b}" for c in checker.contacts(q)],
         )
         if not ik.success:
             return None, f"no valid IK solution {what}: {ik.message}"

@@ -372,6 +372,8 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
                 )
             status = Status.INVALID_PATH
             message = f"planner path failed dense validation ({validation.message}); re-planning"
+    if status == Status.TIMEOUT:
+        message += _what_binds(problem, ends[0], ends[1], options.validation_step)
     return MotionResult(
         status=status,
         message=message,
@@ -381,6 +383,17 @@ def _search(problem: _Problem, options: PlanOptions, x_start: np.ndarray, x_goal
         calls=calls,
         space=options.space,
     )
+
+
+def _what_binds(problem: _Problem, x_start: np.ndarray, x_goal: np.ndarray, step: float) -> str:
+    """Why a search may have found nothing, for its message: the constraints the straight joint
+    line from start to goal leaves (by how much) and what it first collides with; '' if nothing."""
+    check = validate_path(problem.evaluator, problem.checker, [x_start, x_goal], step)
+    broken = [f"{c.id} (by {c.max_violation:.3g})" for c in check.constraints if not c.satisfied]
+    what = ([f"leaves {', '.join(broken)}"] if broken else []) + (
+        [f"collides ({check.collision})"] if check.collision else []
+    )
+    return f"; the straight joint line to the goal {' and '.join(what)}" if what else ""
 
 
 def _straighten_arms(

@@ -23,9 +23,9 @@ from hriplan.planner.motion import JointTarget, MotionResult, Target, ToolTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.search.ompl_solver import ompl_seed
-from hriplan.planner.timing import time_parameterize
+from hriplan.planner.timing import TimedPath, at_rest, joined, time_parameterize
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
-from hriplan.planner.validate import densify, validate_path
+from hriplan.planner.validate import PathValidation, densify, validate_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.human import HumanSpec
@@ -39,6 +39,12 @@ from hriplan.safety.separation import SeparationPolicy
 
 # Knot spacing handed to the time parameteriser, then a denser retry if re-validation fails.
 TIMING_STEPS = (0.05, 0.01)
+# Where the timed motion still leaves the validated path (its spline rounds a corner into an
+# obstacle or out of a band), it comes to rest at the waypoint nearest where it left: the motions
+# on either side are timed apart, so no spline crosses that corner. At most this many such rests,
+# then a rest at every corner: each piece is then a straight line of the validated path.
+RESTS = 4
+ALREADY_THERE = "already there: the start is the goal (a trajectory of one point, at rest)"
 # Re-plans (within the time limit) when a valid path cannot be timed: its shortcuts can graze an
 # obstacle so closely that the smooth timed motion, which rounds their corners, touches it.
 TIMING_RETRIES = 2
@@ -211,16 +217,28 @@ class PlanningSession:
             else ApproachMonitor(self.robot, self.checker, safety, motion.group, q0)
         )
         with with_keep_out(self.checker, bound):
+            # A path made outside the planner (a lift, a retreat) is validated first, as the planner's are.
+            given = None if motion.validation else validate_path(evaluator, self.checker, path, options.validation_step)
+            if given is not None and not given.valid:
+                return PlanResult(status=Status.INVALID_PATH, motion=motion, message=f"the path breaks {given.message}")
             timed, check, message = self._time_and_check(path, evaluator, motion.group, options, monitor)
         if timed is None:
             return PlanResult(status=Status.TIMING_FAILED, motion=motion, message=message)
         trajectory = self._file(motion, bound, timed, check, options, scene, evaluator.full(path[0]))
         if monitor is not None:
             report = trajectory.report.model_copy(
-                update={"separation": separation_report(monitor, timed.positions, timed.velocities)}
+                update={
+                    "separation": separation_report(monitor, timed.positions, timed.velocities),
+                    "safety_margin": safety.margin,
+                }
             )
             trajectory = trajectory.model_copy(update={"report": report})
-        return PlanResult(status=Status.SOLVED, motion=motion, trajectory=trajectory)
+        return PlanResult(
+            status=Status.SOLVED,
+            motion=motion,
+            trajectory=trajectory,
+            message=ALREADY_THERE if len(timed.times) == 1 else "",
+        )
 
     def _time_and_check(
         self,
@@ -229,30 +247,64 @@ class PlanningSession:
         group: str,
         options: PlanOptions,
         monitor: ApproachMonitor | None = None,
-    ):
-        """TOPP-RA on the validated path (slowed near people by `monitor`), then dense validation."""
-        velocity = self.robot.velocity_limit(group)
-        acceleration = np.full(len(velocity), options.acceleration_limit)
-        message = ""
+    ) -> tuple[TimedPath | None, PathValidation | None, str]:
+        """TOPP-RA on the validated path (slowed near people by `monitor`), then dense validation;
+        where the timed motion leaves the path, again with rests at its corners (RESTS). A path
+        that does not move (start equal to goal) is one state at rest, validated like any other."""
+
+        def timed_with(step: float, rests: list[int]) -> TimedPath:
+            ends = [0, *rests, len(path) - 1]
+            return joined(
+                [
+                    time_parameterize(
+                        densify(list(path[a : b + 1]), step),
+                        self.robot.velocity_limit(group),
+                        np.full(len(path[0]), options.acceleration_limit),
+                        velocity_scale=options.velocity_scale,
+                        speed_scale=None if monitor is None else monitor.speed_scale,
+                    )
+                    for a, b in zip(ends, ends[1:])
+                ]
+            )
+
+        def checked(timed: TimedPath) -> PathValidation:
+            positions = np.array(timed.positions)
+            return validate_path(evaluator, self.checker, positions, options.validation_step, human_distance=True)
+
+        path = path[np.concatenate([[True], np.abs(np.diff(path, axis=0)).max(axis=1, initial=0.0) > 1e-9])]
+        if len(path) == 1:
+            check = checked(at_rest(path[0]))
+            return (
+                (at_rest(path[0]), check, "") if check.valid else (None, None, f"the start is invalid: {check.message}")
+            )
+        message, check = "", None
         for step in TIMING_STEPS:
-            knots = densify(list(path), step)
             try:
-                timed = time_parameterize(
-                    knots,
-                    velocity,
-                    acceleration,
-                    velocity_scale=options.velocity_scale,
-                    speed_scale=None if monitor is None else monitor.speed_scale,
-                )
+                timed = timed_with(step, [])
             except HriplanError as exc:
                 message = str(exc)
                 continue
-            check = validate_path(
-                evaluator, self.checker, np.array(timed.positions), options.validation_step, human_distance=True
-            )
+            check = checked(timed)
             if check.valid:
                 return timed, check, ""
             message = f"the timed trajectory left the validated path: {check.message}"
+        rests: list[int] = []
+        while check is not None and not check.valid:
+            more = _corners(path) if len(rests) >= RESTS else _rest_near(path, rests, check.failed_state)
+            if more == rests:
+                break
+            rests = more
+            try:
+                timed = timed_with(TIMING_STEPS[-1], rests)
+            except HriplanError as exc:
+                return None, None, str(exc)
+            check = checked(timed)
+            if check.valid:
+                return timed, check, ""
+            message = (
+                f"the timed trajectory left the validated path even at rest at {len(rests)} of its waypoints: "
+                f"{check.message}"
+            )
         return None, None, message
 
     def _file(self, motion, bound, timed, check, options, scene, q0) -> TrajectoryFile:
@@ -271,6 +323,7 @@ class PlanningSession:
             closest_pair=check.closest_pair,
             velocity_scale=options.velocity_scale,
             calls=motion.calls,
+            rests=timed.rests,
         )
         points = [
             TrajectoryPoint(time_from_start=t, positions=p, velocities=v, accelerations=a)
@@ -300,6 +353,23 @@ def _resolved(bound: Iterable[BoundConstraint]) -> list[ResolvedConstraint]:
         )
         for c in bound
     ]
+
+
+def _corners(path: np.ndarray) -> list[int]:
+    """The waypoints inside `path` where its direction changes."""
+    d = np.diff(path, axis=0)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return [int(i) + 1 for i in np.flatnonzero(np.einsum("ij,ij->i", d[:-1], d[1:]) < 1.0 - 1e-9)]
+
+
+def _rest_near(path: np.ndarray, rests: list[int], state: list[float] | None) -> list[int]:
+    """`rests` and the waypoint inside `path` (not yet a rest) nearest `state`, where the timed
+    motion left the validated path."""
+    free = [i for i in range(1, len(path) - 1) if i not in rests]
+    if state is None or not free:
+        return rests
+    nearest = min(free, key=lambda i: float(np.abs(path[i] - np.asarray(state)).max()))
+    return sorted([*rests, nearest])
 
 
 _WORKER_SESSIONS: dict[tuple[str, tuple[tuple[str, str], ...]], PlanningSession] = {}

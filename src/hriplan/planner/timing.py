@@ -11,7 +11,7 @@ validated polyline is measured, reported and optionally bounded.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import toppra
@@ -69,6 +69,8 @@ class TimedPath(BaseModel):
     accelerations: list[list[float]]
     path_deviation: float
     """Max per-joint distance (rad) of the followed spline from the input polyline."""
+    rests: int = 0
+    """Waypoints inside the motion where it comes to rest (`joined`)."""
 
 
 def time_parameterize(
@@ -136,6 +138,33 @@ def time_parameterize(
         velocities=velocities.tolist(),
         accelerations=accelerations.tolist(),
         path_deviation=deviation,
+    )
+
+
+def at_rest(position: Sequence[float]) -> TimedPath:
+    """The motion that does not move (its start is its goal): one sample at t = 0, at rest."""
+    zero = [0.0] * len(position)
+    return TimedPath(
+        times=[0.0], positions=[list(position)], velocities=[zero], accelerations=[zero], path_deviation=0.0
+    )
+
+
+def joined(parts: Sequence[TimedPath]) -> TimedPath:
+    """Motions timed one after the other, each from rest to rest (each starts where the one before
+    ends), as one: a motion that stops at the junctions, the junction sampled once."""
+    first, *rest = parts
+    times, rows = list(first.times), [list(first.positions), list(first.velocities), list(first.accelerations)]
+    for part in rest:
+        times += [times[-1] + t for t in part.times[1:]]
+        for row, values in zip(rows, (part.positions, part.velocities, part.accelerations)):
+            row += values[1:]
+    return TimedPath(
+        times=times,
+        positions=rows[0],
+        velocities=rows[1],
+        accelerations=rows[2],
+        path_deviation=max(p.path_deviation for p in parts),
+        rests=sum(p.rests for p in parts) + len(parts) - 1,
     )
 
 

@@ -20,6 +20,7 @@ from hriplan.planner.outcome import Status
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.safety.report import SeparationTrace
+from hriplan.safety.separation import SafetyMargin
 
 SCHEMA = "hriplan.trajectory"
 SCHEMA_VERSION = 1
@@ -69,8 +70,10 @@ class TrajectoryReport(BaseModel):
     min_human_distance: float | None = None
     closest_pair: tuple[str, str] | None = None
     velocity_scale: float = 1.0
+    rests: int = 0  # waypoints where the timed motion stops so as not to round a corner off the validated path
     calls: dict[str, int] = Field(default_factory=dict)
     separation: list[SeparationTrace] = Field(default_factory=list)  # per person, when timed for people
+    safety_margin: SafetyMargin | None = None  # kept beyond ISO/TS 15066's limits, when timed for people
 
 
 class TrajectoryFile(BaseModel):
@@ -93,9 +96,12 @@ class TrajectoryFile(BaseModel):
 
     @model_validator(mode="after")
     def _a_motion(self) -> TrajectoryFile:
-        """At least two points, one value per joint each, times from 0 strictly increasing."""
-        if len(self.points) < 2:
-            raise ValueError(f"a trajectory needs at least 2 points, got {len(self.points)}")
+        """At least one point (one alone: a motion whose start is its goal), one value per joint
+        each, times from 0 strictly increasing."""
+        if not self.points:
+            raise ValueError("a trajectory needs at least 1 point, got 0")
+        if len(self.points) == 1 and any(self.points[0].velocities + self.points[0].accelerations):
+            raise ValueError("points.0: a trajectory of one point (its start is its goal) is at rest")
         n = len(self.joint_names)
         for k, p in enumerate(self.points):
             if not len(p.positions) == len(p.velocities) == len(p.accelerations) == n:

@@ -33,6 +33,7 @@ class PathValidation(BaseModel):
     min_human_distance: float | None = None
     closest_pair: tuple[str, str] | None = None
     message: str = ""
+    failed_state: list[float] | None = None  # the first dense state that collides or violates, if any
 
 
 def densify(states: Sequence[np.ndarray], step: float) -> np.ndarray:
@@ -56,15 +57,17 @@ def validate_path(
     the closest approach to a person (a report figure, costly: only the timed path's report asks)."""
     dense = densify(states, step)
     worst = np.full(len(evaluator.constraints), -np.inf)
-    collision = None
+    collision, failed = None, None
     for k, x in enumerate(dense):
         q = evaluator.full(x)
-        if evaluator.constraints:
-            worst = np.maximum(worst, evaluator.margins(q))
+        margins = evaluator.margins(q) if evaluator.constraints else np.zeros(0)
+        worst = np.maximum(worst, margins)
         if collision is None and checker.in_collision(q):
             contacts = checker.contacts(q)
             pair = f"{contacts[0].a} - {contacts[0].b}" if contacts else "collision"
             collision = f"{pair} at dense state {k} of {len(dense)}"
+        if failed is None and (collision is not None or margins.max(initial=-np.inf) > VALIDATION_TOLERANCE):
+            failed = x
     checks = [
         ConstraintCheck(id=c.id, max_violation=float(w), satisfied=bool(w <= VALIDATION_TOLERANCE))
         for c, w in zip(evaluator.constraints, worst)
@@ -86,4 +89,5 @@ def validate_path(
         min_human_distance=None if best[0] == float("inf") else best[0],
         closest_pair=None if best[0] == float("inf") else (best[1], best[2]),
         message="; ".join(problems),
+        failed_state=None if failed is None else failed.tolist(),
     )

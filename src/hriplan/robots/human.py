@@ -144,11 +144,16 @@ class HumanCapsule:
 
 
 # Change whenever the way a person's capsules and frames are fitted changes: it keys the disk cache.
-FIT_RULES = "a capsule per segment on its visual meshes; hand, head and thorax frames at their box centres"
+FIT_RULES = (
+    "a capsule per segment on its visual meshes; hand, head and thorax frames at their box centres; "
+    "each segment's mesh hull vertices (to stand the body on the floor)"
+)
 
 
 @functools.cache
-def _loaded(height: float | None) -> tuple[pin.Model, tuple[HumanCapsule, ...], dict[str, tuple[int, pin.SE3]]]:
+def _loaded(
+    height: float | None,
+) -> tuple[pin.Model, tuple[HumanCapsule, ...], dict[str, tuple[int, pin.SE3]], tuple[tuple[int, np.ndarray], ...]]:
     """The body model (kinematics), its capsules and named frames, fitted once per machine
     (fit_cache.py: loading and fitting the meshes takes most of a second)."""
     data = cached_fit("human", (FIT_RULES, height, DEFAULT_WEIGHT), lambda: _fitted(height))
@@ -158,10 +163,13 @@ def _loaded(height: float | None) -> tuple[pin.Model, tuple[HumanCapsule, ...], 
         HumanCapsule(c["name"], c["joint"], c["radius"], c["length"], se3(c["placement"])) for c in data["capsules"]
     )
     frames = {name: (joint, se3(placement)) for name, (joint, placement) in data["frames"].items()}
-    return model, capsules, frames
+    hulls = tuple((int(joint), np.asarray(points, dtype=float)) for joint, points in data["hulls"])
+    return model, capsules, frames, hulls
 
 
 def _fitted(height: float | None) -> dict:
+    from scipy.spatial import ConvexHull  # only when fitting (the fit cache serves `constraints` without scipy)
+
     loader = HumanLoader(height=height, weight=DEFAULT_WEIGHT if height else None)
     model, visual = loader.robot.model, loader.robot.visual_model
     points: dict[str, list[np.ndarray]] = {s: [] for s in SEGMENTS}
@@ -175,10 +183,11 @@ def _fitted(height: float | None) -> dict:
         vertices = np.asarray(mesh.vertices())
         points[segment].append(vertices @ geom.placement.rotation.T + geom.placement.translation)
         joints[segment] = geom.parentJoint
-    capsules = []
+    capsules, hulls = [], []
     named: dict[str, tuple[int, pin.SE3]] = {}
     for segment in SEGMENTS:
         cloud = np.vstack(points[segment])
+        hulls.append((joints[segment], cloud[ConvexHull(cloud).vertices].tolist()))
         radius, length, placement = fit_capsule(cloud)
         capsules.append(HumanCapsule(segment, joints[segment], radius, length, placement))
         if segment.endswith("hand") or segment in ("middle_head", "middle_thorax"):
@@ -198,6 +207,7 @@ def _fitted(height: float | None) -> dict:
             for c in capsules
         ],
         "frames": {name: (named[segment][0], se3_data(named[segment][1])) for name, segment in frames.items()},
+        "hulls": hulls,
     }
 
 
@@ -216,7 +226,7 @@ class Human:
 
     def __init__(self, spec: HumanSpec | None = None) -> None:
         self.spec = spec or HumanSpec()
-        self.model, self.capsules, self._frames = _loaded(self.spec.height)
+        self.model, self.capsules, self._frames, self._hulls = _loaded(self.spec.height)
         self.data = self.model.createData()
         self.q = pin.neutral(self.model)
         self.pose(self.spec)
@@ -256,17 +266,17 @@ class Human:
         return self.model.joints[self.model.getJointId(joint)].idx_q
 
     def _base_placement(self, q: np.ndarray) -> pin.SE3:
-        """World placement of the body (yaw about z, lowest point of the body on the floor)."""
+        """World placement of the body: yaw about z, the lowest point of its meshes (the soles, not
+        the capsules around them, which reach below them) on the floor."""
         q = q.copy()
         q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
         pin.forwardKinematics(self.model, self.data, q)
-        lowest = min(self._capsule_world(c).translation[2] - self._half_extent_z(c) for c in self.capsules)
+        lowest = min(
+            float(np.min(hull @ self.data.oMi[joint].rotation[2] + self.data.oMi[joint].translation[2]))
+            for joint, hull in self._hulls
+        )
         x, y = self.spec.position
         return pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, self.spec.yaw), np.array([x, y, -lowest]))
-
-    def _half_extent_z(self, capsule: HumanCapsule) -> float:
-        axis = self._capsule_world(capsule).rotation[:, 2]
-        return abs(axis[2]) * capsule.length / 2.0 + capsule.radius
 
     def _capsule_world(self, capsule: HumanCapsule) -> pin.SE3:
         return self.data.oMi[capsule.joint] * capsule.placement

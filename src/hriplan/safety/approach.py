@@ -4,9 +4,9 @@ For every robot part moved by the planned group (and every carried object) and e
 a person: the separation between them and the speed of the part's closest point towards the
 person's closest point (the robot speed v_r of ISO/TS 15066), per unit of the joint velocity
 given (its whole speed near a contact region, see separation.py). The allowed speed comes from
-`separation.allowed_speed`; the ratio of the two bounds the
-path speed. A moved part inside a person's minimum separation (allowed speed 0) is an error:
-the robot would have to stand still there.
+`separation.kept_speeds` (ISO/TS 15066's limit with the policy's margin); the ratio of the two
+bounds the path speed. A moved part inside a person's minimum separation and its padding (allowed
+speed 0) is an error: the robot would have to stand still there.
 
 All points of one call are measured in one batch (safety/person_distance.py): timing asks for
 the whole path at once, and one coal query per point and pair was most of a re-plan's time.
@@ -22,7 +22,14 @@ from hriplan import HriplanError
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
 from hriplan.safety.person_distance import PersonDistances
-from hriplan.safety.separation import PersonSeparation, SeparationPolicy, allowed_speeds, minimum_separation
+from hriplan.safety.separation import (
+    PersonSeparation,
+    SeparationPolicy,
+    allowed_speeds,
+    kept_separation,
+    kept_speeds,
+    minimum_separation,
+)
 
 # Below this separation (m) the direction to the person is undefined: the part's whole speed counts.
 _TOUCHING = 1e-6
@@ -34,7 +41,8 @@ class PersonSample:
 
     separation: float  # the closest moved part to the person (m)
     body_separation: float  # the same, outside the person's contact regions (what S_0 applies to)
-    allowed: float  # allowed speed towards the person of the binding pair (m/s)
+    allowed: float  # allowed speed towards the person of the binding pair, with the policy's margin (m/s)
+    iso_allowed: float  # ISO/TS 15066's own limit for that pair (no margin) (m/s)
     approach: float  # speed of the binding pair towards the person for the given joint velocity (m/s)
     scale: float  # largest factor on the joint velocity keeping every pair within its limit (inf: none)
     part: str
@@ -113,12 +121,13 @@ class ApproachMonitor:
         distances, contact = self._pairs(person)
         pairs = distances.at(qs, dqs)
         if not pairs.parts:
-            return [PersonSample(np.inf, np.inf, np.inf, 0.0, np.inf, "", "") for _ in qs], None
+            return [PersonSample(np.inf, np.inf, np.inf, np.inf, 0.0, np.inf, "", "") for _ in qs], None
         distance, v = pairs.distance, pairs.robot_velocity
         whole = contact | (distance <= _TOUCHING)
         towards = np.einsum("nkj,nkj->nk", v, pairs.person_point - pairs.robot_point) / np.maximum(distance, _TOUCHING)
         approach = np.where(whole, np.linalg.norm(v, axis=2), towards)
-        allowed = allowed_speeds(self.policy.robot, person, distance, pairs.capsules)
+        allowed = kept_speeds(self.policy, person, distance, pairs.capsules)
+        iso = allowed_speeds(self.policy.robot, person, distance, pairs.capsules)
         stopped = allowed <= 0.0
         if stopped.any():
             n = int(np.flatnonzero(stopped.any(axis=1))[0])
@@ -127,7 +136,8 @@ class ApproachMonitor:
                 n,
                 f"{pairs.parts[k]} passes {distance[n, k]:.3f} m from {person.name}/{pairs.capsules[k]}, inside the "
                 f"minimum protective separation {minimum_separation(self.policy.robot, person):.3f} m of ISO/TS 15066 "
-                f"(the robot would have to stand still there)",
+                f"and the padding {self.policy.margin.padding:g} m ({kept_separation(self.policy, person):.3f} m; the "
+                f"robot would have to stand still there)",
             )
         binding = np.argmin(allowed - approach, axis=1)
         closing = approach > 0.0
@@ -135,9 +145,15 @@ class ApproachMonitor:
         body = np.min(np.where(contact, np.inf, distance), axis=1)
         at = np.arange(len(qs))
         samples = [
-            PersonSample(float(d), float(b), float(a), float(r), float(s), pairs.parts[k], pairs.capsules[k])
-            for d, b, a, r, s, k in zip(
-                distance.min(axis=1), body, allowed[at, binding], approach[at, binding], scale, binding
+            PersonSample(float(d), float(b), float(a), float(i), float(r), float(s), pairs.parts[k], pairs.capsules[k])
+            for d, b, a, i, r, s, k in zip(
+                distance.min(axis=1),
+                body,
+                allowed[at, binding],
+                iso[at, binding],
+                approach[at, binding],
+                scale,
+                binding,
             )
         ]
         return samples, None

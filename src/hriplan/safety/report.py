@@ -18,8 +18,9 @@ class SeparationTrace(BaseModel):
 
     Per trajectory point: the closest moving robot part's separation (to the whole person, and to
     the body outside its contact regions, where S_0 applies), and for the binding
-    part-capsule pair (least margin) the allowed speed towards the person and the actual one
-    (negative: moving away). None: no moving part faces the person (no limit)."""
+    part-capsule pair (least margin) the allowed speed towards the person (with the policy's
+    margin: what the timing kept) and the actual one (negative: moving away). None: no moving
+    part faces the person (no limit)."""
 
     person: str
     role: str = ""
@@ -27,6 +28,7 @@ class SeparationTrace(BaseModel):
     contact_speed: float | None = None  # PFL cap near the person's contact region (m/s), if any
     min_separation: float | None  # closest approach of a moving part along the motion (m)
     worst_margin: float | None  # smallest allowed - actual speed towards the person (m/s; >= 0 kept)
+    iso_worst_margin: float | None = None  # the same against ISO/TS 15066's own limit, without the margin
     slowest_allowed: float | None = None  # smallest allowed speed where the robot approached (m/s)
     slowest_separation: float | None = None  # the separation there (m)
     separation: list[float | None] = Field(default_factory=list)
@@ -60,6 +62,9 @@ def separation_report(
                 min_separation=_finite(min(s.separation for s in samples)),
                 worst_margin=_finite(
                     min((s.allowed - s.approach for s in samples if math.isfinite(s.allowed)), default=math.inf)
+                ),
+                iso_worst_margin=_finite(
+                    min((s.iso_allowed - s.approach for s in samples if math.isfinite(s.iso_allowed)), default=math.inf)
                 ),
                 slowest_allowed=None if slowest is None else slowest.allowed,
                 slowest_separation=None if slowest is None else slowest.separation,

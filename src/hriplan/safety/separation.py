@@ -17,6 +17,10 @@ v_rel,max - v_h. Near that contact region the robot may move at max(SSM speed, t
 can meet the hand, but only at the PFL speed, in any direction (a transient contact may come
 from any side, so there the part's whole speed counts, not only its speed towards the person).
 
+hriplan does not time a motion exactly on these limits: a `SafetyMargin` pads every person's
+separation (the speed limit is taken at the separation less the padding, so it falls to 0 at
+S_0 + padding) and keeps every speed a factor below its cap (`kept_speeds`).
+
 The numbers live in the ontology (hriplan.ttl, section "Speed and separation"), with their
 sources; `hriplan.safety.policy` reads them into a `SeparationPolicy`.
 """
@@ -78,13 +82,31 @@ class PersonSeparation(BaseModel):
         return next((c for c in self.contact if capsule in c.capsules), None)
 
 
+class SafetyMargin(BaseModel):
+    """What hriplan keeps beyond ISO/TS 15066's own limits, so that no motion is timed exactly on
+    them: a padding on every person's separation (m) and a factor below every speed cap."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    padding: NonNegative = 0.05  # added to S_0; the speed limit is taken this much closer than measured
+    speed_factor: Annotated[float, Field(gt=0.0, le=1.0)] = 0.95  # of the SSM and PFL speed caps
+
+    def __str__(self) -> str:
+        return f"padding {self.padding:g} m, speed factor {self.speed_factor:g}"
+
+
+NO_MARGIN = SafetyMargin(padding=0.0, speed_factor=1.0)
+"""ISO/TS 15066's limits exactly (a trajectory file written before margins were recorded)."""
+
+
 class SeparationPolicy(BaseModel):
-    """What the time parameterisation must respect near people (interface I5)."""
+    """What the time parameterisation must respect near people (interface I5), with the margin kept."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     robot: RobotStopping
     people: list[PersonSeparation] = Field(default_factory=list)
+    margin: SafetyMargin = Field(default_factory=SafetyMargin)
 
     def person(self, name: str) -> PersonSeparation | None:
         return next((p for p in self.people if p.name == name), None)
@@ -148,3 +170,17 @@ def allowed_speeds(
     }
     floor = np.array([caps.get(c, 0.0) for c in capsules])  # 0: SSM alone
     return np.maximum(_ssm(robot, person, np.asarray(separations, dtype=float)), floor)
+
+
+def kept_separation(policy: SeparationPolicy, person: PersonSeparation) -> float:
+    """S_0 + padding: the separation at which the speed hriplan allows falls to 0."""
+    return minimum_separation(policy.robot, person) + policy.margin.padding
+
+
+def kept_speeds(
+    policy: SeparationPolicy, person: PersonSeparation, separations: np.ndarray, capsules: Sequence[str]
+) -> np.ndarray:
+    """The speeds hriplan allows: `allowed_speeds` at the separations less the padding, times the
+    speed factor (what timing keeps and `hriplan validate` checks)."""
+    closer = np.asarray(separations, dtype=float) - policy.margin.padding
+    return policy.margin.speed_factor * allowed_speeds(policy.robot, person, closer, capsules)

@@ -1,11 +1,11 @@
 """Keep ISO/TS 15066's minimum separation S_0 while planning, not only while timing.
 
-At S_0 the speed allowed towards a person is 0 (separation.py), so a path that passes closer
-than S_0 to a body part outside the person's contact regions cannot be timed: the timing would
-have to stop the robot there, and refuses the path. The planner therefore keeps the parts the
-planned group moves (and what they carry) out of each such capsule grown by S_0 and a little
-slack, so that the smooth timed motion, which rounds the planned path's corners, stays outside
-S_0 too. A part that does not move has no approach speed: it is not checked (a fixed torso next
+At S_0 + the policy's padding the speed allowed towards a person is 0 (separation.py), so a path
+that passes closer to a body part outside the person's contact regions cannot be timed: the
+timing would have to stop the robot there, and refuses the path. The planner therefore keeps the
+parts the planned group moves (and what they carry) out of each such capsule grown by S_0, the
+padding and a little slack, so that the smooth timed motion, which rounds the planned path's
+corners, stays outside them too. A part that does not move has no approach speed: it is not checked (a fixed torso next
 to a standing person does not make every state invalid). Contact regions (a receiver's hand and
 lower arm) get no zone: there power and force limiting caps the speed instead.
 """
@@ -16,9 +16,9 @@ import numpy as np
 
 from hriplan.robots.collision import CollisionChecker, SeparationZones
 from hriplan.robots.model import Robot
-from hriplan.safety.separation import SeparationPolicy, minimum_separation
+from hriplan.safety.separation import SeparationPolicy, kept_separation
 
-# Beyond S_0, for the timed motion's rounding of the planned path (m); never past the start,
+# Beyond S_0 + padding, for the timed motion's rounding of the planned path (m); never past the start,
 # which keeps at least START_CLEARANCE from its zones' surfaces.
 ZONE_SLACK = 0.005
 START_CLEARANCE = 1e-4
@@ -27,16 +27,16 @@ START_CLEARANCE = 1e-4
 def separation_zones(
     checker: CollisionChecker, robot: Robot, policy: SeparationPolicy, group: str, q_start: np.ndarray
 ) -> SeparationZones:
-    """Per person of the scene in `policy`: S_0 (+ slack) around every capsule outside their
+    """Per person of the scene in `policy`: S_0 + padding (+ slack) around every capsule outside their
     contact regions. The slack is cut where the start already lies within it, so a start that
-    the timing accepts (outside S_0) is a valid start for planning."""
+    the timing accepts (outside S_0 + padding) is a valid start for planning."""
     moving = robot.moved_joints(group)
     distances: dict[str, dict[str, float]] = {}
     for name in checker.humans:
         person = policy.person(name)
         if person is None:
             continue
-        s0 = minimum_separation(policy.robot, person)
+        s0 = kept_separation(policy, person)  # S_0 and the policy's padding
         pairs = checker.person_pairs(q_start, name)
         moved = np.array([int(j) in moving for j in pairs.joints], dtype=bool)
         at_start: dict[str, float] = {}

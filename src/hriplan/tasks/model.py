@@ -21,6 +21,7 @@ from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, DESCRIPTIONS, HA
 from hriplan.robots.human import HAND, HumanSpec, Side, hand_they_reach_out
 from hriplan.robots.scene import Obstacle, Shape
 from hriplan.robots.spatial import Pose
+from hriplan.safety.separation import SafetyMargin
 
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 Finite = Annotated[float, Field(allow_inf_nan=False)]
@@ -248,11 +249,20 @@ class Planning(_Strict):
     time_limit: Positive = 10.0
     seed: int | None = None
     project_start: bool = Field(default=False, description="Move a start that violates a constraint onto it first.")
+    safety_margin: SafetyMargin = Field(
+        default_factory=SafetyMargin,
+        description="Kept beyond ISO/TS 15066's limits near people: a padding (m) on every separation, a factor "
+        "below every speed cap.",
+    )
+
+    def options(self) -> PlanOptions:
+        """The planner's options (the safety margin goes with the separation policy)."""
+        return PlanOptions(**self.model_dump(exclude_none=True, exclude={"safety_margin"}))
 
     @model_validator(mode="after")
     def _within_planner_limits(self) -> Planning:
         try:
-            PlanOptions(**self.model_dump(exclude_none=True))
+            self.options()
         except ValidationError as exc:
             raise ValueError(validation_message(exc)) from None
         return self

@@ -184,7 +184,13 @@ class TaskRunner:
         key = situation.model_dump_json()  # the grasp choice and the step derive the same situation
         if key not in self._derived:
             kb = KnowledgeBase(situation, rule_files=self.rule_files)
-            self._derived[key] = kb, derive(kb)
+            derivation = derive(kb)
+            if derivation.separation is not None:  # the task's margin beyond ISO/TS 15066's limits
+                margin = {"margin": self.task.planning.safety_margin}
+                derivation = derivation.model_copy(
+                    update={"separation": derivation.separation.model_copy(update=margin)}
+                )
+            self._derived[key] = kb, derivation
         kb, derivation = self._derived[key]
         self.knowledge_bases[situation.task.name] = kb
         return kb, derivation
@@ -534,10 +540,11 @@ class TaskRunner:
             }
         )
         end = dict(start) | dict(zip(trajectory.joint_names, trajectory.points[-1].positions))
-        return outcome.model_copy(update={"status": Status.SOLVED, "trajectory": trajectory}), end
+        solved = {"status": Status.SOLVED, "trajectory": trajectory, "message": result.message or outcome.message}
+        return outcome.model_copy(update=solved), end
 
     def _options(self) -> PlanOptions:
-        return PlanOptions(**self.task.planning.model_dump(exclude_none=True))
+        return self.task.planning.options()
 
     def _held_axes(
         self, start: dict[str, float], state: TaskState, derivation: Derivation, scene: Scene

@@ -175,19 +175,25 @@ def _separation(world: PlannedWorld) -> Figure:
                 ls=":",
                 label="... from the whole person (hand included)",
             )
+        padding = (
+            0.0 if world.trajectory.report.safety_margin is None else world.trajectory.report.safety_margin.padding
+        )
         top.axhline(
             trace.minimum_separation,
             color=LIMIT,
             ls="--",
             lw=1,
-            label=f"minimum separation S_0 = {trace.minimum_separation:.2f} m (speed 0)",
+            label=f"minimum separation S_0 = {trace.minimum_separation:.2f} m"
+            + (f" (+ padding {padding:g} m: speed 0)" if padding else " (speed 0)"),
         )
+        if padding:
+            top.axhline(trace.minimum_separation + padding, color=LIMIT, ls=":", lw=1)
         top.set_ylabel("separation (m)")
         top.set_ylim(bottom=0.0)
         top.set_title(f"{trace.person} ({trace.role or 'no role'})", fontsize=9, loc="left")
         top.legend(fontsize=8, loc="upper right")
         allowed, actual = _series(trace.allowed_speed), _series(trace.approach_speed)
-        bottom.plot(world.times, allowed, color=LIMIT, lw=1, label="allowed speed towards the person")
+        bottom.plot(world.times, allowed, color=LIMIT, lw=1, label="allowed speed towards the person (with the margin)")
         bottom.plot(world.times, actual, color="C0", label="actual speed towards the person")
         bottom.fill_between(world.times, actual, allowed, where=actual <= allowed, color=KEPT, alpha=0.1, lw=0)
         if trace.contact_speed is not None:
