@@ -229,8 +229,9 @@ def test_a_start_inside_the_minimum_separation_fails_with_the_reason():
     q0, path = _right_arm_path(session.robot)
     goal = JointTarget(values=dict(zip(session.robot.group_joints("right_arm"), path[5])))
     start = dict(zip(session.robot.joint_names, q0))
-    assert session.plan(start, goal, group="right_arm").solved  # without the policy it plans and runs
-    result = session.plan(start, goal, group="right_arm", safety=default_policy("madar", [bystander]))
+    assert session.plan(start, goal, group="right_arm", safety=None).solved  # without the policy it plans and runs
+    result = session.plan(start, goal, group="right_arm")  # by default the ontology's policy: dana a bystander
+    assert session.policy() == default_policy("madar", [bystander])
     # the planner keeps S_0 (safety/zones.py): the start is refused before any search
     assert result.status == "invalid_start"
     assert result.message.startswith("start is inside a person's minimum separation of ISO/TS 15066")
