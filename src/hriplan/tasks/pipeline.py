@@ -6,7 +6,7 @@ provenance -> planning scene and goal -> plan -> validated, timed trajectory.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -72,6 +72,10 @@ class StepOutcome(BaseModel):
 class TaskOutcome(BaseModel):
     task: str
     steps: list[StepOutcome]
+    # The world the solved steps leave (objects where they put them, what the robot holds) and,
+    # when planned, where the robot ends (every joint): the state a session continues the task from.
+    world: Scene = Field(default_factory=Scene)
+    end: dict[str, float] | None = None
 
     @property
     def solved(self) -> bool:
@@ -186,11 +190,13 @@ class TaskRunner:
         self.knowledge_bases[situation.task.name] = kb
         return kb, derivation
 
-    def run(self, plan: bool = True) -> TaskOutcome:
+    def run(self, plan: bool = True, grasps: Mapping[str, Grasp] | None = None) -> TaskOutcome:
         """Derive (and plan, unless `plan` is False) every step. Without planning, a step starts
         where the previous one's goal puts the tools. An object the step moves for the first
-        time is tried in each grasp the rules allow, most preferred first, until the step plans."""
+        time is tried in each grasp the rules allow, most preferred first, until the step plans;
+        `grasps` fixes how objects held from the start are held (a session's perceived hold)."""
         task, state, robot = self.task, TaskState.initial(self.task), self._robot()
+        state.grasps |= {obj: g for obj, g in (grasps or {}).items() if obj in state.held_by_arm}
         start = posture(task.robot, task.start.posture) | task.start.joints
         state.tools = tool_poses(robot, start)
         outcomes = []
@@ -212,7 +218,8 @@ class TaskRunner:
                 start, state.tools = end, tool_poses(robot, end)
             else:
                 state.tools |= {r.goal.arm: r.goal.pose for r in resolved if isinstance(r.goal, ToolTarget)}
-        return TaskOutcome(task=task.name, steps=outcomes)
+        end = dict(zip(robot.joint_names, robot.configuration(start).tolist())) if plan else None
+        return TaskOutcome(task=task.name, steps=outcomes, world=state.scene(), end=end)
 
     def _grasp_choices(self, step: Step, index: int, state: TaskState) -> list[dict[str, Grasp]]:
         """The grasps to try for the objects the step is the first to hold (held from the start,
