@@ -167,3 +167,25 @@ def test_continuing_needs_a_known_step_and_configuration():
         run_task(HANDOVER, session, from_step="place")
     with pytest.raises(HriplanError, match="^continuing a task \\(from_step\\) needs the session"):
         run_task(HANDOVER, from_step="place_can")
+
+
+def test_a_person_the_session_sees_elsewhere_is_where_the_task_takes_from():
+    """Alice stands 8 cm further along x than the file says (her hand too): the take ends 8 cm
+    further along x (the tool by the URDF), and the file's alice is in no scene."""
+    alice = HANDOVER.humans[0]
+    seen = HumanSpec(
+        **alice.model_dump(include=set(HumanSpec.model_fields))
+        | {"position": (alice.position[0] + 0.08, alice.position[1]), "reach": {"right": (0.13, 1.05, 1.05)}}
+    )
+    moved = run_task(HANDOVER, PlanningSession("madar", Scene(humans=[seen]), hands={"right": "power"}), EXAMPLES)
+    as_filed = run_task(HANDOVER, PlanningSession("madar", hands={"right": "power"}), EXAMPLES)
+    assert moved.solved and as_filed.solved
+    assert [h.position for h in moved.steps[0].trajectory.scene.humans] == [seen.position]
+    robot = UrdfRobot("madar", {"right": "power"})
+
+    def take_end(outcome) -> np.ndarray:
+        take = outcome.steps[0].trajectory
+        robot.configure(take.start | dict(zip(take.joint_names, take.points[-1].positions)))
+        return robot.pose("right_tool").translation.copy()
+
+    assert np.allclose(take_end(moved) - take_end(as_filed), (0.08, 0.0, 0.0), atol=2e-3)
