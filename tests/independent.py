@@ -5,8 +5,10 @@ re-checks it with the same code; a test that repeats that check cannot catch a b
 both. This module recomputes what a trajectory promises from the URDF alone: forward kinematics
 with pinocchio built from the URDF string, link surfaces from the URDF's collision meshes with
 coal, and each constraint's membership (upright angle, inside or outside a box, sphere,
-cylinder, cone) from the semantics in the constraint specification's docstring. It imports
-nothing from `hriplan.planner.constraints` or `hriplan.safety`.
+cylinder, cone) from the semantics in the constraint specification's docstring; a trajectory's
+clearance from a shape placed in the world (the robot's meshes and what it holds); its ISO/TS
+15066 speed margins near people from the standard's formulas written here (the policy's values
+only as data). It imports nothing from `hriplan.planner.constraints` or `hriplan.safety`.
 """
 
 from __future__ import annotations
@@ -17,8 +19,13 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.robots.descriptions.allegro import hand_joint_name, posture_values
 from hriplan.robots.descriptions.registry import description_of
+from hriplan.robots.human import Human
+from hriplan.robots.model import load_robot
+from hriplan.robots.robot_geometry import robot_parts
+from hriplan.robots.scene import Scene
 
 
 def nearest(shape_a: coal.ShapeBase, at_a: pin.SE3, shape_b: coal.ShapeBase, at_b: pin.SE3) -> coal.DistanceResult:
@@ -103,7 +110,11 @@ class UrdfRobot:
         """Smallest distance from the collision meshes of links named `prefix...` to the solid of
         a box, sphere or cylinder constraint placed at `frame` (negative: penetrating)."""
         solid, local = _coal_solid(spec)
-        placement = pin.SE3(frame[:3, :3], frame[:3, 3]) * local
+        return self.nearest_link(solid, pin.SE3(frame[:3, :3], frame[:3, 3]) * local, prefix)
+
+    def nearest_link(self, solid: coal.ShapeBase, placement: pin.SE3, prefix: str = "") -> tuple[float, str]:
+        """Smallest distance from the collision meshes of links named `prefix...` to `solid`
+        placed at `placement` in the world (negative: penetrating), and the nearest mesh."""
         request, best = coal.DistanceRequest(), (np.inf, "")
         for g, placed in zip(self.geometry.geometryObjects, self.geometry_data.oMg):
             if not g.name.startswith(prefix):
@@ -205,3 +216,110 @@ def iso_allowed(robot, person, separation: float, capsule: str) -> float:
     region = next((c for c in person.contact if capsule in c.capsules), None)
     ssm = iso_ssm(robot, person, separation)
     return ssm if region is None else max(ssm, iso_pfl(robot, person, region))
+
+
+def _coal_shape(shape) -> coal.ShapeBase:
+    """A scene shape (box, cylinder, sphere: centred, as the scene's docstring says) for coal."""
+    if shape.type == "box":
+        return coal.Box(*shape.size)
+    if shape.type == "cylinder":
+        return coal.Cylinder(shape.radius, shape.height)
+    if shape.type == "sphere":
+        return coal.Sphere(shape.radius)
+    raise AssertionError(f"no independent shape for {shape.type!r}")
+
+
+def clearance(trajectory, solid: coal.ShapeBase, placement: pin.SE3) -> tuple[float, str]:
+    """The smallest distance, over a trajectory's written points, from the robot's URDF collision
+    meshes and the objects it holds (at their grasp in the arm's tool frame) to `solid` placed at
+    `placement` (negative: penetrating), and what came nearest at which time."""
+    robot = UrdfRobot(trajectory.robot, dict(trajectory.hands))
+    arms = description_of(trajectory.robot).arms
+    best = (np.inf, "")
+    for point in trajectory.points:
+        robot.configure(dict(trajectory.start) | dict(zip(trajectory.joint_names, point.positions)))
+        d, link = robot.nearest_link(solid, placement)
+        best = min(best, (d, f"{link} at t={point.time_from_start:.2f}"))
+        for held in trajectory.scene.attached:
+            at = robot.pose(arms[held.arm].tool_frame) * pin.SE3(held.grasp.matrix())
+            d = nearest(_coal_shape(held.shape), at, solid, placement).min_distance
+            best = min(best, (d, f"{held.name} at t={point.time_from_start:.2f}"))
+    return best
+
+
+def speed_margins(
+    robot_name: str,
+    hands: dict,
+    scene: Scene,
+    start: dict,
+    joint_names: list[str],
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    policy,
+) -> tuple[float, float]:
+    """(worst allowed - actual speed towards a person, worst body separation - S_0) over every
+    sample, moving robot part and person capsule, from coal, pinocchio and the formulas."""
+    robot = load_robot(robot_name, hands or None)
+    model, data = robot.model, robot.data
+    planned = {model.getJointId(j) for j in joint_names}
+
+    def moves(joint: int) -> bool:
+        while joint > 0:
+            if joint in planned:
+                return True
+            joint = model.parents[joint]
+        return False
+
+    parts = [(p.joint, p.placement, p.geometry) for p in robot_parts(robot) if moves(p.joint)]
+    for obj in scene.attached:
+        frame = model.frames[model.getFrameId(robot.tool_frame(obj.arm))]
+        parts.append((frame.parentJoint, frame.placement * obj.grasp.se3(), obj.shape.geometry()))
+    people = []
+    for spec in scene.humans:
+        human = Human(spec)
+        person = policy.person(spec.name)
+        s0 = iso_minimum_separation(policy.robot, person)
+        caps = [
+            (c.name, coal.Capsule(c.radius, c.length), m) for c, m in zip(human.capsules, human.capsule_placements())
+        ]
+        people.append((person, s0, caps))
+    index = [model.joints[model.getJointId(j)].idx_q for j in joint_names]
+    h = 1e-6
+    worst_speed, worst_gap = math.inf, math.inf
+    for x, v in zip(positions, velocities):
+        q = robot.configuration(start)
+        q[index] = x
+        q_next = q.copy()
+        q_next[index] = x + h * np.asarray(v)
+        pin.forwardKinematics(model, data, q)
+        now = [pin.SE3(data.oMi[j] * placement) for j, placement, _ in parts]
+        pin.forwardKinematics(model, data, q_next)
+        later = [pin.SE3(data.oMi[j] * placement) for j, placement, _ in parts]
+        for person, s0, caps in people:
+            travel = policy.robot.reaction_time + policy.robot.stopping_time / 2
+            for (_, _, geometry), m_now, m_later in zip(parts, now, later):
+                for name, capsule, placement in caps:
+                    result = nearest(geometry, m_now, capsule, placement)
+                    d = result.min_distance
+                    p_robot, p_person = result.getNearestPoint1(), result.getNearestPoint2()
+                    velocity = (m_later.act(m_now.actInv(p_robot)) - p_robot) / h
+                    region = next((c for c in person.contact if name in c.capsules), None)
+                    ssm = max(d - s0, 0.0) / travel
+                    if region is None:
+                        approach = float(velocity @ (p_person - p_robot)) / d
+                        allowed = ssm
+                        worst_gap = min(worst_gap, d - s0)
+                    else:
+                        cap = iso_pfl(policy.robot, person, region)
+                        approach, allowed = float(np.linalg.norm(velocity)), max(ssm, cap)
+                    worst_speed = min(worst_speed, allowed - approach)
+    return worst_speed, worst_gap
+
+
+def trajectory_speed_margins(traj: TrajectoryFile, policy) -> tuple[float, float]:
+    """`speed_margins` over every point of a written trajectory."""
+    positions = np.array([p.positions for p in traj.points])
+    velocities = np.array([p.velocities for p in traj.points])
+    return speed_margins(
+        traj.robot, traj.hands, traj.scene, traj.start, traj.joint_names, positions, velocities, policy
+    )

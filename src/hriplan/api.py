@@ -1,17 +1,27 @@
 """The plug-in API for higher-level systems (task planners, a motion manager on the real robot).
 
     from hriplan.api import PlanningSession, Scene, HumanSpec, Pose, JointTarget, ToolTarget, PlanOptions
-    session = PlanningSession("madar", scene, hands={"right": "power"})   # built once
-    session.pose_human(HumanSpec(name="bob", position=(0.1, 1.4), yaw=-1.57))  # perception update
+    session = PlanningSession("madar", scene, hands={"right": "power"}, roles={"alice": "Giver"})  # once
+    session.pose_human(HumanSpec(name="alice", position=(0.1, 1.4), yaw=-1.57))  # perception update
     session.set_constraints(constraints)                                   # or derive them: run_task
     result = session.plan(start, ToolTarget(arm="right", pose=Pose(...)))    # validated + timed
     result.trajectory.points, result.trajectory.report                     # what to execute, why
 
     outcome = run_task(load_task("examples/handover_full_can.yaml"), session)  # rules decide
+    rest = run_task(task, session, from_step="place_can")                  # continue where it stopped
+
+Safe by default: near people `session.plan` is timed to ISO/TS 15066 with the ontology's policy
+for them (`session.policy()`: by `session.roles`, else bystanders; `default_policy` and
+`SeparationPolicy` for one of your own); `safety=None` turns the speed limits off.
+
+A task runs in the session's world: the task's people and objects where the session perceives
+them (else where the file says), plus whatever else it perceives (obstacles, people, held
+objects). Afterwards (`advance=True`) the session is where the solved steps leave it: objects
+moved, what the robot holds, its `configuration`; `from_step` continues the task from there.
 
 A `ToolTarget(arm="right")` planned without a `group` moves that arm only; a `JointTarget` without
 one moves the whole robot. Named start postures: `posture("madar", "ready")` (`POSTURES` lists
-them); frames a constraint can be anchored at on a person: `FrameRef(entity="bob/right_hand")`,
+them); frames a constraint can be anchored at on a person: `FrameRef(entity="alice/right_hand")`,
 with `PERSON_FRAMES` the frame names every person has.
 
 Threads: a session is not thread-safe, and neither are two sessions of the same robot in two
@@ -24,6 +34,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hriplan import HriplanError
 from hriplan.planner.constraints.spec import (
     BoxConstraint,
     ConeConstraint,
@@ -43,31 +54,56 @@ from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import AttachedObject, Box, Capsule, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
+from hriplan.safety.policy import default_policy
+from hriplan.safety.separation import SeparationPolicy
 from hriplan.tasks.load import load_task
 from hriplan.tasks.model import TaskFile
 from hriplan.tasks.pipeline import TaskOutcome, TaskRunner
+from hriplan.tasks.world import continued, in_world
 
 PERSON_FRAMES: tuple[str, ...] = Human.FRAMES
 
 
 def run_task(
-    task: TaskFile, session: PlanningSession | None = None, base_dir: str | Path = ".", *, keep_task_world: bool = False
+    task: TaskFile,
+    session: PlanningSession | None = None,
+    base_dir: str | Path = ".",
+    *,
+    from_step: str | None = None,
+    advance: bool = True,
 ) -> TaskOutcome:
     """Derive every step's constraints with the rules and plan it, on `session` if given.
 
-    Planning a task plans it in the task's world: for each step the session's scene (people,
-    objects, tables) and constraints are those of the task. Afterwards the session's own scene
-    and constraints are put back, unless `keep_task_world` is True (then the last step's stay).
+    On a session the task is planned in the session's world (`tasks/world.py`): the task's
+    people and objects as the file places them unless the session perceives them elsewhere, plus
+    everything else the session perceives (obstacles, people, what the robot holds). `from_step`
+    continues the task from that step, the robot where the session's `configuration` has it,
+    holding what the session's scene has it hold. The session's own constraints are put back
+    afterwards; with `advance` its scene, configuration and roles become what the solved steps
+    leave (as if executed), so the task can be continued; without, its scene is put back too.
     """
     if session is None:
+        if from_step is not None:
+            raise HriplanError("continuing a task (from_step) needs the session whose state it continues")
         return TaskRunner(task, Path(base_dir)).run(plan=True)
-    scene, constraints = session.checker.scene, list(session.constraints.values())
+    world, constraints = session.checker.scene, list(session.constraints.values())
+    placed, grasps = in_world(task, world, session.roles)
+    if from_step is not None:
+        if session.configuration is None:
+            raise HriplanError(
+                "the session does not know where the robot is: plan on it, run a task or set_configuration first"
+            )
+        placed = continued(placed, from_step, session.configuration)
     try:
-        return TaskRunner(task, Path(base_dir), session=session).run(plan=True)
+        outcome = TaskRunner(placed, Path(base_dir), session=session).run(plan=True, grasps=grasps)
     finally:
-        if not keep_task_world:
-            session.set_scene(scene)
-            session.set_constraints(constraints)
+        session.set_scene(world)
+        session.set_constraints(constraints)
+    if advance:
+        session.set_scene(outcome.world)
+        session.configuration = outcome.end
+        session.roles |= {h.name: h.role for h in task.humans}
+    return outcome
 
 
 __all__ = [
@@ -92,6 +128,7 @@ __all__ = [
     "PlanningSession",
     "Pose",
     "Scene",
+    "SeparationPolicy",
     "Sphere",
     "SphereConstraint",
     "Status",
@@ -100,6 +137,7 @@ __all__ = [
     "TaskRunner",
     "ToolTarget",
     "TrajectoryFile",
+    "default_policy",
     "load_robot",
     "load_task",
     "load_trajectory",

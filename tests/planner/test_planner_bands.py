@@ -28,7 +28,7 @@ SCENARIOS = Path(__file__).parents[2] / "benchmarks" / "scenarios"
 
 def _session(name):
     problem = load_problem(SCENARIOS / f"{name}.json")
-    session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+    session = PlanningSession(problem.robot, problem.scene, problem.hands or None, problem.roles)
     session.set_constraints(problem.constraints)
     return problem, session
 

@@ -25,7 +25,7 @@ SCENARIOS = Path(__file__).parents[2] / "benchmarks" / "scenarios"
 @pytest.fixture(scope="module")
 def free_session(problem):
     """The UR5 scenario's scene with no constraints: plain joint-space planning."""
-    return PlanningSession(problem.robot, problem.scene)
+    return PlanningSession(problem.robot, problem.scene, roles=problem.roles)
 
 
 def tool_z(robot, q):
@@ -104,7 +104,7 @@ def test_a_start_inside_its_dynamic_tolerance_is_planned(problem, goal_kind):
         c.model_copy(update={"tolerance_gradient": 0.5}) if c.id == "upright" else c
         for c in problem.constraints.constraints
     ]
-    session = PlanningSession(problem.robot, problem.scene)
+    session = PlanningSession(problem.robot, problem.scene, roles=problem.roles)
     session.set_constraints(constraints)
     robot = session.robot
     start = dict(problem.start, wrist_2_joint=problem.start["wrist_2_joint"] + 0.15)

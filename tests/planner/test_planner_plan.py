@@ -18,7 +18,7 @@ from independent import constraint_violations
 
 @pytest.fixture(scope="module")
 def session(problem):
-    s = PlanningSession(problem.robot, problem.scene)
+    s = PlanningSession(problem.robot, problem.scene, roles=problem.roles)
     s.set_constraints(problem.constraints)
     return s
 
@@ -117,17 +117,18 @@ def test_dense_validation_catches_a_violating_path(problem, session):
 
 
 def test_session_replans_after_perception_without_rebuilding(problem, session):
+    """Re-planning, not the speed limit (off: the runs this test has always used)."""
     model, geometry = session.robot.model, session.checker.geom_model
     session.move_obstacle("block", Pose(xyz=(2.0, 2.0, 0.0)))
     try:
-        result = session.plan(problem.start, problem.goal, PlanOptions(seed=1, time_limit=20.0))
+        result = session.plan(problem.start, problem.goal, PlanOptions(seed=1, time_limit=20.0), safety=None)
         assert result.solved
     finally:
         session.move_obstacle("block", Pose(xyz=(0.45, 0.0, 0.125)))
     assert session.robot.model is model and session.checker.geom_model is geometry
     session.update_constraint("workspace", enabled=False)
     try:
-        plain = session.plan(problem.start, problem.goal, PlanOptions(seed=1, time_limit=20.0))
+        plain = session.plan(problem.start, problem.goal, PlanOptions(seed=1, time_limit=20.0), safety=None)
         assert plain.solved and "workspace" not in plain.trajectory.report.max_violation
     finally:
         session.update_constraint("workspace", enabled=True)
@@ -141,13 +142,14 @@ def test_session_replans_after_perception_without_rebuilding(problem, session):
 def test_other_spaces_solve_an_open_problem(problem, session, space, formulation):
     """Without the block the problem is easy enough for every method, including the baseline.
     (Seed -2 is OMPL seed 4, the run this test has always used: projected + deadzone solves some
-    seeds only.)"""
+    seeds only; so without the person's separation zones, which change the run.)"""
     session.move_obstacle("block", Pose(xyz=(2.0, 2.0, 0.0)))
     try:
         result = session.plan(
             problem.start,
             problem.goal,
             PlanOptions(planner="RRTConnect", space=space, formulation=formulation, seed=-2, time_limit=30.0),
+            safety=None,
         )
     finally:
         session.move_obstacle("block", Pose(xyz=(0.45, 0.0, 0.125)))

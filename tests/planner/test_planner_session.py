@@ -1,7 +1,9 @@
 """Sessions end to end on MADAR: the whole configuration flows through every stage, a timing
-failure is a failure, and a dual-arm plan leaves the arm that need not move where it is."""
+failure is a failure, a dual-arm plan leaves the arm that need not move where it is, near people
+a plan keeps ISO/TS 15066 speed limits unless turned off, and a session knows where the robot is."""
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -9,19 +11,24 @@ import pytest
 
 from hriplan import HriplanError
 from hriplan.cli.solve import solve_problem_file
-from hriplan.planner.motion import plan_motion
+from hriplan.planner.motion import JointTarget, plan_motion
+from hriplan.planner.options import PlanOptions
 from hriplan.planner.problem import load_problem
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import posture
+from hriplan.robots.human import HumanSpec
 from hriplan.robots.model import load_robot
-from independent import constraint_violations
+from hriplan.robots.scene import Scene
+from hriplan.safety.policy import default_policy
+from independent import constraint_violations, trajectory_speed_margins
 
 SCENARIOS = Path(__file__).parents[2] / "benchmarks" / "scenarios"
 
 
 def session_for(problem):
-    session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+    session = PlanningSession(problem.robot, problem.scene, problem.hands or None, problem.roles)
     session.set_constraints(problem.constraints)
     return session
 
@@ -180,3 +187,42 @@ def test_a_worker_reuses_its_session_and_another_robot_or_hand_gets_its_own(monk
     assert (ur5.robot.name, madar.robot.name, power.robot.name) == ("ur5", "madar", "madar")
     assert (madar.robot.hand_postures["right"], power.robot.hand_postures["right"]) == ("open", "power")
     assert session_module.worker_session("madar", {"right": "power"}) is power
+
+
+def test_session_plan_near_a_person_keeps_the_speed_limit_unless_turned_off():
+    """Was: `plan` timed at full speed unless given a policy. The right arm swings out towards a
+    supervisor: by default slowed to the allowed speed (checked with the formulas of
+    tests/independent.py), with `safety=None` faster and over it."""
+    sam = HumanSpec(name="sam", position=(1.39, 0.65), yaw=math.pi)
+    session = PlanningSession("madar", Scene(humans=[sam]), hands={"right": "open"}, roles={"sam": "Supervisor"})
+    start = posture("madar", "ready")
+    x0 = session.robot.group_values(session.robot.configuration(start), "right_arm")
+    goal = JointTarget(values=(x0 + np.array([0.8, -0.4, 0.4, 0.0, 0.0, 0.0])).tolist())
+    policy = session.policy()
+    assert policy == default_policy("madar", [sam], {"sam": "Supervisor"})
+    safe = session.plan(start, goal, PlanOptions(seed=1), group="right_arm")
+    fast = session.plan(start, goal, PlanOptions(seed=1), group="right_arm", safety=None)
+    assert safe.solved and fast.solved
+    assert [s.person for s in safe.trajectory.report.separation] == ["sam"] and fast.trajectory.report.separation == []
+    speed, gap = trajectory_speed_margins(safe.trajectory, policy)
+    assert speed >= -0.02 and gap > 0.0
+    assert trajectory_speed_margins(fast.trajectory, policy)[0] < -0.05  # the limit is what slowed it
+    assert safe.trajectory.report.duration > 1.1 * fast.trajectory.report.duration
+    # With nobody in the scene there is no policy to keep.
+    assert PlanningSession("madar", hands={"right": "open"}).policy() is None
+
+
+def test_a_session_knows_where_the_robot_is():
+    """A solved plan ends where the session's configuration is; perception sets it, checked."""
+    session = PlanningSession("madar", hands={"right": "open"})
+    assert session.configuration is None
+    start = posture("madar", "ready")
+    session.set_configuration(start)
+    assert session.configuration == dict(zip(session.robot.joint_names, session.robot.configuration(start).tolist()))
+    goal = JointTarget(values={"right_elbow_joint": start["right_elbow_joint"] + 0.3})
+    result = session.plan(start, goal, PlanOptions(seed=1), group="right_arm")
+    assert result.solved and session.configuration["right_elbow_joint"] == pytest.approx(
+        start["right_elbow_joint"] + 0.3, abs=1e-9
+    )
+    with pytest.raises(HriplanError, match="^robot 'madar' has no arm joint 'wrist'$"):
+        session.set_configuration({"wrist": 0.1})

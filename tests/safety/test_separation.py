@@ -13,9 +13,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-import coal
 import numpy as np
-import pinocchio as pin
 import pytest
 from meshcat.commands import SetObject
 from PIL import Image
@@ -26,11 +24,8 @@ from hriplan.planner.motion import JointTarget
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.timing import time_parameterize
-from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.robots.descriptions.registry import posture
-from hriplan.robots.human import Human, HumanSpec
-from hriplan.robots.model import load_robot
-from hriplan.robots.robot_geometry import robot_parts
+from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Scene
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.safety.policy import default_policy
@@ -40,7 +35,6 @@ from hriplan.safety.separation import (
     PersonSeparation,
     RobotStopping,
     SafetyMargin,
-    SeparationPolicy,
     allowed_speed,
     minimum_separation,
     pfl_speed_limit,
@@ -51,7 +45,7 @@ from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
 from hriplan.viewer.plots import write_plots
 from hriplan.viewer.scene import build_drawing
-from independent import nearest
+from independent import speed_margins, trajectory_speed_margins
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 ROBOT = RobotStopping(reaction_time=0.1, stopping_time=0.2, position_uncertainty=0.02, moving_mass=10.0)
@@ -124,82 +118,6 @@ def test_bad_roles_are_clear_errors():
         default_policy("madar", [HumanSpec(name="ann")], {"ann": "Pilot"})
 
 
-# -- an independent check of timed motions ---------------------------------------------------
-def _independent_worst(
-    robot_name: str,
-    hands: dict,
-    scene: Scene,
-    start: dict,
-    joint_names: list[str],
-    positions: np.ndarray,
-    velocities: np.ndarray,
-    policy: SeparationPolicy,
-) -> tuple[float, float]:
-    """(worst allowed - actual speed towards a person, worst body separation - S_0) over every
-    sample, moving robot part and person capsule, from coal, pinocchio and the formulas."""
-    robot = load_robot(robot_name, hands or None)
-    model, data = robot.model, robot.data
-    planned = {model.getJointId(j) for j in joint_names}
-
-    def moves(joint: int) -> bool:
-        while joint > 0:
-            if joint in planned:
-                return True
-            joint = model.parents[joint]
-        return False
-
-    parts = [(p.joint, p.placement, p.geometry) for p in robot_parts(robot) if moves(p.joint)]
-    for obj in scene.attached:
-        frame = model.frames[model.getFrameId(robot.tool_frame(obj.arm))]
-        parts.append((frame.parentJoint, frame.placement * obj.grasp.se3(), obj.shape.geometry()))
-    people = []
-    for spec in scene.humans:
-        human = Human(spec)
-        person = policy.person(spec.name)
-        s0 = (
-            person.approach_speed * (policy.robot.reaction_time + policy.robot.stopping_time)
-            + person.intrusion
-            + person.sensor_uncertainty
-            + policy.robot.position_uncertainty
-        )
-        caps = [
-            (c.name, coal.Capsule(c.radius, c.length), m) for c, m in zip(human.capsules, human.capsule_placements())
-        ]
-        people.append((person, s0, caps))
-    index = [model.joints[model.getJointId(j)].idx_q for j in joint_names]
-    h = 1e-6
-    worst_speed, worst_gap = math.inf, math.inf
-    for x, v in zip(positions, velocities):
-        q = robot.configuration(start)
-        q[index] = x
-        q_next = q.copy()
-        q_next[index] = x + h * np.asarray(v)
-        pin.forwardKinematics(model, data, q)
-        now = [pin.SE3(data.oMi[j] * placement) for j, placement, _ in parts]
-        pin.forwardKinematics(model, data, q_next)
-        later = [pin.SE3(data.oMi[j] * placement) for j, placement, _ in parts]
-        for person, s0, caps in people:
-            travel = policy.robot.reaction_time + policy.robot.stopping_time / 2
-            for (_, _, geometry), m_now, m_later in zip(parts, now, later):
-                for name, capsule, placement in caps:
-                    result = nearest(geometry, m_now, capsule, placement)
-                    d = result.min_distance
-                    p_robot, p_person = result.getNearestPoint1(), result.getNearestPoint2()
-                    velocity = (m_later.act(m_now.actInv(p_robot)) - p_robot) / h
-                    region = next((c for c in person.contact if name in c.capsules), None)
-                    ssm = max(d - s0, 0.0) / travel
-                    if region is None:
-                        approach = float(velocity @ (p_person - p_robot)) / d
-                        allowed = ssm
-                        worst_gap = min(worst_gap, d - s0)
-                    else:
-                        mu = 1.0 / (1.0 / region.effective_mass + 1.0 / policy.robot.moving_mass)
-                        cap = region.transient_force / math.sqrt(mu * region.spring_constant) - person.approach_speed
-                        approach, allowed = float(np.linalg.norm(velocity)), max(ssm, cap)
-                    worst_speed = min(worst_speed, allowed - approach)
-    return worst_speed, worst_gap
-
-
 @pytest.fixture(scope="module")
 def demo():
     task = load_task(EXAMPLES / "handover_full_can.yaml")
@@ -212,7 +130,7 @@ def test_the_demo_keeps_the_speed_limit_near_the_giver_at_every_sample(demo):
     for step in demo.steps:
         traj, policy = step.trajectory, step.derivation.separation
         assert policy is not None and policy.person("alice").role == "Giver"
-        worst_speed, worst_gap = _trajectory_worst(traj, policy)
+        worst_speed, worst_gap = trajectory_speed_margins(traj, policy)
         assert worst_speed >= -0.02, f"{step.name}: {worst_speed:.4f} m/s over the allowed speed"
         assert worst_gap > 0.0, f"{step.name}: a moving part is {-worst_gap:.3f} m inside the minimum separation"
         trace = traj.report.separation[0]
@@ -255,17 +173,8 @@ def test_examples_keep_the_speed_limit_at_every_sample(example):
     assert outcome.solved, [s.message for s in outcome.steps]
     for step in outcome.steps:
         traj = step.trajectory
-        worst_speed, worst_gap = _trajectory_worst(traj, step.derivation.separation)
+        worst_speed, worst_gap = trajectory_speed_margins(traj, step.derivation.separation)
         assert worst_speed >= -0.02 and worst_gap > 0.0, (step.name, worst_speed, worst_gap)
-
-
-def _trajectory_worst(traj: TrajectoryFile, policy: SeparationPolicy) -> tuple[float, float]:
-    """`_independent_worst` over every point of a written trajectory."""
-    positions = np.array([p.positions for p in traj.points])
-    velocities = np.array([p.velocities for p in traj.points])
-    return _independent_worst(
-        traj.robot, traj.hands, traj.scene, traj.start, traj.joint_names, positions, velocities, policy
-    )
 
 
 # -- timing near and far from people ---------------------------------------------------------
@@ -302,10 +211,10 @@ def test_a_motion_near_a_person_is_slower_and_keeps_the_limit():
     start = dict(zip(robot.joint_names, q0))
     scene = Scene(humans=[person])
     names = robot.group_joints("right_arm")
-    worst_free, _ = _independent_worst(
+    worst_free, _ = speed_margins(
         "madar", {"right": "open"}, scene, start, names, np.array(free.positions), np.array(free.velocities), policy
     )
-    worst, gap = _independent_worst(
+    worst, gap = speed_margins(
         "madar",
         {"right": "open"},
         scene,
@@ -325,8 +234,9 @@ def test_a_start_inside_the_minimum_separation_fails_with_the_reason():
     q0, path = _right_arm_path(session.robot)
     goal = JointTarget(values=dict(zip(session.robot.group_joints("right_arm"), path[5])))
     start = dict(zip(session.robot.joint_names, q0))
-    assert session.plan(start, goal, group="right_arm").solved  # without the policy it plans and runs
-    result = session.plan(start, goal, group="right_arm", safety=default_policy("madar", [bystander]))
+    assert session.plan(start, goal, group="right_arm", safety=None).solved  # without the policy it plans and runs
+    result = session.plan(start, goal, group="right_arm")  # by default the ontology's policy: dana a bystander
+    assert session.policy() == default_policy("madar", [bystander])
     # the planner keeps S_0 (safety/zones.py): the start is refused before any search
     assert result.status == "invalid_start"
     assert result.message.startswith("start is inside a person's minimum separation of ISO/TS 15066")

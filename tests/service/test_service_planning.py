@@ -131,13 +131,18 @@ def test_a_session_follows_perception_updates_and_plans_against_them(client):
             "hands": PROBLEM["hands"],
             "scene": PROBLEM["scene"],
             "constraints": PROBLEM["constraints"],
+            "roles": PROBLEM["roles"],  # the receiver's speed limits (others: a bystander's)
         },
     )
     assert created.status_code == 201, created.text
+    assert created.json()["roles"] == PROBLEM["roles"] != {}
     assert client.post("/sessions", json={"id": "cell"}).status_code == 409
     request = {k: PROBLEM[k] for k in ("start", "goal", "options", "group")}
     first = client.post("/sessions/cell/plan", json=request).json()
     assert first["solved"] and first["trajectory"]["scene"]["obstacles"] == created.json()["scene"]["obstacles"]
+    assert [s["person"] for s in first["trajectory"]["report"]["separation"]] == list(
+        PROBLEM["roles"]
+    )  # timed near them
     # A box appears on the straight path's tool positions: the next plan has it in its scene and stays clear of it.
     box = {"name": "crate", "shape": {"type": "box", "size": [0.3, 0.3, 0.3]}, "pose": {"xyz": [-2.0, 2.0, 0.3]}}
     moved = client.put("/sessions/cell/obstacles/crate", json=box)

@@ -39,7 +39,7 @@ NODE = shutil.which("node")
 @pytest.fixture(scope="module")
 def trajectory() -> TrajectoryFile:
     problem = load_problem(SCENARIO)
-    session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+    session = PlanningSession(problem.robot, problem.scene, problem.hands or None, problem.roles)
     session.set_constraints(problem.constraints)
     result = session.plan(problem.start, problem.goal, problem.options.model_copy(update={"seed": 1}), problem.group)
     assert result.solved, result.message
@@ -287,6 +287,7 @@ def test_plots_one_real_figure_each(trajectory, tmp_path):
         "joint_positions.png",
         "joint_velocities.png",
         "margins.png",
+        "separation.png",  # timed to ISO/TS 15066 near the receiver (the session's default)
     ]
     assert all(_is_real_png(p) for p in paths)
 
@@ -294,6 +295,7 @@ def test_plots_one_real_figure_each(trajectory, tmp_path):
         update={
             "scene": trajectory.scene.model_copy(update={"humans": []}),
             "constraints": [c for c in trajectory.constraints if "/" not in c.spec.frame.entity],
+            "report": trajectory.report.model_copy(update={"separation": []}),
         }
     )
     assert [p.name for p in write_plots(alone, tmp_path / "alone")] == [
@@ -321,7 +323,7 @@ def test_commands_write_files_and_reject_bad_input_in_one_line(trajectory, tmp_p
     trajectory.save(saved)
     made = run("plot", str(saved), "-o", str(tmp_path / "figures"))
     assert made.returncode == 0, made.stderr
-    assert made.stdout.count("figure written to") == 5
+    assert made.stdout.count("figure written to") == 6
     missing = run("view", str(tmp_path / "nope.json"), "-o", str(tmp_path / "plan.html"))
     assert missing.returncode == 2 and missing.stderr == f"error: {tmp_path / 'nope.json'}: no such file\n"
     wrong = run("view", str(SCENARIO), "-o", str(tmp_path / "plan.html"))  # a planning problem, not a trajectory

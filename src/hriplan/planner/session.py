@@ -2,7 +2,10 @@
 
 The motion-manager workflow of the seed framework: perception moves objects and people, the
 task changes constraints and goals, and each `plan` reuses the robot model and collision
-geometry. A session is not thread-safe, and neither are two sessions of one robot in two threads
+geometry. A session is safe by default: near people a motion is timed to ISO/TS 15066 with the
+ontology's policy for them (their `roles`, else bystanders) unless the caller passes its own
+policy or `safety=None`. It remembers where the robot is (`configuration`: set by perception or
+by the end of the last solved plan), so a task can be continued from there. A session is not thread-safe, and neither are two sessions of one robot in two threads
 (pinocchio data of a loaded robot and OMPL's global seed are shared): plan in parallel with
 processes.
 """
@@ -11,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from time import perf_counter
+from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, model_validator
@@ -34,6 +38,7 @@ from hriplan.robots.model import JointValues, Robot, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose, Transform
 from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.policy import default_policy
 from hriplan.safety.report import separation_report
 from hriplan.safety.separation import SeparationPolicy
 
@@ -48,6 +53,9 @@ ALREADY_THERE = "already there: the start is the goal (a trajectory of one point
 # Re-plans (within the time limit) when a valid path cannot be timed: its shortcuts can graze an
 # obstacle so closely that the smooth timed motion, which rounds their corners, touches it.
 TIMING_RETRIES = 2
+# `safety=` default of `plan` and `time`: the ontology's ISO/TS 15066 policy for the scene's people.
+ONTOLOGY = "ontology"
+Safety = SeparationPolicy | Literal["ontology"] | None
 
 
 def _retry_seed(seed: int | None, retry: int) -> int | None:
@@ -78,11 +86,19 @@ class PlanningSession:
     """A robot in a scene, ready to plan constrained motions again and again."""
 
     def __init__(
-        self, robot: str | Robot = DEFAULT_ROBOT, scene: Scene | None = None, hands: dict[str, str] | None = None
+        self,
+        robot: str | Robot = DEFAULT_ROBOT,
+        scene: Scene | None = None,
+        hands: dict[str, str] | None = None,
+        roles: Mapping[str, str] | None = None,
     ) -> None:
         self.robot = robot if isinstance(robot, Robot) else load_robot(robot, hands)
         self.checker = CollisionChecker(self.robot, scene or Scene())
         self.constraints: dict[str, ConstraintSpec] = {}
+        # Each person's role (ontology: Receiver, Giver, ...): their ISO/TS 15066 values; others are bystanders.
+        self.roles: dict[str, str] = dict(roles or {})
+        # Where the robot is (every joint): perceived, or where the last solved plan ends; None: unknown.
+        self.configuration: dict[str, float] | None = None
 
     # -- perception and task updates (no rebuild) ------------------------------------------
     def move_obstacle(self, name: str, pose: Pose) -> None:
@@ -93,6 +109,24 @@ class PlanningSession:
 
     def set_scene(self, scene: Scene) -> None:
         self.checker.set_scene(scene)
+
+    def set_configuration(self, values: Mapping[str, float]) -> None:
+        """Where the robot is now (perceived joint values on top of the last known, or of the
+        robot's neutral values): a task continued on this session starts there."""
+        known = None if self.configuration is None else self.robot.configuration(self.configuration)
+        q = self.robot.configuration(dict(values), base=known)  # names and values checked
+        self.configuration = dict(zip(self.robot.joint_names, q.tolist()))
+
+    def policy(self, safety: Safety = ONTOLOGY) -> SeparationPolicy | None:
+        """The ISO/TS 15066 policy a plan is timed with: `safety` itself if given (None: no speed
+        limit), by default the ontology's for the scene's people (by `roles`; none without people)."""
+        if safety != ONTOLOGY:
+            return safety
+        humans = self.checker.scene.humans
+        if not humans:
+            return None
+        names = {h.name for h in humans}
+        return default_policy(self.robot.name, humans, {n: r for n, r in self.roles.items() if n in names})
 
     def set_constraints(self, constraints: ConstraintSet | Iterable[ConstraintSpec]) -> None:
         specs = constraints.constraints if isinstance(constraints, ConstraintSet) else list(constraints)
@@ -166,13 +200,16 @@ class PlanningSession:
         goal: Target,
         options: PlanOptions | None = None,
         group: str | None = None,
-        safety: SeparationPolicy | None = None,
+        safety: Safety = ONTOLOGY,
     ) -> PlanResult:
-        """Plan, validate densely, time-parameterise and re-validate the timed path.
+        """Plan, validate densely, time-parameterise and re-validate the timed path; a solved
+        plan's end becomes the session's `configuration`.
 
-        With `safety`, the motion is timed to keep ISO/TS 15066 speed and separation from the
-        scene's people (and fails, with the reason, where it cannot)."""
+        The motion keeps ISO/TS 15066 speed and separation from the scene's people (and fails,
+        with the reason, where it cannot): by default with the ontology's policy (`policy()`),
+        else with the `safety` policy given; `safety=None` turns the speed limits off."""
         options = options or PlanOptions()
+        safety = self.policy(safety)
         started = perf_counter()
         for retry in range(TIMING_RETRIES + 1):
             remaining = options.time_limit - (perf_counter() - started)
@@ -189,15 +226,17 @@ class PlanningSession:
             result = self.time(motion, options, safety)
             if result.status != Status.TIMING_FAILED:
                 break
+        if result.solved:
+            last = result.trajectory.points[-1].positions
+            self.configuration = dict(result.trajectory.start) | dict(zip(result.trajectory.joint_names, last))
         return result
 
-    def time(
-        self, motion: MotionResult, options: PlanOptions | None = None, safety: SeparationPolicy | None = None
-    ) -> PlanResult:
+    def time(self, motion: MotionResult, options: PlanOptions | None = None, safety: Safety = ONTOLOGY) -> PlanResult:
         """Time a planned motion and validate the timed samples against the session's constraints
-        and scene, every joint outside the planned group at the motion's start. With `safety`,
-        the timing keeps ISO/TS 15066 speed and separation from the scene's people."""
+        and scene, every joint outside the planned group at the motion's start. The timing keeps
+        ISO/TS 15066 speed and separation from the scene's people by `safety` as in `plan`."""
         options = options or PlanOptions()
+        safety = self.policy(safety)
         if not motion.solved:
             return PlanResult(status=motion.status, motion=motion, message=motion.message)
         missing = [j for j in self.robot.joint_names if j not in motion.start]

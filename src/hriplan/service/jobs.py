@@ -86,18 +86,20 @@ def solve(payload: dict[str, Any]) -> Reply:
     session = worker_session(problem.robot, problem.hands)
     session.set_scene(problem.scene)
     session.set_constraints(problem.constraints)
+    session.roles = dict(problem.roles)  # the speed limits near its people (the session's default)
     return _plan_response(
         session.plan(problem.start, problem.goal, problem.options, problem.group), bool(payload.get("ros"))
     )
 
 
 def _session(state: SessionState) -> PlanningSession:
-    """The worker's session for the state's robot and hands, holding the state's scene and
-    constraints: set on every request, since other jobs plan on the same session (the scene it
+    """The worker's session for the state's robot and hands, holding the state's scene,
+    constraints and roles: set on every request, since other jobs plan on the same session (the scene it
     already holds is no rebuild)."""
     session = worker_session(state.robot, state.hands)
     session.set_scene(state.scene)
     session.set_constraints(state.constraints)
+    session.roles = dict(state.roles)
     return session
 
 

@@ -72,6 +72,10 @@ class SessionCreate(BaseModel):
     hands: dict[str, str] = Field(default_factory=dict)
     scene: Scene = Field(default_factory=Scene)
     constraints: ConstraintSet = Field(default_factory=ConstraintSet)
+    roles: dict[str, str] = Field(
+        default_factory=dict,
+        description="Each person's role (Receiver, Giver, ...): their ISO/TS 15066 speed limits; others are bystanders.",
+    )
 
 
 class SessionState(SessionCreate):

@@ -35,6 +35,18 @@ class Grasp:
         return Transform(frame_with_z(z), -self.offset * length * z)
 
 
+def grasp_holding(in_tool: Transform, shape: Shape | None, name: str = "perceived") -> Grasp:
+    """The grasp that holds an object at `in_tool` (its pose in the tool frame, as a session's
+    held object has it): the signed tool axis nearest the object's axis, and where along it the
+    hand closes; an object held at the pose of a grasp gives that grasp's axis and offset."""
+    z = in_tool.rotation[:, 2]
+    k = int(np.argmax(np.abs(z)))
+    axis = f"{'-' if z[k] < 0.0 else '+'}{'xyz'[k]}"
+    length = object_length(shape)
+    offset = 0.0 if length == 0.0 else float(-(in_tool.translation @ z) / length)
+    return Grasp(name, axis, offset)
+
+
 def object_length(shape: Shape | None) -> float:
     """Length of an object along its z axis (0 without a shape: the grasp point is its centre)."""
     if isinstance(shape, (Cylinder, Cone)):

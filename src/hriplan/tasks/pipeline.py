@@ -6,7 +6,7 @@ provenance -> planning scene and goal -> plan -> validated, timed trajectory.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -71,6 +71,10 @@ class StepOutcome(BaseModel):
 class TaskOutcome(BaseModel):
     task: str
     steps: list[StepOutcome]
+    # The world the solved steps leave (objects where they put them, what the robot holds) and,
+    # when planned, where the robot ends (every joint): the state a session continues the task from.
+    world: Scene = Field(default_factory=Scene)
+    end: dict[str, float] | None = None
 
     @property
     def solved(self) -> bool:
@@ -195,13 +199,20 @@ class TaskRunner:
         self.knowledge_bases[situation.task.name] = kb
         return kb, derivation
 
-    def run(self, plan: bool = True, grasps: dict[str, str] | None = None) -> TaskOutcome:
+    def run(
+        self,
+        plan: bool = True,
+        grasps: Mapping[str, Grasp] | None = None,
+        recorded: dict[str, str] | None = None,
+    ) -> TaskOutcome:
         """Derive (and plan, unless `plan` is False) every step. Without planning, a step starts
         where the previous one's goal puts the tools. An object the step moves for the first
         time is held by the grasp the task states for it, else tried in each grasp the rules
-        allow, most preferred first, until the step plans. `grasps` (object -> grasp name, as a
-        trajectory records them) fixes the grasp of those objects instead."""
+        allow, most preferred first, until the step plans. `grasps` fixes how objects held from
+        the start are held (a session's perceived hold); `recorded` (object -> grasp name, as a
+        trajectory records them) fixes the grasp of those objects by name."""
         task, state, robot = self.task, TaskState.initial(self.task), self._robot()
+        state.grasps |= {obj: g for obj, g in (grasps or {}).items() if obj in state.held_by_arm}
         start = posture(task.robot, task.start.posture) | task.start.joints
         if plan and task.humans:
             session = self._session()
@@ -210,7 +221,7 @@ class TaskRunner:
         state.tools = tool_poses(robot, start)
         outcomes = []
         for index, step in enumerate(task.steps):
-            choices = self._grasp_choices(step, index, state, grasps or {})
+            choices = self._grasp_choices(step, index, state, recorded or {})
             for choice in choices if plan else choices[:1]:
                 state.grasps |= choice
                 planned, end, resolved = self._step(step, index, state, start, plan)
@@ -227,7 +238,8 @@ class TaskRunner:
                 start, state.tools = end, tool_poses(robot, end)
             else:
                 state.tools |= {r.goal.arm: r.goal.pose for r in resolved if isinstance(r.goal, ToolTarget)}
-        return TaskOutcome(task=task.name, steps=outcomes)
+        end = dict(zip(robot.joint_names, robot.configuration(start).tolist())) if plan else None
+        return TaskOutcome(task=task.name, steps=outcomes, world=state.scene(), end=end)
 
     def _grasp_choices(
         self, step: Step, index: int, state: TaskState, recorded: dict[str, str]
@@ -605,7 +617,7 @@ def against_task(trajectory: TrajectoryFile, runner: TaskRunner) -> TrajectoryFi
     """The trajectory with its step's constraints (their frames placed in the step's scene, and
     why the rules made them) and scene as the task derives them now, so it can be re-checked or
     shown against the task rather than its own record."""
-    outcome = runner.run(plan=False, grasps=trajectory.grasps)
+    outcome = runner.run(plan=False, recorded=trajectory.grasps)
     step = next((s for s in outcome.steps if s.name == trajectory.step), None)
     if step is None:
         added = next(
