@@ -2,7 +2,6 @@
 
 Pellet is the reference, so these tests run with it (the in-process reasoner: test_kb_fast)."""
 
-
 import owlready2
 import pytest
 import rdflib

@@ -220,7 +220,7 @@ def _reference(
             else:
                 approach = float(v @ (pairs.person_point[k] - pairs.robot_point[k]) / d)
             values.append((d, approach, _allowed(policy.robot, person, d, pairs.capsules[k]), contact, k))
-        stopped = [row for row in values if row[2] <= 0.0]
+        stopped = [row for row in values if row[2] <= 0.0 and row[1] > 1e-9]  # closing inside S_0
         if stopped:
             d, _, _, _, k = min(stopped, key=lambda row: row[0])
             return (
@@ -229,7 +229,7 @@ def _reference(
                 f"(the robot would have to stand still there)"
             )
         binding = min(values, key=lambda row: row[2] - row[1])
-        scale = min((row[2] / row[1] for row in values if row[1] > 0.0), default=math.inf)
+        scale = min((row[2] / row[1] for row in values if row[1] > 1e-9), default=math.inf)
         body = min((row[0] for row in values if not row[3]), default=math.inf)
         rows.append(
             (

@@ -19,7 +19,16 @@ from hriplan import HriplanError
 from hriplan.planner.constraints.binding import bind, resolve_frame, set_goal_positions
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec, OrientationConstraint
-from hriplan.planner.motion import JointTarget, MotionResult, Target, ToolTarget, plan_motion, with_keep_out
+from hriplan.planner.leave import leave_path, receding
+from hriplan.planner.motion import (
+    JointTarget,
+    MotionResult,
+    Target,
+    ToolTarget,
+    motion_group,
+    plan_motion,
+    with_keep_out,
+)
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.search.ompl_solver import ompl_seed
@@ -50,12 +59,14 @@ def _retry_seed(seed: int | None, retry: int) -> int | None:
 
 
 class PlanResult(BaseModel):
-    """A planned motion and, only when solved, its validated timed trajectory."""
+    """A planned motion and, only when solved, its validated timed trajectory; before it, the
+    leave phase that first moved the start out of a keep-out volume or a person's S_0, if any."""
 
     status: Status
     motion: MotionResult
     trajectory: TrajectoryFile | None = None
     message: str = ""
+    leave: TrajectoryFile | None = None
 
     @model_validator(mode="after")
     def _solved_means_a_trajectory(self) -> PlanResult:
@@ -144,8 +155,18 @@ class PlanningSession:
         """Plan, validate densely, time-parameterise and re-validate the timed path.
 
         With `safety`, the motion is timed to keep ISO/TS 15066 speed and separation from the
-        scene's people (and fails, with the reason, where it cannot)."""
+        scene's people (and fails, with the reason, where it cannot). A start inside a keep-out
+        volume or a person's S_0 first gets its leave phase (`leave`), and the motion starts
+        where that ends."""
         options = options or PlanOptions()
+        group = motion_group(self.robot, goal, group)
+        leave = self.leave(start, options, group, safety)
+        if leave is not None and not leave.solved:
+            return leave
+        if leave is not None:
+            start = leave.trajectory.start | dict(
+                zip(leave.trajectory.joint_names, leave.trajectory.points[-1].positions)
+            )
         started = perf_counter()
         for retry in range(TIMING_RETRIES + 1):
             remaining = options.time_limit - (perf_counter() - started)
@@ -162,6 +183,50 @@ class PlanningSession:
             result = self.time(motion, options, safety)
             if result.status != Status.TIMING_FAILED:
                 break
+        return result if leave is None else result.model_copy(update={"leave": leave.trajectory})
+
+    def leave(
+        self,
+        start: JointValues,
+        options: PlanOptions | None = None,
+        group: str | None = None,
+        safety: SeparationPolicy | None = None,
+    ) -> PlanResult | None:
+        """The leave phase of `group` from `start` (planner/leave.py): None when the start lies in
+        no keep-out volume and no person's S_0; else the motion out, timed and validated under
+        the session's constraints but the keep-outs it leaves, every timed point re-checked to
+        come no closer to anyone, or the one-line reason why there is no way out."""
+        options, group = options or PlanOptions(), group or self.robot.default_group
+        q0 = self.robot.configuration(start) if isinstance(start, dict) else self.robot.configuration(start, group)
+        bound = bind(list(self.constraints.values()), self.robot, self.checker)
+        started = perf_counter()
+        found = leave_path(self.robot, self.checker, bound, group, q0, safety)
+        if found is None:
+            return None
+        motion = MotionResult(
+            planning_time=perf_counter() - started,
+            status=Status.SOLVED if found.path else Status.INVALID_START,
+            message=found.message,
+            group=group,
+            joint_names=self.robot.group_joints(group),
+            start=dict(zip(self.robot.joint_names, q0.tolist())),
+            path=[x.tolist() for x in found.path or []],
+        )
+        if found.path is None:
+            return PlanResult(status=Status.INVALID_START, motion=motion, message=found.message)
+        everything = self.constraints
+        self.constraints = {i: c for i, c in everything.items() if i not in found.left}
+        try:
+            result = self.time(motion, options, safety)
+        finally:
+            self.constraints = everything
+        if not result.solved:
+            return result.model_copy(update={"message": f"the leave phase could not be timed: {result.message}"})
+        timed = [p.positions for p in result.trajectory.points]
+        breach = receding(self.robot, self.checker, bound, group, q0, safety, timed)
+        if breach:
+            message = f"the timed leave phase comes closer {breach}"
+            return PlanResult(status=Status.TIMING_FAILED, motion=motion, message=message)
         return result
 
     def time(

@@ -1,0 +1,398 @@
+"""The leave phase: moving away from a person is always allowed.
+
+A start inside a keep-out volume (every link stays outside it: keep-out cylinders and spheres,
+exclusion boxes) or inside a person's minimum separation S_0 (safety/zones.py) makes every
+motion fail "start is in collision". ISO/TS 15066 permits motion away from a person at any
+separation, so such a start first gets its own motion out: steps of at most STEP rad of the
+planned group, each along the joint direction of a small linear programme that moves every part
+inside a zone or keep-out away from it as fast as it can (rate t) while
+
+- no moved part comes closer to any person: its least distance to each person and its distance
+  to every capsule within S_0 + GUARD grow at a rate of at least GROWTH t (so the speed towards
+  any person is never positive, and the timing may move it inside S_0, safety/approach.py),
+- parts near a keep-out do not go deeper into it, the constraints the start keeps stay kept, the
+  joints stay within their limits.
+
+Each step is then checked exactly (not to first order): those distances did not shrink and the
+state is collision free (the keep-outs and zones being left aside). The leave ends where the
+start is valid for planning: outside every keep-out and every zone with its whole slack. Where
+no direction moves away (t <= 0), or every step away collides, there is no way out: one line
+naming the person or volume and how close. Timed and validated like any motion (session.py).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import coal
+import numpy as np
+import pinocchio as pin
+from scipy.optimize import minimize
+
+from hriplan.planner.constraints.binding import BoundConstraint
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.planner.constraints.keep_out import KEEP_OUT_PREFIX, keep_out_obstacles
+from hriplan.planner.motion import PLANNING_MARGIN, with_keep_out
+from hriplan.planner.validate import VALIDATION_TOLERANCE
+from hriplan.robots.collision import ZONE_NAMING, CollisionChecker
+from hriplan.robots.model import Robot
+from hriplan.robots.scene import Obstacle
+from hriplan.safety.person_distance import PersonDistances
+from hriplan.safety.separation import SeparationPolicy, minimum_separation
+from hriplan.safety.zones import ZONE_SLACK, separation_zones
+
+STEP = 0.01  # rad: the largest joint move of one step (the planner's validation step)
+HALVINGS = 4  # a step that fails its exact check is halved this often before the leave gives up
+MAX_STEPS = 600  # 6 rad of joint travel at most
+GUARD = 0.05  # m beyond S_0 (and near a keep-out) within which nothing may come closer
+BAND = 0.02  # m: a part's pairs this close to its least distance to a person are kept from shrinking
+GROWTH = 0.05  # guarded distances grow at least this fraction of the rate the trouble leaves at
+TOLERANCE = 1e-6  # m: a distance that shrinks by less has not come closer (rounding, second order)
+# The timed motion follows a spline through the steps, which may sway this much more (m).
+TIMED_TOLERANCE = 1e-5
+HELD_BAND = 0.02  # a kept constraint this close to its boundary (m or rad) may not move towards it
+CLEAR = 1e-3  # m beyond a zone's or keep-out's surface where the leave may end
+
+
+@dataclass
+class Leave:
+    """A leave phase: the group's waypoints (the start first), or None and why not; the ids of
+    the constraints not kept while leaving: the keep-outs the start lies in, those it breaks."""
+
+    path: list[np.ndarray] | None
+    left: list[str] = field(default_factory=list)
+    message: str = ""
+
+
+@dataclass
+class _Rows:
+    """Distances at one state and their rates per unit of each group joint."""
+
+    names: list[str]  # "part - person/capsule", "part in keep-out:ID", "tool in ID"
+    distance: np.ndarray
+    rate: np.ndarray  # (rows, joints)
+    trouble: np.ndarray  # bool: inside a zone or keep-out: to leave
+    guard: np.ndarray  # bool: must not shrink
+    least: dict[tuple[str, str], float]  # (part, person) -> least distance
+    limit: np.ndarray  # a person row's S_0 (nan: other rows)
+
+
+class _Leaving:
+    """The geometry one leave measures: people's capsules (bare), keep-out solids, constraints."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        checker: CollisionChecker,
+        bound: list[BoundConstraint],
+        group: str,
+        q_start: np.ndarray,
+        safety: SeparationPolicy | None,
+    ) -> None:
+        self.robot, self.checker, self.group, self.base = robot, checker, group, np.asarray(q_start, dtype=float)
+        self.evaluator = ConstraintEvaluator(robot, bound, group, self.base)
+        self.iq = robot.group_indices(group)
+        model = robot.model
+        self.iv = np.array([model.joints[model.getJointId(j)].idx_v for j in robot.group_joints(group)])
+        moved = robot.moved_joints(group)
+        people = [p for p in (safety.people if safety else []) if p.name in checker.humans]
+        self.people = [
+            (p, minimum_separation(safety.robot, p), PersonDistances(model, checker.person_model(p.name), moved))
+            for p in people
+        ]
+        self.keep_outs: list[Obstacle] = keep_out_obstacles(bound)
+        self.parts = [p for p in checker.parts if p.joint in moved]
+        self.fixed = [p for p in checker.parts if p.joint not in moved]
+        self.avoid: list[tuple[str, str]] = []  # pairs a step collided in: kept from closing in
+        self.volume_ids = {f"{KEEP_OUT_PREFIX}{c.id}" for c in bound if getattr(c.spec, "keep_out_all_links", False)}
+        self.volumes = [
+            i for i, c in enumerate(self.evaluator.constraints) if f"{KEEP_OUT_PREFIX}{c.id}" in self.volume_ids
+        ]
+        margins = self.evaluator.margins(self.base) if self.evaluator.constraints else np.zeros(0)
+        others = [i for i in range(len(margins)) if i not in self.volumes]
+        # The constraints the start keeps stay kept; those it breaks cannot be (planner/motion.py
+        # projects onto them after, if asked).
+        self.held = [i for i in others if margins[i] <= VALIDATION_TOLERANCE]
+        self.broken = [self.evaluator.constraints[i].id for i in others if margins[i] > VALIDATION_TOLERANCE]
+        self.data = model.createData()
+
+    def full(self, x: np.ndarray) -> np.ndarray:
+        q = self.base.copy()
+        q[self.iq] = x
+        return q
+
+    def rows(self, x: np.ndarray) -> _Rows:
+        q, n = self.full(x), len(self.iq)
+        names, distance, rate, trouble, guard, least, limit = [], [], [], [], [], {}, []
+        for person, s0, pairs in self.people:
+            dqs = np.zeros((n, self.robot.model.nv))
+            dqs[np.arange(n), self.iv] = 1.0
+            at = pairs.at(np.repeat(q[None], n, axis=0), dqs)
+            d = at.distance[0]
+            away = (at.robot_point[0] - at.person_point[0]) / np.maximum(d, 1e-9)[:, None]
+            rates = np.einsum("kc,jkc->kj", away, at.robot_velocity)
+            body = np.array([person.contact_region(c) is None for c in at.capsules], dtype=bool)
+            for part in set(at.parts):
+                mine = np.array([p == part for p in at.parts])
+                least[(part, person.name)] = float(d[mine].min())
+            part_least = np.array([least[(p, person.name)] for p in at.parts])
+            names += [f"{p} - {person.name}/{c}" for p, c in zip(at.parts, at.capsules)]
+            distance.append(d)
+            limit.append(np.full(len(d), s0))
+            rate.append(rates)
+            trouble.append(body & (d < s0 + ZONE_SLACK + CLEAR))
+            guard.append((d < s0 + ZONE_SLACK + GUARD) | (d <= part_least + BAND))
+        if self.keep_outs or self.avoid:
+            k_names, k_distance, k_rate = self._solid_rows(x)
+            names += k_names
+            distance.append(k_distance)
+            limit.append(np.full(len(k_distance), np.nan))
+            rate.append(k_rate)
+            trouble.append((k_distance < CLEAR) & (np.arange(len(k_distance)) < len(self.keep_outs) * len(self.parts)))
+            guard.append(k_distance < GUARD)
+        if self.volumes:
+            margins, gradients = self.evaluator.gradients(x)
+            names += [f"tool in {self.evaluator.constraints[i].id}" for i in self.volumes]
+            m = -margins[self.volumes]
+            distance.append(m)
+            limit.append(np.full(len(m), np.nan))
+            rate.append(-gradients[self.volumes])
+            trouble.append(m < 2 * PLANNING_MARGIN)
+            guard.append(m < GUARD)
+        if not names:
+            return _Rows([], np.zeros(0), np.zeros((0, n)), np.zeros(0, bool), np.zeros(0, bool), least, np.zeros(0))
+        return _Rows(
+            names,
+            np.concatenate(distance),
+            np.concatenate(rate),
+            np.concatenate(trouble),
+            np.concatenate(guard),
+            least,
+            np.concatenate(limit),
+        )
+
+    def _solid_rows(self, x: np.ndarray) -> tuple[list[str], np.ndarray, np.ndarray]:
+        """Every moved part against every keep-out solid, then the pairs a step collided in
+        (`avoid`): coal's signed distance (negative inside) and its rate per group joint by
+        finite differences."""
+        h, n = 1e-6, len(self.iq)
+        values = [self._solid_distances(self.full(x))]
+        for j in range(n):
+            dx = np.zeros(n)
+            dx[j] = h
+            values.append(self._solid_distances(self.full(x + dx)))
+        names = [f"{part.name} in {o.name}" for o in self.keep_outs for part in self.parts]
+        names += [f"{a} - {b}" for a, b in self.avoid]
+        return names, values[0], np.array([(v - values[0]) / h for v in values[1:]]).T
+
+    def _solid_distances(self, q: np.ndarray) -> np.ndarray:
+        inside = self._keep_out_distances(q)  # places the joints for the pairs too
+        geometry, apart = self.checker.geom_model, []
+        for pair in self.avoid:
+            a, b = (geometry.geometryObjects[geometry.getGeometryId(name)] for name in pair)
+            apart.append(
+                _distance(
+                    a.geometry,
+                    self.data.oMi[a.parentJoint] * a.placement,
+                    b.geometry,
+                    self.data.oMi[b.parentJoint] * b.placement,
+                )
+            )
+        return np.concatenate([inside, apart])
+
+    def fixed_in_keep_out(self) -> str:
+        """The deepest part the group does not move that lies in a keep-out, in words ("" if none)."""
+        pairs = [(o, p) for o in self.keep_outs for p in self.fixed]
+        inside = [(d, o, p) for d, (o, p) in zip(self._keep_out_distances(self.base, self.fixed), pairs) if d < 0.0]
+        if not inside:
+            return ""
+        d, o, p = min(inside, key=lambda t: t[0])
+        return f"{p.name} in {o.name} by {-d:.3f} m"
+
+    def _keep_out_distances(self, q: np.ndarray, parts: list | None = None) -> np.ndarray:
+        """Each part (default: the moved ones) against each keep-out solid at `q`."""
+        pin.forwardKinematics(self.robot.model, self.data, q)
+        return np.array(
+            [
+                _distance(part.geometry, self.data.oMi[part.joint] * part.placement, o.shape.geometry(), o.pose.se3())
+                for o in self.keep_outs
+                for part in (self.parts if parts is None else parts)
+            ]
+        )
+
+    def breaks(self, x: np.ndarray, y: np.ndarray) -> str:
+        """The kept constraint whose margin grew past the planning margin from `x` to `y` ("" if none)."""
+        if not self.held:
+            return ""
+        before, after = (self.evaluator.margins(self.full(v))[self.held] for v in (x, y))
+        bad = np.flatnonzero(after > np.maximum(before, -PLANNING_MARGIN))
+        return f"breaks {self.evaluator.constraints[self.held[bad[0]]].id}" if bad.size else ""
+
+    def direction(self, x: np.ndarray, rows: _Rows) -> tuple[np.ndarray, float]:
+        """The unit (max-norm) joint direction of the least joint motion that leaves every trouble
+        at rate 1 (guarded rows growing at GROWTH), and the rate t it leaves at per rad; (0, 0) if
+        there is none. Least motion: a direction that swings joints to their bounds folds the arm."""
+        n = len(self.iq)
+        moving = np.abs(rows.rate).sum(axis=1) > 1e-6  # a distance no joint changes cannot grow
+        trouble, guard = rows.rate[rows.trouble], rows.rate[rows.guard & ~rows.trouble & moving]
+        if not moving[rows.trouble].all():
+            return np.zeros(n), 0.0
+        a = [trouble, guard]
+        b = [np.ones(len(trouble)), np.full(len(guard), GROWTH)]
+        if self.held:  # near its boundary, a kept constraint's margin must not grow (first order)
+            margins, gradients = self.evaluator.gradients(x)
+            near = [i for i in self.held if margins[i] > -HELD_BAND]
+            a.append(-gradients[near])
+            b.append(np.zeros(len(near)))
+        lower, upper = self.robot.limits(self.group)
+        rows_a, rows_b = np.vstack(a), np.concatenate(b)
+        found = minimize(
+            lambda d: 0.5 * d @ d,
+            np.linalg.lstsq(trouble, np.ones(len(trouble)), rcond=None)[0],
+            jac=lambda d: d,
+            constraints=[{"type": "ineq", "fun": lambda d: rows_a @ d - rows_b, "jac": lambda d: rows_a}],
+            method="SLSQP",
+        )
+        dx = found.x
+        if not found.success or (rows_a @ dx - rows_b).min() < -1e-6 or not np.abs(dx).max() > 0.0:
+            return np.zeros(n), 0.0
+        scale = np.abs(dx).max()
+        direction = dx / scale
+        beyond = (x + STEP * direction > upper) | (x + STEP * direction < lower)
+        if beyond.any():
+            return np.zeros(n), 0.0
+        return direction, 1.0 / scale
+
+
+def leave_path(
+    robot: Robot,
+    checker: CollisionChecker,
+    bound: list[BoundConstraint],
+    group: str,
+    q_start: np.ndarray,
+    safety: SeparationPolicy | None,
+) -> Leave | None:
+    """The leave phase of `group` from `q_start` (checker: the scene without keep-outs or zones),
+    or None when the start lies in no keep-out volume and no person's S_0: nothing to leave."""
+    zones = None if safety is None or not checker.humans else separation_zones(checker, robot, safety, group, q_start)
+    with with_keep_out(checker, bound, zones):
+        contacts = checker.contacts(q_start)
+    blocking = [c for c in contacts if _blocking(c.a) or _blocking(c.b)]
+    if not blocking or checker.in_collision(q_start):
+        return None  # a start valid, or in a plain collision: plan_motion says so
+    left = sorted({n[len(KEEP_OUT_PREFIX) :] for c in blocking for n in (c.a, c.b) if n.startswith(KEEP_OUT_PREFIX)})
+    leaving = _Leaving(robot, checker, bound, group, q_start, safety)
+    left = sorted({*left, *leaving.broken})
+    fixed = leaving.fixed_in_keep_out()
+    if fixed:
+        return Leave(None, left, f"the start is inside a keep-out volume: {fixed}, which {group} does not move")
+    full_zones = None if zones is None else separation_zones(checker, robot, safety, group, None)
+    x = robot.group_values(q_start, group)
+    path, rows = [x], leaving.rows(x)
+    why = ""
+    for _ in range(MAX_STEPS):
+        if not rows.trouble.any():
+            with with_keep_out(checker, bound, full_zones):
+                if not checker.in_collision(leaving.full(x)):
+                    return Leave(path, left)
+        direction, rate = leaving.direction(x, rows)
+        if rate <= 1e-9:
+            return Leave(None, left, f"{_worst(rows)}, and no motion of {group} moves away without coming closer")
+        step, why = _step(leaving, checker, x, rows, direction)
+        if step is None:
+            return Leave(None, left, f"{_worst(rows)}, and every motion of {group} away {why}")
+        x, rows = step
+        path.append(x)
+    return Leave(None, left, f"{_worst(rows)} after {MAX_STEPS} steps away")
+
+
+def _distance(a: coal.CollisionGeometry, at_a: pin.SE3, b: coal.CollisionGeometry, at_b: pin.SE3) -> float:
+    """coal's signed distance of two placed shapes (negative: penetrating)."""
+    where = [coal.Transform3s(at.rotation, at.translation) for at in (at_a, at_b)]
+    return coal.distance(a, where[0], b, where[1], coal.DistanceRequest(), coal.DistanceResult())
+
+
+def _blocking(name: str) -> bool:
+    return name.startswith(KEEP_OUT_PREFIX) or ZONE_NAMING in name
+
+
+def _step(
+    leaving: _Leaving, checker: CollisionChecker, x: np.ndarray, rows: _Rows, direction: np.ndarray
+) -> tuple[tuple[np.ndarray, _Rows] | None, str]:
+    """The state one step along `direction` and its rows: a step that collides is aimed again
+    keeping the colliding pairs apart, one that fails its exact check is halved; or None and what
+    the last try met."""
+    h, why, halvings = STEP, "", 0
+    while halvings <= HALVINGS:
+        y = x + h * direction
+        if checker.in_collision(leaving.full(y)):
+            contacts = checker.contacts(leaving.full(y))
+            why = "collides: " + ", ".join(f"{c.a} - {c.b}" for c in contacts[:2])
+            new = [(c.a, c.b) for c in contacts if (c.a, c.b) not in leaving.avoid]
+            if new:
+                leaving.avoid += new
+                rows = leaving.rows(x)
+                direction, rate = leaving.direction(x, rows)
+                if rate <= 1e-9:
+                    return None, why
+                h = STEP
+                continue
+        else:
+            after = leaving.rows(y)
+            why = receding_breach(rows, after)
+            why = f"comes closer: {why}" if why else leaving.breaks(x, y)
+            if not why:
+                return (y, after), ""
+        h, halvings = h / 2.0, halvings + 1
+    return None, why
+
+
+def receding_breach(before: _Rows, after: _Rows, tolerance: float = TOLERANCE, guarded: bool = True) -> str:
+    """What came closer between two states: a part's least distance to a person, a pair inside
+    a zone or keep-out, or (if `guarded`) any guarded pair (within S_0 + GUARD, near a keep-out,
+    near a part's least distance); "" when nothing did."""
+    for key, d in before.least.items():
+        if after.least[key] < d - tolerance:
+            return f"{key[0]} to {key[1]} by {d - after.least[key]:.2g} m"
+    watched = before.guard if guarded else before.trouble
+    shrunk = watched & (after.distance < before.distance - tolerance)
+    if shrunk.any():
+        k = int(np.flatnonzero(shrunk)[0])
+        return f"{before.names[k]} by {before.distance[k] - after.distance[k]:.2g} m"
+    return ""
+
+
+def _worst(rows: _Rows) -> str:
+    """The deepest trouble in words: which part, which person or volume, how close."""
+    k = int(np.flatnonzero(rows.trouble)[np.argmin(rows.distance[rows.trouble])])
+    name, d = rows.names[k], rows.distance[k]
+    if " - " in name:
+        return (
+            f"the start is inside a person's minimum separation of ISO/TS 15066 ({rows.limit[k]:.3f} m): "
+            f"{name} {d:.3f} m apart"
+        )
+    return f"the start is inside a keep-out volume: {name} by {max(-d, 0.0):.3f} m"
+
+
+def receding(
+    robot: Robot,
+    checker: CollisionChecker,
+    bound: list[BoundConstraint],
+    group: str,
+    q_start: np.ndarray,
+    safety: SeparationPolicy | None,
+    states: Sequence[np.ndarray],
+) -> str:
+    """Along `states` (group values), what first came closer to a person (a part's least
+    distance to them, a pair inside their zone) or deeper into a keep-out ("" if nothing): the
+    check of a timed leave phase, whose spline through the steps may sway by TIMED_TOLERANCE."""
+    leaving = _Leaving(robot, checker, bound, group, q_start, safety)
+    rows = leaving.rows(np.asarray(states[0], dtype=float))
+    for k, x in enumerate(states[1:], start=1):
+        after = leaving.rows(np.asarray(x, dtype=float))
+        breach = receding_breach(rows, after, TIMED_TOLERANCE, guarded=False)
+        if breach:
+            return f"at point {k}: {breach}"
+        rows = after
+    return ""
