@@ -17,6 +17,7 @@ import pinocchio as pin
 
 from hriplan.robots.descriptions.allegro import hand_joint_name, posture_values
 from hriplan.robots.descriptions.registry import description_of
+from hriplan.robots.human import Human
 
 
 def nearest(shape_a: coal.ShapeBase, at_a: pin.SE3, shape_b: coal.ShapeBase, at_b: pin.SE3) -> coal.DistanceResult:
@@ -155,3 +156,23 @@ def constraint_violations(trajectory, slack: float = 1e-3) -> list[str]:
                     f"{trajectory.step}: {' '.join(where)} broken by {worst:.4f} at t={point.time_from_start:.2f}"
                 )
     return breaches
+
+
+def person_distances(trajectory, person: str, prefix: str = "") -> np.ndarray:
+    """Per written point, the least distance (coal) from the URDF collision meshes of the links
+    named `prefix...` to the bare capsules of `person` as the trajectory's scene poses them."""
+    robot = UrdfRobot(trajectory.robot, dict(trajectory.hands))
+    human = Human(next(h for h in trajectory.scene.humans if h.name == person))
+    capsules = [(coal.Capsule(c.radius, c.length), at) for c, at in zip(human.capsules, human.capsule_placements())]
+    out = []
+    for point in trajectory.points:
+        robot.configure(dict(trajectory.start) | dict(zip(trajectory.joint_names, point.positions)))
+        out.append(
+            min(
+                nearest(g.geometry, placed, capsule, at).min_distance
+                for g, placed in zip(robot.geometry.geometryObjects, robot.geometry_data.oMg)
+                if g.name.startswith(prefix)
+                for capsule, at in capsules
+            )
+        )
+    return np.array(out)

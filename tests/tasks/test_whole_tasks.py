@@ -1,5 +1,5 @@
 """Whole tasks: a step after a place or a handover with the same hand, both arms in sequence, a
-posture goal (tests/data/whole_tasks/). Before the release, every step after a place started
+posture goal, a start a bystander has walked up to (tests/data/whole_tasks/). Before the release, every step after a place started
 "in collision: right_hand_finger_0 - cup".
 
 Each release is re-checked on the URDF's collision meshes (tests/independent.py), apart from the
@@ -22,7 +22,7 @@ from hriplan.robots.scene import Obstacle, Sphere
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
-from independent import UrdfRobot, constraint_violations
+from independent import UrdfRobot, constraint_violations, person_distances
 
 DATA = Path(__file__).parents[1] / "data" / "whole_tasks"
 STEPS = {
@@ -33,6 +33,7 @@ STEPS = {
     ],
     "handover_then_ready": ["hand_over", "hand_over_release", "back"],
     "two_arms_in_sequence": ["put_cup", "put_cup_release", "pick_bottle", "pick_bottle_lift"],
+    "bystander_at_the_waiting_hand": ["home_leave", "home"],
 }
 
 
@@ -173,3 +174,29 @@ def test_a_posture_goal_ends_at_the_posture_for_the_arm_it_moves():
     assert set(end) == {j for j in end if j.startswith("right_")} and len(end) == 6
     assert all(abs(v - home.get(j, 0.0)) < 1e-6 for j, v in end.items()), end
     assert abs(end["right_shoulder_lift_joint"] - home["right_shoulder_lift_joint"]) < 1e-6
+
+
+def test_a_hand_a_bystander_walked_up_to_leaves_coming_closer_to_no_one_then_the_step_plans():
+    # Before: "home: invalid_start: start is in collision: ... - keep-out:keep_out_kim"; the hand
+    # waited 0.7 m in front of kim, inside her keep-out cylinder (0.8 m) and her S_0.
+    _, task, outcome = run("bystander_at_the_waiting_hand")
+    leave, home = outcome.steps
+    assert (leave.name, leave.status, home.status) == ("home_leave", "solved", "solved"), leave.message
+    # independently (URDF meshes, coal, kim's bare capsules): the least distance of every robot
+    # link to kim never shrinks at any written point (within the timing spline's 10 um)
+    d = person_distances(leave.trajectory, "kim")
+    assert d[0] < 0.55 and np.diff(d).min() > -1e-5, np.diff(d).min()
+    # it ends outside her S_0 = v_h (T_r + T_s) + C + Z_d + Z_r = 1.6 * 0.3 + 0 + 0.05 + 0.02 (bystander, MADAR)
+    assert d[-1] > 1.6 * 0.3 + 0.05 + 0.02
+    # and with every URDF collision shape outside her keep-out cylinder, as the home step places it
+    (cylinder,) = [c for c in home.trajectory.constraints if c.spec.id == "keep_out_kim"]
+    robot = UrdfRobot("madar", dict(leave.trajectory.hands))
+    ends = [leave.trajectory.points[0], leave.trajectory.points[-1]]
+    depth = []
+    for point in ends:
+        robot.configure(dict(leave.trajectory.start) | dict(zip(leave.trajectory.joint_names, point.positions)))
+        depth.append(robot.surface_distance(cylinder.spec, cylinder.frame_in_world.matrix(), "")[0])
+    assert depth[0] < 0.0 < depth[1], depth
+    # the leave keeps no keep-out it started in; the home step keeps it and all its constraints
+    assert "keep_out_kim" not in {c.spec.id for c in leave.trajectory.constraints}
+    assert constraint_violations(home.trajectory) == []

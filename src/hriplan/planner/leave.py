@@ -49,6 +49,8 @@ GUARD = 0.05  # m beyond S_0 (and near a keep-out) within which nothing may come
 BAND = 0.02  # m: a part's pairs this close to its least distance to a person are kept from shrinking
 GROWTH = 0.05  # guarded distances grow at least this fraction of the rate the trouble leaves at
 TOLERANCE = 1e-6  # m: a distance that shrinks by less has not come closer (rounding, second order)
+# coal's penetration depth (inside a keep-out) is this precise (m); its rates are differences over SOLID_STEP rad.
+SOLID_NOISE, SOLID_STEP = 1e-5, 1e-5
 # The timed motion follows a spline through the steps, which may sway this much more (m).
 TIMED_TOLERANCE = 1e-5
 HELD_BAND = 0.02  # a kept constraint this close to its boundary (m or rad) may not move towards it
@@ -176,7 +178,7 @@ class _Leaving:
         """Every moved part against every keep-out solid, then the pairs a step collided in
         (`avoid`): coal's signed distance (negative inside) and its rate per group joint by
         finite differences."""
-        h, n = 1e-6, len(self.iq)
+        h, n = SOLID_STEP, len(self.iq)
         values = [self._solid_distances(self.full(x))]
         for j in range(n):
             dx = np.zeros(n)
@@ -356,7 +358,8 @@ def receding_breach(before: _Rows, after: _Rows, tolerance: float = TOLERANCE, g
         if after.least[key] < d - tolerance:
             return f"{key[0]} to {key[1]} by {d - after.least[key]:.2g} m"
     watched = before.guard if guarded else before.trouble
-    shrunk = watched & (after.distance < before.distance - tolerance)
+    noise = np.where(np.isnan(before.limit), max(tolerance, SOLID_NOISE), tolerance)
+    shrunk = watched & (after.distance < before.distance - noise)
     if shrunk.any():
         k = int(np.flatnonzero(shrunk)[0])
         return f"{before.names[k]} by {before.distance[k] - after.distance[k]:.2g} m"

@@ -1,0 +1,124 @@
+"""The leave phase (planner/leave.py) through the session API: a start inside a person's S_0 or
+a keep-out volume first moves out, coming closer to no one, then the motion plans from there; a
+start with no way out is one line. Re-checked apart from the planner: URDF meshes and coal
+(tests/independent.py), S_0 from the ISO/TS 15066 formula with the ontology's values written here.
+
+Before: every such start failed "start is in collision: ... keep-out:..." or "start is inside a
+person's minimum separation of ISO/TS 15066 (the robot would have to stand still)"."""
+
+import functools
+import math
+import re
+
+import numpy as np
+import pytest
+
+from hriplan import HriplanError
+from hriplan.planner.constraints.spec import BoxConstraint, FrameRef, SphereConstraint
+from hriplan.planner.motion import JointTarget
+from hriplan.planner.session import PlanningSession
+from hriplan.robots.descriptions.registry import posture
+from hriplan.robots.human import HumanSpec
+from hriplan.robots.scene import Scene
+from hriplan.robots.spatial import Pose
+from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.policy import default_policy
+from independent import UrdfRobot, constraint_violations, person_distances
+
+READY = posture("madar", "ready")
+HOME = {j: v for j, v in posture("madar", "home").items() if j.startswith("right_")}
+# A bystander 0.65 m in front of the waiting right hand (at about (0.25, 0.6, 1.0)), facing it.
+KIM = HumanSpec(name="kim", position=(0.25, 1.25), yaw=-math.pi / 2)
+BYSTANDER_S0 = 1.6 * (0.1 + 0.2) + 0.0 + 0.05 + 0.02  # v_h (T_r + T_s) + C + Z_d + Z_r
+
+
+@functools.cache
+def kim_session() -> PlanningSession:
+    return PlanningSession("madar", Scene(humans=[KIM]), hands={"right": "power"})
+
+
+@functools.cache
+def leave_home():
+    return kim_session().plan(READY, JointTarget(values=HOME), group="right_arm", safety=default_policy("madar", [KIM]))
+
+
+def test_a_start_inside_a_bystanders_s0_leaves_then_plans_from_where_it_left():
+    result = leave_home()
+    assert result.solved and result.leave is not None, result.message
+    leave, motion = result.leave, result.trajectory
+    d = person_distances(leave, "kim")
+    assert d[0] < BYSTANDER_S0 < d[-1]  # from inside her S_0 to outside it
+    assert np.diff(d).min() > -1e-5  # no link comes closer at any written point (spline: 10 um)
+    end = dict(zip(leave.joint_names, leave.points[-1].positions))
+    assert max(abs(motion.start[j] - v) for j, v in end.items()) < 1e-9  # the motion starts where it left
+    assert constraint_violations(leave) == [] and constraint_violations(motion) == []
+    # the motion after it keeps her S_0 on the meshes too (the planner's zones: S_0 + 5 mm on capsules)
+    assert person_distances(motion, "kim").min() > BYSTANDER_S0 - 0.01
+
+
+def test_the_monitor_lets_a_part_inside_s0_move_away_and_refuses_it_moving_closer():
+    session, leave = kim_session(), leave_home().leave
+    q0 = session.robot.configuration(leave.start)
+    monitor = ApproachMonitor(session.robot, session.checker, default_policy("madar", [KIM]), "right_arm", q0)
+    x0, x1 = (np.array(p.positions) for p in leave.points[:2])
+    away = (x1 - x0) / np.abs(x1 - x0).max()
+    (sample,) = monitor.samples(x0, away)
+    # the binding pair is inside her S_0 (allowed speed 0) and moves away: no error, not stopped
+    assert sample.body_separation < BYSTANDER_S0 and sample.allowed == 0.0 and sample.approach < 0.0
+    with pytest.raises(HriplanError, match=r"inside the minimum protective separation 0\.550 m .*stand still there"):
+        monitor.samples(x0, -away)
+
+
+def test_a_keep_out_box_the_hand_reaches_into_with_no_one_near_is_left_and_the_motion_keeps_it():
+    session = PlanningSession("madar", Scene(), hands={"right": "power"})
+    robot = session.robot
+    hand = robot.frame_pose("right_tool", robot.configuration(READY))[:3, 3]
+    box = BoxConstraint(
+        id="keep_out_box",
+        joints=robot.group_joints("right_arm"),
+        target_link="right_tool",
+        frame=FrameRef(offset=Pose(xyz=tuple(hand + [0.0, 0.12, 0.0]))),
+        region="outside",
+        keep_out_all_links=True,
+        size=(0.3, 0.3, 0.3),
+    )
+    session.set_constraints([box])
+    result = session.plan(READY, JointTarget(values=HOME), group="right_arm")
+    assert result.solved and result.leave is not None, result.message
+    urdf, frame = UrdfRobot("madar", {"right": "power"}), box.frame.offset.matrix()
+    depth = []
+    for point in result.leave.points:
+        urdf.configure(dict(result.leave.start) | dict(zip(result.leave.joint_names, point.positions)))
+        depth.append(urdf.surface_distance(box, frame, "")[0])
+    assert depth[0] < 0.0 < depth[-1], (depth[0], depth[-1])  # from inside the box to outside it
+    assert constraint_violations(result.trajectory) == []  # then every link stays out of it
+
+
+def test_a_start_with_no_way_out_is_refused_in_one_line_naming_the_volume_and_how_deep():
+    # a keep-out sphere around the LEFT hand while the right arm plans: nothing it does gets out
+    session = PlanningSession("madar", Scene(), hands={"right": "power"})
+    robot = session.robot
+    left = robot.frame_pose("left_tool", robot.configuration(READY))[:3, 3]
+    sphere = SphereConstraint(
+        id="keep_out_left",
+        joints=robot.group_joints("right_arm"),
+        target_link="right_tool",
+        frame=FrameRef(offset=Pose(xyz=tuple(left))),
+        region="outside",
+        keep_out_all_links=True,
+        radius=0.1,
+    )
+    session.set_constraints([sphere])
+    result = session.plan(READY, JointTarget(values=HOME), group="right_arm")
+    assert result.status == "invalid_start" and result.leave is None and "\n" not in result.message
+    found = re.fullmatch(
+        r"the start is inside a keep-out volume: (left_\w+) in keep-out:keep_out_left by (0\.\d{3}) m, "
+        r"which right_arm does not move",
+        result.message,
+    )
+    assert found, result.message
+    # independently: that link's URDF meshes are inside the sphere, about as deep as said
+    urdf = UrdfRobot("madar", {"right": "power"})
+    urdf.configure(READY)
+    depth, _ = urdf.surface_distance(sphere, sphere.frame.offset.matrix(), "left_")
+    assert 0.0 < -depth < 0.1 and abs(-depth - float(found[2])) < 0.03, (depth, found[2])
