@@ -14,9 +14,13 @@ import numpy as np
 import pytest
 
 from hriplan import HriplanError
+from hriplan.cli.solve import solve_problem_file
 from hriplan.planner.constraints.spec import BoxConstraint, FrameRef, SphereConstraint
 from hriplan.planner.motion import JointTarget
+from hriplan.planner.options import PlanOptions
+from hriplan.planner.problem import PlanningProblem
 from hriplan.planner.session import PlanningSession
+from hriplan.planner.trajectory import load_trajectory
 from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Scene
@@ -122,3 +126,27 @@ def test_a_start_with_no_way_out_is_refused_in_one_line_naming_the_volume_and_ho
     urdf.configure(READY)
     depth, _ = urdf.surface_distance(sphere, sphere.frame.offset.matrix(), "left_")
     assert 0.0 < -depth < 0.1 and abs(-depth - float(found[2])) < 0.03, (depth, found[2])
+
+
+def test_solve_writes_the_leave_phase_beside_the_trajectory(tmp_path, capsys):
+    problem = PlanningProblem(
+        name="kim_at_the_hand",
+        robot="madar",
+        hands={"right": "power"},
+        scene=Scene(humans=[KIM]),
+        group="right_arm",
+        start=READY,
+        goal=JointTarget(values=HOME),
+        options=PlanOptions(seed=1),
+    )
+    (tmp_path / "p.json").write_text(problem.model_dump_json())
+    assert solve_problem_file(tmp_path / "p.json", tmp_path / "out.json", None, False) == 0
+    said = capsys.readouterr().out.splitlines()
+    leave = load_trajectory(tmp_path / "out.leave.json")
+    motion = load_trajectory(tmp_path / "out.json")
+    assert said[0].startswith("kim_at_the_hand: the start lay in a keep-out volume or a person's minimum separation")
+    assert said[0].endswith(f"coming closer to no one (written to {tmp_path / 'out.leave.json'})")
+    d = person_distances(leave, "kim")
+    assert d[0] < BYSTANDER_S0 < d[-1] and np.diff(d).min() > -1e-5
+    end = dict(zip(leave.joint_names, leave.points[-1].positions))
+    assert max(abs(motion.start[j] - v) for j, v in end.items()) < 1e-9

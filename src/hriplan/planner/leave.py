@@ -4,18 +4,19 @@ A start inside a keep-out volume (every link stays outside it: keep-out cylinder
 exclusion boxes) or inside a person's minimum separation S_0 (safety/zones.py) makes every
 motion fail "start is in collision". ISO/TS 15066 permits motion away from a person at any
 separation, so such a start first gets its own motion out: steps of at most STEP rad of the
-planned group, each along the joint direction of a small linear programme that moves every part
-inside a zone or keep-out away from it as fast as it can (rate t) while
+planned group, each along the least joint motion (a small quadratic programme) that moves every
+part inside a zone or keep-out away from it at rate 1 (t per rad once scaled to the step) while
 
 - no moved part comes closer to any person: its least distance to each person and its distance
-  to every capsule within S_0 + GUARD grow at a rate of at least GROWTH t (so the speed towards
+  to every capsule within S_0 + GUARD grow at a rate of at least GROWTH (so the speed towards
   any person is never positive, and the timing may move it inside S_0, safety/approach.py),
 - parts near a keep-out do not go deeper into it, the constraints the start keeps stay kept, the
   joints stay within their limits.
 
 Each step is then checked exactly (not to first order): those distances did not shrink and the
-state is collision free (the keep-outs and zones being left aside). The leave ends where the
-start is valid for planning: outside every keep-out and every zone with its whole slack. Where
+state is collision free (the keep-outs and zones being left aside; a step that collides is aimed
+again keeping that pair apart). The leave ends where the start is valid for planning: outside
+every keep-out and every zone with its whole slack. Where
 no direction moves away (t <= 0), or every step away collides, there is no way out: one line
 naming the person or volume and how close. Timed and validated like any motion (session.py).
 """
@@ -292,12 +293,16 @@ def leave_path(
     full_zones = None if zones is None else separation_zones(checker, robot, safety, group, None)
     x = robot.group_values(q_start, group)
     path, rows = [x], leaving.rows(x)
-    why = ""
     for _ in range(MAX_STEPS):
         if not rows.trouble.any():
             with with_keep_out(checker, bound, full_zones):
-                if not checker.in_collision(leaving.full(x)):
-                    return Leave(path, left)
+                contacts = checker.contacts(leaving.full(x))
+            if not contacts:
+                return Leave(path, left)
+            listed = ", ".join(f"{c.a} - {c.b}" for c in contacts[:2])
+            return Leave(
+                None, left, f"the start is in a keep-out volume or a person's S_0 ({listed}) no leave measures"
+            )
         direction, rate = leaving.direction(x, rows)
         if rate <= 1e-9:
             return Leave(None, left, f"{_worst(rows)}, and no motion of {group} moves away without coming closer")
