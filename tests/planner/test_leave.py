@@ -27,6 +27,8 @@ from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.safety.policy import default_policy
+from hriplan.service import jobs
+from hriplan.service.schemas import PlanResponse
 from independent import UrdfRobot, constraint_violations, person_distances
 
 READY = posture("madar", "ready")
@@ -73,11 +75,10 @@ def test_the_monitor_lets_a_part_inside_s0_move_away_and_refuses_it_moving_close
         monitor.samples(x0, -away)
 
 
-def test_a_keep_out_box_the_hand_reaches_into_with_no_one_near_is_left_and_the_motion_keeps_it():
-    session = PlanningSession("madar", Scene(), hands={"right": "power"})
-    robot = session.robot
+def keep_out_box(robot) -> BoxConstraint:
+    """A keep-out box the waiting right hand reaches 3 cm into, no one near."""
     hand = robot.frame_pose("right_tool", robot.configuration(READY))[:3, 3]
-    box = BoxConstraint(
+    return BoxConstraint(
         id="keep_out_box",
         joints=robot.group_joints("right_arm"),
         target_link="right_tool",
@@ -86,6 +87,11 @@ def test_a_keep_out_box_the_hand_reaches_into_with_no_one_near_is_left_and_the_m
         keep_out_all_links=True,
         size=(0.3, 0.3, 0.3),
     )
+
+
+def test_a_keep_out_box_the_hand_reaches_into_with_no_one_near_is_left_and_the_motion_keeps_it():
+    session = PlanningSession("madar", Scene(), hands={"right": "power"})
+    box = keep_out_box(session.robot)
     session.set_constraints([box])
     result = session.plan(READY, JointTarget(values=HOME), group="right_arm")
     assert result.solved and result.leave is not None, result.message
@@ -96,6 +102,25 @@ def test_a_keep_out_box_the_hand_reaches_into_with_no_one_near_is_left_and_the_m
         depth.append(urdf.surface_distance(box, frame, "")[0])
     assert depth[0] < 0.0 < depth[-1], (depth[0], depth[-1])  # from inside the box to outside it
     assert constraint_violations(result.trajectory) == []  # then every link stays out of it
+
+
+def test_the_service_answers_the_leave_phase_with_the_trajectory_that_starts_where_it_ends():
+    robot = PlanningSession("madar", Scene(), hands={"right": "power"}).robot
+    problem = PlanningProblem(
+        robot="madar",
+        hands={"right": "power"},
+        constraints={"constraints": [keep_out_box(robot)]},
+        group="right_arm",
+        start=READY,
+        goal=JointTarget(values=HOME),
+        options=PlanOptions(seed=1),
+    )
+    body, _ = jobs.solve({"problem": problem.model_dump(mode="json")})
+    answer = PlanResponse.model_validate_json(body)
+    assert answer.solved and answer.leave is not None, answer.message
+    end = dict(zip(answer.leave.joint_names, answer.leave.points[-1].positions))
+    assert max(abs(answer.trajectory.start[j] - v) for j, v in end.items()) < 1e-9
+    assert answer.leave.start["right_elbow_joint"] == READY["right_elbow_joint"]
 
 
 def test_a_start_with_no_way_out_is_refused_in_one_line_naming_the_volume_and_how_deep():
