@@ -14,8 +14,8 @@ part inside a zone or keep-out away from it at rate 1 (t per rad once scaled to 
   joints stay within their limits.
 
 Each step is then checked exactly (not to first order): those distances did not shrink and the
-state is collision free (the keep-outs and zones being left aside; a step that collides is aimed
-again keeping that pair apart). The leave ends where the start is valid for planning: outside
+state is collision free (the keep-outs and zones being left aside; where a step collides, the
+leave backs off to where that pair was BACK_OFF apart and goes on keeping it apart). The leave ends where the start is valid for planning: outside
 every keep-out and every zone with its whole slack. Where
 no direction moves away (t <= 0), or every step away collides, there is no way out: one line
 naming the person or volume and how close. Timed and validated like any motion (session.py).
@@ -54,6 +54,9 @@ TOLERANCE = 1e-6  # m: a distance that shrinks by less has not come closer (roun
 SOLID_NOISE, SOLID_STEP = 1e-5, 1e-5
 # The timed motion follows a spline through the steps, which may sway this much more (m).
 TIMED_TOLERANCE = 1e-5
+# A pair a step collided in is kept apart from where it was this far apart (m): the timed
+# motion's spline must not graze it.
+BACK_OFF = 0.01
 HELD_BAND = 0.02  # a kept constraint this close to its boundary (m or rad) may not move towards it
 CLEAR = 1e-3  # m beyond a zone's or keep-out's surface where the leave may end
 
@@ -180,16 +183,17 @@ class _Leaving:
         (`avoid`): coal's signed distance (negative inside) and its rate per group joint by
         finite differences."""
         h, n = SOLID_STEP, len(self.iq)
-        values = [self._solid_distances(self.full(x))]
+        values = [self.solid_distances(self.full(x))]
         for j in range(n):
             dx = np.zeros(n)
             dx[j] = h
-            values.append(self._solid_distances(self.full(x + dx)))
+            values.append(self.solid_distances(self.full(x + dx)))
         names = [f"{part.name} in {o.name}" for o in self.keep_outs for part in self.parts]
         names += [f"{a} - {b}" for a, b in self.avoid]
         return names, values[0], np.array([(v - values[0]) / h for v in values[1:]]).T
 
-    def _solid_distances(self, q: np.ndarray) -> np.ndarray:
+    def solid_distances(self, q: np.ndarray) -> np.ndarray:
+        """At `q`: each moved part against each keep-out solid, then each pair in `avoid`."""
         inside = self._keep_out_distances(q)  # places the joints for the pairs too
         geometry, apart = self.checker.geom_model, []
         for pair in self.avoid:
@@ -279,8 +283,8 @@ def leave_path(
     """The leave phase of `group` from `q_start` (checker: the scene without keep-outs or zones),
     or None when the start lies in no keep-out volume and no person's S_0: nothing to leave."""
     zones = None if safety is None or not checker.humans else separation_zones(checker, robot, safety, group, q_start)
-    with with_keep_out(checker, bound, zones):
-        contacts = checker.contacts(q_start)
+    with with_keep_out(checker, bound, zones):  # the contacts only of a start that collides: plans re-check every start
+        contacts = checker.contacts(q_start) if checker.in_collision(q_start) else []
     blocking = [c for c in contacts if _blocking(c.a) or _blocking(c.b)]
     if not blocking or checker.in_collision(q_start):
         return None  # a start valid, or in a plain collision: plan_motion says so
@@ -306,7 +310,13 @@ def leave_path(
         direction, rate = leaving.direction(x, rows)
         if rate <= 1e-9:
             return Leave(None, left, f"{_worst(rows)}, and no motion of {group} moves away without coming closer")
-        step, why = _step(leaving, checker, x, rows, direction)
+        step, why, new = _step(leaving, checker, x, rows, direction)
+        if new:  # keep those apart from now on, from where they were BACK_OFF apart
+            leaving.avoid += new
+            while len(path) > 1 and leaving.solid_distances(leaving.full(path[-1]))[-len(new) :].min() < BACK_OFF:
+                path.pop()
+            x, rows = path[-1], leaving.rows(path[-1])
+            continue
         if step is None:
             return Leave(None, left, f"{_worst(rows)}, and every motion of {group} away {why}")
         x, rows = step
@@ -326,33 +336,27 @@ def _blocking(name: str) -> bool:
 
 def _step(
     leaving: _Leaving, checker: CollisionChecker, x: np.ndarray, rows: _Rows, direction: np.ndarray
-) -> tuple[tuple[np.ndarray, _Rows] | None, str]:
-    """The state one step along `direction` and its rows: a step that collides is aimed again
-    keeping the colliding pairs apart, one that fails its exact check is halved; or None and what
-    the last try met."""
-    h, why, halvings = STEP, "", 0
-    while halvings <= HALVINGS:
+) -> tuple[tuple[np.ndarray, _Rows] | None, str, list[tuple[str, str]]]:
+    """The state one step along `direction` and its rows, halved while its exact check fails;
+    or None, what the last try met and the pairs it collided in that the leave did not yet keep
+    apart (then the leave backs off and aims again)."""
+    h, why = STEP, ""
+    for _ in range(HALVINGS + 1):
         y = x + h * direction
         if checker.in_collision(leaving.full(y)):
             contacts = checker.contacts(leaving.full(y))
             why = "collides: " + ", ".join(f"{c.a} - {c.b}" for c in contacts[:2])
             new = [(c.a, c.b) for c in contacts if (c.a, c.b) not in leaving.avoid]
             if new:
-                leaving.avoid += new
-                rows = leaving.rows(x)
-                direction, rate = leaving.direction(x, rows)
-                if rate <= 1e-9:
-                    return None, why
-                h = STEP
-                continue
+                return None, why, new
         else:
             after = leaving.rows(y)
             why = receding_breach(rows, after)
             why = f"comes closer: {why}" if why else leaving.breaks(x, y)
             if not why:
-                return (y, after), ""
-        h, halvings = h / 2.0, halvings + 1
-    return None, why
+                return (y, after), "", []
+        h /= 2.0
+    return None, why, []
 
 
 def receding_breach(before: _Rows, after: _Rows, tolerance: float = TOLERANCE, guarded: bool = True) -> str:
