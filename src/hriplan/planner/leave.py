@@ -108,12 +108,12 @@ class _Leaving:
             for p in people
         ]
         self.keep_outs: list[Obstacle] = keep_out_obstacles(bound)
+        self.solids = [(o.shape.geometry(), o.pose.se3()) for o in self.keep_outs]  # built once: coal shapes
         self.parts = [p for p in checker.parts if p.joint in moved]
         self.fixed = [p for p in checker.parts if p.joint not in moved]
         self.avoid: list[tuple[str, str]] = []  # pairs a step collided in: kept from closing in
-        self.volume_ids = {f"{KEEP_OUT_PREFIX}{c.id}" for c in bound if getattr(c.spec, "keep_out_all_links", False)}
         self.volumes = [
-            i for i, c in enumerate(self.evaluator.constraints) if f"{KEEP_OUT_PREFIX}{c.id}" in self.volume_ids
+            i for i, c in enumerate(self.evaluator.constraints) if getattr(c.spec, "keep_out_all_links", False)
         ]
         margins = self.evaluator.margins(self.base) if self.evaluator.constraints else np.zeros(0)
         others = [i for i in range(len(margins)) if i not in self.volumes]
@@ -222,8 +222,8 @@ class _Leaving:
         pin.forwardKinematics(self.robot.model, self.data, q)
         return np.array(
             [
-                _distance(part.geometry, self.data.oMi[part.joint] * part.placement, o.shape.geometry(), o.pose.se3())
-                for o in self.keep_outs
+                _distance(part.geometry, self.data.oMi[part.joint] * part.placement, solid, where)
+                for solid, where in self.solids
                 for part in (self.parts if parts is None else parts)
             ]
         )
