@@ -8,6 +8,7 @@ of it with the posture the file records and with the task's closed hand, and the
 where it was put for every later step."""
 
 import functools
+import re
 from pathlib import Path
 
 import coal
@@ -200,3 +201,29 @@ def test_a_hand_a_bystander_walked_up_to_leaves_coming_closer_to_no_one_then_the
     # the leave keeps no keep-out it started in; the home step keeps it and all its constraints
     assert "keep_out_kim" not in {c.spec.id for c in leave.trajectory.constraints}
     assert constraint_violations(home.trajectory) == []
+
+
+def test_a_bystander_at_the_arm_the_step_does_not_move_is_a_one_line_refusal(tmp_path):
+    # kim stands 0.65 m in front of the waiting LEFT hand (at about (-0.78, 0.37)); the step moves
+    # the right arm, so nothing it does takes the left hand out of her keep-out cylinder
+    text = (DATA / "bystander_at_the_waiting_hand.yaml").read_text()
+    moved = text.replace("position: [0.25, 1.25]", "position: [-0.85, 1.0]")
+    assert moved != text
+    (tmp_path / "t.yaml").write_text(moved)
+    outcome = TaskRunner(load_task(tmp_path / "t.yaml"), tmp_path).run()
+    (step,) = outcome.steps
+    assert (step.name, step.status, step.trajectory) == ("home_leave", "invalid_start", None)
+    found = re.fullmatch(
+        r"the start is inside a keep-out volume: (left_\w+) in keep-out:keep_out_kim by (0\.\d{3}) m, "
+        r"which right_arm does not move",
+        step.message,
+    )
+    assert found, step.message
+    # independently: the left arm's URDF meshes reach into the 0.8 m cylinder around kim's base
+    urdf = UrdfRobot("madar", {"right": "power"})
+    urdf.configure(posture("madar", "ready"))
+    base = np.eye(4)
+    base[:2, 3] = (-0.85, 1.0)
+    spec = type("Cylinder", (), {"type": "cylinder", "radius": 0.8, "height": 2.0})
+    depth, _ = urdf.surface_distance(spec, base, "left_")
+    assert depth < 0.0, depth
