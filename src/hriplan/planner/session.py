@@ -160,13 +160,21 @@ class PlanningSession:
         where that ends."""
         options = options or PlanOptions()
         group = motion_group(self.robot, goal, group)
-        leave = self.leave(start, options, group, safety)
-        if leave is not None and not leave.solved:
+        result = self._planned(start, goal, options, group, safety)
+        if result.status != Status.INVALID_START:
+            return result
+        leave = self.leave(start, options, group, safety)  # only here: a valid start costs nothing more
+        if leave is None:
+            return result
+        if not leave.solved:
             return leave
-        if leave is not None:
-            start = leave.trajectory.start | dict(
-                zip(leave.trajectory.joint_names, leave.trajectory.points[-1].positions)
-            )
+        end = leave.trajectory.start | dict(zip(leave.trajectory.joint_names, leave.trajectory.points[-1].positions))
+        return self._planned(end, goal, options, group, safety).model_copy(update={"leave": leave.trajectory})
+
+    def _planned(
+        self, start: JointValues, goal: Target, options: PlanOptions, group: str, safety: SeparationPolicy | None
+    ) -> PlanResult:
+        """Plan and time from `start`, re-planned (within the time limit) while it cannot be timed."""
         started = perf_counter()
         for retry in range(TIMING_RETRIES + 1):
             remaining = options.time_limit - (perf_counter() - started)
@@ -183,7 +191,7 @@ class PlanningSession:
             result = self.time(motion, options, safety)
             if result.status != Status.TIMING_FAILED:
                 break
-        return result if leave is None else result.model_copy(update={"leave": leave.trajectory})
+        return result
 
     def leave(
         self,
