@@ -38,7 +38,6 @@ from hriplan.planner.motion import PLANNING_MARGIN, with_keep_out
 from hriplan.planner.validate import VALIDATION_TOLERANCE
 from hriplan.robots.collision import ZONE_NAMING, CollisionChecker
 from hriplan.robots.model import Robot
-from hriplan.robots.scene import Obstacle
 from hriplan.safety.person_distance import PersonDistances
 from hriplan.safety.separation import SeparationPolicy, minimum_separation
 from hriplan.safety.zones import ZONE_SLACK, separation_zones
@@ -107,11 +106,17 @@ class _Leaving:
             (p, minimum_separation(safety.robot, p), PersonDistances(model, checker.person_model(p.name), moved))
             for p in people
         ]
-        self.keep_outs: list[Obstacle] = keep_out_obstacles(bound)
-        self.solids = [(o.shape.geometry(), o.pose.se3()) for o in self.keep_outs]  # built once: coal shapes
-        self.parts = [p for p in checker.parts if p.joint in moved]
-        self.fixed = [p for p in checker.parts if p.joint not in moved]
-        self.avoid: list[tuple[str, str]] = []  # pairs a step collided in: kept from closing in
+        solids = [
+            (o.name, o.shape.geometry(), 0, o.pose.se3()) for o in keep_out_obstacles(bound)
+        ]  # coal shapes, built once
+        moving = [(p.name, p.geometry, p.joint, p.placement) for p in checker.parts if p.joint in moved]
+        fixed = [(p.name, p.geometry, p.joint, p.placement) for p in checker.parts if p.joint not in moved]
+        # Shape pairs measured by coal: each moved part in each keep-out (to leave), then the pairs
+        # a step collided in (`avoid`, kept from closing in); the fixed parts' pairs on their own.
+        self.solid_pairs = [(part, solid) for solid in solids for part in moving]
+        self.inside_pairs = len(self.solid_pairs)
+        self.fixed_pairs = [(part, solid) for solid in solids for part in fixed]
+        self.avoid: list[tuple[str, str]] = []
         self.volumes = [
             i for i, c in enumerate(self.evaluator.constraints) if getattr(c.spec, "keep_out_all_links", False)
         ]
@@ -149,13 +154,13 @@ class _Leaving:
             rate.append(rates)
             trouble.append(body & (d < s0 + ZONE_SLACK + CLEAR))
             guard.append((d < s0 + ZONE_SLACK + GUARD) | (d <= part_least + BAND))
-        if self.keep_outs or self.avoid:
+        if self.solid_pairs:
             k_names, k_distance, k_rate = self._solid_rows(x)
             names += k_names
             distance.append(k_distance)
             limit.append(np.full(len(k_distance), np.nan))
             rate.append(k_rate)
-            trouble.append((k_distance < CLEAR) & (np.arange(len(k_distance)) < len(self.keep_outs) * len(self.parts)))
+            trouble.append((k_distance < CLEAR) & (np.arange(len(k_distance)) < self.inside_pairs))
             guard.append(k_distance < GUARD)
         if self.volumes:
             margins, gradients = self.evaluator.gradients(x)
@@ -179,54 +184,51 @@ class _Leaving:
         )
 
     def _solid_rows(self, x: np.ndarray) -> tuple[list[str], np.ndarray, np.ndarray]:
-        """Every moved part against every keep-out solid, then the pairs a step collided in
-        (`avoid`): coal's signed distance (negative inside) and its rate per group joint by
-        finite differences."""
-        h, n = SOLID_STEP, len(self.iq)
-        values = [self.solid_distances(self.full(x))]
+        """The solid pairs: coal's signed distance (negative inside) and, for those within GUARD,
+        its rate per group joint by finite differences (the others are neither left nor guarded)."""
+        n = len(self.iq)
+        distance = self.solid_distances(self.full(x))
+        near = np.flatnonzero(distance < GUARD)
+        rate = np.zeros((len(distance), n))
         for j in range(n):
             dx = np.zeros(n)
-            dx[j] = h
-            values.append(self.solid_distances(self.full(x + dx)))
-        names = [f"{part.name} in {o.name}" for o in self.keep_outs for part in self.parts]
-        names += [f"{a} - {b}" for a, b in self.avoid]
-        return names, values[0], np.array([(v - values[0]) / h for v in values[1:]]).T
+            dx[j] = SOLID_STEP
+            rate[near, j] = (self.solid_distances(self.full(x + dx), near) - distance[near]) / SOLID_STEP
+        names = [f"{a[0]} {'in' if k < self.inside_pairs else '-'} {b[0]}" for k, (a, b) in enumerate(self.solid_pairs)]
+        return names, distance, rate
 
-    def solid_distances(self, q: np.ndarray) -> np.ndarray:
-        """At `q`: each moved part against each keep-out solid, then each pair in `avoid`."""
-        inside = self._keep_out_distances(q)  # places the joints for the pairs too
-        geometry, apart = self.checker.geom_model, []
-        for pair in self.avoid:
-            a, b = (geometry.geometryObjects[geometry.getGeometryId(name)] for name in pair)
-            apart.append(
-                _distance(
-                    a.geometry,
-                    self.data.oMi[a.parentJoint] * a.placement,
-                    b.geometry,
-                    self.data.oMi[b.parentJoint] * b.placement,
-                )
+    def keep_apart(self, contacts: list[tuple[str, str]]) -> None:
+        """Keep the pairs of these collision geometry names from closing in from now on."""
+        objects = self.checker.geom_model.geometryObjects
+        for pair in contacts:
+            a, b = (objects[self.checker.geom_model.getGeometryId(name)] for name in pair)
+            self.solid_pairs.append(
+                ((a.name, a.geometry, a.parentJoint, a.placement), (b.name, b.geometry, b.parentJoint, b.placement))
             )
-        return np.concatenate([inside, apart])
+            self.avoid.append(pair)
+
+    def solid_distances(
+        self, q: np.ndarray, which: Sequence[int] | None = None, pairs: list | None = None
+    ) -> np.ndarray:
+        """At `q`: coal's signed distance of each solid pair (or of those `which`), or of `pairs`."""
+        pin.forwardKinematics(self.robot.model, self.data, q)
+        pairs = self.solid_pairs if pairs is None else pairs
+        chosen = range(len(pairs)) if which is None else which
+        return np.array(
+            [
+                _distance(a[1], self.data.oMi[a[2]] * a[3], b[1], self.data.oMi[b[2]] * b[3])
+                for a, b in (pairs[k] for k in chosen)
+            ]
+        )
 
     def fixed_in_keep_out(self) -> str:
         """The deepest part the group does not move that lies in a keep-out, in words ("" if none)."""
-        pairs = [(o, p) for o in self.keep_outs for p in self.fixed]
-        inside = [(d, o, p) for d, (o, p) in zip(self._keep_out_distances(self.base, self.fixed), pairs) if d < 0.0]
-        if not inside:
+        if not self.fixed_pairs:
             return ""
-        d, o, p = min(inside, key=lambda t: t[0])
-        return f"{p.name} in {o.name} by {-d:.3f} m"
-
-    def _keep_out_distances(self, q: np.ndarray, parts: list | None = None) -> np.ndarray:
-        """Each part (default: the moved ones) against each keep-out solid at `q`."""
-        pin.forwardKinematics(self.robot.model, self.data, q)
-        return np.array(
-            [
-                _distance(part.geometry, self.data.oMi[part.joint] * part.placement, solid, where)
-                for solid, where in self.solids
-                for part in (self.parts if parts is None else parts)
-            ]
-        )
+        distance = self.solid_distances(self.base, pairs=self.fixed_pairs)
+        k = int(np.argmin(distance))
+        part, solid = self.fixed_pairs[k]
+        return f"{part[0]} in {solid[0]} by {-distance[k]:.3f} m" if distance[k] < 0.0 else ""
 
     def breaks(self, x: np.ndarray, y: np.ndarray) -> str:
         """The kept constraint whose margin grew past the planning margin from `x` to `y` ("" if none)."""
@@ -312,8 +314,9 @@ def leave_path(
             return Leave(None, left, f"{_worst(rows)}, and no motion of {group} moves away without coming closer")
         step, why, new = _step(leaving, checker, x, rows, direction)
         if new:  # keep those apart from now on, from where they were BACK_OFF apart
-            leaving.avoid += new
-            while len(path) > 1 and leaving.solid_distances(leaving.full(path[-1]))[-len(new) :].min() < BACK_OFF:
+            leaving.keep_apart(new)
+            added = range(len(leaving.solid_pairs) - len(new), len(leaving.solid_pairs))
+            while len(path) > 1 and leaving.solid_distances(leaving.full(path[-1]), added).min() < BACK_OFF:
                 path.pop()
             x, rows = path[-1], leaving.rows(path[-1])
             continue
