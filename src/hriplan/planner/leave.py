@@ -68,6 +68,20 @@ class Leave:
     path: list[np.ndarray] | None
     left: list[str] = field(default_factory=list)
     message: str = ""
+    measured: _Leaving | None = field(default=None, repr=False)
+
+    def receding(self, states: Sequence[np.ndarray]) -> str:
+        """Along `states` (group values: the timed motion), what first came closer to a person (a
+        part's least distance to them, a pair inside their zone) or deeper into a keep-out ("" if
+        nothing), by more than the timing's spline through the steps may sway (TIMED_TOLERANCE)."""
+        rows = self.measured.rows(np.asarray(states[0], dtype=float))
+        for k, x in enumerate(states[1:], start=1):
+            after = self.measured.rows(np.asarray(x, dtype=float))
+            breach = receding_breach(rows, after, TIMED_TOLERANCE, guarded=False)
+            if breach:
+                return f"at point {k}: {breach}"
+            rows = after
+        return ""
 
 
 @dataclass
@@ -304,7 +318,7 @@ def leave_path(
             with with_keep_out(checker, bound, full_zones):
                 contacts = checker.contacts(leaving.full(x))
             if not contacts:
-                return Leave(path, left)
+                return Leave(path, left, measured=leaving)
             listed = ", ".join(f"{c.a} - {c.b}" for c in contacts[:2])
             return Leave(
                 None, left, f"the start is in a keep-out volume or a person's S_0 ({listed}) no leave measures"
@@ -388,26 +402,3 @@ def _worst(rows: _Rows) -> str:
             f"{name} {d:.3f} m apart"
         )
     return f"the start is inside a keep-out volume: {name} by {max(-d, 0.0):.3f} m"
-
-
-def receding(
-    robot: Robot,
-    checker: CollisionChecker,
-    bound: list[BoundConstraint],
-    group: str,
-    q_start: np.ndarray,
-    safety: SeparationPolicy | None,
-    states: Sequence[np.ndarray],
-) -> str:
-    """Along `states` (group values), what first came closer to a person (a part's least
-    distance to them, a pair inside their zone) or deeper into a keep-out ("" if nothing): the
-    check of a timed leave phase, whose spline through the steps may sway by TIMED_TOLERANCE."""
-    leaving = _Leaving(robot, checker, bound, group, q_start, safety)
-    rows = leaving.rows(np.asarray(states[0], dtype=float))
-    for k, x in enumerate(states[1:], start=1):
-        after = leaving.rows(np.asarray(x, dtype=float))
-        breach = receding_breach(rows, after, TIMED_TOLERANCE, guarded=False)
-        if breach:
-            return f"at point {k}: {breach}"
-        rows = after
-    return ""

@@ -19,7 +19,7 @@ from hriplan import HriplanError
 from hriplan.planner.constraints.binding import bind, resolve_frame, set_goal_positions
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec, OrientationConstraint
-from hriplan.planner.leave import leave_path, receding
+from hriplan.planner.leave import leave_path
 from hriplan.planner.motion import (
     JointTarget,
     MotionResult,
@@ -231,7 +231,7 @@ class PlanningSession:
         if not result.solved:
             return result.model_copy(update={"message": f"the leave phase could not be timed: {result.message}"})
         timed = [p.positions for p in result.trajectory.points]
-        breach = receding(self.robot, self.checker, bound, group, q0, safety, timed)
+        breach = found.receding(timed)
         if breach:
             message = f"the timed leave phase comes closer {breach}"
             return PlanResult(status=Status.TIMING_FAILED, motion=motion, message=message)
