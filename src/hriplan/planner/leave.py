@@ -13,7 +13,9 @@ part inside a zone or keep-out away from it at rate 1 (t per rad once scaled to 
 - parts near a keep-out do not go deeper into it, the constraints the start keeps stay kept, the
   joints stay within their limits.
 
-Each step is then checked exactly (not to first order): those distances did not shrink and the
+Where no step leaves with every part (deep in a keep-out box each would leave by another face),
+only the deepest part in each keep-out must leave and the others may go deeper for a while; the
+people's distances are kept all the same. Each step is then checked exactly (not to first order): those distances did not shrink and the
 state is collision free (the keep-outs and zones being left aside; where a step collides, the
 leave backs off to where that pair was BACK_OFF apart and goes on keeping it apart). The leave ends where the start is valid for planning: outside
 every keep-out and every zone with its whole slack. Where
@@ -50,7 +52,7 @@ BAND = 0.02  # m: a part's pairs this close to its least distance to a person ar
 GROWTH = 0.05  # guarded distances grow at least this fraction of the rate the trouble leaves at
 TOLERANCE = 1e-6  # m: a distance that shrinks by less has not come closer (rounding, second order)
 # coal's penetration depth (inside a keep-out) is this precise (m); its rates are differences over SOLID_STEP rad.
-SOLID_NOISE, SOLID_STEP = 1e-5, 1e-5
+SOLID_NOISE, SOLID_STEP = 2e-5, 1e-5
 # The timed motion follows a spline through the steps, which may sway this much more (m).
 TIMED_TOLERANCE = 1e-5
 # A pair a step collided in is kept apart from where it was this far apart (m): the timed
@@ -72,12 +74,12 @@ class Leave:
 
     def receding(self, states: Sequence[np.ndarray]) -> str:
         """Along `states` (group values: the timed motion), what first came closer to a person (a
-        part's least distance to them, a pair inside their zone) or deeper into a keep-out ("" if
-        nothing), by more than the timing's spline through the steps may sway (TIMED_TOLERANCE)."""
+        part's least distance to them, a pair inside their zone; "" if nothing), by more than the
+        timing's spline through the steps may sway (TIMED_TOLERANCE)."""
         rows = self.measured.rows(np.asarray(states[0], dtype=float))
         for k, x in enumerate(states[1:], start=1):
             after = self.measured.rows(np.asarray(x, dtype=float))
-            breach = receding_breach(rows, after, TIMED_TOLERANCE, guarded=False)
+            breach = receding_breach(rows, after, rows.trouble & ~np.isnan(rows.limit), TIMED_TOLERANCE)
             if breach:
                 return f"at point {k}: {breach}"
             rows = after
@@ -95,6 +97,7 @@ class _Rows:
     guard: np.ndarray  # bool: must not shrink
     least: dict[tuple[str, str], float]  # (part, person) -> least distance
     limit: np.ndarray  # a person row's S_0 (nan: other rows)
+    in_keep_out: np.ndarray  # bool: a moved part against a keep-out solid
 
 
 class _Leaving:
@@ -149,7 +152,7 @@ class _Leaving:
 
     def rows(self, x: np.ndarray) -> _Rows:
         q, n = self.full(x), len(self.iq)
-        names, distance, rate, trouble, guard, least, limit = [], [], [], [], [], {}, []
+        names, distance, rate, trouble, guard, least, limit, in_keep_out = [], [], [], [], [], {}, [], []
         for person, s0, pairs in self.people:
             dqs = np.zeros((n, self.robot.model.nv))
             dqs[np.arange(n), self.iv] = 1.0
@@ -165,6 +168,7 @@ class _Leaving:
             names += [f"{p} - {person.name}/{c}" for p, c in zip(at.parts, at.capsules)]
             distance.append(d)
             limit.append(np.full(len(d), s0))
+            in_keep_out.append(np.zeros(len(d), bool))
             rate.append(rates)
             trouble.append(body & (d < s0 + ZONE_SLACK + CLEAR))
             guard.append((d < s0 + ZONE_SLACK + GUARD) | (d <= part_least + BAND))
@@ -174,7 +178,9 @@ class _Leaving:
             distance.append(k_distance)
             limit.append(np.full(len(k_distance), np.nan))
             rate.append(k_rate)
-            trouble.append((k_distance < CLEAR) & (np.arange(len(k_distance)) < self.inside_pairs))
+            inside = np.arange(len(k_distance)) < self.inside_pairs
+            in_keep_out.append(inside)
+            trouble.append((k_distance < CLEAR) & inside)
             guard.append(k_distance < GUARD)
         if self.volumes:
             margins, gradients = self.evaluator.gradients(x)
@@ -182,11 +188,13 @@ class _Leaving:
             m = -margins[self.volumes]
             distance.append(m)
             limit.append(np.full(len(m), np.nan))
+            in_keep_out.append(np.zeros(len(m), bool))
             rate.append(-gradients[self.volumes])
             trouble.append(m < 2 * PLANNING_MARGIN)
             guard.append(m < GUARD)
         if not names:
-            return _Rows([], np.zeros(0), np.zeros((0, n)), np.zeros(0, bool), np.zeros(0, bool), least, np.zeros(0))
+            empty = np.zeros(0, bool)
+            return _Rows([], np.zeros(0), np.zeros((0, n)), empty, empty, least, np.zeros(0), empty)
         return _Rows(
             names,
             np.concatenate(distance),
@@ -195,6 +203,7 @@ class _Leaving:
             np.concatenate(guard),
             least,
             np.concatenate(limit),
+            np.concatenate(in_keep_out),
         )
 
     def _solid_rows(self, x: np.ndarray) -> tuple[list[str], np.ndarray, np.ndarray]:
@@ -252,15 +261,25 @@ class _Leaving:
         bad = np.flatnonzero(after > np.maximum(before, -PLANNING_MARGIN))
         return f"breaks {self.evaluator.constraints[self.held[bad[0]]].id}" if bad.size else ""
 
-    def direction(self, x: np.ndarray, rows: _Rows) -> tuple[np.ndarray, float]:
+    def direction(self, x: np.ndarray, rows: _Rows, relaxed: bool = False) -> tuple[np.ndarray, float, np.ndarray]:
         """The unit (max-norm) joint direction of the least joint motion that leaves every trouble
-        at rate 1 (guarded rows growing at GROWTH), and the rate t it leaves at per rad; (0, 0) if
-        there is none. Least motion: a direction that swings joints to their bounds folds the arm."""
+        at rate 1 (guarded rows growing at GROWTH), the rate t it leaves at per rad, and the rows
+        it guards; t = 0 if there is none. Least motion: a direction that swings joints to their
+        bounds folds the arm. `relaxed`: of the parts in keep-outs only the deepest must leave, the
+        others may go deeper for now (deep in a box, each would leave by another face)."""
         n = len(self.iq)
         moving = np.abs(rows.rate).sum(axis=1) > 1e-6  # a distance no joint changes cannot grow
-        trouble, guard = rows.rate[rows.trouble], rows.rate[rows.guard & ~rows.trouble & moving]
-        if not moving[rows.trouble].all():
-            return np.zeros(n), 0.0
+        leaving, guarded = rows.trouble, rows.guard
+        if relaxed and (rows.trouble & rows.in_keep_out).any():
+            deepest = np.flatnonzero(rows.trouble & rows.in_keep_out)
+            deepest = deepest[np.argmin(rows.distance[deepest])]
+            leaving = rows.trouble & ~rows.in_keep_out
+            leaving[deepest] = True
+            guarded = rows.guard & ~rows.in_keep_out
+        trouble, guard = rows.rate[leaving], rows.rate[guarded & ~leaving & moving]
+        none = np.zeros(n), 0.0, guarded
+        if not moving[leaving].all():
+            return none
         a = [trouble, guard]
         b = [np.ones(len(trouble)), np.full(len(guard), GROWTH)]
         if self.held:  # near its boundary, a kept constraint's margin must not grow (first order)
@@ -279,13 +298,13 @@ class _Leaving:
         )
         dx = found.x
         if not found.success or (rows_a @ dx - rows_b).min() < -1e-6 or not np.abs(dx).max() > 0.0:
-            return np.zeros(n), 0.0
+            return none
         scale = np.abs(dx).max()
         direction = dx / scale
         beyond = (x + STEP * direction > upper) | (x + STEP * direction < lower)
         if beyond.any():
-            return np.zeros(n), 0.0
-        return direction, 1.0 / scale
+            return none
+        return direction, 1.0 / scale, guarded
 
 
 def leave_path(
@@ -323,10 +342,9 @@ def leave_path(
             return Leave(
                 None, left, f"the start is in a keep-out volume or a person's S_0 ({listed}) no leave measures"
             )
-        direction, rate = leaving.direction(x, rows)
-        if rate <= 1e-9:
+        step, why, new = _advance(leaving, checker, x, rows)
+        if step is None and not new and not why:
             return Leave(None, left, f"{_worst(rows)}, and no motion of {group} moves away without coming closer")
-        step, why, new = _step(leaving, checker, x, rows, direction)
         if new:  # keep those apart from now on, from where they were BACK_OFF apart
             leaving.keep_apart(new)
             added = range(len(leaving.solid_pairs) - len(new), len(leaving.solid_pairs))
@@ -341,6 +359,21 @@ def leave_path(
     return Leave(None, left, f"{_worst(rows)} after {MAX_STEPS} steps away")
 
 
+def _advance(
+    leaving: _Leaving, checker: CollisionChecker, x: np.ndarray, rows: _Rows
+) -> tuple[tuple[np.ndarray, _Rows] | None, str, list[tuple[str, str]]]:
+    """One step out (`_step`): every part in trouble leaving, else (relaxed) only the deepest
+    part in each keep-out; "" and no pairs for why when neither has a direction that leaves."""
+    step, why, new = None, "", []
+    for relaxed in (False, True):
+        direction, rate, watched = leaving.direction(x, rows, relaxed)
+        if rate > 1e-9:
+            step, why, new = _step(leaving, checker, x, rows, direction, watched)
+            if step is not None or new:
+                break
+    return step, why, new
+
+
 def _distance(a: coal.CollisionGeometry, at_a: pin.SE3, b: coal.CollisionGeometry, at_b: pin.SE3) -> float:
     """coal's signed distance of two placed shapes (negative: penetrating)."""
     where = [coal.Transform3s(at.rotation, at.translation) for at in (at_a, at_b)]
@@ -352,9 +385,15 @@ def _blocking(name: str) -> bool:
 
 
 def _step(
-    leaving: _Leaving, checker: CollisionChecker, x: np.ndarray, rows: _Rows, direction: np.ndarray
+    leaving: _Leaving,
+    checker: CollisionChecker,
+    x: np.ndarray,
+    rows: _Rows,
+    direction: np.ndarray,
+    watched: np.ndarray,
 ) -> tuple[tuple[np.ndarray, _Rows] | None, str, list[tuple[str, str]]]:
-    """The state one step along `direction` and its rows, halved while its exact check fails;
+    """The state one step along `direction` and its rows, halved while its exact check fails
+    (a person comes closer, a `watched` row shrinks, a kept constraint breaks);
     or None, what the last try met and the pairs it collided in that the leave did not yet keep
     apart (then the leave backs off and aims again)."""
     h, why = STEP, ""
@@ -368,7 +407,7 @@ def _step(
                 return None, why, new
         else:
             after = leaving.rows(y)
-            why = receding_breach(rows, after)
+            why = receding_breach(rows, after, watched)
             why = f"comes closer: {why}" if why else leaving.breaks(x, y)
             if not why:
                 return (y, after), "", []
@@ -376,14 +415,13 @@ def _step(
     return None, why, []
 
 
-def receding_breach(before: _Rows, after: _Rows, tolerance: float = TOLERANCE, guarded: bool = True) -> str:
-    """What came closer between two states: a part's least distance to a person, a pair inside
-    a zone or keep-out, or (if `guarded`) any guarded pair (within S_0 + GUARD, near a keep-out,
-    near a part's least distance); "" when nothing did."""
+def receding_breach(before: _Rows, after: _Rows, watched: np.ndarray, tolerance: float = TOLERANCE) -> str:
+    """What came closer between two states: a part's least distance to a person, or a `watched`
+    row (guarded: within S_0 + GUARD, near a keep-out, near a part's least distance); "" when
+    nothing did. A keep-out's depth is as precise as coal's penetration (SOLID_NOISE)."""
     for key, d in before.least.items():
         if after.least[key] < d - tolerance:
             return f"{key[0]} to {key[1]} by {d - after.least[key]:.2g} m"
-    watched = before.guard if guarded else before.trouble
     noise = np.where(np.isnan(before.limit), max(tolerance, SOLID_NOISE), tolerance)
     shrunk = watched & (after.distance < before.distance - noise)
     if shrunk.any():
