@@ -15,12 +15,13 @@ part inside a zone or keep-out away from it at rate 1 (t per rad once scaled to 
 
 Where no step leaves with every part (deep in a keep-out box each would leave by another face),
 only the deepest part in each keep-out must leave and the others may go deeper for a while; the
-people's distances are kept all the same. Each step is then checked exactly (not to first order): those distances did not shrink and the
-state is collision free (the keep-outs and zones being left aside; where a step collides, the
-leave backs off to where that pair was BACK_OFF apart and goes on keeping it apart). The leave ends where the start is valid for planning: outside
-every keep-out and every zone with its whole slack. Where
-no direction moves away (t <= 0), or every step away collides, there is no way out: one line
-naming the person or volume and how close. Timed and validated like any motion (session.py).
+people's distances are kept all the same. Each step is then checked exactly (not to first
+order): those distances did not shrink and the state is collision free (the keep-outs and zones
+being left aside; where a step collides, the leave backs off to where that pair was BACK_OFF
+apart and goes on keeping it apart). The leave ends where the start is valid for planning:
+outside every keep-out and every zone with its whole slack. Where no direction moves away (t <=
+0), or every step away collides, there is no way out: one line naming the person or volume and
+how close. Timed and validated like any motion (session.py).
 """
 
 from __future__ import annotations
