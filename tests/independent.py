@@ -323,3 +323,23 @@ def trajectory_speed_margins(traj: TrajectoryFile, policy) -> tuple[float, float
     return speed_margins(
         traj.robot, traj.hands, traj.scene, traj.start, traj.joint_names, positions, velocities, policy
     )
+
+
+def person_distances(trajectory, person: str, prefix: str = "") -> np.ndarray:
+    """Per written point, the least distance (coal) from the URDF collision meshes of the links
+    named `prefix...` to the bare capsules of `person` as the trajectory's scene poses them."""
+    robot = UrdfRobot(trajectory.robot, dict(trajectory.hands))
+    human = Human(next(h for h in trajectory.scene.humans if h.name == person))
+    capsules = [(coal.Capsule(c.radius, c.length), at) for c, at in zip(human.capsules, human.capsule_placements())]
+    out = []
+    for point in trajectory.points:
+        robot.configure(dict(trajectory.start) | dict(zip(trajectory.joint_names, point.positions)))
+        out.append(
+            min(
+                nearest(g.geometry, placed, capsule, at).min_distance
+                for g, placed in zip(robot.geometry.geometryObjects, robot.geometry_data.oMg)
+                if g.name.startswith(prefix)
+                for capsule, at in capsules
+            )
+        )
+    return np.array(out)

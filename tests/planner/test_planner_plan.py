@@ -176,7 +176,10 @@ def test_keep_out_zone_applies_to_every_link(problem):
         frame=FrameRef(offset=Pose(xyz=tuple(elbow - (0, 0, 0.1)))),
     )
     session.set_constraints([zone])
-    assert session.plan(start, problem.goal).motion.status == "invalid_start"  # the elbow is inside
+    # the elbow is inside: it first leaves (planner/leave.py; before: invalid_start), then every link stays out
+    left = session.plan(start, problem.goal, PlanOptions(seed=1))
+    assert left.solved and left.leave is not None and constraint_violations(left.trajectory) == []
+    assert left.leave.start["elbow_joint"] == start["elbow_joint"] != left.trajectory.start["elbow_joint"]
     session.set_constraints([zone.model_copy(update={"keep_out_all_links": False})])
     tool_only = session.plan(start, problem.goal, PlanOptions(seed=1))
     assert tool_only.solved  # only the tool is constrained

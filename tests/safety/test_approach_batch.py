@@ -199,7 +199,7 @@ def _reference(
             margin = policy.margin  # the padding taken off the separation, the factor below the cap
             allowed = margin.speed_factor * _allowed(policy.robot, person, d - margin.padding, pairs.capsules[k])
             values.append((d, approach, allowed, contact, k))
-        stopped = [row for row in values if row[2] <= 0.0]
+        stopped = [row for row in values if row[2] <= 0.0 and row[1] > 1e-9]  # closing inside S_0
         if stopped:
             d, _, _, _, k = min(stopped, key=lambda row: row[0])
             return (
@@ -209,7 +209,7 @@ def _reference(
                 f"would have to stand still there)"
             )
         binding = min(values, key=lambda row: row[2] - row[1])
-        scale = min((row[2] / row[1] for row in values if row[1] > 0.0), default=math.inf)
+        scale = min((row[2] / row[1] for row in values if row[1] > 1e-9), default=math.inf)
         body = min((row[0] for row in values if not row[3]), default=math.inf)
         rows.append(
             (

@@ -228,7 +228,8 @@ def test_a_motion_near_a_person_is_slower_and_keeps_the_limit():
     assert worst >= -0.02 and gap > 0.0
 
 
-def test_a_start_inside_the_minimum_separation_fails_with_the_reason():
+def test_a_start_trapped_inside_the_minimum_separation_fails_with_the_reason():
+    # the wrist is 9 cm from her pelvis, the hand between her legs: every way out comes closer to her
     bystander = HumanSpec(name="dana", position=(0.8, 0.6), yaw=math.pi)
     session = PlanningSession("madar", Scene(humans=[bystander]), hands={"right": "open"})
     q0, path = _right_arm_path(session.robot)
@@ -237,10 +238,12 @@ def test_a_start_inside_the_minimum_separation_fails_with_the_reason():
     assert session.plan(start, goal, group="right_arm", safety=None).solved  # without the policy it plans and runs
     result = session.plan(start, goal, group="right_arm")  # by default the ontology's policy: dana a bystander
     assert session.policy() == default_policy("madar", [bystander])
-    # the planner keeps S_0 (safety/zones.py): the start is refused before any search
-    assert result.status == "invalid_start"
-    assert result.message.startswith("start is inside a person's minimum separation of ISO/TS 15066")
-    assert " - dana/" in result.message and "(minimum separation 0.600 m)" in result.message  # S_0 + padding
+    # no leave phase exists (planner/leave.py): the start is refused before any search, in one line
+    assert result.status == "invalid_start" and result.leave is None and "\n" not in result.message
+    assert result.message == (
+        "the start is inside a person's minimum separation of ISO/TS 15066 (0.600 m): right_wrist_2_link - "
+        "dana/middle_pelvis 0.094 m apart, and no motion of right_arm moves away without coming closer"
+    )  # S_0 + padding
 
 
 def test_a_task_passing_too_close_to_a_collaborator_fails_in_one_line(tmp_path):
@@ -257,12 +260,8 @@ def test_a_task_passing_too_close_to_a_collaborator_fails_in_one_line(tmp_path):
     )
     assert result.returncode == 1 and "Traceback" not in result.stderr
     failure = result.stderr.strip().splitlines()[-1]
-    # she stands within S_0 of the arm's start: refused before planning (before: after planning, by the timing)
-    assert (
-        failure.startswith("planning failed at step carry") and "(invalid_start): " in failure and " - dana/" in failure
-    )
-    assert (
-        "is inside a person's minimum separation of ISO/TS 15066" in failure
-        and "(minimum separation 0.360 m)" in failure  # S_0 + padding
-    )
-    assert not list(tmp_path.glob("t*.json"))
+    # she stands within S_0 of the arm's start: the arm first leaves (carry_leave, before: refused
+    # there), but the place is inside her S_0 and the padding: refused before planning
+    assert failure.startswith("planning failed at step carry (unreachable_goal): ") and " - dana/" in failure
+    assert "dana/middle_pelvis (minimum separation 0.365 m)" in failure  # S_0 + padding (+ 5 mm slack)
+    assert sorted(p.name for p in tmp_path.glob("t*.json")) == ["t.carry_leave.json", "t.carry_prepare.json"]

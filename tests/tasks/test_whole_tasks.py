@@ -1,5 +1,5 @@
 """Whole tasks: a step after a place or a handover with the same hand, both arms in sequence, a
-posture goal, a step already where it goes (tests/data/whole_tasks/). Before the release, every step after a place started
+posture goal, a step already where it goes, a start a bystander has walked up to (tests/data/whole_tasks/). Before the release, every step after a place started
 "in collision: right_hand_finger_0 - cup".
 
 Each release is re-checked on the URDF's collision meshes (tests/independent.py), apart from the
@@ -8,6 +8,7 @@ of it with the posture the file records and with the task's closed hand, and the
 where it was put for every later step."""
 
 import functools
+import re
 from pathlib import Path
 
 import coal
@@ -22,7 +23,7 @@ from hriplan.robots.scene import Obstacle, Sphere
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
-from independent import UrdfRobot, constraint_violations, hand_distances
+from independent import UrdfRobot, constraint_violations, hand_distances, person_distances
 
 DATA = Path(__file__).parents[1] / "data" / "whole_tasks"
 STEPS = {
@@ -42,6 +43,7 @@ STEPS = {
     "pick_hand_over_ready": ["pick", "pick_lift", "give_prepare", "give", "give_release", "back"],
     "soup_bowl_held_top": ["put_down_prepare", "put_down", "put_down_release"],
     "soup_bowl_held_searched": ["put_down_prepare", "put_down", "put_down_release"],
+    "bystander_at_the_waiting_hand": ["home_leave", "home"],
 }
 
 
@@ -171,3 +173,55 @@ def test_both_arms_go_to_a_posture_in_one_step():
     end = dict(last.start) | dict(zip(last.joint_names, last.points[-1].positions))
     arm_joints = [j for j in end if j.startswith(("right_", "left_")) and "hand" not in j]
     assert len(arm_joints) == 12 and max(abs(end[j] - home.get(j, 0.0)) for j in arm_joints) < 1e-6
+
+
+def test_a_hand_a_bystander_walked_up_to_leaves_coming_closer_to_no_one_then_the_step_plans():
+    # Before: "home: invalid_start: start is in collision: ... - keep-out:keep_out_kim"; the hand
+    # waited 0.7 m in front of kim, inside her keep-out cylinder (0.8 m) and her S_0.
+    _, task, outcome = run("bystander_at_the_waiting_hand")
+    leave, home = outcome.steps
+    assert (leave.name, leave.status, home.status) == ("home_leave", "solved", "solved"), leave.message
+    # independently (URDF meshes, coal, kim's bare capsules): the least distance of every robot
+    # link to kim never shrinks at any written point (within the timing spline's 10 um)
+    d = person_distances(leave.trajectory, "kim")
+    assert d[0] < 0.55 and np.diff(d).min() > -1e-5, np.diff(d).min()
+    # it ends outside her S_0 = v_h (T_r + T_s) + C + Z_d + Z_r = 1.6 * 0.3 + 0 + 0.05 + 0.02 (bystander, MADAR)
+    assert d[-1] > 1.6 * 0.3 + 0.05 + 0.02
+    # and with every URDF collision shape outside her keep-out cylinder, as the home step places it
+    (cylinder,) = [c for c in home.trajectory.constraints if c.spec.id == "keep_out_kim"]
+    robot = UrdfRobot("madar", dict(leave.trajectory.hands))
+    ends = [leave.trajectory.points[0], leave.trajectory.points[-1]]
+    depth = []
+    for point in ends:
+        robot.configure(dict(leave.trajectory.start) | dict(zip(leave.trajectory.joint_names, point.positions)))
+        depth.append(robot.surface_distance(cylinder.spec, cylinder.frame_in_world.matrix(), "")[0])
+    assert depth[0] < 0.0 < depth[1], depth
+    # the leave keeps no keep-out it started in; the home step keeps it and all its constraints
+    assert "keep_out_kim" not in {c.spec.id for c in leave.trajectory.constraints}
+    assert constraint_violations(home.trajectory) == []
+
+
+def test_a_bystander_at_the_arm_the_step_does_not_move_is_a_one_line_refusal(tmp_path):
+    # kim stands 0.65 m in front of the waiting LEFT hand (at about (-0.78, 0.37)); the step moves
+    # the right arm, so nothing it does takes the left hand out of her keep-out cylinder
+    text = (DATA / "bystander_at_the_waiting_hand.yaml").read_text()
+    moved = text.replace("position: [0.25, 1.25]", "position: [-0.85, 1.0]")
+    assert moved != text
+    (tmp_path / "t.yaml").write_text(moved)
+    outcome = TaskRunner(load_task(tmp_path / "t.yaml"), tmp_path).run()
+    (step,) = outcome.steps
+    assert (step.name, step.status, step.trajectory) == ("home_leave", "invalid_start", None)
+    found = re.fullmatch(
+        r"the start is inside a keep-out volume: (left_\w+) in keep-out:keep_out_kim by (0\.\d{3}) m, "
+        r"which right_arm does not move",
+        step.message,
+    )
+    assert found, step.message
+    # independently: the left arm's URDF meshes reach into the 0.8 m cylinder around kim's base
+    urdf = UrdfRobot("madar", {"right": "power"})
+    urdf.configure(posture("madar", "ready"))
+    base = np.eye(4)
+    base[:2, 3] = (-0.85, 1.0)
+    spec = type("Cylinder", (), {"type": "cylinder", "radius": 0.8, "height": 2.0})
+    depth, _ = urdf.surface_distance(spec, base, "left_")
+    assert depth < 0.0, depth

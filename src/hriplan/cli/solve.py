@@ -32,15 +32,27 @@ def solve_problem_file(path: Path, output: Path | None, seed: int | None, as_jso
     if not result.solved:
         typer.echo(f"planning failed ({result.status}): {result.message}", err=True)
         return 1
-    trajectory = result.trajectory
+    trajectory, leave = result.trajectory, result.leave
+    left = None if output is None or leave is None else output.with_name(f"{output.stem}.leave{output.suffix}")
     if output is not None:
         output.parent.mkdir(parents=True, exist_ok=True)
         trajectory.save(output)
+        if left is not None:
+            leave.save(left)
     report = trajectory.report
     if as_json:
         typer.echo(report.model_dump_json(indent=1))
         return 0
-    lines = [
+    lines = (
+        []
+        if leave is None
+        else [
+            f"{problem.name}: the start lay in a keep-out volume or a person's minimum separation: a leave phase "
+            f"first, {len(leave.points)} points over {leave.report.duration:.2f} s, coming closer to no one"
+            + ("" if left is None else f" (written to {left})")
+        ]
+    )
+    lines += [
         f"{problem.name}: solved in {report.planning_time:.3f} s ({report.planner} on the {report.space} space), "
         f"{len(trajectory.points)} points over {report.duration:.2f} s, path {report.path_length:.2f} rad (straight line {report.straight_length:.2f})",
         f"validated at {report.states_checked} states (<= {options.validation_step} rad apart):",

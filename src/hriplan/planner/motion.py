@@ -158,6 +158,11 @@ def _check_group(robot: Robot, bound: list[BoundConstraint], group: str) -> None
             )
 
 
+def motion_group(robot: Robot, goal: Target, group: str | None) -> str:
+    """The group a motion plans: the one given, else a tool goal's own arm, else the whole robot."""
+    return group or (robot.arm_group(goal.arm) if isinstance(goal, ToolTarget) else robot.default_group)
+
+
 def plan_motion(
     robot: Robot,
     checker: CollisionChecker,
@@ -171,8 +176,7 @@ def plan_motion(
     """Plan a constrained, collision-free motion of `group` from `start` to `goal`. With `safety`,
     the moving parts keep ISO/TS 15066's minimum separation from people (safety/zones.py)."""
     options = options or PlanOptions()
-    # No group: a tool goal moves its own arm only, a joint goal the whole robot.
-    group = group or (robot.arm_group(goal.arm) if isinstance(goal, ToolTarget) else robot.default_group)
+    group = motion_group(robot, goal, group)
     joint_names = robot.group_joints(group)
     q_start = robot.configuration(start) if isinstance(start, dict) else robot.configuration(start, group)
     check_options(options)

@@ -23,7 +23,16 @@ from hriplan import HriplanError
 from hriplan.planner.constraints.binding import BoundConstraint, bind, resolve_frame, set_goal_positions
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec, OrientationConstraint
-from hriplan.planner.motion import JointTarget, MotionResult, Target, ToolTarget, plan_motion, with_keep_out
+from hriplan.planner.leave import leave_path
+from hriplan.planner.motion import (
+    JointTarget,
+    MotionResult,
+    Target,
+    ToolTarget,
+    motion_group,
+    plan_motion,
+    with_keep_out,
+)
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.search.ompl_solver import ompl_seed
@@ -64,12 +73,14 @@ def _retry_seed(seed: int | None, retry: int) -> int | None:
 
 
 class PlanResult(BaseModel):
-    """A planned motion and, only when solved, its validated timed trajectory."""
+    """A planned motion and, only when solved, its validated timed trajectory; before it, the
+    leave phase that first moved the start out of a keep-out volume or a person's S_0, if any."""
 
     status: Status
     motion: MotionResult
     trajectory: TrajectoryFile | None = None
     message: str = ""
+    leave: TrajectoryFile | None = None
 
     @model_validator(mode="after")
     def _solved_means_a_trajectory(self) -> PlanResult:
@@ -207,9 +218,27 @@ class PlanningSession:
 
         The motion keeps ISO/TS 15066 speed and separation from the scene's people (and fails,
         with the reason, where it cannot): by default with the ontology's policy (`policy()`),
-        else with the `safety` policy given; `safety=None` turns the speed limits off."""
+        else with the `safety` policy given; `safety=None` turns the speed limits off. A start
+        inside a keep-out volume or a person's S_0 first gets its leave phase (`leave`), and the
+        motion starts where that ends."""
         options = options or PlanOptions()
         safety = self.policy(safety)
+        group = motion_group(self.robot, goal, group)
+        result = self._planned(start, goal, options, group, safety)
+        if result.status != Status.INVALID_START:
+            return result
+        leave = self.leave(start, options, group, safety)  # only here: a valid start costs nothing more
+        if leave is None:
+            return result
+        if not leave.solved:
+            return leave
+        end = leave.trajectory.start | dict(zip(leave.trajectory.joint_names, leave.trajectory.points[-1].positions))
+        return self._planned(end, goal, options, group, safety).model_copy(update={"leave": leave.trajectory})
+
+    def _planned(
+        self, start: JointValues, goal: Target, options: PlanOptions, group: str, safety: SeparationPolicy | None
+    ) -> PlanResult:
+        """Plan and time from `start`, re-planned (within the time limit) while it cannot be timed."""
         started = perf_counter()
         for retry in range(TIMING_RETRIES + 1):
             remaining = options.time_limit - (perf_counter() - started)
@@ -229,6 +258,51 @@ class PlanningSession:
         if result.solved:
             last = result.trajectory.points[-1].positions
             self.configuration = dict(result.trajectory.start) | dict(zip(result.trajectory.joint_names, last))
+        return result
+
+    def leave(
+        self,
+        start: JointValues,
+        options: PlanOptions | None = None,
+        group: str | None = None,
+        safety: Safety = ONTOLOGY,
+    ) -> PlanResult | None:
+        """The leave phase of `group` from `start` (planner/leave.py): None when the start lies in
+        no keep-out volume and no person's S_0; else the motion out, timed and validated under
+        the session's constraints but the keep-outs it leaves, every timed point re-checked to
+        come no closer to anyone, or the one-line reason why there is no way out."""
+        options, group = options or PlanOptions(), group or self.robot.default_group
+        safety = self.policy(safety)
+        q0 = self.robot.configuration(start) if isinstance(start, dict) else self.robot.configuration(start, group)
+        bound = bind(list(self.constraints.values()), self.robot, self.checker)
+        started = perf_counter()
+        found = leave_path(self.robot, self.checker, bound, group, q0, safety)
+        if found is None:
+            return None
+        motion = MotionResult(
+            planning_time=perf_counter() - started,
+            status=Status.SOLVED if found.path else Status.INVALID_START,
+            message=found.message,
+            group=group,
+            joint_names=self.robot.group_joints(group),
+            start=dict(zip(self.robot.joint_names, q0.tolist())),
+            path=[x.tolist() for x in found.path or []],
+        )
+        if found.path is None:
+            return PlanResult(status=Status.INVALID_START, motion=motion, message=found.message)
+        everything = self.constraints
+        self.constraints = {i: c for i, c in everything.items() if i not in found.left}
+        try:
+            result = self.time(motion, options, safety)
+        finally:
+            self.constraints = everything
+        if not result.solved:
+            return result.model_copy(update={"message": f"the leave phase could not be timed: {result.message}"})
+        timed = [p.positions for p in result.trajectory.points]
+        breach = found.receding(timed)
+        if breach:
+            message = f"the timed leave phase comes closer {breach}"
+            return PlanResult(status=Status.TIMING_FAILED, motion=motion, message=message)
         return result
 
     def time(self, motion: MotionResult, options: PlanOptions | None = None, safety: Safety = ONTOLOGY) -> PlanResult:

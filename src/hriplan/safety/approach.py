@@ -6,7 +6,9 @@ person's closest point (the robot speed v_r of ISO/TS 15066), per unit of the jo
 given (its whole speed near a contact region, see separation.py). The allowed speed comes from
 `separation.kept_speeds` (ISO/TS 15066's limit with the policy's margin); the ratio of the two
 bounds the path speed. A moved part inside a person's minimum separation and its padding (allowed
-speed 0) is an error: the robot would have to stand still there.
+speed 0) may only move away from them (ISO/TS 15066 permits motion away at any separation: a
+leave phase, planner/leave.py); moving towards them there is an error: the robot would have to
+stand still.
 
 All points of one call are measured in one batch (safety/person_distance.py): timing asks for
 the whole path at once, and one coal query per point and pair was most of a re-plan's time.
@@ -33,6 +35,9 @@ from hriplan.safety.separation import (
 
 # Below this separation (m) the direction to the person is undefined: the part's whole speed counts.
 _TOUCHING = 1e-6
+# Speeds towards a person below this (m/s per unit joint velocity) are not closing: a part moving
+# away inside S_0 along a smooth path may round off to a hair above 0.
+CLOSING = 1e-9
 
 
 @dataclass(frozen=True)
@@ -128,7 +133,8 @@ class ApproachMonitor:
         approach = np.where(whole, np.linalg.norm(v, axis=2), towards)
         allowed = kept_speeds(self.policy, person, distance, pairs.capsules)
         iso = allowed_speeds(self.policy.robot, person, distance, pairs.capsules)
-        stopped = allowed <= 0.0
+        closing = approach > CLOSING
+        stopped = (allowed <= 0.0) & closing
         if stopped.any():
             n = int(np.flatnonzero(stopped.any(axis=1))[0])
             k = int(np.flatnonzero(stopped[n])[np.argmin(distance[n, stopped[n]])])
@@ -140,7 +146,6 @@ class ApproachMonitor:
                 f"robot would have to stand still there)",
             )
         binding = np.argmin(allowed - approach, axis=1)
-        closing = approach > 0.0
         scale = np.min(np.where(closing, allowed / np.where(closing, approach, 1.0), np.inf), axis=1)
         body = np.min(np.where(contact, np.inf, distance), axis=1)
         at = np.arange(len(qs))

@@ -25,11 +25,12 @@ START_CLEARANCE = 1e-4
 
 
 def separation_zones(
-    checker: CollisionChecker, robot: Robot, policy: SeparationPolicy, group: str, q_start: np.ndarray
+    checker: CollisionChecker, robot: Robot, policy: SeparationPolicy, group: str, q_start: np.ndarray | None
 ) -> SeparationZones:
     """Per person of the scene in `policy`: S_0 + padding (+ slack) around every capsule outside their
     contact regions. The slack is cut where the start already lies within it, so a start that
-    the timing accepts (outside S_0 + padding) is a valid start for planning."""
+    the timing accepts (outside S_0 + padding) is a valid start for planning; without a start
+    (None) the zones keep their whole slack (where a leave phase must end, planner/leave.py)."""
     moving = robot.moved_joints(group)
     distances: dict[str, dict[str, float]] = {}
     for name in checker.humans:
@@ -37,11 +38,12 @@ def separation_zones(
         if person is None:
             continue
         s0 = kept_separation(policy, person)  # S_0 and the policy's padding
-        pairs = checker.person_pairs(q_start, name)
-        moved = np.array([int(j) in moving for j in pairs.joints], dtype=bool)
         at_start: dict[str, float] = {}
-        for capsule, distance in zip(np.array(pairs.capsules)[moved], pairs.distance[moved]):
-            at_start[capsule] = min(at_start.get(capsule, np.inf), float(distance))
+        if q_start is not None:
+            pairs = checker.person_pairs(q_start, name)
+            moved = np.array([int(j) in moving for j in pairs.joints], dtype=bool)
+            for capsule, distance in zip(np.array(pairs.capsules)[moved], pairs.distance[moved]):
+                at_start[capsule] = min(at_start.get(capsule, np.inf), float(distance))
         distances[name] = {
             capsule.name: s0
             + float(np.clip(at_start.get(capsule.name, np.inf) - s0 - START_CLEARANCE, 0.0, ZONE_SLACK))

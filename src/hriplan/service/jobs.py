@@ -76,6 +76,7 @@ def _plan_response(result: PlanResult, ros: bool) -> Reply:
         status=result.status,
         message=message,
         trajectory=result.trajectory,
+        leave=result.leave,
         joint_trajectory=joint_trajectory(result.trajectory) if ros and result.trajectory else None,
     )
     return response.model_dump_json(by_alias=True), JSON

@@ -32,6 +32,11 @@ class PlanResponse(BaseModel):
     status: Status
     message: str = ""
     trajectory: TrajectoryFile | None = None
+    leave: TrajectoryFile | None = Field(
+        default=None,
+        description="The leave phase to run first where the start lay in a keep-out volume or a person's "
+        "minimum separation: the trajectory starts where it ends.",
+    )
     joint_trajectory: JointTrajectory | None = Field(
         default=None, description="With ?ros=true: the trajectory as a ROS JointTrajectory."
     )

@@ -46,13 +46,18 @@ from hriplan.tasks.model import (
 from hriplan.tasks.task_state import TaskState, human_spec
 
 if TYPE_CHECKING:  # the planner (OMPL, TOPP-RA) loads only when a step is planned
-    from hriplan.planner.session import PlanningSession
+    from hriplan.planner.session import PlanningSession, PlanResult
 
 Progress = Callable[[str], None]
-# Motions the pipeline adds to a task step, named after it: a turn in place before, a lift after a
-# pick, the hand opening and backing away after a release.
-PREPARE, LIFT_OFF, RELEASE = "_prepare", "_lift", "_release"
-ADDED_MOTIONS = {PREPARE: "the preparatory motion before", LIFT_OFF: "the lift after", RELEASE: "the retreat after"}
+# Motions the pipeline adds to a task step, named after it: leaving a keep-out or a person's S_0
+# and a turn in place before, a lift after a pick, the hand opening and backing away after a release.
+LEAVE, PREPARE, LIFT_OFF, RELEASE = "_leave", "_prepare", "_lift", "_release"
+ADDED_MOTIONS = {
+    LEAVE: "the leave phase before",
+    PREPARE: "the preparatory motion before",
+    LIFT_OFF: "the lift after",
+    RELEASE: "the retreat after",
+}
 # Goals at whose end the arm lets its object go.
 RELEASING = (PlaceGoal, HandOverGoal, InsertGoal)
 
@@ -338,17 +343,21 @@ class TaskRunner:
         start: dict[str, float],
         outcome: StepOutcome,
     ) -> tuple[list[StepOutcome], dict[str, float]]:
-        """Plan the step, after a preparatory motion if its start violates one of its orientation
+        """Plan the step, after leaving a keep-out volume or a person's S_0 the start lies in
+        (planner/leave.py) and a preparatory motion if its start violates one of its orientation
         or cone constraints (planner/prepare.py), and lift what it picks off its support (planner/lift.py)."""
         session = self._session()
         session.set_scene(outcome.scene)
+        left, start = self._leave(outcome, start)
+        outcomes = [] if left is None else [left]
+        if left is not None and left.status != Status.SOLVED:
+            return outcomes, start
         goal = resolved[0].goal if len(resolved) == 1 else self._joint_goal(resolved, start)
         prepared = (
             preparatory_goal(session.robot, session.checker, _pairs(outcome.derivation), start)
             if len(outcome.arms) == 1
             else None
         )
-        outcomes = []
         if prepared is not None:
             turned = set(prepared.violated)
             kept = [c for c in outcome.derivation.constraints if c.spec.id not in turned]
@@ -380,6 +389,31 @@ class TaskRunner:
             retreat, end = self._release(step.goal, resolved[0], state, end, final)
             outcomes.append(retreat)
         return outcomes, end
+
+    def _leave(self, outcome: StepOutcome, start: dict[str, float]) -> tuple[StepOutcome | None, dict[str, float]]:
+        """Where the step's start lies in a keep-out volume or a person's S_0, the motion out of it
+        first (planner/leave.py; its own trajectory, timed and validated under the step's
+        constraints but the keep-outs it leaves); None where there is nothing to leave."""
+        session, derivation = self._session(), outcome.derivation
+        session.set_constraints(derivation.constraint_set())
+        options = self._options().model_copy(update={"velocity_scale": derivation.velocity_scale})
+        result = session.leave(start, options, self._group(outcome.arms), derivation.separation)
+        if result is None:
+            return None, start
+        leaving = outcome.model_copy(update={"name": f"{outcome.name}{LEAVE}", "kind": "Transport"})
+        if not result.solved:
+            return leaving.model_copy(update={"status": result.status, "message": result.message}), start
+        kept = {c.spec.id for c in result.trajectory.constraints}
+        derivation = derivation.model_copy(
+            update={"constraints": [c for c in derivation.constraints if c.spec.id in kept]}
+        )
+        self.progress(f"{outcome.name}: the start lies in a keep-out volume or a person's S_0; leaving it first")
+        return self._record(leaving.model_copy(update={"derivation": derivation}), result, derivation, start)
+
+    def _group(self, arms: list[str]) -> str:
+        """The group a step moves: its one arm's, or the whole robot's."""
+        robot = self._session().robot
+        return robot.arm_group(arms[0]) if len(arms) == 1 else robot.default_group
 
     def _lift(
         self,
@@ -509,8 +543,7 @@ class TaskRunner:
         """Plan the path, re-derive with where it carries each object (nearness along the motion
         decides the velocity rules), then time it under the derived velocity scale."""
         session, robot = self._session(), self._session().robot
-        derivation, arms = outcome.derivation, outcome.arms
-        group = robot.arm_group(arms[0]) if len(arms) == 1 else robot.default_group
+        derivation, group = outcome.derivation, self._group(outcome.arms)
         options = self._options()
         self.progress(f"{outcome.name}: planning ({len(derivation.constraints)} constraints)")
 
@@ -542,6 +575,13 @@ class TaskRunner:
         (default: the task's) scene and constraints; the outcome with its trajectory, and where it ends."""
         options = self._options().model_copy(update={"velocity_scale": derivation.velocity_scale})
         result = (session or self._session()).time(motion, options, safety=derivation.separation)
+        return self._record(outcome, result, derivation, start)
+
+    def _record(
+        self, outcome: StepOutcome, result: PlanResult, derivation: Derivation, start: dict[str, float]
+    ) -> tuple[StepOutcome, dict[str, float]]:
+        """The outcome of a timed motion: its trajectory with the derivation's reasons and the
+        task's names, and where it ends (or the failure, and `start`)."""
         if not result.solved:
             return outcome.model_copy(update={"status": result.status, "message": result.message}), start
         trajectory = result.trajectory.model_copy(
