@@ -256,9 +256,12 @@ def speed_margins(
     positions: np.ndarray,
     velocities: np.ndarray,
     policy,
+    padding: float = 0.0,
+    factor: float = 1.0,
 ) -> tuple[float, float]:
-    """(worst allowed - actual speed towards a person, worst body separation - S_0) over every
-    sample, moving robot part and person capsule, from coal, pinocchio and the formulas."""
+    """(worst allowed - actual speed towards a person, worst body separation - S_0 - `padding`)
+    over every sample, moving robot part and person capsule, from coal, pinocchio and the
+    formulas; the allowed speed taken `padding` closer than measured and times `factor`."""
     robot = load_robot(robot_name, hands or None)
     model, data = robot.model, robot.data
     planned = {model.getJointId(j) for j in joint_names}
@@ -304,24 +307,26 @@ def speed_margins(
                     p_robot, p_person = result.getNearestPoint1(), result.getNearestPoint2()
                     velocity = (m_later.act(m_now.actInv(p_robot)) - p_robot) / h
                     region = next((c for c in person.contact if name in c.capsules), None)
-                    ssm = max(d - s0, 0.0) / travel
+                    ssm = max(d - padding - s0, 0.0) / travel
                     if region is None:
                         approach = float(velocity @ (p_person - p_robot)) / d
                         allowed = ssm
-                        worst_gap = min(worst_gap, d - s0)
+                        worst_gap = min(worst_gap, d - padding - s0)
                     else:
                         cap = iso_pfl(policy.robot, person, region)
                         approach, allowed = float(np.linalg.norm(velocity)), max(ssm, cap)
-                    worst_speed = min(worst_speed, allowed - approach)
+                    worst_speed = min(worst_speed, factor * allowed - approach)
     return worst_speed, worst_gap
 
 
-def trajectory_speed_margins(traj: TrajectoryFile, policy) -> tuple[float, float]:
+def trajectory_speed_margins(
+    traj: TrajectoryFile, policy, padding: float = 0.0, factor: float = 1.0
+) -> tuple[float, float]:
     """`speed_margins` over every point of a written trajectory."""
     positions = np.array([p.positions for p in traj.points])
     velocities = np.array([p.velocities for p in traj.points])
     return speed_margins(
-        traj.robot, traj.hands, traj.scene, traj.start, traj.joint_names, positions, velocities, policy
+        traj.robot, traj.hands, traj.scene, traj.start, traj.joint_names, positions, velocities, policy, padding, factor
     )
 
 

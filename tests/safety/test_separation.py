@@ -242,7 +242,7 @@ def test_a_start_trapped_inside_the_minimum_separation_fails_with_the_reason():
     assert result.status == "invalid_start" and result.leave is None and "\n" not in result.message
     assert result.message == (
         "the start is inside a person's minimum separation of ISO/TS 15066 (0.600 m): right_wrist_2_link - "
-        "dana/middle_pelvis 0.094 m apart, and no motion of right_arm moves away without coming closer"
+        "dana/middle_pelvis 0.089 m apart, and no motion of right_arm moves away without coming closer"
     )  # S_0 + padding
 
 

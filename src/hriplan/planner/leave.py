@@ -73,14 +73,17 @@ class Leave:
     message: str = ""
     measured: _Leaving | None = field(default=None, repr=False)
 
-    def receding(self, states: Sequence[np.ndarray]) -> str:
+    def receding(self, states: Sequence[np.ndarray], padding: float = 0.0) -> str:
         """Along `states` (group values: the timed motion), what first came closer to a person (a
-        part's least distance to them, a pair inside their zone; "" if nothing), by more than the
-        timing's spline through the steps may sway (TIMED_TOLERANCE)."""
+        part's least distance to them, a pair inside their zone and within ISO/TS 15066's own S_0,
+        the zone less the policy's `padding`; "" if nothing), by more than the timing's spline
+        through the steps may sway (TIMED_TOLERANCE). Between S_0 and the padding the timing
+        bounds the speed towards the person as ISO/TS 15066 does."""
         rows = self.measured.rows(np.asarray(states[0], dtype=float))
         for k, x in enumerate(states[1:], start=1):
             after = self.measured.rows(np.asarray(x, dtype=float))
-            breach = receding_breach(rows, after, rows.trouble & ~np.isnan(rows.limit), TIMED_TOLERANCE)
+            inside = rows.distance < rows.limit - padding  # nan limit (not a person row): False
+            breach = receding_breach(rows, after, rows.trouble & inside, TIMED_TOLERANCE)
             if breach:
                 return f"at point {k}: {breach}"
             rows = after

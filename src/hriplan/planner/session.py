@@ -292,14 +292,15 @@ class PlanningSession:
             return PlanResult(status=Status.INVALID_START, motion=motion, message=found.message)
         everything = self.constraints
         self.constraints = {i: c for i, c in everything.items() if i not in found.left}
-        try:
-            result = self.time(motion, options, safety)
+        try:  # timed to ISO/TS 15066's own S_0: the padding keeps motions towards people off it,
+            # and the leave, checked below to come closer to no one, starts inside it
+            result = self.time(motion, options, _without_padding(safety))
         finally:
             self.constraints = everything
         if not result.solved:
             return result.model_copy(update={"message": f"the leave phase could not be timed: {result.message}"})
         timed = [p.positions for p in result.trajectory.points]
-        breach = found.receding(timed)
+        breach = found.receding(timed, 0.0 if safety is None else safety.margin.padding)
         if breach:
             message = f"the timed leave phase comes closer {breach}"
             return PlanResult(status=Status.TIMING_FAILED, motion=motion, message=message)
@@ -466,6 +467,13 @@ def _resolved(bound: Iterable[BoundConstraint]) -> list[ResolvedConstraint]:
         )
         for c in bound
     ]
+
+
+def _without_padding(safety: SeparationPolicy | None) -> SeparationPolicy | None:
+    """`safety` with no padding on S_0 (its speed factor kept)."""
+    if safety is None:
+        return None
+    return safety.model_copy(update={"margin": safety.margin.model_copy(update={"padding": 0.0})})
 
 
 def _corners(path: np.ndarray) -> list[int]:
