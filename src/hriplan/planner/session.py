@@ -211,7 +211,8 @@ class PlanningSession:
     ):
         """TOPP-RA on the validated path (slowed near people by `monitor`), then dense validation."""
         velocity = self.robot.velocity_limit(group)
-        acceleration = np.full(len(velocity), options.acceleration_limit)
+        known = self.robot.description.acceleration_limits
+        acceleration = np.array([known.get(j, options.acceleration_limit) for j in self.robot.group_joints(group)])
         message = ""
         for step in TIMING_STEPS:
             knots = densify(list(path), step)

@@ -1,10 +1,12 @@
 """Numeric IK for any serial arm: damped least squares on pinocchio, with random restarts.
 
 A closed form exists only for a few arms (the UR family, robots/ik.py); every other arm is
-solved here. Full Gauss-Newton steps with a small damping, clamped to the joint limits, converge
-quadratically near a solution; a start that stalls (a limit, a singularity, a far branch) is
-replaced by a random one within the limits. Measured on example-robot-data's Panda and UR10
-(benchmarks/REPORT-ik.md): >= 99 % of reachable poses in a median of about a millisecond.
+solved here. Levenberg-Marquardt steps (damping grows with the squared error, as in Sugihara's
+method: long steps far away are tamed, and near a solution it converges quadratically), no joint
+moving more than a radian per step, clamped to the joint limits; a start that stalls (a limit,
+a singularity, a far branch) is replaced by a random one within the limits. Measured on
+example-robot-data's Panda and UR10 (benchmarks/REPORT-ik.md): >= 99 % of reachable poses,
+in a median of about a millisecond.
 """
 
 from __future__ import annotations
@@ -16,12 +18,13 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-DAMPING = 1e-6
-MAX_ITERATIONS = 60
-# Restarts after the first start: few targets need more than three (REPORT-ik.md).
-RESTARTS = 30
+DAMPING = 1e-6  # plus the squared error (m^2 + rad^2)
+MAX_STEP = 1.0  # rad (or m) per joint and iteration
+MAX_ITERATIONS = 80
+RESTARTS = 30  # after the first start; most targets need none (REPORT-ik.md)
 STALL_RATIO = 0.999  # an iteration that does not shrink the error by this factor counts as a stall
-STALLS = 5
+STALLS = 8
+IDENTITY = np.eye(6)
 
 
 @dataclass
@@ -40,8 +43,9 @@ class Chain:
 def _error(chain: Chain, q: np.ndarray, target: np.ndarray, axis: int | None) -> tuple[np.ndarray, np.ndarray]:
     """The 6-vector from the tool pose to the target (world axes) and its 6 x n Jacobian. With a
     free axis only that axis's direction counts: rotation about it is projected out."""
-    pose = pin.updateFramePlacement(chain.model, chain.data, chain.frame)
-    jac = pin.getFrameJacobian(chain.model, chain.data, chain.frame, pin.LOCAL_WORLD_ALIGNED)[:, chain.idx_v]
+    full = pin.computeFrameJacobian(chain.model, chain.data, q, chain.frame, pin.LOCAL_WORLD_ALIGNED)
+    jac = full[:, chain.idx_v]
+    pose = chain.data.oMf[chain.frame]
     position = target[:3, 3] - pose.translation
     if axis is None:
         return np.concatenate([position, pin.log3(target[:3, :3] @ pose.rotation.T)]), jac
@@ -61,17 +65,19 @@ def _descend(chain: Chain, q: np.ndarray, target: np.ndarray, axis: int | None, 
     """Damped least squares from `q` (a full configuration, changed in place) to the target."""
     best, stalls = math.inf, 0
     for _ in range(MAX_ITERATIONS):
-        pin.computeJointJacobians(chain.model, chain.data, q)
         error, jac = _error(chain, q, target, axis)
-        size = max(np.linalg.norm(error[:3]), np.linalg.norm(error[3:]))
-        if size < tolerance:
+        squared = float(error @ error)
+        if squared < tolerance**2:
             return q
-        stalls = stalls + 1 if size > STALL_RATIO * best else 0
+        stalls = stalls + 1 if squared > STALL_RATIO * best else 0
         if stalls >= STALLS:
             return None
-        best = min(best, size)
-        step = jac.T @ np.linalg.solve(jac @ jac.T + DAMPING * np.eye(6), error)
-        q[chain.idx_q] = np.clip(q[chain.idx_q] + step, chain.lower, chain.upper)
+        best = min(best, squared)
+        step = jac.T @ np.linalg.solve(jac @ jac.T + (DAMPING + squared) * IDENTITY, error)
+        largest = np.abs(step).max()
+        if largest > MAX_STEP:
+            step *= MAX_STEP / largest
+        q[chain.idx_q] = np.minimum(np.maximum(q[chain.idx_q] + step, chain.lower), chain.upper)
     return None
 
 
