@@ -6,6 +6,7 @@ plan keeps its joint limits, and every bad robot file is one line."""
 from __future__ import annotations
 
 import math
+import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -214,23 +215,13 @@ def test_loading_a_file_again_is_the_same_robot_and_a_taken_name_is_one_line(tmp
         load_robot_file(path)
 
 
-TWO_BRANCHES = """<robot name="fork">
-  <link name="base"/><link name="a"/><link name="b"/><link name="c"/>
-  <joint name="ja" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>
-    <limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
-  <joint name="jb" type="revolute"><parent link="base"/><child link="b"/><axis xyz="0 0 1"/>
-    <limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
-  <joint name="jc" type="fixed"><parent link="a"/><child link="c"/></joint>
-  <link name="d"><visual><geometry><mesh filename="meshes/d.stl"/></geometry></visual></link>
-  <joint name="jd" type="fixed"><parent link="c"/><child link="d"/></joint>
-</robot>
-"""
-FORK_SRDF = """<robot name="fork">
-  <group name="both"><joint name="ja"/><joint name="jb"/></group>
-  <group name="still"><joint name="jc"/></group>
-  <group name="a_only"><joint name="ja"/></group>
-</robot>
-"""
+FORK = DATA / "fork"  # a URDF with two branches from its base, an SRDF with groups on them
+
+
+@pytest.fixture
+def fork(tmp_path):
+    shutil.copytree(FORK, tmp_path, dirs_exist_ok=True)
+    return tmp_path
 
 
 @pytest.mark.parametrize(
@@ -252,12 +243,8 @@ FORK_SRDF = """<robot name="fork">
         ("{group: a_only, tool: c, hand: {gripper: [jb], open: 1, closed: 0}}", None),
     ],
 )
-def test_every_bad_robot_file_is_one_line(tmp_path, arm, message):
-    (tmp_path / "meshes").mkdir()
-    (tmp_path / "meshes" / "d.stl").write_text("solid d\nendsolid d\n")
-    (tmp_path / "fork.urdf").write_text(TWO_BRANCHES)
-    (tmp_path / "fork.srdf").write_text(FORK_SRDF)
-    path = tmp_path / "fork.yaml"
+def test_every_bad_robot_file_is_one_line(fork, arm, message):
+    path = fork / "fork.yaml"
     path.write_text(f"name: fork{abs(hash(arm))}\nurdf: fork.urdf\nsrdf: fork.srdf\narms:\n  arm: {arm}\n")
     if message is None:  # the one good file among them: the other branch is its gripper
         description = load_robot_file(path)
@@ -277,21 +264,21 @@ def test_every_bad_robot_file_is_one_line(tmp_path, arm, message):
         (('<link name="c"/>', ""), "URDF joint 'jc' names an unknown link 'c'"),
     ],
 )
-def test_a_bad_urdf_is_one_line(tmp_path, change, message):
-    (tmp_path / "meshes").mkdir()
-    (tmp_path / "meshes" / "d.stl").write_text("solid d\nendsolid d\n")
-    (tmp_path / "fork.urdf").write_text(TWO_BRANCHES.replace(*change))
-    path = tmp_path / "fork.yaml"
+def test_a_bad_urdf_is_one_line(fork, change, message):
+    (fork / "fork.urdf").write_text((FORK / "fork.urdf").read_text().replace(*change))
+    path = fork / "fork.yaml"
     path.write_text("name: fork\nurdf: fork.urdf\narms:\n  arm: {base: base, tip: c}\n")
     with pytest.raises(HriplanError) as error:
         load_robot_file(path)
-    assert message.format(tmp=tmp_path.resolve()) in str(error.value) and "\n" not in str(error.value)
+    assert message.format(tmp=fork.resolve()) in str(error.value) and "\n" not in str(error.value)
 
 
 def test_a_package_folder_named_in_the_file_resolves_meshes(tmp_path):
     (tmp_path / "pkg" / "meshes").mkdir(parents=True)
     (tmp_path / "pkg" / "meshes" / "d.stl").write_text("solid d\nendsolid d\n")
-    (tmp_path / "fork.urdf").write_text(TWO_BRANCHES.replace("meshes/d.stl", "package://mine/meshes/d.stl"))
+    (tmp_path / "fork.urdf").write_text(
+        (FORK / "fork.urdf").read_text().replace("meshes/d.stl", "package://mine/meshes/d.stl")
+    )
     path = tmp_path / "fork.yaml"
     path.write_text("name: forkpkg\nurdf: fork.urdf\npackages: {mine: pkg}\narms:\n  arm: {base: base, tip: c}\n")
     urdf = load_robot_file(path).urdf()

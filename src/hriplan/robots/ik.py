@@ -98,32 +98,39 @@ class _Arm:
 
 @functools.cache
 def _analytic_frames(robot: Robot, arm: str) -> tuple[np.ndarray, np.ndarray]:
-    """(A, B) with base_link^-1 . tool(q) = A . FK_solver(q) . B for every q: A a turn about the
-    base's z (the DH base differs from a URDF's by such a turn), B found at q = 0, both checked on
-    random configurations; an arm that does not fit is one line naming the largest difference."""
+    """Where the arm's analytic solver sits in the robot (`fit_analytic`); an arm it does not
+    fit is one line naming the arm."""
     description = robot.description.arms[arm]
-    solver = ANALYTIC_IK[description.ik]
-    n = len(description.joints)
-    if n != 6:
-        raise HriplanError(f"the {arm} arm has {n} joints; the {description.ik} solver is for 6 (use ik: numeric)")
 
-    def ours(values: np.ndarray) -> np.ndarray:
+    def relative_tool(values: np.ndarray) -> np.ndarray:
         q = robot.configuration(values, description.group)
         return np.linalg.inv(robot.frame_pose(description.base_link, q)) @ robot.frame_pose(description.tool_frame, q)
 
+    try:
+        return fit_analytic(description.ik, relative_tool, len(description.joints))
+    except HriplanError as exc:
+        raise HriplanError(f"the {arm} arm {exc}; use another analytic kind or ik: numeric") from None
+
+
+def fit_analytic(kind: str, relative_tool: Callable[[np.ndarray], np.ndarray], n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) with relative_tool(q) = A . FK_solver(q) . B for every q, `relative_tool` being the
+    tool pose in the arm's base link: A a turn about the base's z (the DH base differs from a
+    URDF's by such a turn), B found at q = 0, both checked on random configurations."""
+    solver = ANALYTIC_IK[kind]
+    if n != 6:
+        raise HriplanError(f"has {n} joints; the {kind} solver is for 6")
     samples = np.random.default_rng(0).uniform(-math.pi, math.pi, (CALIBRATION_SAMPLES, n))
     zero, best = np.zeros(n), math.inf
     for quarter in range(4):
         turn = _spin(2, quarter * math.pi / 2)
-        flange_to_tool = np.linalg.inv(solver.forward_kinematics(*zero)) @ np.linalg.inv(turn) @ ours(zero)
-        worst = max(np.abs(turn @ solver.forward_kinematics(*v) @ flange_to_tool - ours(v)).max() for v in samples)
+        flange_to_tool = np.linalg.inv(solver.forward_kinematics(*zero)) @ np.linalg.inv(turn) @ relative_tool(zero)
+        worst = max(
+            np.abs(turn @ solver.forward_kinematics(*v) @ flange_to_tool - relative_tool(v)).max() for v in samples
+        )
         if worst < CALIBRATION_TOLERANCE:
             return turn, flange_to_tool
         best = min(best, worst)
-    raise HriplanError(
-        f"the {arm} arm does not match the {description.ik} solver (its forward kinematics differ by up to "
-        f"{best:.3g} m); use another analytic kind or ik: numeric"
-    )
+    raise HriplanError(f"does not match the {kind} solver (its forward kinematics differ by up to {best:.3g} m)")
 
 
 def _vector(values: np.ndarray, size: int, what: str) -> np.ndarray:

@@ -125,7 +125,7 @@ def package_search_path() -> list[Path]:
     return [*folders, robots_dir().parent.parent]
 
 
-def _resolve(uri: str, packages: dict[str, Path], folder: Path, what: str) -> Path:
+def resolve_file(uri: str, packages: dict[str, Path], folder: Path, what: str) -> Path:
     """A file name as an absolute path: package://NAME/ through `packages` then the search path,
     file:// and relative names from `folder`; a file that is not there is an error."""
     match = PACKAGE_URI.match(uri)
@@ -160,15 +160,17 @@ class _Builder:
     def __init__(self, spec: RobotFile, folder: Path) -> None:
         self.spec = spec
         packages = {name: (folder / path).resolve() for name, path in spec.packages.items()}
-        urdf = _resolve(spec.urdf, packages, folder, "URDF file")
+        urdf = resolve_file(spec.urdf, packages, folder, "URDF file")
         self.root = _urdf_root(urdf)
         for el in self.root.iter("mesh"):
-            el.set("filename", str(_resolve(el.get("filename", ""), packages, urdf.parent, "mesh")))
+            el.set("filename", str(resolve_file(el.get("filename", ""), packages, urdf.parent, "mesh")))
         self.tree = UrdfTree(self.root)
         if spec.srdf is None:
             self.srdf = Srdf()
         else:
-            self.srdf = read_srdf(read_text(_resolve(spec.srdf, packages, folder, "SRDF file"), "SRDF file"), self.tree)
+            self.srdf = read_srdf(
+                read_text(resolve_file(spec.srdf, packages, folder, "SRDF file"), "SRDF file"), self.tree
+            )
 
     def arm_joints(self, arm: str, a: ArmSpec) -> list[str]:
         what = f"arms.{arm}"
@@ -318,6 +320,7 @@ class _Builder:
             base_pose=_xyz_rpy(spec.base_pose),
             acceleration_limits=acceleration,
             source=source,
+            srdf=self.srdf if spec.srdf else None,
         )
 
 

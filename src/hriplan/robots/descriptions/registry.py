@@ -18,6 +18,7 @@ from hriplan.robots import urdf_xml as X
 from hriplan.robots.descriptions.allegro import HAND_POSTURES, add_allegro, hand_joint_name, posture_values
 from hriplan.robots.descriptions.postures import MADAR_POSTURES, UR5_POSTURES
 from hriplan.robots.descriptions.ur5_arm import add_ur5, joint_names
+from hriplan.robots.srdf import Srdf
 
 MADAR_BASE = "madar_base_link"
 # Arm base mounts on the MADAR base (URDF rpy), as published for the real robot.
@@ -157,6 +158,9 @@ class RobotDescription:
     # rad/s^2 per joint where the description knows it (the planning options' limit otherwise).
     acceleration_limits: dict[str, float] = field(default_factory=dict)
     source: str = ""  # the robot file it was loaded from ("" for a built-in robot)
+    # What the robot's SRDF says (None without one); its disabled pairs are only reported
+    # (`hriplan robot check`) against the sampled allowed-collision matrix (acm.py), which decides.
+    srdf: Srdf | None = None
 
     @property
     def hands(self) -> list[str]:
