@@ -15,8 +15,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from hriplan.robots.descriptions.allegro import hand_joint_name, posture_values
-from hriplan.robots.descriptions.registry import description_of
+from hriplan.robots.descriptions.registry import description_of, hand_model
 
 
 def nearest(shape_a: coal.ShapeBase, at_a: pin.SE3, shape_b: coal.ShapeBase, at_b: pin.SE3) -> coal.DistanceResult:
@@ -58,16 +57,17 @@ class UrdfRobot:
     """A robot as its URDF says: the full model (fingers at their postures) and its collision meshes."""
 
     def __init__(self, name: str, hands: dict[str, str]) -> None:
-        urdf = description_of(name).urdf()
+        description = description_of(name)
+        urdf = description.urdf()
         self.model = pin.buildModelFromXML(urdf)
         self.data = self.model.createData()
         self.geometry = pin.buildGeomFromUrdfString(self.model, urdf, pin.COLLISION)
         self.geometry_data = pin.GeometryData(self.geometry)
-        self.fingers = {
-            hand_joint_name(f"{side}_", joint): value
-            for side, posture in hands.items()
-            for joint, value in posture_values(posture).items()
-        }
+        self.fingers = {}  # each hand's finger joint values at its posture (the hand model's data)
+        for side, posture in hands.items():
+            arm = description.arms[side]
+            hand = hand_model(arm.hand)
+            self.fingers |= {hand.joint_name(arm.prefix, j): v for j, v in hand.joint_values(posture).items()}
 
     def configure(self, values: dict[str, float]) -> None:
         """Forward kinematics (frames and collision geometry) for named joint values."""

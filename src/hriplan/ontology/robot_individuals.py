@@ -35,6 +35,8 @@ def _robot(d: RobotDescription) -> list[str]:
         f"    rdfs:comment {_text(f'{d.summary}: {arms}{with_hands}.')} ;",
         f"    hp:hasUrdfName {_text(d.name)} ; hp:hasArm {' , '.join(arm_ids)} .",
     ]
+    if d.stopping:
+        lines.append(f"hp:{d.name} " + " ; ".join(f"hp:{key} {value!r}" for key, value in d.stopping.items()) + " .")
     for (arm, a), arm_id in zip(d.arms.items(), arm_ids):
         # A one-armed robot's parts are the robot's ("UR5 arm"), a many-armed one's the arm's ("MADAR right arm").
         owner = d.label if len(d.arms) == 1 else f"{d.label} {arm}"

@@ -15,6 +15,7 @@ from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.planner.motion import Target
 from hriplan.planner.options import PlanOptions
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
+from hriplan.robots.robot_file import with_robot_name
 from hriplan.robots.scene import Scene
 
 
@@ -37,5 +38,5 @@ class PlanningProblem(BaseModel):
 
 
 def load_problem(path: str | Path) -> PlanningProblem:
-    """Read a problem file; errors name the file and the field."""
-    return load_model(path, PlanningProblem)
+    """Read a problem file (its `robot:` a name or a robot file); errors name the file and the field."""
+    return load_model(path, PlanningProblem, lambda data: with_robot_name(data, Path(path).parent))

@@ -267,6 +267,7 @@ class PlanningSession:
         start = dict(zip(self.robot.joint_names, q0.tolist()))
         return TrajectoryFile(
             robot=self.robot.name,
+            robot_file=self.robot.description.source,
             hands=self.robot.hand_postures,
             joint_names=motion.joint_names,
             start=start,

@@ -12,9 +12,11 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from hriplan import HriplanError
 from hriplan.files import load_model, write_atomically
 from hriplan.planner.constraints.spec import ConstraintSpec
 from hriplan.planner.outcome import Status
+from hriplan.robots.robot_file import load_robot_file
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.safety.report import SeparationTrace
@@ -65,6 +67,7 @@ class TrajectoryFile(BaseModel):
     schema_name: Literal["hriplan.trajectory"] = Field(default=SCHEMA, alias="schema")
     schema_version: Literal[1] = SCHEMA_VERSION
     robot: str
+    robot_file: str = ""  # the robot file the robot was loaded from ("" for a built-in robot)
     task: str = ""  # the task file's name and the step this motion is (empty for a bare problem)
     step: str = ""
     hands: dict[str, str] = Field(default_factory=dict)
@@ -100,4 +103,14 @@ class TrajectoryFile(BaseModel):
 
 
 def load_trajectory(path: str | Path) -> TrajectoryFile:
-    return load_model(path, TrajectoryFile)
+    """Read a trajectory file; a robot from a robot file is loaded from it (to re-check, to draw)."""
+    return load_model(path, TrajectoryFile, _load_robot_file)
+
+
+def _load_robot_file(data: dict) -> dict:
+    robot_file = data.get("robot_file")
+    if isinstance(robot_file, str) and robot_file:
+        name = load_robot_file(robot_file).name
+        if name != data.get("robot"):
+            raise HriplanError(f"robot_file: {robot_file} is robot {name!r}, not {data.get('robot')!r}")
+    return data

@@ -17,6 +17,7 @@ arms:
 postures: {ready: {panda_joint4: -2.0}}      # with the SRDF's group states
 limits: {panda_joint1: {velocity: 1.0, acceleration: 3.75}}
 base_pose: {xyz: [0, 0, 0.8]}
+stopping: {reaction_time: 0.1, stopping_time: 0.2, position_uncertainty: 0.02, moving_mass: 6.0}  # ISO/TS 15066
 ```
 Every problem (a group with no joints, an unknown link, a missing mesh, a non-serial arm, no tool
 frame) is one line naming the file and what is wrong.
@@ -32,7 +33,16 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import pinocchio as pin
-from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, StringConstraints, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    NonNegativeFloat,
+    PositiveFloat,
+    StringConstraints,
+    field_validator,
+    model_validator,
+)
 
 from hriplan import HriplanError
 from hriplan.files import load_model, read_text
@@ -100,6 +110,23 @@ class JointLimits(_Strict):
     acceleration: PositiveFloat | None = None
 
 
+class Stopping(_Strict):
+    """ISO/TS 15066 5.5.4 data a deployment measures: T_r, T_s (s), Z_r (m), and m_R (kg, Annex A.3.2)."""
+
+    reaction_time: PositiveFloat
+    stopping_time: PositiveFloat
+    position_uncertainty: NonNegativeFloat
+    moving_mass: PositiveFloat
+
+
+ONTOLOGY_STOPPING = {
+    "reaction_time": "hasReactionTime",
+    "stopping_time": "hasStoppingTime",
+    "position_uncertainty": "hasPositionUncertainty",
+    "moving_mass": "hasMovingMass",
+}
+
+
 class RobotFile(_Strict):
     name: Identifier
     label: str | None = None
@@ -111,6 +138,7 @@ class RobotFile(_Strict):
     postures: dict[str, dict[str, float]] = Field(default_factory=dict)
     limits: dict[str, JointLimits] = Field(default_factory=dict)
     base_pose: Pose = Field(default_factory=Pose)
+    stopping: Stopping | None = Field(None, description="Needed to plan: speed and separation use it.")
 
 
 def package_search_path() -> list[Path]:
@@ -321,12 +349,28 @@ class _Builder:
             acceleration_limits=acceleration,
             source=source,
             srdf=self.srdf if spec.srdf else None,
+            stopping={} if spec.stopping is None else {ONTOLOGY_STOPPING[k]: v for k, v in spec.stopping},
         )
 
 
 def _xyz_rpy(pose: Pose) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     rpy = pin.rpy.matrixToRpy(pose.se3().rotation)
     return tuple(pose.xyz), (float(rpy[0]), float(rpy[1]), float(rpy[2]))
+
+
+ROBOT_FILE_SUFFIXES = (".yaml", ".yml", ".json")
+
+
+def with_robot_name(data: dict, folder: Path) -> dict:
+    """A task's or problem's data with a robot file its `robot:` names (a path relative to
+    `folder`) loaded and replaced by the robot's name; a robot name is left as it is."""
+    robot = data.get("robot")
+    if not isinstance(robot, str) or not robot.endswith(ROBOT_FILE_SUFFIXES):
+        return data
+    try:
+        return data | {"robot": load_robot_file(folder / robot).name}
+    except HriplanError as exc:
+        raise HriplanError(f"robot: {exc}") from None
 
 
 def load_robot_file(path: str | Path) -> RobotDescription:

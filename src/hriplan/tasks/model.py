@@ -233,7 +233,11 @@ class Planning(_Strict):
 class TaskFile(_Strict):
     name: Name = "task"
     description: str = ""
-    robot: str = Field(DEFAULT_ROBOT, json_schema_extra={"enum": list(DESCRIPTIONS)})
+    robot: str = Field(
+        DEFAULT_ROBOT,
+        description="A robot's name, or a robot file (YAML, relative to the task file).",
+        json_schema_extra={"examples": list(DESCRIPTIONS)},
+    )
     hands: dict[str, str] = Field(
         default_factory=dict,
         json_schema_extra={

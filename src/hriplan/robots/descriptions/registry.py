@@ -161,6 +161,9 @@ class RobotDescription:
     # What the robot's SRDF says (None without one); its disabled pairs are only reported
     # (`hriplan robot check`) against the sampled allowed-collision matrix (acm.py), which decides.
     srdf: Srdf | None = None
+    # ISO/TS 15066 stopping data of a robot from a file (ontology property -> value, e.g.
+    # hasReactionTime -> 0.1 s); a built-in robot's are in hriplan.ttl, with their sources.
+    stopping: dict[str, float] = field(default_factory=dict)
 
     @property
     def hands(self) -> list[str]:
