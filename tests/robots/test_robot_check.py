@@ -12,21 +12,13 @@ import yaml
 from typer.testing import CliRunner
 
 from hriplan.cli.main import app
-from hriplan.robots.descriptions import registry
 
 ROBOTS = Path(example_robot_data.getModelPath("panda_description/urdf/panda.urdf")).resolve()
 PANDA = ROBOTS / "panda_description"
 DATA = Path(__file__).parents[1] / "data" / "robots"
 
 
-@pytest.fixture(autouse=True)
-def registered():
-    """Robot files register their robots and hands: for this test only."""
-    descriptions, hands = dict(registry.DESCRIPTIONS), dict(registry.HAND_MODELS)
-    yield
-    for table, saved in ((registry.DESCRIPTIONS, descriptions), (registry.HAND_MODELS, hands)):
-        table.clear()
-        table.update(saved)
+pytestmark = pytest.mark.usefixtures("robot_registry")
 
 
 def invoke(*args):

@@ -18,7 +18,6 @@ import pytest
 from hriplan import HriplanError
 from hriplan.planner.motion import JointTarget
 from hriplan.planner.session import PlanningSession
-from hriplan.robots.descriptions import registry
 from hriplan.robots.ik import ik_solutions, solve_ik
 from hriplan.robots.model import load_robot
 from hriplan.robots.robot_file import load_robot_file
@@ -30,14 +29,7 @@ PANDA_URDF = ROBOTS / "panda_description" / "urdf" / "panda.urdf"
 UR10_URDF = ROBOTS / "ur_description" / "urdf" / "ur10_robot.urdf"
 
 
-@pytest.fixture(scope="module", autouse=True)
-def registered():
-    """The robot files' descriptions and hand models, registered for this module only."""
-    descriptions, hands = dict(registry.DESCRIPTIONS), dict(registry.HAND_MODELS)
-    yield
-    for table, saved in ((registry.DESCRIPTIONS, descriptions), (registry.HAND_MODELS, hands)):
-        table.clear()
-        table.update(saved)
+pytestmark = pytest.mark.usefixtures("module_robot_registry")
 
 
 @pytest.fixture(scope="module")

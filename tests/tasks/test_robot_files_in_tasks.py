@@ -23,15 +23,7 @@ ROBOTS = Path(example_robot_data.getModelPath("panda_description/urdf/panda.urdf
 PANDA_URDF = ROBOTS / "panda_description" / "urdf" / "panda.urdf"
 
 
-@pytest.fixture(autouse=True)
-def registered():
-    """Robot files register their robots and hands: for this test only (so each test also shows
-    that a trajectory file brings its robot file back)."""
-    descriptions, hands = dict(registry.DESCRIPTIONS), dict(registry.HAND_MODELS)
-    yield
-    for table, saved in ((registry.DESCRIPTIONS, descriptions), (registry.HAND_MODELS, hands)):
-        table.clear()
-        table.update(saved)
+pytestmark = pytest.mark.usefixtures("robot_registry")
 
 
 def forget_robot_files() -> None:
