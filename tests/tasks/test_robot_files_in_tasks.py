@@ -4,6 +4,7 @@ and each written trajectory is re-checked by the tests' own geometry and forward
 
 from __future__ import annotations
 
+import csv
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -91,3 +92,33 @@ def test_a_task_naming_a_missing_robot_file_is_one_line(tmp_path):
     result = invoke("constraints", task)
     assert result.exit_code == 2 and result.stderr.count("\n") == 1
     assert result.stderr.strip() == f"error: {task}: robot: {tmp_path.resolve() / 'robots' / 'none.yaml'}: no such file"
+
+
+def test_a_task_read_again_elsewhere_loads_its_robot_file():
+    # What a service request or a re-read variant does: validate the task's data in a process
+    # that never loaded the robot file (before, `unknown robot 'panda'`).
+    from hriplan.tasks.load import load_task
+    from hriplan.tasks.model import TaskFile
+
+    data = load_task(DATA / "panda_cup.yaml").model_dump(mode="json", by_alias=True)
+    assert data["robot"] == "panda" and data["robot_file"] == str((DATA / "panda.yaml").resolve())
+    forget_robot_files()
+    assert TaskFile.model_validate(data).robot == "panda"
+    assert registry.DESCRIPTIONS["panda"].source == data["robot_file"]
+
+
+def test_a_sweep_of_a_task_on_a_robot_file_plans_in_its_worker_processes(tmp_path):
+    # Spawned workers know only the built-in robots: each loads the variant's robot file (before,
+    # every row was `error: unknown robot 'panda'`).
+    result = invoke(
+        "sweep", DATA / "panda_cup.yaml", "-o", tmp_path / "sweep", "--vary", "objects.cup.fill_level=Full,Empty",
+        "--workers", "1", "--format", "csv", "-q",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    with open(tmp_path / "sweep" / "results.csv", newline="") as table:
+        rows = list(csv.DictReader(table))
+    assert sorted((r["vary.objects.cup.fill_level"], r["step"], r["status"]) for r in rows) == [
+        ("Empty", "carry", "solved"),
+        ("Full", "carry", "solved"),
+        ("Full", "carry_prepare", "solved"),
+    ]

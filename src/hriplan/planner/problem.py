@@ -8,14 +8,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hriplan.files import load_model
 from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.planner.motion import Target
 from hriplan.planner.options import PlanOptions
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
-from hriplan.robots.robot_file import with_robot_name
+from hriplan.robots.robot_file import registered_robot_file, with_robot_name
 from hriplan.robots.scene import Scene
 
 
@@ -25,6 +25,7 @@ class PlanningProblem(BaseModel):
     name: str = "problem"
     description: str = ""
     robot: str = DEFAULT_ROBOT
+    robot_file: str = Field("", description="The robot file `robot` came from (absolute; set by load_problem).")
     hands: dict[str, str] = Field(default_factory=dict)
     scene: Scene = Field(default_factory=Scene)
     constraints: ConstraintSet = Field(default_factory=ConstraintSet)
@@ -35,6 +36,11 @@ class PlanningProblem(BaseModel):
     # Speed and separation: each person's role (ontology: Receiver, Giver, Supervisor, ...), which
     # sets their ISO/TS 15066 parameters; people not named are bystanders.
     roles: dict[str, str] = Field(default_factory=dict)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _robot_file_loaded(cls, data: object) -> object:
+        return registered_robot_file(data)
 
 
 def load_problem(path: str | Path) -> PlanningProblem:

@@ -12,11 +12,10 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from hriplan import HriplanError
 from hriplan.files import load_model, write_atomically
 from hriplan.planner.constraints.spec import ConstraintSpec
 from hriplan.planner.outcome import Status
-from hriplan.robots.robot_file import load_robot_file
+from hriplan.robots.robot_file import registered_robot_file
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.safety.report import SeparationTrace
@@ -78,6 +77,11 @@ class TrajectoryFile(BaseModel):
     constraints: list[ResolvedConstraint]
     report: TrajectoryReport
 
+    @model_validator(mode="before")
+    @classmethod
+    def _robot_file_loaded(cls, data: object) -> object:
+        return registered_robot_file(data)
+
     @model_validator(mode="after")
     def _a_motion(self) -> TrajectoryFile:
         """At least two points, one value per joint each, times from 0 strictly increasing."""
@@ -103,14 +107,5 @@ class TrajectoryFile(BaseModel):
 
 
 def load_trajectory(path: str | Path) -> TrajectoryFile:
-    """Read a trajectory file; a robot from a robot file is loaded from it (to re-check, to draw)."""
-    return load_model(path, TrajectoryFile, _load_robot_file)
-
-
-def _load_robot_file(data: dict) -> dict:
-    robot_file = data.get("robot_file")
-    if isinstance(robot_file, str) and robot_file:
-        name = load_robot_file(robot_file).name
-        if name != data.get("robot"):
-            raise HriplanError(f"robot_file: {robot_file} is robot {name!r}, not {data.get('robot')!r}")
-    return data
+    """Read a trajectory file (a robot from a robot file is loaded from it: to re-check, to draw)."""
+    return load_model(path, TrajectoryFile)

@@ -363,14 +363,30 @@ ROBOT_FILE_SUFFIXES = (".yaml", ".yml", ".json")
 
 def with_robot_name(data: dict, folder: Path) -> dict:
     """A task's or problem's data with a robot file its `robot:` names (a path relative to
-    `folder`) loaded and replaced by the robot's name; a robot name is left as it is."""
+    `folder`) loaded: `robot` becomes the robot's name and `robot_file` the file's absolute path
+    (so a process that reads the data again, a sweep's worker, loads it too); a name is left as it is."""
     robot = data.get("robot")
     if not isinstance(robot, str) or not robot.endswith(ROBOT_FILE_SUFFIXES):
         return data
+    path = (folder / robot).resolve()
     try:
-        return data | {"robot": load_robot_file(folder / robot).name}
+        return data | {"robot": load_robot_file(path).name, "robot_file": str(path)}
     except HriplanError as exc:
         raise HriplanError(f"robot: {exc}") from None
+
+
+def registered_robot_file(data: object) -> object:
+    """A model's data before validation, its `robot_file` (if any) loaded and registered; for the
+    models whose `robot` may come from a robot file (tasks, problems, trajectories)."""
+    robot_file = data.get("robot_file") if isinstance(data, dict) else None
+    if isinstance(robot_file, str) and robot_file:
+        try:
+            name = load_robot_file(robot_file).name
+        except HriplanError as exc:
+            raise ValueError(f"robot_file: {exc}") from None
+        if name != data.get("robot"):
+            raise ValueError(f"robot_file: {robot_file} is robot {name!r}, not {data.get('robot')!r}")
+    return data
 
 
 def load_robot_file(path: str | Path) -> RobotDescription:
