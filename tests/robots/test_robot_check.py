@@ -7,6 +7,8 @@ import shutil
 from pathlib import Path
 
 import example_robot_data
+import numpy as np
+import pinocchio as pin
 import pytest
 import yaml
 from typer.testing import CliRunner
@@ -94,3 +96,29 @@ def test_init_of_a_missing_urdf_is_one_line_and_exit_2(tmp_path):
     result = invoke("robot", "init", "--urdf", tmp_path / "none.urdf", "-o", tmp_path / "x.yaml")
     assert result.exit_code == 2 and result.stderr.strip() == f"error: missing URDF file {tmp_path / 'none.urdf'}"
     assert not (tmp_path / "x.yaml").exists()
+
+
+def test_robot_info_and_urdf_take_a_robot_file(tmp_path):
+    info = invoke("robot", "info", DATA / "panda.yaml", "--hand", "arm=closed")
+    assert info.exit_code == 0, info.output
+    assert info.stdout.splitlines()[:3] == [
+        "robot panda: 7 planning joints",
+        "hands: arm closed",
+        "group arm (7 joints)",
+    ]
+    exported = invoke("robot", "urdf", DATA / "ur10.yaml")
+    assert exported.exit_code == 0, exported.output
+    assert (
+        'filename="package://example-robot-data/robots/ur_description/meshes/ur10/collision/base.stl"'
+        in exported.stdout
+    )
+    (tmp_path / "ur10.urdf").write_text(exported.stdout)
+    model = pin.buildModelFromUrdf(str(tmp_path / "ur10.urdf"))
+    original = pin.buildModelFromUrdf(str(ROBOTS / "ur_description" / "urdf" / "ur10_robot.urdf"))
+    q = np.random.default_rng(0).uniform(-1.0, 1.0, 6)
+    poses = []
+    for m in (model, original):
+        data = m.createData()
+        pin.framesForwardKinematics(m, data, q)
+        poses.append(data.oMf[m.getFrameId("tool0")].homogeneous)
+    assert np.abs(poses[0] - poses[1]).max() < 1e-12

@@ -75,7 +75,9 @@ HandOption = Annotated[
 ]
 
 
-RobotName = Annotated[str | None, typer.Argument(help="madar or ur5 (none: list the robots).", show_default=False)]
+RobotName = Annotated[
+    str | None, typer.Argument(help="madar, ur5 or a robot file (none: list the robots).", show_default=False)
+]
 
 
 @robot_app.command("info")
@@ -89,14 +91,15 @@ def robot_info(name: RobotName = None, hand: HandOption = []) -> None:  # noqa: 
         return
     from hriplan.robots.info import describe
     from hriplan.robots.model import load_robot
+    from hriplan.robots.robot_file import robot_name
 
-    typer.echo(describe(load_robot(name, _postures(hand))))
+    typer.echo(describe(load_robot(robot_name(name), _postures(hand))))
 
 
 @robot_app.command("urdf")
 @clear_errors
 def robot_urdf(
-    name: Annotated[str, typer.Argument(help="madar or ur5.", show_default=False)],
+    name: Annotated[str, typer.Argument(help="madar, ur5 or a robot file.", show_default=False)],
     mesh_dir: Annotated[
         Path | None,
         typer.Option("--mesh-dir", help="Write mesh paths into this copy of example-robot-data's robots/ folder."),
@@ -109,8 +112,9 @@ def robot_urdf(
     """
     from hriplan.cli.urdf_export import portable_urdf
     from hriplan.robots.descriptions.registry import description_of
+    from hriplan.robots.robot_file import robot_name
 
-    sys.stdout.write(portable_urdf(description_of(name).urdf(), mesh_dir) + "\n")
+    sys.stdout.write(portable_urdf(description_of(robot_name(name)).urdf(), mesh_dir) + "\n")
 
 
 @robot_app.command("check")

@@ -361,16 +361,26 @@ def _xyz_rpy(pose: Pose) -> tuple[tuple[float, float, float], tuple[float, float
 ROBOT_FILE_SUFFIXES = (".yaml", ".yml", ".json")
 
 
+def is_robot_file(robot: str) -> bool:
+    """Whether a `robot` value names a robot file (a path) rather than a robot."""
+    return robot.endswith(ROBOT_FILE_SUFFIXES)
+
+
+def robot_name(robot: str) -> str:
+    """The name of a robot given by name or by a robot file (loaded and registered)."""
+    return load_robot_file(robot).name if is_robot_file(robot) else robot
+
+
 def with_robot_name(data: dict, folder: Path) -> dict:
     """A task's or problem's data with a robot file its `robot:` names (a path relative to
     `folder`) loaded: `robot` becomes the robot's name and `robot_file` the file's absolute path
     (so a process that reads the data again, a sweep's worker, loads it too); a name is left as it is."""
     robot = data.get("robot")
-    if not isinstance(robot, str) or not robot.endswith(ROBOT_FILE_SUFFIXES):
+    if not isinstance(robot, str) or not is_robot_file(robot):
         return data
     path = (folder / robot).resolve()
     try:
-        return data | {"robot": load_robot_file(path).name, "robot_file": str(path)}
+        return data | {"robot": robot_name(str(path)), "robot_file": str(path)}
     except HriplanError as exc:
         raise HriplanError(f"robot: {exc}") from None
 
