@@ -12,7 +12,8 @@
 A `ToolTarget(arm="right")` planned without a `group` moves that arm only; a `JointTarget` without
 one moves the whole robot. Named start postures: `posture("madar", "ready")` (`POSTURES` lists
 them); frames a constraint can be anchored at on a person: `FrameRef(entity="bob/right_hand")`,
-with `PERSON_FRAMES` the frame names every person has.
+with `PERSON_FRAMES` the frame names every person has. Any robot from its URDF and SRDF:
+`PlanningSession("robots/panda.yaml")` takes a robot file (`load_robot_file` registers it by name).
 
 Threads: a session is not thread-safe, and neither are two sessions of the same robot in two
 threads (robots are shared per description, OMPL's seed is global). Plan from one thread, or
@@ -41,6 +42,7 @@ from hriplan.planner.trajectory import TrajectoryFile, load_trajectory
 from hriplan.robots.descriptions.registry import POSTURES, posture
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
+from hriplan.robots.robot_file import load_robot_file
 from hriplan.robots.scene import AttachedObject, Box, Capsule, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.load import load_task
@@ -101,6 +103,7 @@ __all__ = [
     "ToolTarget",
     "TrajectoryFile",
     "load_robot",
+    "load_robot_file",
     "load_task",
     "load_trajectory",
     "posture",

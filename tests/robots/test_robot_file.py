@@ -163,7 +163,9 @@ def test_a_panda_joint_goal_plan_keeps_its_urdf_limits_and_continuity(panda):
     independent = Independent(PANDA_URDF)
     start = panda.description.postures["default"]
     goal = JointTarget(values={"panda_joint1": 1.0, "panda_joint2": 0.2, "panda_joint4": -1.5, "panda_joint6": 2.0})
-    result = PlanningSession(panda).plan(start, goal, group="arm")
+    session = PlanningSession(str(DATA / "panda.yaml"))  # a session takes the robot file itself
+    assert session.robot is panda
+    result = session.plan(start, goal, group="arm")
     assert result.solved, result.message
     trajectory = result.trajectory
     assert trajectory.robot == "panda" and trajectory.joint_names == panda.group_joints("arm")

@@ -31,6 +31,7 @@ from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.ik import solve_two_arms
 from hriplan.robots.model import JointValues, Robot, load_robot
+from hriplan.robots.robot_file import robot_name
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose, Transform
 from hriplan.safety.approach import ApproachMonitor
@@ -69,12 +70,13 @@ class PlanResult(BaseModel):
 
 
 class PlanningSession:
-    """A robot in a scene, ready to plan constrained motions again and again."""
+    """A robot (loaded, its name, or a robot file) in a scene, ready to plan constrained motions
+    again and again."""
 
     def __init__(
         self, robot: str | Robot = DEFAULT_ROBOT, scene: Scene | None = None, hands: dict[str, str] | None = None
     ) -> None:
-        self.robot = robot if isinstance(robot, Robot) else load_robot(robot, hands)
+        self.robot = robot if isinstance(robot, Robot) else load_robot(robot_name(robot), hands)
         self.checker = CollisionChecker(self.robot, scene or Scene())
         self.constraints: dict[str, ConstraintSpec] = {}
 
