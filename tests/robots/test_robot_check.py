@@ -122,3 +122,17 @@ def test_robot_info_and_urdf_take_a_robot_file(tmp_path):
         pin.framesForwardKinematics(m, data, q)
         poses.append(data.oMf[m.getFrameId("tool0")].homogeneous)
     assert np.abs(poses[0] - poses[1]).max() < 1e-12
+
+
+@pytest.mark.parametrize(
+    "urdf, name, kind",
+    [("ur3_robot.urdf", "ur3", "ur3_analytic"), ("ur5_robot.urdf", "ur5_robot", "ur5_analytic")],
+)
+def test_init_picks_the_analytic_solver_that_fits_each_ur_arm(tmp_path, urdf, name, kind):
+    # The UR5's name is a built-in robot's: the file's robot is named after the URDF's robot_.
+    out = tmp_path / "robot.yaml"
+    result = invoke(
+        "robot", "init", "--urdf", f"package://example-robot-data/robots/ur_description/urdf/{urdf}", "-o", out
+    )
+    assert result.exit_code == 0, result.output
+    assert result.stdout.strip() == f"wrote {out}: robot {name}, arms arm (6 joints, tool tool0, IK {kind})"
