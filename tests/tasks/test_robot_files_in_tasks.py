@@ -122,3 +122,17 @@ def test_a_sweep_of_a_task_on_a_robot_file_plans_in_its_worker_processes(tmp_pat
         ("Full", "carry", "solved"),
         ("Full", "carry_prepare", "solved"),
     ]
+
+
+def test_a_ur10_from_its_urdf_alone_carries_a_container_upright_past_a_supervisor(tmp_path):
+    result = invoke("plan", DATA / "ur10_container.yaml", "-o", tmp_path / "carry.json")
+    assert result.exit_code == 0, result.output
+    forget_robot_files()
+    trajectory = load_trajectory(tmp_path / "carry.json")
+    assert trajectory.robot == "ur10_carrier" and trajectory.robot_file == str((DATA / "ur10_carrier.yaml").resolve())
+    assert sorted((c.spec.type, c.spec.target_link) for c in trajectory.constraints) == [
+        ("cylinder", "arm_tool"),  # the supervisor's keep-out, every link
+        ("orientation", "arm_tool"),  # the container upright
+    ]
+    assert constraint_violations(trajectory) == []
+    assert trajectory.points[-1].positions[0] == pytest.approx(0.8, abs=1e-6)

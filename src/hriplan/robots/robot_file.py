@@ -14,6 +14,7 @@ arms:
     tool_offset: {xyz: [0, 0, 0.05]}         # optional: a frame ARM_tool at this offset
     hand: {gripper: [panda_finger_joint1, panda_finger_joint2], open: 0.04, closed: 0.0}  # or none, allegro
     ik: numeric                              # or an analytic UR kind (ur10_analytic, ...)
+    object_axis: -z                          # the tool axis along a held object's z (default)
 postures: {ready: {panda_joint4: -2.0}}      # with the SRDF's group states
 limits: {panda_joint1: {velocity: 1.0, acceleration: 3.75}}
 base_pose: {xyz: [0, 0, 0.8]}
@@ -86,7 +87,10 @@ class ArmSpec(_Strict):
     tool_offset: Pose | None = None
     hand: Literal["none", "allegro"] | Gripper = "none"
     ik: str = "numeric"
-    object_axis: Literal["+x", "-x", "+y", "-y", "+z", "-z"] = "+z"
+    object_axis: Literal["+x", "-x", "+y", "-y", "+z", "-z"] = Field(
+        "-z",
+        description="The tool axis along a held object's z axis (-z: held out of the tool, upright when it points down).",
+    )
     model: str | None = Field(None, description="The arm's model in words (default: the robot's label).")
 
     @field_validator("ik")
