@@ -277,3 +277,20 @@ def test_a_package_folder_named_in_the_file_resolves_meshes(tmp_path):
     path.write_text("name: forkpkg\nurdf: fork.urdf\npackages: {mine: pkg}\narms:\n  arm: {base: base, tip: c}\n")
     urdf = load_robot_file(path).urdf()
     assert f'filename="{(tmp_path / "pkg" / "meshes" / "d.stl").resolve()}"' in urdf
+
+
+def test_a_robot_file_robot_is_an_ontology_individual_with_its_stopping_data(panda):
+    from hriplan.ontology.robot_individuals import robot_turtle
+
+    turtle = robot_turtle()
+    assert "hp:panda hp:hasReactionTime 0.1 ; hp:hasStoppingTime 0.2 ; hp:hasPositionUncertainty 0.02" in turtle
+    assert (
+        "hp:panda_arm a owl:NamedIndividual , hp:Arm" in turtle
+        and "hp:panda_arm_hand a owl:NamedIndividual" not in turtle
+    )
+    assert "hp:panda_hand a owl:NamedIndividual , hp:RobotHand" in turtle  # the gripper
+    for k in range(1, 8):
+        assert (
+            f'hp:panda_panda_joint{k} a owl:NamedIndividual , hp:Joint ; hp:hasUrdfName "panda_joint{k}" ; hp:hasChainIndex {k} .'
+            in turtle
+        )
