@@ -220,13 +220,7 @@ class _Builder:
             if self.tree.joints[j].type == "continuous":
                 raise HriplanError(f"{what}: joint {j!r} is continuous; give it limits (a revolute joint)")
         for before, after in zip(movable, movable[1:]):
-            above = [j.name for j in self.tree.ancestors(self.tree.joints[after].parent)]
-            moving = (
-                [j for j in above[: above.index(before)] if self.tree.joints[j].type in MOVABLE]
-                if before in above
-                else None
-            )
-            if moving != []:
+            if self.tree.moving_between(before, self.tree.joints[after].parent) != []:
                 raise HriplanError(f"{what}: not a serial chain: joint {after!r} does not follow joint {before!r}")
         return movable
 
@@ -244,8 +238,7 @@ class _Builder:
         else:
             link = a.tip
         last = joints[-1]
-        above = [j.name for j in self.tree.ancestors(link)]
-        if last not in above or any(self.tree.joints[j].type in MOVABLE for j in above[: above.index(last)]):
+        if self.tree.moving_between(last, link) != []:
             raise HriplanError(f"{what}: link {link!r} does not move rigidly with the arm's last joint {last!r}")
         if a.tool_offset is None:
             return link

@@ -77,6 +77,13 @@ class UrdfTree:
             link = joint.parent
         return path
 
+    def moving_between(self, joint: str, link: str) -> list[str] | None:
+        """The moving joints from `link` up to (not including) `joint`; None if `joint` is not above it."""
+        above = [j.name for j in self.ancestors(link)]
+        if joint not in above:
+            return None
+        return [j for j in above[: above.index(joint)] if self.joints[j].type in MOVABLE]
+
     def chain(self, base: str, tip: str, what: str) -> list[str]:
         """The joints from `base` down to `tip` (root first), as MoveIt reads an SRDF chain."""
         path, link = [], self.link(tip, what)
