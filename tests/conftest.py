@@ -1,9 +1,12 @@
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from hriplan.planner.problem import load_problem
+from hriplan.robots.descriptions import registry
 from hriplan.robots.model import load_robot
 
 
@@ -21,3 +24,27 @@ def rng():
 def problem():
     """The UR5 keeping a box upright (benchmarks/scenarios): the planner tests' shared problem."""
     return load_problem(Path(__file__).parents[1] / "benchmarks" / "scenarios" / "a_ur5_upright_box.json")
+
+
+@contextlib.contextmanager
+def _restored_robot_registry() -> Iterator[None]:
+    """Robot files register their robots and hand models: undo it when the block ends."""
+    descriptions, hands = dict(registry.DESCRIPTIONS), dict(registry.HAND_MODELS)
+    yield
+    for table, saved in ((registry.DESCRIPTIONS, descriptions), (registry.HAND_MODELS, hands)):
+        table.clear()
+        table.update(saved)
+
+
+@pytest.fixture
+def robot_registry():
+    """The robots robot files register in a test, for that test only."""
+    with _restored_robot_registry():
+        yield
+
+
+@pytest.fixture(scope="module")
+def module_robot_registry():
+    """The robots robot files register in a test module, for that module only."""
+    with _restored_robot_registry():
+        yield

@@ -20,8 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.planner.trajectory import TrajectoryFile
-from hriplan.robots.descriptions.allegro import hand_joint_name, posture_values
-from hriplan.robots.descriptions.registry import description_of
+from hriplan.robots.descriptions.registry import description_of, hand_model
 from hriplan.robots.human import Human
 from hriplan.robots.model import load_robot
 from hriplan.robots.robot_geometry import robot_parts
@@ -84,16 +83,17 @@ class UrdfRobot:
     """A robot as its URDF says: the full model (fingers at their postures) and its collision meshes."""
 
     def __init__(self, name: str, hands: dict[str, str]) -> None:
-        urdf = description_of(name).urdf()
+        description = description_of(name)
+        urdf = description.urdf()
         self.model = pin.buildModelFromXML(urdf)
         self.data = self.model.createData()
         self.geometry = pin.buildGeomFromUrdfString(self.model, urdf, pin.COLLISION)
         self.geometry_data = pin.GeometryData(self.geometry)
-        self.fingers = {
-            hand_joint_name(f"{side}_", joint): value
-            for side, posture in hands.items()
-            for joint, value in posture_values(posture).items()
-        }
+        self.fingers = {}  # each hand's finger joint values at its posture (the hand model's data)
+        for side, posture in hands.items():
+            arm = description.arms[side]
+            hand = hand_model(arm.hand)
+            self.fingers |= {hand.joint_name(arm.prefix, j): v for j, v in hand.joint_values(posture).items()}
 
     def configure(self, values: dict[str, float]) -> None:
         """Forward kinematics (frames and collision geometry) for named joint values."""

@@ -22,7 +22,8 @@ moved, what the robot holds, its `configuration`; `from_step` continues the task
 A `ToolTarget(arm="right")` planned without a `group` moves that arm only; a `JointTarget` without
 one moves the whole robot. Named start postures: `posture("madar", "ready")` (`POSTURES` lists
 them); frames a constraint can be anchored at on a person: `FrameRef(entity="alice/right_hand")`,
-with `PERSON_FRAMES` the frame names every person has.
+with `PERSON_FRAMES` the frame names every person has. Any robot from its URDF and SRDF:
+`PlanningSession("robots/panda.yaml")` takes a robot file (`load_robot_file` registers it by name).
 
 Threads: a session is not thread-safe, and neither are two sessions of the same robot in two
 threads (robots are shared per description, OMPL's seed is global). Plan from one thread, or
@@ -52,6 +53,7 @@ from hriplan.planner.trajectory import TrajectoryFile, load_trajectory
 from hriplan.robots.descriptions.registry import POSTURES, posture
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
+from hriplan.robots.robot_file import load_robot_file
 from hriplan.robots.scene import AttachedObject, Box, Capsule, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
 from hriplan.safety.policy import default_policy
@@ -139,6 +141,7 @@ __all__ = [
     "TrajectoryFile",
     "default_policy",
     "load_robot",
+    "load_robot_file",
     "load_task",
     "load_trajectory",
     "posture",

@@ -11,7 +11,7 @@ import glob
 import json
 import os
 import secrets
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
@@ -185,9 +185,15 @@ def write_atomically(path: str | Path, data: str | bytes) -> Path:
     return Path(path)
 
 
-def load_model(path: str | Path, model: type[M]) -> M:
-    """Parse a file as `model`; any problem is one line: `FILE: FIELD: what is wrong`."""
+def load_model(path: str | Path, model: type[M], prepare: Callable[[dict], dict] | None = None) -> M:
+    """Parse a file as `model`, its data first through `prepare` (e.g. paths it names resolved);
+    any problem is one line: `FILE: FIELD: what is wrong`."""
     data = read_data(path)
+    if prepare is not None:
+        try:
+            data = prepare(data)
+        except HriplanError as exc:
+            raise HriplanError(f"{path}: {exc}") from None
     try:
         return model.model_validate(data)
     except ValidationError as exc:

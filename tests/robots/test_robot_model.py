@@ -198,7 +198,11 @@ def test_a_robot_is_its_description_not_its_name(monkeypatch):
         base_link="base_link",
         whole_group="all",
         postures={"ready": {}},
-        arms={"main": descriptions.ArmDescription("", "tool", "main_arm")},
+        arms={
+            "main": descriptions.ArmDescription(
+                "", "tool", "main_arm", descriptions.DESCRIPTIONS["ur5"].arms["arm"].joints, "base_link"
+            )
+        },
     )
     monkeypatch.setitem(descriptions.DESCRIPTIONS, "cell_ur5", main)
     robot = load_robot("cell_ur5")
@@ -223,7 +227,10 @@ def test_an_arm_names_its_ik_solver_and_its_hand_model(monkeypatch):
     kdl = replace(madar, arms={**madar.arms, "right": replace(right, ik="kdl")})
     monkeypatch.setitem(descriptions.DESCRIPTIONS, "madar_kdl", kdl)
     robot = load_robot("madar_kdl")
-    with pytest.raises(HriplanError, match="the right arm's IK solver 'kdl' is not supported; supported: ur5_analytic"):
+    with pytest.raises(
+        HriplanError,
+        match="the right arm's IK solver 'kdl' is not supported; supported: numeric, ur3_analytic, ur3e_analytic",
+    ):
         solve_ik(robot, "right", robot.frame_pose("right_tool", robot.q_neutral))
     assert solve_ik(robot, "left", robot.frame_pose("left_tool", robot.q_neutral)).success
     shadow = replace(madar, arms={**madar.arms, "right": replace(right, hand="shadow")})

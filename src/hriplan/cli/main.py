@@ -18,7 +18,9 @@ from hriplan.cli.view import plot, view
 app = typer.Typer(
     cls=OneLineErrors, no_args_is_help=True, add_completion=False, rich_markup_mode=None, pretty_exceptions_enable=False
 )
-robot_app = typer.Typer(help="Inspect the robot models.", no_args_is_help=True, rich_markup_mode=None)
+robot_app = typer.Typer(
+    help="Inspect the robot models; write and check robot files.", no_args_is_help=True, rich_markup_mode=None
+)
 app.add_typer(robot_app, name="robot")
 
 
@@ -46,6 +48,8 @@ def main(
       hriplan query --task examples/handover_full_can.yaml "SELECT ?c WHERE { ?h hp:isConstrainedBy ?c }"
       hriplan import-kautham problem.xml --plan                a Kautham problem, converted and planned
       hriplan robot info madar                                 joints, groups, limits, tool frames
+      hriplan robot init --urdf panda.urdf --srdf panda.srdf -o panda.yaml   a robot file for any robot
+      hriplan robot check panda.yaml                           what it holds, its IK measured
 
     \b
     Exit codes:
@@ -71,7 +75,9 @@ HandOption = Annotated[
 ]
 
 
-RobotName = Annotated[str | None, typer.Argument(help="madar or ur5 (none: list the robots).", show_default=False)]
+RobotName = Annotated[
+    str | None, typer.Argument(help="madar, ur5 or a robot file (none: list the robots).", show_default=False)
+]
 
 
 @robot_app.command("info")
@@ -85,14 +91,15 @@ def robot_info(name: RobotName = None, hand: HandOption = []) -> None:  # noqa: 
         return
     from hriplan.robots.info import describe
     from hriplan.robots.model import load_robot
+    from hriplan.robots.robot_file import robot_name
 
-    typer.echo(describe(load_robot(name, _postures(hand))))
+    typer.echo(describe(load_robot(robot_name(name), _postures(hand))))
 
 
 @robot_app.command("urdf")
 @clear_errors
 def robot_urdf(
-    name: Annotated[str, typer.Argument(help="madar or ur5.", show_default=False)],
+    name: Annotated[str, typer.Argument(help="madar, ur5 or a robot file.", show_default=False)],
     mesh_dir: Annotated[
         Path | None,
         typer.Option("--mesh-dir", help="Write mesh paths into this copy of example-robot-data's robots/ folder."),
@@ -105,8 +112,35 @@ def robot_urdf(
     """
     from hriplan.cli.urdf_export import portable_urdf
     from hriplan.robots.descriptions.registry import description_of
+    from hriplan.robots.robot_file import robot_name
 
-    sys.stdout.write(portable_urdf(description_of(name).urdf(), mesh_dir) + "\n")
+    sys.stdout.write(portable_urdf(description_of(robot_name(name)).urdf(), mesh_dir) + "\n")
+
+
+@robot_app.command("check")
+@clear_errors
+def robot_check(robot_file: Annotated[Path, typer.Argument(help="A robot file (YAML).", show_default=False)]) -> None:
+    """Load a robot file and print its SRDF groups, arms, joints, tool frames, IK kind with a
+    measured success rate on random reachable poses, postures and collision matrix; or one line
+    naming the problem (exit 2)."""
+    from hriplan.robots.robot_check import check_report
+
+    typer.echo(check_report(robot_file))
+
+
+@robot_app.command("init")
+@clear_errors
+def robot_init(
+    urdf: Annotated[str, typer.Option("--urdf", help="The robot's URDF (a path or package://).", show_default=False)],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Write the robot file here.", show_default=False)],
+    srdf: Annotated[str | None, typer.Option("--srdf", help="Its SRDF (arms from its end effectors).")] = None,
+) -> None:
+    """Write a starting robot file: an arm per SRDF end effector, or the longest chain of the URDF
+    by its base and tip links; a gripper from the joints below the tool; an analytic UR solver
+    where one fits, else numeric IK."""
+    from hriplan.robots.robot_check import write_starting_file
+
+    typer.echo(write_starting_file(urdf, srdf, output))
 
 
 @app.command()

@@ -9,7 +9,6 @@ separation"), with their sources, as statements about these individuals.
 from __future__ import annotations
 
 from hriplan.robots.descriptions.registry import DESCRIPTIONS, RobotDescription, hand_model
-from hriplan.robots.descriptions.ur5_arm import joint_names
 
 PREFIXES = """@prefix hp: <https://hriplan.org/ontology#> .
 @prefix owl: <http://www.w3.org/2002/07/owl#> .
@@ -36,11 +35,13 @@ def _robot(d: RobotDescription) -> list[str]:
         f"    rdfs:comment {_text(f'{d.summary}: {arms}{with_hands}.')} ;",
         f"    hp:hasUrdfName {_text(d.name)} ; hp:hasArm {' , '.join(arm_ids)} .",
     ]
+    if d.stopping:
+        lines.append(f"hp:{d.name} " + " ; ".join(f"hp:{key} {value!r}" for key, value in d.stopping.items()) + " .")
     for (arm, a), arm_id in zip(d.arms.items(), arm_ids):
         # A one-armed robot's parts are the robot's ("UR5 arm"), a many-armed one's the arm's ("MADAR right arm").
         owner = d.label if len(d.arms) == 1 else f"{d.label} {arm}"
         tool_id, hand_id = f"hp:{d.name}_{a.tool_frame}", f"hp:{d.name}_{a.prefix}hand"
-        joints = joint_names(a.prefix)
+        joints = a.joints
         hand = f" hp:hasRobotHand {hand_id} ;" if a.hand is not None else ""
         lines += [
             f"{arm_id} a owl:NamedIndividual , hp:Arm ; rdfs:label {_text(f'{owner} arm')} ;",

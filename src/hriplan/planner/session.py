@@ -44,6 +44,7 @@ from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.ik import solve_two_arms
 from hriplan.robots.model import JointValues, Robot, load_robot
+from hriplan.robots.robot_file import robot_name
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose, Transform
 from hriplan.safety.approach import ApproachMonitor
@@ -94,7 +95,8 @@ class PlanResult(BaseModel):
 
 
 class PlanningSession:
-    """A robot in a scene, ready to plan constrained motions again and again."""
+    """A robot (loaded, its name, or a robot file) in a scene, ready to plan constrained motions
+    again and again."""
 
     def __init__(
         self,
@@ -103,7 +105,7 @@ class PlanningSession:
         hands: dict[str, str] | None = None,
         roles: Mapping[str, str] | None = None,
     ) -> None:
-        self.robot = robot if isinstance(robot, Robot) else load_robot(robot, hands)
+        self.robot = robot if isinstance(robot, Robot) else load_robot(robot_name(robot), hands)
         self.checker = CollisionChecker(self.robot, scene or Scene())
         self.constraints: dict[str, ConstraintSpec] = {}
         # Each person's role (ontology: Receiver, Giver, ...): their ISO/TS 15066 values; others are bystanders.
@@ -366,14 +368,18 @@ class PlanningSession:
         where the timed motion leaves the path, again with rests at its corners (RESTS). A path
         that does not move (start equal to goal) is one state at rest, validated like any other."""
 
+        velocity = self.robot.velocity_limit(group)
+        known = self.robot.description.acceleration_limits
+        acceleration = np.array([known.get(j, options.acceleration_limit) for j in self.robot.group_joints(group)])
+
         def timed_with(step: float, rests: list[int]) -> TimedPath:
             ends = [0, *rests, len(path) - 1]
             return joined(
                 [
                     time_parameterize(
                         densify(list(path[a : b + 1]), step),
-                        self.robot.velocity_limit(group),
-                        np.full(len(path[0]), options.acceleration_limit),
+                        velocity,
+                        acceleration,
                         velocity_scale=options.velocity_scale,
                         speed_scale=None if monitor is None else monitor.speed_scale,
                     )
@@ -447,6 +453,7 @@ class PlanningSession:
         start = dict(zip(self.robot.joint_names, q0.tolist()))
         return TrajectoryFile(
             robot=self.robot.name,
+            robot_file=self.robot.description.source,
             hands=self.robot.hand_postures,
             joint_names=motion.joint_names,
             start=start,

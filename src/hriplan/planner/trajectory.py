@@ -17,6 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from hriplan.files import load_model, write_atomically
 from hriplan.planner.constraints.spec import ConstraintSpec
 from hriplan.planner.outcome import Status
+from hriplan.robots.robot_file import registered_robot_file
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.safety.report import SeparationTrace
@@ -82,6 +83,7 @@ class TrajectoryFile(BaseModel):
     schema_name: Literal["hriplan.trajectory"] = Field(default=SCHEMA, alias="schema")
     schema_version: Literal[1] = SCHEMA_VERSION
     robot: str
+    robot_file: str = ""  # the robot file the robot was loaded from ("" for a built-in robot)
     task: str = ""  # the task file's name and the step this motion is (empty for a bare problem)
     step: str = ""
     hands: dict[str, str] = Field(default_factory=dict)
@@ -93,6 +95,11 @@ class TrajectoryFile(BaseModel):
     points: list[TrajectoryPoint]
     constraints: list[ResolvedConstraint]
     report: TrajectoryReport
+
+    @model_validator(mode="before")
+    @classmethod
+    def _robot_file_loaded(cls, data: object) -> object:
+        return registered_robot_file(data)
 
     @model_validator(mode="after")
     def _a_motion(self) -> TrajectoryFile:
@@ -132,4 +139,5 @@ def is_trajectory_file(path: str | Path) -> bool:
 
 
 def load_trajectory(path: str | Path) -> TrajectoryFile:
+    """Read a trajectory file (a robot from a robot file is loaded from it: to re-check, to draw)."""
     return load_model(path, TrajectoryFile)

@@ -1,18 +1,21 @@
 """Inverse kinematics, so goals can be given as tool poses, by the solver kind each arm's
-description names (`ArmDescription.ik`; today every arm is a UR5: `ur5_analytic`).
+description names (`ArmDescription.ik`): `numeric` (any serial arm, robots/numeric_ik.py) or an
+analytic UR solver (`ur5_analytic`, `ur10e_analytic`, ...: `ANALYTIC_IK`).
 
-`ur_analytic_ik` gives every closed-form UR5 branch (up to 8) in microseconds. Its base and
-flange frames coincide with our `{prefix}base_link` and `{prefix}wrist_3_link` and its joint
-values are ours (checked to 1e-15 on random configurations; `tests/robots/test_ik.py` keeps that true):
-    inv(T_base_link) @ T_wrist_3_link(q) == ur_analytic_ik.ur5.forward_kinematics(*q).
-So a tool target only has to be moved into the arm base frame and back from tool to wrist_3.
+`ur_analytic_ik` gives every closed-form UR branch (up to 8) in microseconds, for a flange pose
+in its base frame with joint values that are ours. Where its frames sit in a robot's URDF is
+measured once per arm (`_analytic_frames`): the DH base is the arm's base link turned about z
+(by 0 for the MADAR description, by pi for ROS-Industrial's), the tool a fixed transform from the
+flange; an arm it does not fit (another model, other joint signs) is refused. So a tool target
+only has to be moved into the solver's base frame and back from tool to flange.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -20,6 +23,7 @@ import ur_analytic_ik
 from pydantic import BaseModel
 
 from hriplan import HriplanError
+from hriplan.robots import numeric_ik
 from hriplan.robots.collision import ZONE_NAMING
 from hriplan.robots.model import Robot
 
@@ -28,11 +32,32 @@ ORTHONORMAL_TOLERANCE = 1e-6
 POLISH_ITERATIONS = 10
 POLISH_DAMPING = 1e-6
 TWO_PI = 2.0 * math.pi
-# Per IK solver kind an arm description names: every closed-form solution for a flange pose
-# in the arm's base frame.
-IK_SOLVERS: dict[str, Callable[[np.ndarray], Sequence[np.ndarray]]] = {
-    "ur5_analytic": ur_analytic_ik.ur5.inverse_kinematics,
-}
+# The arms ur_analytic_ik solves (the UR7e and UR12e are the UR5e and UR10e renamed).
+UR_MODELS = (
+    "ur3",
+    "ur3e",
+    "ur5",
+    "ur5e",
+    "ur7e",
+    "ur8long",
+    "ur10",
+    "ur10e",
+    "ur12e",
+    "ur15",
+    "ur16e",
+    "ur18",
+    "ur20",
+    "ur30",
+)
+# Per analytic IK kind an arm description names: the solver's module (forward_kinematics,
+# inverse_kinematics: every closed-form solution for a flange pose in the solver's base frame).
+ANALYTIC_IK = {f"{model}_analytic": getattr(ur_analytic_ik, model) for model in UR_MODELS}
+NUMERIC_IK = "numeric"
+IK_KINDS = (NUMERIC_IK, *ANALYTIC_IK)
+DEFAULT_TOLERANCE = 1e-6  # m and rad
+DISTINCT = 1e-3  # rad: numeric solutions closer than this in every joint are one solution
+CALIBRATION_SAMPLES = 20
+CALIBRATION_TOLERANCE = 1e-6  # m (and rotation-matrix entries): the solver's FK must be the URDF's
 
 
 class IKResult(BaseModel):
@@ -46,28 +71,66 @@ class IKResult(BaseModel):
 
 
 class _Arm:
-    """What one solve needs about an arm: its group, frames and the fixed transforms around the UR5."""
+    """What one solve needs about an arm: its group, frames and, for an analytic solver, where
+    the solver's base and flange are (`_analytic_frames`)."""
 
     def __init__(self, robot: Robot, arm: str, base_q: np.ndarray | None) -> None:
         self.tool = robot.tool_frame(arm)
         self.group = robot.arm_group(arm)
-        kind = robot.description.arms[arm].ik
-        if kind not in IK_SOLVERS:
+        description = robot.description.arms[arm]
+        self.kind = description.ik
+        if self.kind not in IK_KINDS:
             raise HriplanError(
-                f"the {arm} arm's IK solver {kind!r} is not supported; supported: {', '.join(IK_SOLVERS)}"
+                f"the {arm} arm's IK solver {self.kind!r} is not supported; supported: {', '.join(IK_KINDS)}"
             )
-        self.solve = IK_SOLVERS[kind]
-        prefix = robot.arms[arm][0]
         self.n = len(robot.group_indices(self.group))
         if base_q is None:
             self.base_q = robot.q_neutral.copy()
         else:
             self.base_q = _vector(base_q, robot.model.nq, "base_q")
-        # Neither transform depends on this arm's joints: read them at any configuration.
-        wrist = robot.frame_pose(f"{prefix}wrist_3_link", self.base_q)
-        self.base = robot.frame_pose(f"{prefix}base_link", self.base_q)
-        self.tool_in_wrist = np.linalg.inv(wrist) @ robot.frame_pose(self.tool, self.base_q)
-        self.shoulder = robot.frame_pose(f"{prefix}shoulder_link", self.base_q)[:3, 3]
+        # Neither pose depends on this arm's joints: read them at any configuration.
+        self.base = robot.frame_pose(description.base_link, self.base_q)
+        self.shoulder = robot.frame_pose(description.joints[0], self.base_q)[:3, 3]
+        if self.kind != NUMERIC_IK:
+            self.solver = ANALYTIC_IK[self.kind]
+            self.solver_base, self.flange_to_tool = _analytic_frames(robot, arm)
+
+
+@functools.cache
+def _analytic_frames(robot: Robot, arm: str) -> tuple[np.ndarray, np.ndarray]:
+    """Where the arm's analytic solver sits in the robot (`fit_analytic`); an arm it does not
+    fit is one line naming the arm."""
+    description = robot.description.arms[arm]
+
+    def relative_tool(values: np.ndarray) -> np.ndarray:
+        q = robot.configuration(values, description.group)
+        return np.linalg.inv(robot.frame_pose(description.base_link, q)) @ robot.frame_pose(description.tool_frame, q)
+
+    try:
+        return fit_analytic(description.ik, relative_tool, len(description.joints))
+    except HriplanError as exc:
+        raise HriplanError(f"the {arm} arm {exc}; use another analytic kind or ik: numeric") from None
+
+
+def fit_analytic(kind: str, relative_tool: Callable[[np.ndarray], np.ndarray], n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) with relative_tool(q) = A . FK_solver(q) . B for every q, `relative_tool` being the
+    tool pose in the arm's base link: A a turn about the base's z (the DH base differs from a
+    URDF's by such a turn), B found at q = 0, both checked on random configurations."""
+    solver = ANALYTIC_IK[kind]
+    if n != 6:
+        raise HriplanError(f"has {n} joints; the {kind} solver is for 6")
+    samples = np.random.default_rng(0).uniform(-math.pi, math.pi, (CALIBRATION_SAMPLES, n))
+    zero, best = np.zeros(n), math.inf
+    for quarter in range(4):
+        turn = _spin(2, quarter * math.pi / 2)
+        flange_to_tool = np.linalg.inv(solver.forward_kinematics(*zero)) @ np.linalg.inv(turn) @ relative_tool(zero)
+        worst = max(
+            np.abs(turn @ solver.forward_kinematics(*v) @ flange_to_tool - relative_tool(v)).max() for v in samples
+        )
+        if worst < CALIBRATION_TOLERANCE:
+            return turn, flange_to_tool
+        best = min(best, worst)
+    raise HriplanError(f"does not match the {kind} solver (its forward kinematics differ by up to {best:.3g} m)")
 
 
 def _vector(values: np.ndarray, size: int, what: str) -> np.ndarray:
@@ -118,8 +181,8 @@ def _branches(arm: _Arm, target: np.ndarray, axis: int | None, samples: int) -> 
     solutions, poses = [], []
     for angle in angles:
         pose = target if axis is None else target @ _spin(axis, angle)
-        flange = np.linalg.inv(arm.base) @ pose @ np.linalg.inv(arm.tool_in_wrist)
-        for q in arm.solve(np.ascontiguousarray(flange)):
+        flange = np.linalg.inv(arm.base @ arm.solver_base) @ pose @ np.linalg.inv(arm.flange_to_tool)
+        for q in arm.solver.inverse_kinematics(np.ascontiguousarray(flange)):
             solutions.append(q)
             poses.append(pose)
     return np.reshape(solutions, (-1, arm.n)), np.reshape(poses, (-1, 4, 4))
@@ -159,6 +222,12 @@ def _polish(robot: Robot, arm: _Arm, q: np.ndarray, target: np.ndarray, toleranc
     return q
 
 
+def _reached(robot: Robot, arm: _Arm, values: np.ndarray) -> np.ndarray:
+    """The tool pose a numeric solution reaches (within the tolerance of the target; with a free
+    axis, the target turned about it)."""
+    return robot.frame_pose(arm.tool, robot.configuration(values, arm.group, base=arm.base_q))
+
+
 def _reference(arm: _Arm, reference: np.ndarray | None) -> np.ndarray:
     return np.zeros(arm.n) if reference is None else _vector(reference, arm.n, "reference")
 
@@ -174,6 +243,25 @@ def _ranked(
     return len(solutions), shifted[order], poses[order]
 
 
+def _numeric(
+    robot: Robot, arm: _Arm, target: np.ndarray, axis: int | None, reference: np.ndarray | None, tolerance: float
+) -> Iterator[np.ndarray]:
+    """Numeric solutions (group order) as they are found, the first from the reference (or the
+    middle of the limits), then from random starts (seeded: the same target gives the same answer)."""
+    lower, upper = robot.limits(arm.group)
+    chain = numeric_ik.Chain(
+        robot.model,
+        robot.data,
+        robot.frame_id(arm.tool),
+        robot.group_indices(arm.group),
+        robot.velocity_indices(arm.group),
+        lower,
+        upper,
+    )
+    seed = (lower + upper) / 2.0 if reference is None else reference
+    return numeric_ik.solutions(chain, arm.base_q, target, axis, seed, tolerance, np.random.default_rng(0))
+
+
 def ik_solutions(
     robot: Robot,
     arm: str,
@@ -184,12 +272,20 @@ def ik_solutions(
     base_q: np.ndarray | None = None,
     samples_per_free_axis: int = 36,
 ) -> list[np.ndarray]:
-    """All analytic solutions (group order) within joint limits, nearest the reference first.
+    """All solutions (group order) within joint limits, nearest the reference first: every analytic
+    branch, or the distinct ones numeric IK finds from all its starts.
 
     Lets a caller (e.g. a goal sampler) choose among branches itself; `solve_ik` picks one."""
     target = _check_target(target)
     axis = _free_axis(free_axes)
     info = _Arm(robot, arm, base_q)
+    if info.kind == NUMERIC_IK:
+        found: list[np.ndarray] = []
+        for values in _numeric(robot, info, target, axis, reference, DEFAULT_TOLERANCE):
+            if all(np.abs(values - other).max() > DISTINCT for other in found):
+                found.append(values)
+        nearest = _reference(info, reference)
+        return sorted(found, key=lambda values: float(np.linalg.norm(values - nearest)))
     _, solutions, _ = _ranked(robot, info, target, axis, _reference(info, reference), samples_per_free_axis)
     return list(solutions)
 
@@ -205,31 +301,40 @@ def solve_ik(
     is_valid: Callable[[np.ndarray], bool] | None = None,
     why_invalid: Callable[[np.ndarray], list[str]] | None = None,
     samples_per_free_axis: int = 36,
-    tolerance: float = 1e-6,
+    tolerance: float = DEFAULT_TOLERANCE,
 ) -> IKResult:
     """Joint values putting `arm`'s tool frame at `target` (4x4 world pose), nearest `reference`.
 
     Rotation about the tool axes in `free_axes` is left free (at most one axis). Candidates are
     tried nearest-first, so `is_valid` (given the full configuration, e.g. a collision check)
     runs only until one passes. `why_invalid` names what is wrong with a rejected configuration
-    ("collides: a - b", "violates c"), so that a failure says what collides and what would help."""
+    ("collides: a - b", "violates c"), so that a failure says what collides and what would help.
+    Numeric IK tries its solutions in the order it finds them (the first starts at `reference`)."""
     target = _check_target(target)
     axis = _free_axis(free_axes)
     if not tolerance > 0:
         raise HriplanError(f"IK tolerance must be positive, got {tolerance}")
     info = _Arm(robot, arm, base_q)
-    reference = _reference(info, reference)
-    n_analytic, candidates, poses = _ranked(robot, info, target, axis, reference, samples_per_free_axis)
-    if n_analytic == 0:
-        distance = np.linalg.norm(target[:3, 3] - info.shoulder)
-        return IKResult(
-            success=False, message=f"target is out of reach of the {arm} arm ({distance:.3f} m from the shoulder)"
+    distance = np.linalg.norm(target[:3, 3] - info.shoulder)
+    if info.kind == NUMERIC_IK:
+        found = _numeric(robot, info, target, axis, reference, tolerance)
+        candidates = ((values, _reached(robot, info, values)) for values in found)
+    else:
+        n_analytic, solutions, poses = _ranked(
+            robot, info, target, axis, _reference(info, reference), samples_per_free_axis
         )
-    if len(candidates) == 0:
-        return IKResult(success=False, message=f"no solution within joint limits ({n_analytic} analytic solutions)")
+        if n_analytic == 0:
+            return IKResult(
+                success=False, message=f"target is out of reach of the {arm} arm ({distance:.3f} m from the shoulder)"
+            )
+        if len(solutions) == 0:
+            return IKResult(success=False, message=f"no solution within joint limits ({n_analytic} analytic solutions)")
+        candidates = zip(solutions, poses)
+        message = f"nearest valid of {len(solutions)} solutions within joint limits"
     lower, upper = robot.limits(info.group)
-    n_accurate, reasons = 0, Counter()
-    for values, pose in zip(candidates, poses):
+    n_tried, n_accurate, reasons = 0, 0, Counter()
+    for values, pose in candidates:
+        n_tried += 1
         q = _polish(robot, info, robot.configuration(values, info.group, base=info.base_q), pose, tolerance)
         polished = robot.group_values(q, info.group)
         inside = np.all(polished >= lower) and np.all(polished <= upper)
@@ -243,10 +348,17 @@ def solve_ik(
                 q=polished.tolist(),
                 position_error=position,
                 orientation_error=orientation,
-                message=f"nearest valid of {len(candidates)} solutions within joint limits",
+                message=f"the first valid of {n_tried} numeric solutions" if info.kind == NUMERIC_IK else message,
             )
         if why_invalid is not None:
             reasons.update(why_invalid(q))
+    if n_tried == 0:
+        starts = numeric_ik.RESTARTS + 1
+        return IKResult(
+            success=False,
+            message=f"no numeric solution from {starts} starts: out of reach of the {arm} arm or singular "
+            f"({distance:.3f} m from the shoulder)",
+        )
     if n_accurate == 0:
         return IKResult(success=False, message=f"no solution reached the tolerance of {tolerance:g} (singular target?)")
     return IKResult(success=False, message=rejection_message(n_accurate, reasons))

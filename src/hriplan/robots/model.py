@@ -16,7 +16,6 @@ import pinocchio as pin
 
 from hriplan import HriplanError
 from hriplan.robots.descriptions.registry import DESCRIPTIONS, RobotDescription, description_of, hand_model
-from hriplan.robots.descriptions.ur5_arm import joint_names
 from hriplan.robots.spatial import Pose
 
 JointValues = Mapping[str, float] | Sequence[float] | np.ndarray
@@ -34,8 +33,14 @@ class RobotSpec:
 def _groups(description: RobotDescription, model_order: list[str]) -> dict[str, list[str]]:
     """Joint groups: each arm's, and the whole robot's in the model's order (MADAR: left, then
     right), so that its vector is also the full planning configuration."""
-    groups = {arm.group: joint_names(arm.prefix) for arm in description.arms.values()}
+    groups = {arm.group: list(arm.joints) for arm in description.arms.values()}
     return groups | {description.whole_group: model_order}
+
+
+def _mount(description: RobotDescription) -> pin.SE3:
+    """Where the description stands the robot in the world."""
+    xyz, rpy = description.base_pose
+    return Pose(xyz=xyz, rpy=rpy).se3()
 
 
 def arms_of(name: str) -> dict[str, tuple[str, str]]:
@@ -52,11 +57,11 @@ class Robot:
         self.description = description_of(spec.name)
         self.urdf = self.description.urdf()
         self.full_model = pin.buildModelFromXML(self.urdf)
-        self._place_base(self.full_model, spec.base_pose.se3())
+        self._place_base(self.full_model, spec.base_pose.se3() * _mount(self.description))
         self.full_collision = pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.COLLISION)
         self.hand_postures = dict(spec.hand_postures)
         self._q_locked = self.full_configuration({})
-        arm_joints = {j for arm in self.description.arms.values() for j in joint_names(arm.prefix)}
+        arm_joints = {j for arm in self.description.arms.values() for j in arm.joints}
         self._locked = [j for j in range(1, self.full_model.njoints) if self.full_model.names[j] not in arm_joints]
         self.model, self.collision_meshes = pin.buildReducedModel(
             self.full_model, self.full_collision, self._locked, self._q_locked
@@ -149,8 +154,12 @@ class Robot:
         idx = self.group_indices(group)
         return self.model.lowerPositionLimit[idx].copy(), self.model.upperPositionLimit[idx].copy()
 
+    def velocity_indices(self, group: str | None = None) -> np.ndarray:
+        """Indices of the group's joints in the planning model's velocity vector."""
+        return self._vindex[self._group(group)]
+
     def velocity_limit(self, group: str | None = None) -> np.ndarray:
-        return self.model.velocityLimit[self._vindex[self._group(group)]].copy()
+        return self.model.velocityLimit[self.velocity_indices(group)].copy()
 
     def configuration(
         self, values: JointValues, group: str | None = None, base: np.ndarray | None = None

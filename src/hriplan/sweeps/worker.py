@@ -58,11 +58,14 @@ def separation_columns(report: Any, people: list[str]) -> Row:
 def run_variant(variant: Variant, plan: bool = True) -> list[Row]:
     """Every step of the variant as a row; a bad variant is one `error` row with the reason."""
     from hriplan.planner.session import worker_session
+    from hriplan.robots.robot_file import load_robot_file
     from hriplan.tasks.pipeline import TaskRunner
 
     began, cpu = time.perf_counter(), time.process_time()
     base = variant_columns(variant) | {"worker": f"{socket.gethostname()}:{os.getpid()}"}
     try:
+        if variant.task.robot_file:  # a spawned worker knows the built-in robots only
+            load_robot_file(variant.task.robot_file)
         session = worker_session(variant.task.robot, variant.task.hands) if plan else None
         outcome = TaskRunner(variant.task, session=session).run(plan=plan)
     except HriplanError as exc:

@@ -10,7 +10,6 @@ from collections.abc import Mapping
 
 from hriplan import HriplanError
 from hriplan.robots.descriptions.registry import description_of
-from hriplan.robots.descriptions.ur5_arm import joint_names
 from hriplan.tasks.model import TaskFile, step_name
 
 LIMIT_TOLERANCE = 1e-9  # rad: values written from a limit may round just past it
@@ -20,7 +19,7 @@ LIMIT_TOLERANCE = 1e-9  # rad: values written from a limit may round just past i
 def joint_limits(robot: str) -> dict[str, tuple[float, float]]:
     """(lower, upper) in rad of every planning joint of `robot`, read from its URDF description."""
     description = description_of(robot)
-    arm_joints = {j for arm in description.arms.values() for j in joint_names(arm.prefix)}
+    arm_joints = {j for arm in description.arms.values() for j in arm.joints}
     limits = {}
     for joint in ET.fromstring(description.urdf()).iter("joint"):
         limit = joint.find("limit")

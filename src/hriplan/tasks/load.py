@@ -5,8 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from hriplan.files import load_model
+from hriplan.robots.robot_file import with_robot_name
 from hriplan.tasks.model import TaskFile
 
 
 def load_task(path: str | Path) -> TaskFile:
-    return load_model(path, TaskFile)
+    """Read a task file (its `robot:` a name or a robot file relative to it)."""
+    return load_model(path, TaskFile, lambda data: with_robot_name(data, Path(path).parent))

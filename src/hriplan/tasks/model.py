@@ -19,6 +19,7 @@ from hriplan.planner.constraints.spec import Axis
 from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, DESCRIPTIONS, HAND_MODELS, description_of, hand_model
 from hriplan.robots.human import HAND, HumanSpec, Side, hand_they_reach_out
+from hriplan.robots.robot_file import registered_robot_file
 from hriplan.robots.scene import Obstacle, Shape
 from hriplan.robots.spatial import Pose
 from hriplan.safety.separation import SafetyMargin
@@ -271,7 +272,12 @@ class Planning(_Strict):
 class TaskFile(_Strict):
     name: Name = "task"
     description: str = ""
-    robot: str = Field(DEFAULT_ROBOT, json_schema_extra={"enum": list(DESCRIPTIONS)})
+    robot: str = Field(
+        DEFAULT_ROBOT,
+        description="A robot's name, or a robot file (YAML, relative to the task file).",
+        json_schema_extra={"examples": list(DESCRIPTIONS)},
+    )
+    robot_file: str = Field("", description="The robot file `robot` came from (absolute; set by the task loader).")
     hands: dict[str, str] = Field(
         default_factory=dict,
         json_schema_extra={
@@ -290,6 +296,11 @@ class TaskFile(_Strict):
     rule_files: list[str] = Field(
         default_factory=list, description="Extra rule files (paths relative to the task file)."
     )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _robot_file_loaded(cls, data: object) -> object:
+        return registered_robot_file(data)
 
     @field_validator("robot")
     @classmethod

@@ -17,7 +17,8 @@ from hriplan import HriplanError
 from hriplan.robots import urdf_xml as X
 from hriplan.robots.descriptions.allegro import HAND_POSTURES, add_allegro, hand_joint_name, posture_values
 from hriplan.robots.descriptions.postures import MADAR_POSTURES, UR5_POSTURES
-from hriplan.robots.descriptions.ur5_arm import add_ur5
+from hriplan.robots.descriptions.ur5_arm import add_ur5, joint_names
+from hriplan.robots.srdf import Srdf
 
 MADAR_BASE = "madar_base_link"
 # Arm base mounts on the MADAR base (URDF rpy), as published for the real robot.
@@ -123,13 +124,16 @@ def hand_model(kind: str) -> HandModel:
 
 @dataclass(frozen=True)
 class ArmDescription:
-    """One arm: the prefix of its joints (ur5_description's names), its tool frame, its planning
-    group, the kind of IK solver that solves it (robots/ik.py), the model of the robot hand on
-    it (None: a bare flange), the arm's model and the tool axis along a held object's axis."""
+    """One arm: the prefix of its hand's joints and individuals, its tool frame, its planning
+    group, its joints (a serial chain, root first) and the link they are mounted on, the kind of
+    IK solver that solves it (robots/ik.py), the model of the robot hand on it (None: a bare
+    flange), the arm's model and the tool axis along a held object's axis."""
 
     prefix: str
     tool_frame: str
     group: str
+    joints: tuple[str, ...]
+    base_link: str
     hand: str | None = None
     ik: str = "ur5_analytic"
     model: str = "UR5"
@@ -149,6 +153,17 @@ class RobotDescription:
     # Other names of links, as other descriptions of the same robot spell them (same frame,
     # checked by forward kinematics in tests/formats/test_kautham.py).
     link_aliases: dict[str, str] = field(default_factory=dict)
+    # Where the robot stands in the world, (xyz, rpy) (a task's base pose moves it further).
+    base_pose: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    # rad/s^2 per joint where the description knows it (the planning options' limit otherwise).
+    acceleration_limits: dict[str, float] = field(default_factory=dict)
+    source: str = ""  # the robot file it was loaded from ("" for a built-in robot)
+    # What the robot's SRDF says (None without one); its disabled pairs are only reported
+    # (`hriplan robot check`) against the sampled allowed-collision matrix (acm.py), which decides.
+    srdf: Srdf | None = None
+    # ISO/TS 15066 stopping data of a robot from a file (ontology property -> value, e.g.
+    # hasReactionTime -> 0.1 s); a built-in robot's are in hriplan.ttl, with their sources.
+    stopping: dict[str, float] = field(default_factory=dict)
 
     @property
     def hands(self) -> list[str]:
@@ -166,7 +181,15 @@ DESCRIPTIONS = {
         whole_group="both_arms",
         postures=MADAR_POSTURES,
         arms={
-            side: ArmDescription(f"{side}_", f"{side}_tool", f"{side}_arm", hand="allegro", object_axis="+y")
+            side: ArmDescription(
+                f"{side}_",
+                f"{side}_tool",
+                f"{side}_arm",
+                tuple(joint_names(f"{side}_")),
+                f"{side}_base_link",
+                hand="allegro",
+                object_axis="+y",
+            )
             for side in ("right", "left")
         },
         # Kautham's MADAR names the adapter and the hand's base (the Allegro palm) differently.
@@ -180,7 +203,7 @@ DESCRIPTIONS = {
         base_link="base_link",
         whole_group="arm",
         postures=UR5_POSTURES,
-        arms={"arm": ArmDescription("", "tool", "arm")},
+        arms={"arm": ArmDescription("", "tool", "arm", tuple(joint_names()), "base_link")},
     ),
 }
 # The robot a task, a problem, a situation or a session has when it names none.

@@ -1,0 +1,224 @@
+"""`hriplan robot check` and `hriplan robot init`: what a robot file gives, measured (IK success on
+random reachable poses, the SRDF's disabled pairs against the sampled collision matrix), and a
+starting robot file written from a URDF and, where there is one, its SRDF."""
+
+from __future__ import annotations
+
+import collections
+import os
+import re
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import yaml
+
+from hriplan import HriplanError
+from hriplan.files import read_text, write_atomically
+from hriplan.robots.acm import MESH, load_acm
+from hriplan.robots.descriptions.registry import DESCRIPTIONS, hand_model
+from hriplan.robots.ik import ANALYTIC_IK, fit_analytic, solve_ik
+from hriplan.robots.info import describe
+from hriplan.robots.model import Robot, load_robot
+from hriplan.robots.robot_file import load_robot_file, package_search_path, resolve_file
+from hriplan.robots.robot_geometry import robot_parts
+from hriplan.robots.srdf import Srdf, read_srdf
+from hriplan.robots.urdf_tree import MOVABLE, UrdfTree
+
+CHECK_POSES = 100
+
+
+def ik_rate(robot: Robot, arm: str, poses: int = CHECK_POSES) -> tuple[int, float]:
+    """(solved, median ms) over `poses` random reachable tool poses (FK of random configurations)."""
+    group = robot.arm_group(arm)
+    rng = np.random.default_rng(0)
+    lower, upper = robot.limits(group)
+    targets = [robot.frame_pose(robot.tool_frame(arm), rng.uniform(lower, upper), group) for _ in range(poses)]
+    solve_ik(robot, arm, targets[0])  # an analytic solver is placed once, not timed
+    solved, times = 0, []
+    for target in targets:
+        start = time.perf_counter()
+        solved += solve_ik(robot, arm, target).success
+        times.append((time.perf_counter() - start) * 1e3)
+    return solved, float(np.median(times))
+
+
+def _srdf_pairs(robot: Robot, srdf: Srdf) -> str:
+    """The SRDF's disabled pairs against the sampled collision matrix: agreeing, or checked here."""
+    parts = robot_parts(robot)
+    acm = load_acm(robot, parts)
+    by_link = collections.defaultdict(list)
+    for part in parts:
+        by_link[part.link].append(part.name)
+    agree, meshes, checked, bare = 0, 0, [], 0
+    for a, b, _reason in srdf.disabled:
+        pairs = [(p, r) for p in by_link[a] for r in by_link[b] if p != r]
+        if not pairs:
+            bare += 1
+            continue
+        reasons = {acm.get(f"{p}|{r}", acm.get(f"{r}|{p}")) for p, r in pairs}
+        if None in reasons:
+            checked.append(f"{a}-{b}")
+        elif MESH in reasons:
+            meshes += 1
+        else:
+            agree += 1
+    touched = f" ({', '.join(checked)})" if checked else ""
+    return (
+        f"SRDF disabled pairs: {len(srdf.disabled)}: {agree} not checked here either (adjacent or never touching "
+        f"in sampling), {meshes} checked on meshes, {len(checked)} checked on parts: they touched in sampling"
+        f"{touched}, {bare} without collision geometry"
+    )
+
+
+def check_report(path: str | Path) -> str:
+    """Everything `hriplan robot check` prints for a robot file (or one HriplanError line)."""
+    description = load_robot_file(path)
+    robot = load_robot(description.name)
+    srdf = description.srdf
+    lines = [f"robot {description.name} from {description.source}"]
+    if srdf is None:
+        lines.append("SRDF: none (arms by base and tip links)")
+    else:
+        lines.append("SRDF groups: " + ", ".join(f"{g} ({len(j)} joints)" for g, j in srdf.groups.items()))
+    lines.append(describe(robot))
+    for arm, a in description.arms.items():
+        hand = "none" if a.hand is None else hand_model(a.hand).label
+        lines.append(
+            f"arm {arm}: joints {', '.join(a.joints)} on {a.base_link}; tool frame {a.tool_frame}; hand {hand}"
+        )
+        solved, median = ik_rate(robot, arm)
+        lines.append(
+            f"arm {arm}: IK {a.ik}: {solved} of {CHECK_POSES} random reachable poses solved, median {median:.2f} ms"
+        )
+    lines.append("postures: " + (", ".join(description.postures) or "none"))
+    if srdf is not None:
+        lines.append(_srdf_pairs(robot, srdf))
+    return "\n".join(lines)
+
+
+def _identifier(name: str) -> str:
+    name = re.sub(r"\W", "_", name or "robot")
+    return name if re.match(r"[A-Za-z]", name) else f"robot_{name}"
+
+
+def _arms_from_srdf(tree: UrdfTree, srdf: Srdf) -> dict[str, dict]:
+    """An arm per SRDF end effector: its parent group (or its own group when that is the arm,
+    as example-robot-data's Panda has it), the tool frame its parent link."""
+    arms = {}
+    for end in srdf.end_effectors:
+        group = end.parent_group or end.group
+        arms[group] = {"group": group, "tool": end.parent_link}
+    return arms
+
+
+def _arm_from_urdf(tree: UrdfTree) -> dict[str, dict]:
+    """The longest chain of moving joints from the root, by its base and tip links."""
+    best: list[str] = []
+    tip = tree.root
+    for link in tree.links:
+        moving = [j.name for j in tree.ancestors(link) if j.type in MOVABLE and j.mimic is None]
+        if len(moving) >= len(best):  # the last such link in the file: a flange or tool frame
+            best, tip = moving, link
+    if not best:
+        raise HriplanError("the URDF has no moving joints")
+    return {"arm": {"base": tree.joints[best[-1]].parent, "tip": tip}}
+
+
+def _hand(tree: UrdfTree, limits: dict[str, tuple[float, float]], tool: str, arm_joints: set[str]) -> dict | str:
+    """A parallel gripper from the moving joints below the arm's tool that share their limits."""
+    last = next(j for j in tree.ancestors(tool) if j.type in MOVABLE)
+    below, stack = [], [last.child]
+    while stack:
+        link = stack.pop()
+        for joint in tree.joints.values():
+            if joint.parent == link:
+                stack.append(joint.child)
+                if joint.type in MOVABLE and joint.name not in arm_joints:
+                    below.append(joint.name)
+    if not below or len({limits.get(j) for j in below}) != 1:
+        return "none"
+    lower, upper = limits[below[0]]
+    return {"gripper": below, "open": upper, "closed": lower}
+
+
+def _ik_kind(text: str, base: str, tool: str, joints: list[str]) -> str:
+    """The first analytic UR solver the arm fits, else numeric."""
+    model = pin.buildModelFromXML(text)
+    data = model.createData()
+    if len(joints) != 6 or any(model.joints[model.getJointId(j)].nq != 1 for j in joints):
+        return "numeric"
+
+    def relative_tool(values: np.ndarray) -> np.ndarray:
+        q = pin.neutral(model)
+        for name, value in zip(joints, values):
+            q[model.joints[model.getJointId(name)].idx_q] = value
+        pin.framesForwardKinematics(model, data, q)
+        return (data.oMf[model.getFrameId(base)].inverse() * data.oMf[model.getFrameId(tool)]).homogeneous
+
+    for kind in ANALYTIC_IK:
+        try:
+            fit_analytic(kind, relative_tool, 6)
+            return kind
+        except HriplanError:
+            continue
+    return "numeric"
+
+
+def _reference(path: Path, output: Path) -> str:
+    """How a robot file names a file: package://NAME/... when it lies in a package on the search
+    path (example-robot-data's do), else relative to the robot file."""
+    path = path.resolve()
+    for folder in package_search_path():
+        if path.is_relative_to(folder.resolve()):
+            return f"package://{path.relative_to(folder.resolve()).as_posix()}"
+    return os.path.relpath(path, output.resolve().parent)
+
+
+def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> str:
+    """Write a robot file for a URDF (and SRDF), paths or package:// URIs, to `output`, check it
+    loads, and say what it holds."""
+    urdf = resolve_file(urdf_name, {}, Path.cwd(), "URDF file")
+    srdf = None if srdf_name is None else resolve_file(srdf_name, {}, Path.cwd(), "SRDF file")
+    text = read_text(urdf, "URDF file")
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise HriplanError(f"{urdf}: not valid URDF XML ({exc})") from None
+    tree = UrdfTree(root)
+    semantic = read_srdf(read_text(srdf, "SRDF file"), tree) if srdf else Srdf()
+    arms = _arms_from_srdf(tree, semantic) or _arm_from_urdf(tree)
+    limits = {
+        el.get("name"): (float(el.find("limit").get("lower", 0.0)), float(el.find("limit").get("upper", 0.0)))
+        for el in root.findall("joint")
+        if el.find("limit") is not None
+    }
+    ready: dict[str, float] = {}
+    for arm in arms.values():
+        joints = (
+            tree.movable(semantic.groups[arm["group"]])
+            if "group" in arm
+            else tree.movable(tree.chain(arm["base"], arm["tip"], "arm"))
+        )
+        joints = [j for j in joints if tree.joints[j].mimic is None]
+        tool = arm.get("tool", arm.get("tip"))
+        arm["hand"] = _hand(tree, limits, tool, set(joints))
+        arm["ik"] = _ik_kind(text, tree.joints[joints[0]].parent, tool, joints)
+        ready |= {j: float(np.clip(0.0, *limits.get(j, (0.0, 0.0)))) for j in joints}
+    name = _identifier(root.get("name", ""))
+    data = {
+        "name": f"{name}_robot" if name in DESCRIPTIONS else name,
+        "urdf": _reference(urdf, output),
+        **({"srdf": _reference(srdf, output)} if srdf else {}),
+        "arms": arms,
+    }
+    if not any(name == "ready" for name, _, _ in semantic.states):
+        data["postures"] = {"ready": ready}
+    header = f"# A robot file written by `hriplan robot init` from {urdf.name}: check it with `hriplan robot check`.\n"
+    write_atomically(output, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
+    description = load_robot_file(output)
+    return f"wrote {output}: robot {description.name}, arms " + ", ".join(
+        f"{arm} ({len(a.joints)} joints, tool {a.tool_frame}, IK {a.ik})" for arm, a in description.arms.items()
+    )

@@ -1,0 +1,414 @@
+"""A robot file: any robot from its URDF (and SRDF), as a `RobotDescription` the rest of hriplan
+asks for by the file's robot name.
+
+```yaml
+name: panda
+urdf: package://example-robot-data/robots/panda_description/urdf/panda.urdf  # or relative to this file
+srdf: package://example-robot-data/robots/panda_description/srdf/panda.srdf  # optional
+packages: {my_meshes: ../meshes}             # package://NAME/ -> a folder (also searched: ROS_PACKAGE_PATH,
+                                             # AMENT_PREFIX_PATH, example-robot-data)
+arms:
+  arm:
+    group: arm                               # an SRDF group, or base: LINK and tip: LINK
+    tool: panda_hand_tcp                     # default: the SRDF end effector's parent link, or the tip
+    tool_offset: {xyz: [0, 0, 0.05]}         # optional: a frame ARM_tool at this offset
+    hand: {gripper: [panda_finger_joint1, panda_finger_joint2], open: 0.04, closed: 0.0}  # or none, allegro
+    ik: numeric                              # or an analytic UR kind (ur10_analytic, ...)
+    object_axis: -z                          # the tool axis along a held object's z (default)
+postures: {ready: {panda_joint4: -2.0}}      # with the SRDF's group states
+limits: {panda_joint1: {velocity: 1.0, acceleration: 3.75}}
+base_pose: {xyz: [0, 0, 0.8]}
+stopping: {reaction_time: 0.1, stopping_time: 0.2, position_uncertainty: 0.02, moving_mass: 6.0}  # ISO/TS 15066
+```
+Every problem (a group with no joints, an unknown link, a missing mesh, a non-serial arm, no tool
+frame) is one line naming the file and what is wrong.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Annotated, Literal
+
+import pinocchio as pin
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    NonNegativeFloat,
+    PositiveFloat,
+    StringConstraints,
+    field_validator,
+    model_validator,
+)
+
+from hriplan import HriplanError
+from hriplan.files import load_model, read_text
+from hriplan.robots import urdf_xml as X
+from hriplan.robots.assets import robots_dir
+from hriplan.robots.descriptions.allegro import hand_joint_name
+from hriplan.robots.descriptions.registry import (
+    DESCRIPTIONS,
+    HAND_MODELS,
+    ArmDescription,
+    HandModel,
+    RobotDescription,
+)
+from hriplan.robots.ik import IK_KINDS
+from hriplan.robots.spatial import Pose
+from hriplan.robots.srdf import Srdf, read_srdf
+from hriplan.robots.urdf_tree import MOVABLE, UrdfTree
+
+Identifier = Annotated[str, StringConstraints(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")]
+PACKAGE_URI = re.compile(r"^package://([^/]+)/(.*)$")
+GRIPPER_POSTURES = ("open", "closed", "release")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Gripper(_Strict):
+    """A parallel gripper: its finger joints (a mimic joint listed too) and their open and closed values."""
+
+    gripper: list[str] = Field(min_length=1)
+    open: float
+    closed: float
+
+
+class ArmSpec(_Strict):
+    group: str | None = Field(None, description="The SRDF group of the arm's joints.")
+    base: str | None = Field(None, description="Without an SRDF group: the link the arm is mounted on.")
+    tip: str | None = Field(None, description="... and the link at its end.")
+    tool: str | None = Field(None, description="The tool frame's link (default: SRDF end effector, or the tip).")
+    tool_offset: Pose | None = None
+    hand: Literal["none", "allegro"] | Gripper = "none"
+    ik: str = "numeric"
+    object_axis: Literal["+x", "-x", "+y", "-y", "+z", "-z"] = Field(
+        "-z",
+        description="The tool axis along a held object's z axis (-z: held out of the tool, upright when it points down).",
+    )
+    model: str | None = Field(None, description="The arm's model in words (default: the robot's label).")
+
+    @field_validator("ik")
+    @classmethod
+    def _known_kind(cls, kind: str) -> str:
+        if kind not in IK_KINDS:
+            raise ValueError(f"unknown IK kind {kind!r}; choose one of {', '.join(IK_KINDS)}")
+        return kind
+
+    @model_validator(mode="after")
+    def _group_or_chain(self) -> ArmSpec:
+        if (self.group is None) == (self.base is None or self.tip is None):
+            raise ValueError("give an arm either an SRDF group or both base and tip links")
+        if self.group is not None and (self.base or self.tip):
+            raise ValueError("give an arm either an SRDF group or base and tip links, not both")
+        return self
+
+
+class JointLimits(_Strict):
+    velocity: PositiveFloat | None = None
+    acceleration: PositiveFloat | None = None
+
+
+class Stopping(_Strict):
+    """ISO/TS 15066 5.5.4 data a deployment measures: T_r, T_s (s), Z_r (m), and m_R (kg, Annex A.3.2)."""
+
+    reaction_time: PositiveFloat
+    stopping_time: PositiveFloat
+    position_uncertainty: NonNegativeFloat
+    moving_mass: PositiveFloat
+
+
+ONTOLOGY_STOPPING = {
+    "reaction_time": "hasReactionTime",
+    "stopping_time": "hasStoppingTime",
+    "position_uncertainty": "hasPositionUncertainty",
+    "moving_mass": "hasMovingMass",
+}
+
+
+class RobotFile(_Strict):
+    name: Identifier
+    label: str | None = None
+    summary: str = "A robot"
+    urdf: str
+    srdf: str | None = None
+    packages: dict[str, str] = Field(default_factory=dict)
+    arms: dict[Identifier, ArmSpec] = Field(min_length=1)
+    postures: dict[str, dict[str, float]] = Field(default_factory=dict)
+    limits: dict[str, JointLimits] = Field(default_factory=dict)
+    base_pose: Pose = Field(default_factory=Pose)
+    stopping: Stopping | None = Field(None, description="Needed to plan: speed and separation use it.")
+
+
+def package_search_path() -> list[Path]:
+    """Folders that hold ROS packages: ROS_PACKAGE_PATH (a package's own folder counts as its
+    parent's, as pinocchio reads it), AMENT_PREFIX_PATH's share/, and example-robot-data's."""
+    folders = []
+    for entry in filter(None, os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep)):
+        path = Path(entry)
+        folders.append(path.parent if (path / "package.xml").exists() else path)
+    for entry in filter(None, os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)):
+        folders.append(Path(entry) / "share")
+    return [*folders, robots_dir().parent.parent]
+
+
+def resolve_file(uri: str, packages: dict[str, Path], folder: Path, what: str) -> Path:
+    """A file name as an absolute path: package://NAME/ through `packages` then the search path,
+    file:// and relative names from `folder`; a file that is not there is an error."""
+    match = PACKAGE_URI.match(uri)
+    if match:
+        name, rest = match.groups()
+        roots = (
+            [packages[name]] if name in packages else [d / name for d in package_search_path() if (d / name).is_dir()]
+        )
+        if not roots:
+            raise HriplanError(f"{what} {uri}: no package {name!r} (name its folder under packages:)")
+        path = roots[0] / rest
+    else:
+        path = folder / uri.removeprefix("file://")
+    if not path.is_file():
+        raise HriplanError(f"missing {what} {path}" + (f" (from {uri})" if str(path) != uri else ""))
+    return path.resolve()
+
+
+def _urdf_root(path: Path) -> ET.Element:
+    try:
+        root = ET.fromstring(read_text(path, "URDF file"))
+    except ET.ParseError as exc:
+        raise HriplanError(f"{path}: not valid URDF XML ({exc})") from None
+    if root.tag != "robot":
+        raise HriplanError(f"{path}: not a URDF (its top element is <{root.tag}>, not <robot>)")
+    return root
+
+
+class _Builder:
+    """Turns a validated robot file into a description (every check in one place)."""
+
+    def __init__(self, spec: RobotFile, folder: Path) -> None:
+        self.spec = spec
+        packages = {name: (folder / path).resolve() for name, path in spec.packages.items()}
+        urdf = resolve_file(spec.urdf, packages, folder, "URDF file")
+        self.root = _urdf_root(urdf)
+        for el in self.root.iter("mesh"):
+            el.set("filename", str(resolve_file(el.get("filename", ""), packages, urdf.parent, "mesh")))
+        self.tree = UrdfTree(self.root)
+        if spec.srdf is None:
+            self.srdf = Srdf()
+        else:
+            self.srdf = read_srdf(
+                read_text(resolve_file(spec.srdf, packages, folder, "SRDF file"), "SRDF file"), self.tree
+            )
+
+    def arm_joints(self, arm: str, a: ArmSpec) -> list[str]:
+        what = f"arms.{arm}"
+        if a.group is not None:
+            if a.group not in self.srdf.groups:
+                known = ", ".join(self.srdf.groups) or "none"
+                raise HriplanError(f"{what}.group: the SRDF has no group {a.group!r} (groups: {known})")
+            joints = self.srdf.groups[a.group]
+        else:
+            joints = self.tree.chain(a.base, a.tip, what)
+        movable = [j for j in self.tree.movable(joints) if self.tree.joints[j].mimic is None]
+        if not movable:
+            raise HriplanError(f"{what}: group {a.group or arm!r} has no joints that move")
+        for j in movable:
+            if self.tree.joints[j].type == "continuous":
+                raise HriplanError(f"{what}: joint {j!r} is continuous; give it limits (a revolute joint)")
+        for before, after in zip(movable, movable[1:]):
+            if self.tree.moving_between(before, self.tree.joints[after].parent) != []:
+                raise HriplanError(f"{what}: not a serial chain: joint {after!r} does not follow joint {before!r}")
+        return movable
+
+    def tool(self, arm: str, a: ArmSpec, joints: list[str]) -> str:
+        what = f"arms.{arm}.tool"
+        if a.tool is not None:
+            link = self.tree.link(a.tool, what)
+        elif a.group is not None:
+            ends = [e for e in self.srdf.end_effectors if a.group in (e.parent_group, e.group)]
+            if not ends:
+                raise HriplanError(
+                    f"arms.{arm}: no tool frame (the SRDF has no end effector on group {a.group!r}); name a link as tool:"
+                )
+            link = ends[0].parent_link
+        else:
+            link = a.tip
+        last = joints[-1]
+        if self.tree.moving_between(last, link) != []:
+            raise HriplanError(f"{what}: link {link!r} does not move rigidly with the arm's last joint {last!r}")
+        if a.tool_offset is None:
+            return link
+        name = f"{arm}_tool"
+        if name in self.tree.links:
+            raise HriplanError(f"{what}: the URDF already has a link {name!r} for the offset tool frame")
+        xyz, rpy = _xyz_rpy(a.tool_offset)
+        X.link(self.root, name)
+        X.joint(self.root, f"{name}_joint", "fixed", link, name, xyz, rpy)
+        return name
+
+    def hand(self, arm: str, a: ArmSpec, prefix: str, joints: list[str]) -> str | None:
+        if a.hand == "none":
+            return None
+        if a.hand == "allegro":
+            self.tree.joint(hand_joint_name(prefix, "joint_0.0"), f"arms.{arm}.hand")
+            return "allegro"
+        for j in a.hand.gripper:
+            if self.tree.joint(j, f"arms.{arm}.hand").type not in MOVABLE or j in joints:
+                raise HriplanError(f"arms.{arm}.hand: {j!r} is not a finger joint (fixed, or an arm joint)")
+        kind = f"{self.spec.name}_{arm}_gripper"
+        values = {"open": a.hand.open, "release": a.hand.open, "closed": a.hand.closed}
+        fingers = tuple(a.hand.gripper)
+        HAND_MODELS[kind] = HandModel(
+            "parallel gripper",
+            GRIPPER_POSTURES,
+            "release",
+            lambda posture: dict.fromkeys(fingers, values[posture]),
+            lambda _prefix, joint: joint,
+        )
+        return kind
+
+    def postures(self, planning: list[str]) -> dict[str, dict[str, float]]:
+        limits = {
+            el.get("name"): (float(el.find("limit").get("lower", "-inf")), float(el.find("limit").get("upper", "inf")))
+            for el in self.root.findall("joint")
+            if el.find("limit") is not None
+        }
+        postures: dict[str, dict[str, float]] = {}
+        for name, _group, values in self.srdf.states:
+            postures.setdefault(name, {}).update({j: v for j, v in values.items() if j in planning})
+        for name, values in self.spec.postures.items():
+            postures[name] = postures.get(name, {}) | values
+        for name, values in postures.items():
+            for j, v in values.items():
+                if j not in planning:
+                    raise HriplanError(f"postures.{name}: {j!r} is not an arm joint; arm joints: {', '.join(planning)}")
+                lower, upper = limits.get(j, (-float("inf"), float("inf")))
+                if not lower <= v <= upper:
+                    raise HriplanError(
+                        f"postures.{name}: {j} = {v:.4g} is beyond its limits [{lower:.4g}, {upper:.4g}]"
+                    )
+        return postures
+
+    def limits(self) -> dict[str, float]:
+        """Velocity overrides written into the URDF; the acceleration limits (rad/s^2) per joint."""
+        elements = {el.get("name"): el for el in self.root.findall("joint")}
+        acceleration = {}
+        for j, limits in self.spec.limits.items():
+            self.tree.joint(j, "limits")
+            if limits.velocity is not None:
+                element = elements[j].find("limit")
+                if element is None:
+                    raise HriplanError(f"limits.{j}: the URDF joint has no <limit> to override")
+                element.set("velocity", repr(limits.velocity))
+            if limits.acceleration is not None:
+                acceleration[j] = limits.acceleration
+        return acceleration
+
+    def description(self, source: str) -> RobotDescription:
+        spec = self.spec
+        label = spec.label or spec.name
+        arms = {}
+        for arm, a in spec.arms.items():
+            prefix = "" if len(spec.arms) == 1 else f"{arm}_"
+            joints = self.arm_joints(arm, a)
+            tool = self.tool(arm, a, joints)
+            arms[arm] = ArmDescription(
+                prefix,
+                tool,
+                a.group or arm,
+                tuple(joints),
+                self.tree.joints[joints[0]].parent,
+                hand=self.hand(arm, a, prefix, joints),
+                ik=a.ik,
+                model=a.model or label,
+                object_axis=a.object_axis,
+            )
+        planning = [j for a in arms.values() for j in a.joints]
+        if len(set(planning)) != len(planning):
+            raise HriplanError("arms: two arms share a joint")
+        whole = next(iter(arms.values())).group if len(arms) == 1 else "all_arms"
+        acceleration = self.limits()
+        text = ET.tostring(self.root, encoding="unicode")
+        return RobotDescription(
+            name=spec.name,
+            label=label,
+            summary=spec.summary,
+            urdf=functools.partial(str, text),
+            base_link=self.tree.root,
+            arms=arms,
+            whole_group=whole,
+            postures=self.postures(planning),
+            base_pose=_xyz_rpy(spec.base_pose),
+            acceleration_limits=acceleration,
+            source=source,
+            srdf=self.srdf if spec.srdf else None,
+            stopping={} if spec.stopping is None else {ONTOLOGY_STOPPING[k]: v for k, v in spec.stopping},
+        )
+
+
+def _xyz_rpy(pose: Pose) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    rpy = pin.rpy.matrixToRpy(pose.se3().rotation)
+    return tuple(pose.xyz), (float(rpy[0]), float(rpy[1]), float(rpy[2]))
+
+
+ROBOT_FILE_SUFFIXES = (".yaml", ".yml", ".json")
+
+
+def is_robot_file(robot: str) -> bool:
+    """Whether a `robot` value names a robot file (a path) rather than a robot."""
+    return robot.endswith(ROBOT_FILE_SUFFIXES)
+
+
+def robot_name(robot: str) -> str:
+    """The name of a robot given by name or by a robot file (loaded and registered)."""
+    return load_robot_file(robot).name if is_robot_file(robot) else robot
+
+
+def with_robot_name(data: dict, folder: Path) -> dict:
+    """A task's or problem's data with a robot file its `robot:` names (a path relative to
+    `folder`) loaded: `robot` becomes the robot's name and `robot_file` the file's absolute path
+    (so a process that reads the data again, a sweep's worker, loads it too); a name is left as it is."""
+    robot = data.get("robot")
+    if not isinstance(robot, str) or not is_robot_file(robot):
+        return data
+    path = (folder / robot).resolve()
+    try:
+        return data | {"robot": robot_name(str(path)), "robot_file": str(path)}
+    except HriplanError as exc:
+        raise HriplanError(f"robot: {exc}") from None
+
+
+def registered_robot_file(data: object) -> object:
+    """A model's data before validation, its `robot_file` (if any) loaded and registered; for the
+    models whose `robot` may come from a robot file (tasks, problems, trajectories)."""
+    robot_file = data.get("robot_file") if isinstance(data, dict) else None
+    if isinstance(robot_file, str) and robot_file:
+        try:
+            name = load_robot_file(robot_file).name
+        except HriplanError as exc:
+            raise ValueError(f"robot_file: {exc}") from None
+        if name != data.get("robot"):
+            raise ValueError(f"robot_file: {robot_file} is robot {name!r}, not {data.get('robot')!r}")
+    return data
+
+
+def load_robot_file(path: str | Path) -> RobotDescription:
+    """The robot in a robot file, registered under its name (once per process; a name another
+    file or a built-in robot has is an error)."""
+    path = Path(path).resolve()
+    spec = load_model(path, RobotFile)
+    known = DESCRIPTIONS.get(spec.name)
+    if known is not None and known.source == str(path):
+        return known
+    if known is not None:
+        raise HriplanError(f"{path}: robot name {spec.name!r} is taken (by {known.source or 'a built-in robot'})")
+    try:
+        description = _Builder(spec, path.parent).description(str(path))
+    except HriplanError as exc:
+        raise HriplanError(f"{path}: {exc}") from None
+    DESCRIPTIONS[spec.name] = description
+    return description

@@ -1,0 +1,138 @@
+"""`hriplan robot init` and `hriplan robot check` on robots the code was not written for: the
+starting file a URDF (and SRDF) gives loads and checks, and a bad robot file is one line, exit 2."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import example_robot_data
+import numpy as np
+import pinocchio as pin
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from hriplan.cli.main import app
+
+ROBOTS = Path(example_robot_data.getModelPath("panda_description/urdf/panda.urdf")).resolve()
+PANDA = ROBOTS / "panda_description"
+DATA = Path(__file__).parents[1] / "data" / "robots"
+
+
+pytestmark = pytest.mark.usefixtures("robot_registry")
+
+
+def invoke(*args):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def test_init_from_the_panda_urdf_and_srdf_writes_a_file_that_checks(tmp_path):
+    out = tmp_path / "panda.yaml"
+    result = invoke(
+        "robot", "init", "--urdf", PANDA / "urdf" / "panda.urdf", "--srdf", PANDA / "srdf" / "panda.srdf", "-o", out
+    )
+    assert result.exit_code == 0, result.output
+    assert result.stdout.strip() == f"wrote {out}: robot panda, arms arm (7 joints, tool panda_hand_tcp, IK numeric)"
+    data = yaml.safe_load(out.read_text())
+    assert data["urdf"] == "package://example-robot-data/robots/panda_description/urdf/panda.urdf"
+    assert data["arms"]["arm"] == {
+        "group": "arm",
+        "tool": "panda_hand_tcp",
+        "hand": {"gripper": ["panda_finger_joint1", "panda_finger_joint2"], "open": 0.04, "closed": 0.0},
+        "ik": "numeric",
+    }
+    check = invoke("robot", "check", out)
+    assert check.exit_code == 0, check.output
+    lines = check.stdout.splitlines()
+    assert "SRDF groups: arm (7 joints), hand (1 joints), arm_and_hand (8 joints)" in lines
+    rate = next(line for line in lines if line.startswith("arm arm: IK numeric: "))
+    assert int(rate.split()[4]) >= 99  # of 100 random reachable poses
+    assert "postures: default, ready" in lines
+    assert any(line.startswith("SRDF disabled pairs: 35: ") for line in lines)
+
+
+def test_init_from_the_ur10_urdf_alone_finds_its_chain_and_analytic_solver(tmp_path):
+    out = tmp_path / "ur10.yaml"
+    uri = "package://example-robot-data/robots/ur_description/urdf/ur10_robot.urdf"
+    result = invoke("robot", "init", "--urdf", uri, "-o", out)
+    assert result.exit_code == 0, result.output
+    assert yaml.safe_load(out.read_text())["arms"] == {
+        "arm": {"base": "base_link", "tip": "tool0", "hand": "none", "ik": "ur10_analytic"}
+    }
+    check = invoke("robot", "check", out)
+    assert check.exit_code == 0, check.output
+    assert "arm arm: IK ur10_analytic: 100 of 100 random reachable poses solved" in check.stdout
+    assert "SRDF: none (arms by base and tip links)" in check.stdout
+
+
+@pytest.mark.parametrize(
+    "arm, message",
+    [
+        ("{group: still}", "group 'still' has no joints that move"),
+        ("{base: base, tip: nowhere}", "unknown link 'nowhere'"),
+        ("{group: both}", "not a serial chain"),
+        ("{group: a_only}", "no tool frame"),
+    ],
+)
+def test_check_of_a_bad_robot_file_is_one_line_and_exit_2(tmp_path, arm, message):
+    shutil.copytree(DATA / "fork", tmp_path, dirs_exist_ok=True)
+    path = tmp_path / "fork.yaml"
+    path.write_text(f"name: fork\nurdf: fork.urdf\nsrdf: fork.srdf\narms:\n  arm: {arm}\n")
+    result = invoke("robot", "check", path)
+    assert result.exit_code == 2 and result.stdout == ""
+    assert result.stderr.count("\n") == 1 and message in result.stderr and str(path.name) in result.stderr
+
+
+def test_check_of_a_missing_mesh_is_one_line_and_exit_2(tmp_path):
+    shutil.copy(DATA / "fork" / "fork.urdf", tmp_path)  # without its meshes/ folder
+    path = tmp_path / "fork.yaml"
+    path.write_text("name: fork\nurdf: fork.urdf\narms:\n  arm: {base: base, tip: c}\n")
+    result = invoke("robot", "check", path)
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1 and "missing mesh" in result.stderr
+
+
+def test_init_of_a_missing_urdf_is_one_line_and_exit_2(tmp_path):
+    result = invoke("robot", "init", "--urdf", tmp_path / "none.urdf", "-o", tmp_path / "x.yaml")
+    assert result.exit_code == 2 and result.stderr.strip() == f"error: missing URDF file {tmp_path / 'none.urdf'}"
+    assert not (tmp_path / "x.yaml").exists()
+
+
+def test_robot_info_and_urdf_take_a_robot_file(tmp_path):
+    info = invoke("robot", "info", DATA / "panda.yaml", "--hand", "arm=closed")
+    assert info.exit_code == 0, info.output
+    assert info.stdout.splitlines()[:3] == [
+        "robot panda: 7 planning joints",
+        "hands: arm closed",
+        "group arm (7 joints)",
+    ]
+    exported = invoke("robot", "urdf", DATA / "ur10.yaml")
+    assert exported.exit_code == 0, exported.output
+    assert (
+        'filename="package://example-robot-data/robots/ur_description/meshes/ur10/collision/base.stl"'
+        in exported.stdout
+    )
+    (tmp_path / "ur10.urdf").write_text(exported.stdout)
+    model = pin.buildModelFromUrdf(str(tmp_path / "ur10.urdf"))
+    original = pin.buildModelFromUrdf(str(ROBOTS / "ur_description" / "urdf" / "ur10_robot.urdf"))
+    q = np.random.default_rng(0).uniform(-1.0, 1.0, 6)
+    poses = []
+    for m in (model, original):
+        data = m.createData()
+        pin.framesForwardKinematics(m, data, q)
+        poses.append(data.oMf[m.getFrameId("tool0")].homogeneous)
+    assert np.abs(poses[0] - poses[1]).max() < 1e-12
+
+
+@pytest.mark.parametrize(
+    "urdf, name, kind",
+    [("ur3_robot.urdf", "ur3", "ur3_analytic"), ("ur5_robot.urdf", "ur5_robot", "ur5_analytic")],
+)
+def test_init_picks_the_analytic_solver_that_fits_each_ur_arm(tmp_path, urdf, name, kind):
+    # The UR5's name is a built-in robot's: the file's robot is named after the URDF's robot_.
+    out = tmp_path / "robot.yaml"
+    result = invoke(
+        "robot", "init", "--urdf", f"package://example-robot-data/robots/ur_description/urdf/{urdf}", "-o", out
+    )
+    assert result.exit_code == 0, result.output
+    assert result.stdout.strip() == f"wrote {out}: robot {name}, arms arm (6 joints, tool tool0, IK {kind})"
