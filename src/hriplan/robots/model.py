@@ -28,6 +28,7 @@ class RobotSpec:
     name: str
     hand_postures: tuple[tuple[str, str], ...] = ()
     base_pose: Pose = field(default_factory=Pose)
+    source: str = ""  # the robot file it was read from ("" built in): a name may be registered anew
 
 
 def _groups(description: RobotDescription, model_order: list[str]) -> dict[str, list[str]]:
@@ -258,7 +259,9 @@ def load_robot(
         if posture not in hands[side].postures:
             raise HriplanError(f"unknown hand posture {posture!r}; choose one of {', '.join(hands[side].postures)}")
         postures[side] = posture
-    return _cached_robot(RobotSpec(name, tuple(sorted(postures.items())), base_pose or Pose()))
+    return _cached_robot(
+        RobotSpec(name, tuple(sorted(postures.items())), base_pose or Pose(), description.source or "")
+    )
 
 
 @functools.cache
