@@ -10,8 +10,9 @@ from pathlib import Path
 
 import httpx
 import pytest
+import rdflib
 import yaml
-from service_server import SRC, running_server, wait_for_workers
+from service_server import SRC, running_server, shared_server, wait_for_workers
 from starlette.testclient import TestClient
 
 from hriplan.service.app import create_app
@@ -173,3 +174,52 @@ def test_cors_is_off_unless_origins_are_given():
     assert "access-control-allow-origin" not in closed.headers
     opened = preflight(ServiceConfig(cors_origins=["https://dashboard.example"]))
     assert opened.status_code == 200 and opened.headers["access-control-allow-origin"] == "https://dashboard.example"
+
+
+def test_without_a_token_only_loopback_hosts_and_the_servers_own_origin_get_in():
+    url = shared_server()
+    port = int(url.rsplit(":", 1)[1])
+    ask = {"query": "ASK {}"}
+
+    def status(host: str | None = None, origin: str | None = None, method: str = "GET") -> httpx.Response:
+        headers = {k: v for k, v in (("host", host), ("origin", origin)) if v is not None}
+        if method == "POST":  # what a web page's plain form sends
+            return httpx.post(f"{url}/sparql", data=ask, headers=headers)
+        return httpx.get(f"{url}/sparql", params=ask, headers=headers)
+
+    for host in (f"localhost:{port}", f"127.0.0.1:{port}", f"[::1]:{port}", f"LOCALHOST:{port}"):
+        assert status(host).status_code == 200, host
+    own = status(f"localhost:{port}", f"http://localhost:{port}", "POST")
+    assert own.status_code == 200 and own.json()["boolean"] is True
+    for host in (f"rebound.example:{port}", "127.0.0.1", f"127.0.0.1:{port + 1}", f"127.0.0.1.nip.io:{port}"):
+        refused = status(host)  # DNS rebinding: a name of the attacker's that now points here
+        assert refused.status_code == 403 and refused.json()["error"] == (
+            f"the Host header {host!r} is not this server (loopback at port {port}); "
+            "serve another name with --allowed-host NAME"
+        ), host
+    for origin in ("https://attacker.example", "null", f"http://127.0.0.1:{port + 1}"):
+        refused = status(f"127.0.0.1:{port}", origin, "POST")
+        assert refused.status_code == 403 and refused.json()["error"] == (
+            f"requests from the web page at {origin} are refused "
+            "(not this server's origin; allow one with --cors-origin)"
+        )
+
+
+def test_the_service_description_names_the_address_reached_not_the_host_header():
+    url = shared_server()
+    port = url.rsplit(":", 1)[1]
+    answer = httpx.get(f"{url}/sparql", headers={"host": f"localhost:{port}", "accept": "text/turtle"})
+    graph = rdflib.Graph().parse(data=answer.text, format="turtle")
+    sd = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
+    assert set(graph.subjects(rdflib.RDF.type, sd.Service)) == {rdflib.URIRef(f"http://127.0.0.1:{port}/sparql")}
+    assert "localhost" not in answer.text
+
+
+def test_allowed_hosts_and_cors_origins_are_let_in():
+    config = ServiceConfig(allowed_hosts=["robot.local"], cors_origins=["https://dashboard.example"])
+    client = TestClient(create_app(config), base_url="http://127.0.0.1:8000")  # no lifespan: no workers
+    assert client.get("/sessions/x", headers={"host": "robot.local:8000"}).status_code == 404  # past the guard
+    assert client.get("/sessions/x", headers={"host": "robot.other:8000"}).status_code == 403
+    assert client.get("/sessions/x", headers={"origin": "https://dashboard.example"}).status_code == 404
+    with_token = TestClient(create_app(ServiceConfig(token="t" * 16)), base_url="http://robot.example:8000")
+    assert with_token.get("/sessions/x", headers=dict(AUTH, authorization="Bearer " + "t" * 16)).status_code == 404

@@ -1,14 +1,17 @@
 """The HTTP planning service (FastAPI): tasks, planning problems, sessions, SPARQL.
 
-Bodies are the project's file formats (the OpenAPI schema at /docs is the task file, the
-planning problem, the trajectory file). Every request that reasons or plans runs in a worker
-process (workers.py). Sessions and stored tasks live here, in the server, as their state; each
+Bodies are the project's file formats (the OpenAPI schema at /openapi.json is the task file, the
+planning problem, the trajectory file). Every request that reasons or plans runs in a planning
+worker process, every SPARQL query in a query worker (workers.py), so a query never takes a
+planning worker. Sessions and stored tasks live here, in the server, as their state; each
 request sends that state to whichever worker is free, which rebuilds (or updates) its planning
 session from it, so a crashed or killed worker loses nothing.
 """
 
 from __future__ import annotations
 
+import asyncio
+import html
 import uuid
 from collections.abc import Iterator
 from contextlib import asynccontextmanager
@@ -17,6 +20,8 @@ from typing import Any
 
 from fastapi import FastAPI, Request, Response
 from fastapi.exceptions import RequestValidationError
+from fastapi.openapi.utils import get_openapi
+from fastapi.responses import HTMLResponse
 from pydantic import BaseModel, ValidationError
 from starlette.exceptions import HTTPException
 from starlette.middleware.cors import CORSMiddleware
@@ -87,17 +92,34 @@ def _rules_dir(task: TaskFile, config: ServiceConfig) -> str | None:
     return str(folder)
 
 
+def docs_page(schema: dict[str, Any]) -> str:
+    """Every route with its summary, linking the full schema: plain HTML, no scripts."""
+    rows = "".join(
+        f"<tr><td>{method.upper()}</td><td><code>{html.escape(path)}</code></td>"
+        f"<td>{html.escape(operation.get('description') or operation.get('summary', ''))}</td></tr>"
+        for path, methods in schema["paths"].items()
+        for method, operation in methods.items()
+    )
+    return (
+        f"<!doctype html><html><head><meta charset='utf-8'><title>{schema['info']['title']} API</title></head><body>"
+        f"<h1>{schema['info']['title']} {schema['info']['version']}</h1><p>{html.escape(schema['info']['description'])}"
+        f" The request and response bodies: <a href='openapi.json'>openapi.json</a>; the reference: docs/service.md.</p>"
+        f"<table><tr><th>method</th><th>path</th><th>what</th></tr>{rows}</table></body></html>"
+    )
+
+
 def create_app(config: ServiceConfig | None = None) -> FastAPI:
     config = config or ServiceConfig()
     pool = WorkerPool(config.workers, config.queue_limit)
+    queries = WorkerPool(config.query_workers, config.queue_limit, memory_limit=config.query_memory << 20)
     sessions: dict[str, SessionState] = {}
     tasks: dict[str, dict[str, Any]] = {}
 
     @asynccontextmanager
     async def lifespan(_: FastAPI):
-        await pool.start()
+        await asyncio.gather(pool.start(), queries.start())
         yield
-        await pool.close()
+        await asyncio.gather(pool.close(), queries.close())
 
     app = FastAPI(
         title="hriplan",
@@ -105,7 +127,26 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         lifespan=lifespan,
         responses=ERRORS,
         description="Safe human-robot collaboration planning: derive constraints with the rules, plan, query.",
+        docs_url=None,
+        redoc_url=None,
     )
+
+    def openapi() -> dict[str, Any]:
+        """FastAPI's schema plus the bearer scheme (required by every route when a token is set)."""
+        if app.openapi_schema is None:
+            schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
+            schema.setdefault("components", {})["securitySchemes"] = {"bearer": {"type": "http", "scheme": "bearer"}}
+            if config.token is not None:
+                schema["security"] = [{"bearer": []}]
+            app.openapi_schema = schema
+        return app.openapi_schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
+
+    @app.get("/docs", include_in_schema=False)
+    async def docs() -> HTMLResponse:
+        """The routes in a page that loads nothing from elsewhere (works offline)."""
+        return HTMLResponse(docs_page(app.openapi()))
 
     @app.exception_handler(RequestValidationError)
     async def invalid(_: Request, exc: RequestValidationError) -> Response:
@@ -133,8 +174,9 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         return error_response(500, f"internal error ({type(exc).__name__}); see the server log")
 
     async def run(request: Request, kind: str, payload: dict[str, Any], status: int = 200) -> Response:
+        lane = queries if kind == "sparql" else pool
         try:
-            reply = await pool.run(kind, payload, config.request_time_limit, request.is_disconnected)
+            reply = await lane.run(kind, payload, config.request_time_limit, request.is_disconnected)
         except Busy as exc:
             return error_response(503, str(exc), headers={"Retry-After": "1"})
         except PoolError as exc:
@@ -150,8 +192,15 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
     # -- tasks and problems ----------------------------------------------------------------
     @app.get("/health", tags=["service"])
     async def health() -> dict[str, Any]:
-        """Liveness, the workers (pid, busy) and how many requests wait."""
-        return {"status": "ok", "version": __version__, **pool.status()}
+        """Liveness, the planning and query workers (pid, ready, busy) and how many requests wait;
+        "degraded" while a dead worker is being replaced."""
+        lanes = pool.status()
+        return {
+            "status": "ok" if pool.healthy() and queries.healthy() else "degraded",
+            "version": __version__,
+            **lanes,
+            "query_workers": queries.status()["workers"],
+        }
 
     @app.post("/constraints", response_model=TaskOutcome, tags=["tasks"], openapi_extra=JSON_OR_YAML)
     async def constraints(request: Request, task: TaskFile) -> Response:
@@ -287,7 +336,14 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
 
     add_sparql_routes(app, run_query, stored)
 
-    app.add_middleware(Guard, body_limit=config.body_limit, token=config.token)
+    app.add_middleware(
+        Guard,
+        body_limit=config.body_limit,
+        token=config.token,
+        body_timeout=config.body_timeout,
+        allowed_hosts=config.allowed_hosts,
+        allowed_origins=config.cors_origins,
+    )
     if config.cors_origins:
         app.add_middleware(
             CORSMiddleware,

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from hriplan.ontology.knowledge_base import KnowledgeBase
-from hriplan.ontology.sparql import QueryLimits, prepare_query, run_query
+from hriplan.ontology.sparql import QueryLimits, prepare_query, run_query, time_limit_message
 from hriplan.planner.problem import PlanningProblem
 from hriplan.planner.session import PlanningSession, PlanResult, worker_session
 from hriplan.rules.explain import explain
@@ -31,12 +31,14 @@ from hriplan.service.schemas import (
     StepExplanation,
     TaskPlanResponse,
 )
+from hriplan.service.worker_main import announce_deadline, bounded_memory
 from hriplan.tasks.knowledge import _ontology_graph
 from hriplan.tasks.model import TaskFile
 from hriplan.tasks.pipeline import TaskRunner
 
 Reply = tuple[str, str]  # (body, media type)
 JSON = "application/json"
+KILL_GRACE = 0.5  # seconds past a query's time limit before its worker is killed
 
 _task_bases: OrderedDict[str, dict[str, KnowledgeBase]] = OrderedDict()  # recent tasks' knowledge bases
 
@@ -132,12 +134,17 @@ def _task_graph(payload: dict[str, Any]):
 
 
 def sparql(payload: dict[str, Any]) -> Reply:
-    """A SPARQL query over the ontology alone or a task step's reasoned graph, negotiated."""
+    """A SPARQL query over the ontology alone or a task step's reasoned graph, negotiated.
+    Reasoning the task's graph is not the query's time; from then on the worker is killed past
+    the query's time limit and its memory is capped, whatever the query does."""
     prepare_query(payload["query"])  # refusals and syntax errors before any reasoning
     graph = _ontology_graph() if payload.get("task") is None else _task_graph(payload)
-    result = run_query(graph, payload["query"], QueryLimits.model_validate(payload["limits"]))
-    syntax, media = choose(result.graph is not None, payload.get("accept"), payload.get("format"))
-    return result.serialize(syntax), media
+    limits = QueryLimits.model_validate(payload["limits"])
+    announce_deadline(limits.time_limit + KILL_GRACE, time_limit_message(limits.time_limit))
+    with bounded_memory():
+        result = run_query(graph, payload["query"], limits)
+        syntax, media = choose(result.graph is not None, payload.get("accept"), payload.get("format"))
+        return result.serialize(syntax), media
 
 
 JOBS = {

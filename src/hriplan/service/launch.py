@@ -12,6 +12,7 @@ import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import IO
 
 import httpx
 
@@ -25,14 +26,17 @@ def free_port() -> int:
 
 
 @contextlib.contextmanager
-def running_server(*args: str, token: str | None = None, startup: float = 120.0) -> Iterator[str]:
+def running_server(
+    *args: str, token: str | None = None, startup: float = 120.0, log: IO[str] | None = None
+) -> Iterator[str]:
     """The base URL of a server started with `args`; stopped (workers included) afterwards.
-    Its log goes to a temporary file (a pipe nobody reads would fill up and stall the server)."""
+    Its log goes to `log` or a temporary file (a pipe nobody reads would fill up and stall the server)."""
     port = free_port()
     env = dict(os.environ, PYTHONPATH=f"{SRC}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
     env.pop("HRIPLAN_TOKEN", None)
     command = [sys.executable, "-m", "hriplan.cli", "serve", "--port", str(port), *args]
-    log = tempfile.TemporaryFile(mode="w+")
+    own_log = log is None
+    log = tempfile.TemporaryFile(mode="w+") if log is None else log
     process = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT, text=True)
     url = f"http://127.0.0.1:{port}"
     headers = {"Authorization": f"Bearer {token}"} if token else {}
@@ -56,4 +60,5 @@ def running_server(*args: str, token: str | None = None, startup: float = 120.0)
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
-        log.close()
+        if own_log:
+            log.close()
