@@ -61,8 +61,8 @@ def client(server):
         yield c
 
 
-def serve(*args: str) -> subprocess.CompletedProcess:
-    env = {"PYTHONPATH": str(SRC), "PATH": "/usr/bin:/bin"}
+def serve(*args: str, **env_vars: str) -> subprocess.CompletedProcess:
+    env = {"PYTHONPATH": str(SRC), "PATH": "/usr/bin:/bin", **env_vars}
     return subprocess.run(
         [sys.executable, "-m", "hriplan.cli", "serve", *args], env=env, capture_output=True, text=True, timeout=60
     )
@@ -223,3 +223,50 @@ def test_allowed_hosts_and_cors_origins_are_let_in():
     assert client.get("/sessions/x", headers={"origin": "https://dashboard.example"}).status_code == 404
     with_token = TestClient(create_app(ServiceConfig(token="t" * 16)), base_url="http://robot.example:8000")
     assert with_token.get("/sessions/x", headers=dict(AUTH, authorization="Bearer " + "t" * 16)).status_code == 404
+
+
+def test_a_token_comes_from_a_file_or_the_environment_and_is_never_blank(tmp_path):
+    blank = "error: --token: a token may not contain spaces or line breaks"
+    for refused in (serve("--token", " " * 20), serve(HRIPLAN_TOKEN=" " * 20), serve("--token", "abcdefgh ijklmnopq")):
+        assert refused.returncode == 2 and refused.stderr.strip() == blank  # was accepted
+    empty = tmp_path / "empty"
+    empty.write_text("\n  \n")
+    refused = serve("--token-file", str(empty))
+    assert (
+        refused.returncode == 2
+        and refused.stderr.strip() == f"error: --token-file {empty}: the first line holds no token"
+    )
+    missing = serve("--token-file", str(tmp_path / "nope"))
+    assert missing.returncode == 2 and missing.stderr.strip() == f"error: {tmp_path / 'nope'}: no such file"
+    both = serve("--token-file", str(empty), "--token", TOKEN)
+    assert both.returncode == 2 and both.stderr.strip().startswith("error: give the token once")
+    kept = tmp_path / "token"
+    kept.write_text(TOKEN + "\n")
+    with running_server("--workers", "1", "--token-file", str(kept), token=TOKEN) as url:
+        assert httpx.get(f"{url}/health").status_code == 401
+        assert httpx.get(f"{url}/health", headers=AUTH).json()["status"] == "ok"
+
+
+def test_without_the_server_extra_the_hint_names_this_checkouts_python(tmp_path):
+    (tmp_path / "uvicorn.py").write_text("raise ModuleNotFoundError(\"No module named 'uvicorn'\", name='uvicorn')\n")
+    env = {"PYTHONPATH": f"{tmp_path}:{SRC}", "PATH": "/usr/bin:/bin"}
+    missing = subprocess.run(
+        [sys.executable, "-m", "hriplan.cli", "serve"], env=env, capture_output=True, text=True, timeout=60
+    )
+    assert missing.returncode == 2 and missing.stderr.strip() == (
+        f"error: the server needs the `server` extra ({sys.executable} -m pip install -e '{ROOT}[server]'): "
+        "uvicorn is missing"
+    )
+
+
+def test_the_schema_lists_the_sparql_routes_and_the_bearer_scheme_and_docs_load_nothing_from_elsewhere(client):
+    schema = client.get("/openapi.json").json()
+    assert {"get", "post"} <= set(schema["paths"]["/sparql"]) and "/tasks/{task_id}/steps/{step}/sparql" in schema[
+        "paths"
+    ]
+    assert schema["components"]["securitySchemes"]["bearer"] == {"type": "http", "scheme": "bearer"}
+    assert schema["security"] == [{"bearer": []}]
+    page = client.get("/docs")
+    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+    assert "<script" not in page.text and "//" not in page.text.replace("http://", "")  # was swagger-ui from a CDN
+    assert "/tasks/{task_id}/sparql" in page.text

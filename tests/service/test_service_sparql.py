@@ -159,3 +159,21 @@ def test_limits_give_clear_errors(server):
         )
         == 100
     )
+
+
+def test_graph_results_with_the_clients_defaults_rdf_xml_and_n_triples(server):
+    url, construct = f"{server}/sparql", "CONSTRUCT { ?k hp:hasTolerance ?t } WHERE { ?k hp:hasTolerance ?t }"
+    expected = {(rdflib.URIRef(HP + k), rdflib.URIRef(HP + "hasTolerance")) for k in ("UprightFull", "UprightPartial")}
+    client = SPARQLWrapper(url)  # its default return format: XML, so RDF/XML for a graph (was 406)
+    client.setQuery(construct)
+    by_default = client.queryAndConvert()
+    assert expected <= {(s, p) for s, p, _ in by_default}
+    store = rdflib.Graph(store="SPARQLStore")  # rdflib's own client, with its defaults
+    store.open(url)
+    from_store = store.query(construct).graph
+    assert set(from_store) == set(by_default)
+    for accept in ("application/n-triples", "application/rdf+xml"):
+        answer = httpx.get(url, params={"query": construct}, headers={"accept": accept})
+        syntax = {"application/n-triples": "nt", "application/rdf+xml": "xml"}[accept]
+        assert answer.headers["content-type"].startswith(accept)
+        assert set(rdflib.Graph().parse(data=answer.text, format=syntax)) == set(by_default)
