@@ -13,27 +13,12 @@ from pathlib import Path
 
 import httpx
 import pytest
-from service_server import running_server, wait_for_workers
+from service_server import BOMBS, TENFOLD, nested_replace, running_server, wait_for_workers
 
 ROOT = Path(__file__).resolve().parents[2]
 PROBLEM = json.loads((ROOT / "benchmarks" / "scenarios" / "b_madar_handover.json").read_text())
 TASK = (ROOT / "examples" / "handover_full_can.yaml").read_text()
-REGEX = 'SELECT ?o WHERE { ?s rdfs:comment ?o FILTER(REGEX(STR(?o), "^(.*)*(.*)*(.*)*(.*)*x$")) }'
-VALUES = (
-    "SELECT (COUNT(*) AS ?n) WHERE { " + " ".join(f"VALUES ?v{i} {{ 1 2 3 4 5 6 7 8 9 10 }}" for i in range(8)) + " }"
-)
-TENFOLD = '".", "0123456789"'  # each character ten times
-
-
-def replaced(levels: int) -> str:
-    """Each comment's length in characters after `levels` nested tenfold REPLACEs."""
-    nested = "STR(?o)"
-    for _ in range(levels):
-        nested = f"REPLACE({nested}, {TENFOLD})"
-    return f"SELECT (STRLEN({nested}) AS ?n) WHERE {{ ?s rdfs:comment ?o }}"
-
-
-REPLACE = replaced(6)  # ~100 characters x 10^6 per row
+REGEX, VALUES, REPLACE = BOMBS["regex"], BOMBS["values"], BOMBS["replace"]  # REPLACE: 100 MB strings
 WIDE = f"SELECT ?x WHERE {{ ?s rdfs:comment ?o BIND(REPLACE(STR(?o), {TENFOLD}) AS ?x) }}"  # ~10x the comments
 TIMED_OUT = "the query ran past its time limit of 3 s; narrow it or add a LIMIT"
 
@@ -78,7 +63,7 @@ def test_string_functions_stop_at_the_memory_limit(server):
     assert answer.status_code == 400 and answer.json()["error"] == (
         "the query needed more than the memory limit of 32 MB; narrow it"
     )
-    small = httpx.get(f"{server}/sparql", params={"query": replaced(4)})
+    small = httpx.get(f"{server}/sparql", params={"query": nested_replace(4)})
     assert small.status_code == 200  # the worker survived its bounded job; 4 levels fit
     assert {int(b["n"]["value"]) % 10_000 for b in small.json()["results"]["bindings"]} == {0}
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import asyncio
 import html
 import uuid
-from collections.abc import Iterator
+from collections.abc import Awaitable, Callable, Iterator
 from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Any
@@ -37,6 +37,7 @@ from hriplan.service.guard import Guard
 from hriplan.service.schemas import (
     ErrorBody,
     ExplainResponse,
+    JobState,
     PlanResponse,
     SessionCreate,
     SessionPlanRequest,
@@ -92,6 +93,19 @@ def _rules_dir(task: TaskFile, config: ServiceConfig) -> str | None:
     return str(folder)
 
 
+class BackgroundJob:
+    """A plan running in the background: its state, its answer once done, its cancel switch."""
+
+    def __init__(self, state: JobState) -> None:
+        self.state = state
+        self.result: Response | None = None
+        self.cancel = asyncio.Event()
+        self.task: asyncio.Task | None = None  # kept referenced while it runs
+
+    async def cancelled(self) -> bool:
+        return self.cancel.is_set()
+
+
 def docs_page(schema: dict[str, Any]) -> str:
     """Every route with its summary, linking the full schema: plain HTML, no scripts."""
     rows = "".join(
@@ -114,6 +128,7 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
     queries = WorkerPool(config.query_workers, config.queue_limit, memory_limit=config.query_memory << 20)
     sessions: dict[str, SessionState] = {}
     tasks: dict[str, dict[str, Any]] = {}
+    background: dict[str, BackgroundJob] = {}
 
     @asynccontextmanager
     async def lifespan(_: FastAPI):
@@ -174,9 +189,15 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         return error_response(500, f"internal error ({type(exc).__name__}); see the server log")
 
     async def run(request: Request, kind: str, payload: dict[str, Any], status: int = 200) -> Response:
+        return await answer(kind, payload, request.is_disconnected, status)
+
+    async def answer(
+        kind: str, payload: dict[str, Any], gone: Callable[[], Awaitable[bool]], status: int = 200
+    ) -> Response:
+        """Run a job in its lane (queries apart from planning) and make its reply a response."""
         lane = queries if kind == "sparql" else pool
         try:
-            reply = await lane.run(kind, payload, config.request_time_limit, request.is_disconnected)
+            reply = await lane.run(kind, payload, config.request_time_limit, gone)
         except Busy as exc:
             return error_response(503, str(exc), headers={"Retry-After": "1"})
         except PoolError as exc:
@@ -222,6 +243,65 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         """Plan a planning problem (`hriplan solve`): constraints given, not derived."""
         refuse_server_files(problem)
         return await run(request, "solve", {"problem": problem.model_dump(mode="json", by_alias=True), "ros": ros})
+
+    # -- background jobs: long plans submitted, polled, cancelled ------------------------------
+    def submit(kind: str, payload: dict[str, Any]) -> Response:
+        if len(background) >= config.max_jobs:
+            finished = [i for i, j in background.items() if j.state.status == "done"]
+            if not finished:
+                raise RequestError(409, f"the server runs {config.max_jobs} jobs, its limit; cancel one first")
+            del background[finished[0]]
+        job = BackgroundJob(JobState(id=uuid.uuid4().hex[:12], kind=kind, status="running"))
+
+        async def work() -> None:
+            response = await answer(kind, payload, job.cancelled)
+            job.result = response
+            job.state = job.state.model_copy(update={"status": "done", "result_status": response.status_code})
+
+        job.task = asyncio.get_running_loop().create_task(work())
+        background[job.state.id] = job
+        return Response(
+            job.state.model_dump_json(),
+            202,
+            media_type="application/json",
+            headers={"Location": f"/jobs/{job.state.id}"},
+        )
+
+    def background_job(job_id: str) -> BackgroundJob:
+        if job_id not in background:
+            raise RequestError(404, f"no job {job_id!r}")
+        return background[job_id]
+
+    @app.post("/jobs/plan", response_model=JobState, status_code=202, tags=["jobs"], openapi_extra=JSON_OR_YAML)
+    async def plan_job(task: TaskFile, ros: bool = False) -> Response:
+        """Start `POST /plan` in the background: poll /jobs/{id}, then fetch /jobs/{id}/result."""
+        return submit("plan", task_payload(task, ros=ros))
+
+    @app.post("/jobs/solve", response_model=JobState, status_code=202, tags=["jobs"])
+    async def solve_job(problem: PlanningProblem, ros: bool = False) -> Response:
+        """Start `POST /solve` in the background."""
+        refuse_server_files(problem)
+        return submit("solve", {"problem": problem.model_dump(mode="json", by_alias=True), "ros": ros})
+
+    @app.get("/jobs/{job_id}", response_model=JobState, tags=["jobs"])
+    async def get_job(job_id: str) -> JobState:
+        """Whether the job is running or done (and the status its answer has)."""
+        return background_job(job_id).state
+
+    @app.get("/jobs/{job_id}/result", tags=["jobs"])
+    async def job_result(job_id: str) -> Response:
+        """The answer the synchronous route would have given; 409 while the job runs."""
+        job = background_job(job_id)
+        if job.result is None:
+            raise RequestError(409, f"job {job_id!r} is still running; poll /jobs/{job_id}")
+        return job.result
+
+    @app.delete("/jobs/{job_id}", status_code=204, tags=["jobs"])
+    async def cancel_job(job_id: str) -> Response:
+        """Cancel a running job (its worker is stopped and replaced) or forget a finished one."""
+        background_job(job_id).cancel.set()
+        del background[job_id]
+        return Response(status_code=204)
 
     # -- sessions ----------------------------------------------------------------------------
     def session(session_id: str) -> SessionState:

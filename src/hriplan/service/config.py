@@ -43,6 +43,7 @@ class ServiceConfig(BaseModel):
     query: QueryLimits = Field(default_factory=QueryLimits)
     max_sessions: int = Field(default=64, ge=1)
     max_tasks: int = Field(default=64, ge=1)
+    max_jobs: int = Field(default=64, ge=1, description="Background jobs kept, running or done.")
 
     @field_validator("token")
     @classmethod
