@@ -22,8 +22,13 @@ from collections.abc import Iterator  # noqa: E402
 from multiprocessing.connection import Connection  # noqa: E402
 
 PR_SET_PDEATHSIG = 1
-_pipe: list[Connection] = []  # this worker's pipe to the server, once serving
-_memory: list[int | None] = [None]  # bytes a bounded job may add to the address space
+
+
+class _Serving:
+    """This worker's pipe to the server (once serving) and the bytes a bounded job may add."""
+
+    pipe: Connection | None = None
+    memory_limit: int | None = None
 
 
 def die_with(parent: int) -> None:
@@ -38,8 +43,8 @@ def die_with(parent: int) -> None:
 def announce_deadline(seconds: float, why: str) -> None:
     """Tell the server to kill this worker if the job has not answered within `seconds` from now
     (`why` is the 504 message): for work that checks no deadline itself, a regex, a VALUES join."""
-    if _pipe:
-        _pipe[0].send(("deadline", seconds, why))
+    if _Serving.pipe is not None:
+        _Serving.pipe.send(("deadline", seconds, why))
 
 
 class OutOfMemory(Exception):
@@ -50,7 +55,7 @@ class OutOfMemory(Exception):
 def bounded_memory() -> Iterator[None]:
     """Run a block with the address space capped at what the worker uses now plus its limit;
     past it an allocation fails (MemoryError), raised here as OutOfMemory, and the cap is lifted."""
-    limit = _memory[0]
+    limit = _Serving.memory_limit
     if limit is None or not sys.platform.startswith("linux"):
         yield
         return
@@ -72,8 +77,7 @@ def bounded_memory() -> Iterator[None]:
 def serve(conn: Connection, parent: int, memory_limit: int | None = None) -> None:
     """Answer requests until the server closes the pipe."""
     die_with(parent)
-    _pipe.append(conn)
-    _memory[0] = memory_limit
+    _Serving.pipe, _Serving.memory_limit = conn, memory_limit
     from hriplan import HriplanError
     from hriplan.ontology.sparql import QueryTimeout, UpdateRefused
     from hriplan.service.errors import RequestError
