@@ -188,12 +188,10 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
     async def internal(_: Request, exc: Exception) -> Response:
         return error_response(500, f"internal error ({type(exc).__name__}); see the server log")
 
-    async def run(request: Request, kind: str, payload: dict[str, Any], status: int = 200) -> Response:
-        return await answer(kind, payload, request.is_disconnected, status)
+    async def run(request: Request, kind: str, payload: dict[str, Any]) -> Response:
+        return await answer(kind, payload, request.is_disconnected)
 
-    async def answer(
-        kind: str, payload: dict[str, Any], gone: Callable[[], Awaitable[bool]], status: int = 200
-    ) -> Response:
+    async def answer(kind: str, payload: dict[str, Any], gone: Callable[[], Awaitable[bool]]) -> Response:
         """Run a job in its lane (queries apart from planning) and make its reply a response."""
         lane = queries if kind == "sparql" else pool
         try:
@@ -203,7 +201,7 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         except PoolError as exc:
             return error_response(exc.status, str(exc))
         if reply[0] == "ok":
-            return Response(reply[1], status_code=status, media_type=reply[2])
+            return Response(reply[1], media_type=reply[2])
         return error_response(reply[1], reply[2])
 
     def task_payload(task: TaskFile, **extra: Any) -> dict[str, Any]:
