@@ -125,7 +125,7 @@ def docs_page(schema: dict[str, Any]) -> str:
 def create_app(config: ServiceConfig | None = None) -> FastAPI:
     config = config or ServiceConfig()
     pool = WorkerPool(config.workers, config.queue_limit)
-    queries = WorkerPool(config.query_workers, config.queue_limit, memory_limit=config.query_memory << 20)
+    queries = WorkerPool(config.query_workers, config.queue_limit, config.query_memory << 20, "queries")
     sessions: dict[str, SessionState] = {}
     tasks: dict[str, dict[str, Any]] = {}
     background: dict[str, BackgroundJob] = {}

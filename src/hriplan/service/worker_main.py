@@ -74,14 +74,18 @@ def bounded_memory() -> Iterator[None]:
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
-def serve(conn: Connection, parent: int, memory_limit: int | None = None) -> None:
-    """Answer requests until the server closes the pipe."""
+def serve(conn: Connection, parent: int, memory_limit: int | None = None, lane: str = "planning") -> None:
+    """Answer requests until the server closes the pipe: planning jobs, or queries (`lane`)."""
     die_with(parent)
     _Serving.pipe, _Serving.memory_limit = conn, memory_limit
     from hriplan import HriplanError
     from hriplan.ontology.sparql import QueryTimeout, UpdateRefused
     from hriplan.service.errors import RequestError
-    from hriplan.service.jobs import JOBS
+
+    if lane == "queries":
+        from hriplan.service.query_jobs import JOBS
+    else:
+        from hriplan.service.jobs import JOBS
     from hriplan.service.negotiation import NotAcceptable
 
     conn.send(("ready", os.getpid()))

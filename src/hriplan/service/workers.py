@@ -56,10 +56,10 @@ class WorkerCrashed(PoolError):
 class _Worker:
     """One process and the pipe to it; `call` blocks (it runs in a thread)."""
 
-    def __init__(self, memory_limit: int | None) -> None:
+    def __init__(self, memory_limit: int | None, lane: str) -> None:
         self.conn, child = SPAWN.Pipe()
         self.process = SPAWN.Process(
-            target=serve, args=(child, os.getpid(), memory_limit), daemon=True, name="hriplan-worker"
+            target=serve, args=(child, os.getpid(), memory_limit, lane), daemon=True, name=f"hriplan-{lane}"
         )
         self.process.start()
         child.close()
@@ -93,9 +93,10 @@ class _Worker:
 
 
 class WorkerPool:
-    def __init__(self, size: int, queue_limit: int, memory_limit: int | None = None) -> None:
-        """`memory_limit`: bytes of address space a worker's bounded job may add (None: unbounded)."""
-        self.size, self.queue_limit, self.memory_limit = size, queue_limit, memory_limit
+    def __init__(self, size: int, queue_limit: int, memory_limit: int | None = None, lane: str = "planning") -> None:
+        """`memory_limit`: bytes of address space a worker's bounded job may add (None: unbounded);
+        `lane`: "planning" or "queries", the jobs its workers do (worker_main.serve)."""
+        self.size, self.queue_limit, self.memory_limit, self.lane = size, queue_limit, memory_limit, lane
         self.workers: list[_Worker] = []
         self._idle: asyncio.Queue[_Worker] = asyncio.Queue()
         self._in_flight = 0  # running + waiting
@@ -106,7 +107,7 @@ class WorkerPool:
         await asyncio.gather(*(self._add() for _ in range(self.size)))
 
     async def _add(self) -> None:
-        worker = _Worker(self.memory_limit)
+        worker = _Worker(self.memory_limit, self.lane)
         self.workers.append(worker)
         loop = asyncio.get_running_loop()
         try:
