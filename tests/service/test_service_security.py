@@ -75,6 +75,14 @@ def test_binding_off_loopback_needs_a_token():
         and refused.stderr.strip()
         == "error: binding to 0.0.0.0 (not loopback) needs a bearer token: --token or HRIPLAN_TOKEN"
     )
+    for option, value, message in [
+        ("--query-time-limit", "0", "Input should be greater than 0"),
+        ("--row-limit", "0", "Input should be greater than 0"),
+        ("--response-limit", "0", "Input should be greater than 0"),
+        ("--query-workers", "0", "Input should be greater than or equal to 1"),
+    ]:
+        bad = serve(option, value)  # named as the option given (--row-limit was --query-row-limit)
+        assert bad.returncode == 2 and bad.stderr.strip() == f"error: {option}: {message}"
     short = serve("--token", "abc", "--port", "0")
     assert short.returncode == 2 and short.stderr.startswith(
         "error: --token: String should have at least 16 characters"

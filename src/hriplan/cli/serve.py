@@ -90,9 +90,9 @@ def serve(
         )
     except ValidationError as exc:
         first = exc.errors()[0]
-        option = {"byte_limit": "response_limit"}.get(str(first["loc"][-1]), str(first["loc"][-1]))
-        message = first["msg"].removeprefix("Value error, ")
-        raise HriplanError(f"--{option.replace('_', '-')}: {message}") from None
+        field = ".".join(str(p) for p in first["loc"])
+        option = OPTIONS.get(field, field.replace("_", "-"))
+        raise HriplanError(f"--{option}: {first['msg'].removeprefix('Value error, ')}") from None
     config.check_binding()
     _enough_file_descriptors(config.max_connections)
     uvicorn.run(
@@ -104,6 +104,16 @@ def serve(
         http=guarded_protocol(config.max_connections, config.header_timeout),
         timeout_keep_alive=5,
     )
+
+
+OPTIONS = {  # a ServiceConfig field -> the option that sets it, where the names differ
+    "query.time_limit": "query-time-limit",
+    "query.row_limit": "row-limit",
+    "query.byte_limit": "response-limit",
+    "queue_limit": "queue",
+    "cors_origins": "cors-origin",
+    "allowed_hosts": "allowed-host",
+}
 
 
 def install_hint() -> str:
