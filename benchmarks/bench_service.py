@@ -1,6 +1,7 @@
 """The HTTP service under load, and the SPARQL engine choice (rdflib vs pyoxigraph).
 
 Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_service.py [--requests 200] [--concurrency 8] [--workers 2] [--reps 20]
+     [--before CHECKOUT] [--only-hostile]
 - engines: the same queries on the ontology and on a task step's reasoned graph, by rdflib as
   hriplan runs it (with its deadline and row guards), by plain rdflib, and by pyoxigraph (if
   installed); median over --reps. rdflib-endpoint evaluates with one of these two engines.
@@ -8,8 +9,10 @@ Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_service.py [--requests 200
   (task plan, problem solve, constraints, SPARQL) from --concurrency clients; every answer is
   checked against a marker of its own request (a task name, a start value, a literal), and
   latency p50/p95 per kind is printed. The loop is bounded by count and stops by itself.
-- bomb: problem-solve latency alone, then while two cross-join queries run into the query
-  time limit (--query-time-limit 2): planning waits at most that limit.
+- hostile: a server from this checkout and, with --before, one from another checkout (e.g.
+  `git worktree add /tmp/svc-before main`), in the same run: cheap-query and solve latency alone,
+  then while the issue-22 bombs (regex, VALUES join, nested REPLACE, 4-way cross join) are in
+  flight; and each bomb's status and time (--query-time-limit 2, --request-time-limit 30).
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ sys.path.insert(0, str(ROOT / "src"))
 import httpx  # noqa: E402
 import yaml  # noqa: E402
 
-from hriplan.service.launch import running_server  # noqa: E402
+from hriplan.service.launch import BOMBS, running_server  # noqa: E402
 
 TASK = yaml.safe_load((ROOT / "examples" / "handover_full_can.yaml").read_text())
 PROBLEM = json.loads((ROOT / "benchmarks" / "scenarios" / "b_madar_handover.json").read_text())
@@ -143,23 +146,48 @@ def load(url: str, requests: int, concurrency: int) -> list[str]:
     return lines
 
 
-def bomb(url: str) -> list[str]:
+def _cheap(client: httpx.Client) -> float:
+    began = time.perf_counter()
+    assert client.get("/sparql", params={"query": QUERIES["tolerances"]}).status_code == 200
+    return time.perf_counter() - began
+
+
+def _bomb(url: str, name: str, query: str, out: dict[str, str]) -> None:
+    began = time.perf_counter()
+    try:
+        response = httpx.get(f"{url}/sparql", params={"query": query}, timeout=120)
+        out[name] = f"{response.status_code} after {time.perf_counter() - began:.1f} s"
+    except httpx.TransportError as exc:
+        out[name] = f"{type(exc).__name__} after {time.perf_counter() - began:.1f} s"
+
+
+def _all_busy(health: dict) -> bool:
+    """The bombs hold every query worker (before the query lane: every worker)."""
+    return all(w["busy"] for w in health.get("query_workers", health["workers"]))
+
+
+def hostile(url: str, label: str) -> list[str]:
+    """Latency of cheap queries and solves alone, then with every bomb in flight at once."""
     with httpx.Client(base_url=url, timeout=120) as client:
-        alone = [one(client, "solve", k)[1] for k in range(5)]
-        bombs = [
-            threading.Thread(target=client.get, args=("/sparql",), kwargs={"params": {"query": CROSS_JOIN}})
-            for _ in range(2)
-        ]
-        for b in bombs:
-            b.start()
-        time.sleep(0.1)
-        began = time.perf_counter()
-        during = one(client, "solve", 99)
-        waited = time.perf_counter() - began
-        for b in bombs:
-            b.join()
+        for k in range(2):  # warm both planning workers and the query path
+            one(client, "solve", k)
+        cheap_alone = [_cheap(client) for _ in range(10)]
+        solve_alone = [one(client, "solve", k)[1] for k in range(3)]
+        outcomes: dict[str, str] = {}
+        bombs = {**BOMBS, "cross join": CROSS_JOIN}
+        threads = [threading.Thread(target=_bomb, args=(url, n, q, outcomes)) for n, q in bombs.items()]
+        for thread in threads:
+            thread.start()
+        while not _all_busy(client.get("/health").json()):
+            time.sleep(0.05)
+        solves = [one(client, "solve", 100 + k) for k in range(3)]
+        cheap_during = [_cheap(client) for _ in range(3)]
+        for thread in threads:
+            thread.join()
     return [
-        f"solve alone: median {statistics.median(alone):.2f} s; during two SPARQL bombs (query limit 2 s): {waited:.2f} s, solved {during[2]}"
+        f"| {label} | {1e3 * statistics.median(cheap_alone):.0f} ms | {1e3 * max(cheap_during):.0f} ms"
+        f" | {statistics.median(solve_alone):.2f} s | {max(s[1] for s in solves):.2f} s"
+        f" ({sum(s[2] for s in solves)}/3 solved) | {'; '.join(f'{n}: {outcomes.get(n)}' for n in bombs)} |"
     ]
 
 
@@ -169,11 +197,24 @@ def main() -> None:
     parser.add_argument("--concurrency", type=int, default=8)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--reps", type=int, default=20)
+    parser.add_argument("--before", type=Path, help="another checkout to compare with (its src/ is served)")
+    parser.add_argument("--only-hostile", action="store_true", help="skip the engine and load parts")
     args = parser.parse_args()
-    print("\n".join(engines(args.reps)), flush=True)
-    with running_server("--workers", str(args.workers), "--query-time-limit", "2") as url:
-        print("\n".join(load(url, args.requests, args.concurrency)), flush=True)
-        print("\n".join(bomb(url)), flush=True)
+    if not args.only_hostile:
+        print("\n".join(engines(args.reps)), flush=True)
+        with running_server("--workers", str(args.workers), "--query-time-limit", "2") as url:
+            print("\n".join(load(url, args.requests, args.concurrency)), flush=True)
+    print(
+        "| server | cheap query alone (median) | during bombs (slowest of 3) | solve alone (median)"
+        " | solve during bombs (slowest of 3) | bombs (status after time) |",
+        "|---|---|---|---|---|---|",
+        sep="\n",
+    )
+    hostile_args = ("--workers", str(args.workers), "--query-time-limit", "2", "--request-time-limit", "30")
+    for label, src in [("before", args.before / "src" if args.before else None), ("after", ROOT / "src")]:
+        if src is not None:
+            with running_server(*hostile_args, src=src) as url:
+                print("\n".join(hostile(url, f"{label} ({src.parent.name})")), flush=True)
 
 
 if __name__ == "__main__":

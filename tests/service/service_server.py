@@ -7,7 +7,13 @@ import time
 
 import httpx
 
-from hriplan.service.launch import SRC, running_server  # noqa: F401 - SRC is for tests that run the CLI
+from hriplan.service.launch import (  # noqa: F401 - SRC is for tests that run the CLI, the rest for hostile tests
+    BOMBS,
+    SRC,
+    TENFOLD,
+    nested_replace,
+    running_server,
+)
 
 
 def wait_for_workers(url: str, count: int, headers: dict[str, str] | None = None, timeout: float = 60.0) -> list[int]:

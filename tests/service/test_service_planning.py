@@ -306,3 +306,50 @@ def test_a_worker_plans_every_session_request_in_its_own_world_on_its_one_sessio
 def test_a_body_is_read_like_a_file(client, body: str, content_type: str, error: str):
     response = client.post("/constraints", content=body, headers={"content-type": content_type})
     assert response.status_code == 400 and response.json()["error"] == error
+
+
+def _until_done(client: httpx.Client, job: str) -> dict:
+    deadline = time.monotonic() + 120
+    while (state := client.get(f"/jobs/{job}").json())["status"] == "running" and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return state
+
+
+def test_a_long_plan_as_a_job_is_submitted_polled_and_its_result_fetched(server, client):
+    wait_for_workers(server, 2)
+    problem = copy.deepcopy(PROBLEM)
+    problem["start"]["right_shoulder_pan_joint"] += 1e-4  # a marker of this request
+    submitted = client.post("/jobs/solve", json=problem, params={"ros": True})
+    job = submitted.json()
+    assert submitted.status_code == 202 and submitted.headers["location"] == f"/jobs/{job['id']}"
+    assert job["status"] == "running" and job["kind"] == "solve"
+    assert _until_done(client, job["id"]) == {**job, "status": "done", "result_status": 200}
+    result = client.get(f"/jobs/{job['id']}/result").json()
+    assert result["solved"] and result["joint_trajectory"]["joint_names"] == result["trajectory"]["joint_names"]
+    first = result["trajectory"]["points"][0]["positions"][
+        result["trajectory"]["joint_names"].index("right_shoulder_pan_joint")
+    ]
+    assert abs(first - problem["start"]["right_shoulder_pan_joint"]) < 1e-9
+    task = client.post("/jobs/plan", content=TASK_YAML, headers=YAML).json()
+    assert _until_done(client, task["id"])["result_status"] == 200
+    assert client.get(f"/jobs/{task['id']}/result").json()["task"] == "handover_full_can"
+    refused = client.post("/jobs/plan", content="name: x\nsteps: 3\n", headers=YAML)
+    assert refused.status_code == 422 and refused.json()["field"] == "steps"  # checked before it is queued
+
+
+def test_a_cancelled_job_stops_its_worker_and_an_unknown_one_is_404(server, client):
+    before = wait_for_workers(server, 2)
+    job = client.post("/jobs/solve", json=slow_problem(60)).json()
+    while not any(w["busy"] for w in client.get("/health").json()["workers"]):
+        time.sleep(0.05)
+    unfinished = client.get(f"/jobs/{job['id']}/result")
+    assert unfinished.status_code == 409 and unfinished.json()["error"].startswith(
+        f"job {job['id']!r} is still running"
+    )
+    assert client.delete(f"/jobs/{job['id']}").status_code == 204
+    deadline = time.monotonic() + 30
+    while set(after := wait_for_workers(server, 2)) == set(before) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert len(set(before) - set(after)) == 1  # its worker was stopped, not left planning for 60 s
+    gone = client.get(f"/jobs/{job['id']}")
+    assert gone.status_code == 404 and gone.json() == {"error": f"no job {job['id']!r}", "field": None}

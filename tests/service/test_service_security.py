@@ -10,8 +10,9 @@ from pathlib import Path
 
 import httpx
 import pytest
+import rdflib
 import yaml
-from service_server import SRC, running_server, wait_for_workers
+from service_server import SRC, running_server, shared_server, wait_for_workers
 from starlette.testclient import TestClient
 
 from hriplan.service.app import create_app
@@ -60,8 +61,8 @@ def client(server):
         yield c
 
 
-def serve(*args: str) -> subprocess.CompletedProcess:
-    env = {"PYTHONPATH": str(SRC), "PATH": "/usr/bin:/bin"}
+def serve(*args: str, **env_vars: str) -> subprocess.CompletedProcess:
+    env = {"PYTHONPATH": str(SRC), "PATH": "/usr/bin:/bin", **env_vars}
     return subprocess.run(
         [sys.executable, "-m", "hriplan.cli", "serve", *args], env=env, capture_output=True, text=True, timeout=60
     )
@@ -74,6 +75,14 @@ def test_binding_off_loopback_needs_a_token():
         and refused.stderr.strip()
         == "error: binding to 0.0.0.0 (not loopback) needs a bearer token: --token or HRIPLAN_TOKEN"
     )
+    for option, value, message in [
+        ("--query-time-limit", "0", "Input should be greater than 0"),
+        ("--row-limit", "0", "Input should be greater than 0"),
+        ("--response-limit", "0", "Input should be greater than 0"),
+        ("--query-workers", "0", "Input should be greater than or equal to 1"),
+    ]:
+        bad = serve(option, value)  # named as the option given (--row-limit was --query-row-limit)
+        assert bad.returncode == 2 and bad.stderr.strip() == f"error: {option}: {message}"
     short = serve("--token", "abc", "--port", "0")
     assert short.returncode == 2 and short.stderr.startswith(
         "error: --token: String should have at least 16 characters"
@@ -173,3 +182,99 @@ def test_cors_is_off_unless_origins_are_given():
     assert "access-control-allow-origin" not in closed.headers
     opened = preflight(ServiceConfig(cors_origins=["https://dashboard.example"]))
     assert opened.status_code == 200 and opened.headers["access-control-allow-origin"] == "https://dashboard.example"
+
+
+def test_without_a_token_only_loopback_hosts_and_the_servers_own_origin_get_in():
+    url = shared_server()
+    port = int(url.rsplit(":", 1)[1])
+    ask = {"query": "ASK {}"}
+
+    def status(host: str | None = None, origin: str | None = None, method: str = "GET") -> httpx.Response:
+        headers = {k: v for k, v in (("host", host), ("origin", origin)) if v is not None}
+        if method == "POST":  # what a web page's plain form sends
+            return httpx.post(f"{url}/sparql", data=ask, headers=headers)
+        return httpx.get(f"{url}/sparql", params=ask, headers=headers)
+
+    for host in (f"localhost:{port}", f"127.0.0.1:{port}", f"[::1]:{port}", f"LOCALHOST:{port}"):
+        assert status(host).status_code == 200, host
+    own = status(f"localhost:{port}", f"http://localhost:{port}", "POST")
+    assert own.status_code == 200 and own.json()["boolean"] is True
+    for host in (f"rebound.example:{port}", "127.0.0.1", f"127.0.0.1:{port + 1}", f"127.0.0.1.nip.io:{port}"):
+        refused = status(host)  # DNS rebinding: a name of the attacker's that now points here
+        assert refused.status_code == 403 and refused.json()["error"] == (
+            f"the Host header {host!r} is not this server (loopback at port {port}); "
+            "serve another name with --allowed-host NAME"
+        ), host
+    for origin in ("https://attacker.example", "null", f"http://127.0.0.1:{port + 1}"):
+        refused = status(f"127.0.0.1:{port}", origin, "POST")
+        assert refused.status_code == 403 and refused.json()["error"] == (
+            f"requests from the web page at {origin} are refused "
+            "(not this server's origin; allow one with --cors-origin)"
+        )
+
+
+def test_the_service_description_names_the_address_reached_not_the_host_header():
+    url = shared_server()
+    port = url.rsplit(":", 1)[1]
+    answer = httpx.get(f"{url}/sparql", headers={"host": f"localhost:{port}", "accept": "text/turtle"})
+    graph = rdflib.Graph().parse(data=answer.text, format="turtle")
+    sd = rdflib.Namespace("http://www.w3.org/ns/sparql-service-description#")
+    assert set(graph.subjects(rdflib.RDF.type, sd.Service)) == {rdflib.URIRef(f"http://127.0.0.1:{port}/sparql")}
+    assert "localhost" not in answer.text
+
+
+def test_allowed_hosts_and_cors_origins_are_let_in():
+    config = ServiceConfig(allowed_hosts=["robot.local"], cors_origins=["https://dashboard.example"])
+    client = TestClient(create_app(config), base_url="http://127.0.0.1:8000")  # no lifespan: no workers
+    assert client.get("/sessions/x", headers={"host": "robot.local:8000"}).status_code == 404  # past the guard
+    assert client.get("/sessions/x", headers={"host": "robot.other:8000"}).status_code == 403
+    assert client.get("/sessions/x", headers={"origin": "https://dashboard.example"}).status_code == 404
+    with_token = TestClient(create_app(ServiceConfig(token="t" * 16)), base_url="http://robot.example:8000")
+    assert with_token.get("/sessions/x", headers=dict(AUTH, authorization="Bearer " + "t" * 16)).status_code == 404
+
+
+def test_a_token_comes_from_a_file_or_the_environment_and_is_never_blank(tmp_path):
+    blank = "error: --token: a token may not contain spaces or line breaks"
+    for refused in (serve("--token", " " * 20), serve(HRIPLAN_TOKEN=" " * 20), serve("--token", "abcdefgh ijklmnopq")):
+        assert refused.returncode == 2 and refused.stderr.strip() == blank  # was accepted
+    empty = tmp_path / "empty"
+    empty.write_text("\n  \n")
+    refused = serve("--token-file", str(empty))
+    assert (
+        refused.returncode == 2
+        and refused.stderr.strip() == f"error: --token-file {empty}: the first line holds no token"
+    )
+    missing = serve("--token-file", str(tmp_path / "nope"))
+    assert missing.returncode == 2 and missing.stderr.strip() == f"error: {tmp_path / 'nope'}: no such file"
+    both = serve("--token-file", str(empty), "--token", TOKEN)
+    assert both.returncode == 2 and both.stderr.strip().startswith("error: give the token once")
+    kept = tmp_path / "token"
+    kept.write_text(TOKEN + "\n")
+    with running_server("--workers", "1", "--token-file", str(kept), token=TOKEN) as url:
+        assert httpx.get(f"{url}/health").status_code == 401
+        assert httpx.get(f"{url}/health", headers=AUTH).json()["status"] == "ok"
+
+
+def test_without_the_server_extra_the_hint_names_this_checkouts_python(tmp_path):
+    (tmp_path / "uvicorn.py").write_text("raise ModuleNotFoundError(\"No module named 'uvicorn'\", name='uvicorn')\n")
+    env = {"PYTHONPATH": f"{tmp_path}:{SRC}", "PATH": "/usr/bin:/bin"}
+    missing = subprocess.run(
+        [sys.executable, "-m", "hriplan.cli", "serve"], env=env, capture_output=True, text=True, timeout=60
+    )
+    assert missing.returncode == 2 and missing.stderr.strip() == (
+        f"error: the server needs the `server` extra ({sys.executable} -m pip install -e '{ROOT}[server]'): "
+        "uvicorn is missing"
+    )
+
+
+def test_the_schema_lists_the_sparql_routes_and_the_bearer_scheme_and_docs_load_nothing_from_elsewhere(client):
+    schema = client.get("/openapi.json").json()
+    assert {"get", "post"} <= set(schema["paths"]["/sparql"]) and "/tasks/{task_id}/steps/{step}/sparql" in schema[
+        "paths"
+    ]
+    assert schema["components"]["securitySchemes"]["bearer"] == {"type": "http", "scheme": "bearer"}
+    assert schema["security"] == [{"bearer": []}]
+    page = client.get("/docs")
+    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+    assert "<script" not in page.text and "//" not in page.text.replace("http://", "")  # was swagger-ui from a CDN
+    assert "/tasks/{task_id}/sparql" in page.text

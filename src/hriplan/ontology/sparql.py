@@ -6,7 +6,10 @@ predefined. Results render as an aligned table, SPARQL results JSON or CSV; grap
 
 Read-only and closed, for the command line and the HTTP endpoint alike: updates are refused,
 and so are SERVICE and FROM / FROM NAMED (rdflib would fetch those URLs or read those files);
-a query stops at a time limit and a row limit (`QueryLimits`).
+a query stops at a time limit, a row limit and a byte limit on its answer (`QueryLimits`).
+The time limit is checked at every triple lookup; work that looks nothing up (a regex, a
+VALUES join, string functions) is stopped by whoever runs the query: the HTTP service runs it
+in a worker process that it kills at the limit, with its memory capped.
 """
 
 from __future__ import annotations
@@ -34,28 +37,40 @@ from hriplan.ontology.vocabulary import PREFIXES
 QueryFormat = Literal["table", "json", "csv", "turtle"]
 FORMATS: tuple[str, ...] = ("table", "json", "csv", "turtle")
 RESULT_SYNTAXES: tuple[str, ...] = ("json", "xml", "csv", "tsv")
-GRAPH_SYNTAXES: tuple[str, ...] = ("turtle", "json-ld", "nt")
+GRAPH_SYNTAXES: tuple[str, ...] = ("turtle", "json-ld", "nt", "xml")
 UPDATES_REFUSED = "updates are not supported: the knowledge base is read-only"
 QUERIES_DIR = Path(__file__).with_name("queries")
 
 
 class QueryLimits(BaseModel):
-    """How long a query may run and how many rows (or triples) it may answer."""
+    """How long a query may run, how many rows (or triples) and bytes it may answer: the row
+    limit alone lets a few rows of string functions grow to gigabytes."""
 
     time_limit: float = Field(default=10.0, gt=0.0, le=3600.0)
     row_limit: int = Field(default=10_000, gt=0)
+    byte_limit: int = Field(default=16 << 20, gt=0)
 
 
 class QueryTimeout(HriplanError):
-    """The query ran past its time limit (the HTTP endpoint answers 503 to it)."""
+    """The query ran past its time limit (the HTTP endpoint answers 504 to it)."""
+
+
+class UpdateRefused(HriplanError):
+    """A SPARQL update (the HTTP endpoint answers 403 to it)."""
+
+
+def time_limit_message(time_limit: float) -> str:
+    return f"the query ran past its time limit of {time_limit:g} s; narrow it or add a LIMIT"
 
 
 class QueryResult:
     """One query's answer: rows (SELECT), a boolean (ASK) or a graph (CONSTRUCT, DESCRIBE)."""
 
     def __init__(
-        self, result: Result, namespaces: rdflib.namespace.NamespaceManager, row_limit: int = QueryLimits().row_limit
+        self, result: Result, namespaces: rdflib.namespace.NamespaceManager, limits: QueryLimits | None = None
     ) -> None:
+        limits = limits or QueryLimits()
+        row_limit, self._byte_limit = limits.row_limit, limits.byte_limit
         self._result = result
         self._namespaces = namespaces
         self.form: str = result.type
@@ -71,6 +86,8 @@ class QueryResult:
             raise HriplanError(
                 f"the query answers more than {row_limit} {unit} (the row limit); add a LIMIT or narrow it"
             )
+        terms = (t for row in (self.rows if self.graph is None else self.graph) for t in row if t is not None)
+        self._check_bytes(sum(len(t) for t in terms))
         if self.form == "SELECT":
             self._result.bindings = [dict(zip(result.vars, row)) for row in self.rows]  # serialize the rows kept
 
@@ -93,10 +110,15 @@ class QueryResult:
 
     def serialize(self, syntax: str) -> str:
         """The answer in a SPARQL Protocol syntax: json, xml, csv, tsv (SELECT, ASK) or
-        turtle, json-ld, nt (CONSTRUCT, DESCRIBE)."""
+        turtle, json-ld, nt, xml (RDF/XML; CONSTRUCT, DESCRIBE), within the byte limit."""
         allowed = GRAPH_SYNTAXES if self.graph is not None else RESULT_SYNTAXES
         if syntax not in allowed:
             raise HriplanError(f"a {self.form} result is served as {', '.join(allowed)}, not {syntax}")
+        text = self._syntax(syntax)
+        self._check_bytes(len(text.encode()))
+        return text
+
+    def _syntax(self, syntax: str) -> str:
         if self.graph is not None:
             for prefix, namespace in PREFIXES.items():
                 self.graph.bind(prefix, namespace)
@@ -113,6 +135,12 @@ class QueryResult:
             else [[str(self.answer).lower()]]
         )
         return "\n".join("\t".join(line) for line in [header, *rows]) + "\n"
+
+    def _check_bytes(self, size: int) -> None:
+        if size > self._byte_limit:
+            raise HriplanError(
+                f"the query answers more than {self._byte_limit} bytes (the byte limit); narrow it or add a LIMIT"
+            )
 
     def _render_graph(self, fmt: QueryFormat) -> str:
         assert self.graph is not None
@@ -143,8 +171,8 @@ def run_query(graph: rdflib.Graph, text: str, limits: QueryLimits | None = None)
     query = prepare_query(text)
     guarded = _DeadlineGraph(graph, time.monotonic() + limits.time_limit, limits.time_limit)
     try:
-        return QueryResult(guarded.query(query), graph.namespace_manager, limits.row_limit)
-    except HriplanError:
+        return QueryResult(guarded.query(query), graph.namespace_manager, limits)
+    except (HriplanError, MemoryError):
         raise
     except Exception as exc:
         raise HriplanError(f"SPARQL query failed: {exc}") from None
@@ -158,7 +186,7 @@ def prepare_query(text: str) -> Query:
         query = prepareQuery(text, initNs=PREFIXES)
     except pyparsing.ParseBaseException as exc:
         if _is_update(text):
-            raise HriplanError(UPDATES_REFUSED) from None
+            raise UpdateRefused(UPDATES_REFUSED) from None
         raise HriplanError(f"SPARQL syntax error at line {exc.lineno}, column {exc.col}: {exc.msg}") from None
     except Exception as exc:
         raise HriplanError(f"invalid SPARQL query: {exc}") from None
@@ -203,7 +231,7 @@ class _DeadlineGraph(rdflib.Graph):
 
     def _check(self) -> None:
         if time.monotonic() > self._deadline:
-            raise QueryTimeout(f"the query ran past its time limit of {self._time_limit:g} s; narrow it or add a LIMIT")
+            raise QueryTimeout(time_limit_message(self._time_limit))
 
 
 def example_queries() -> dict[str, str]:

@@ -1,22 +1,27 @@
 """The HTTP planning service (FastAPI): tasks, planning problems, sessions, SPARQL.
 
-Bodies are the project's file formats (the OpenAPI schema at /docs is the task file, the
-planning problem, the trajectory file). Every request that reasons or plans runs in a worker
-process (workers.py). Sessions and stored tasks live here, in the server, as their state; each
+Bodies are the project's file formats (the OpenAPI schema at /openapi.json is the task file, the
+planning problem, the trajectory file). Every request that reasons or plans runs in a planning
+worker process, every SPARQL query in a query worker (workers.py), so a query never takes a
+planning worker. Sessions and stored tasks live here, in the server, as their state; each
 request sends that state to whichever worker is free, which rebuilds (or updates) its planning
 session from it, so a crashed or killed worker loses nothing.
 """
 
 from __future__ import annotations
 
+import asyncio
+import html
 import uuid
-from collections.abc import Iterator
+from collections.abc import Awaitable, Callable, Iterator
 from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Any
 
 from fastapi import FastAPI, Request, Response
 from fastapi.exceptions import RequestValidationError
+from fastapi.openapi.utils import get_openapi
+from fastapi.responses import HTMLResponse
 from pydantic import BaseModel, ValidationError
 from starlette.exceptions import HTTPException
 from starlette.middleware.cors import CORSMiddleware
@@ -32,6 +37,7 @@ from hriplan.service.guard import Guard
 from hriplan.service.schemas import (
     ErrorBody,
     ExplainResponse,
+    JobState,
     PlanResponse,
     SessionCreate,
     SessionPlanRequest,
@@ -87,17 +93,48 @@ def _rules_dir(task: TaskFile, config: ServiceConfig) -> str | None:
     return str(folder)
 
 
+class BackgroundJob:
+    """A plan running in the background: its state, its answer once done, its cancel switch."""
+
+    def __init__(self, state: JobState) -> None:
+        self.state = state
+        self.result: Response | None = None
+        self.cancel = asyncio.Event()
+        self.task: asyncio.Task | None = None  # kept referenced while it runs
+
+    async def cancelled(self) -> bool:
+        return self.cancel.is_set()
+
+
+def docs_page(schema: dict[str, Any]) -> str:
+    """Every route with its summary, linking the full schema: plain HTML, no scripts."""
+    rows = "".join(
+        f"<tr><td>{method.upper()}</td><td><code>{html.escape(path)}</code></td>"
+        f"<td>{html.escape(operation.get('description') or operation.get('summary', ''))}</td></tr>"
+        for path, methods in schema["paths"].items()
+        for method, operation in methods.items()
+    )
+    return (
+        f"<!doctype html><html><head><meta charset='utf-8'><title>{schema['info']['title']} API</title></head><body>"
+        f"<h1>{schema['info']['title']} {schema['info']['version']}</h1><p>{html.escape(schema['info']['description'])}"
+        f" The request and response bodies: <a href='openapi.json'>openapi.json</a>; the reference: docs/service.md.</p>"
+        f"<table><tr><th>method</th><th>path</th><th>what</th></tr>{rows}</table></body></html>"
+    )
+
+
 def create_app(config: ServiceConfig | None = None) -> FastAPI:
     config = config or ServiceConfig()
     pool = WorkerPool(config.workers, config.queue_limit)
+    queries = WorkerPool(config.query_workers, config.queue_limit, config.query_memory << 20, "queries")
     sessions: dict[str, SessionState] = {}
     tasks: dict[str, dict[str, Any]] = {}
+    background: dict[str, BackgroundJob] = {}
 
     @asynccontextmanager
     async def lifespan(_: FastAPI):
-        await pool.start()
+        await asyncio.gather(pool.start(), queries.start())
         yield
-        await pool.close()
+        await asyncio.gather(pool.close(), queries.close())
 
     app = FastAPI(
         title="hriplan",
@@ -105,7 +142,26 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         lifespan=lifespan,
         responses=ERRORS,
         description="Safe human-robot collaboration planning: derive constraints with the rules, plan, query.",
+        docs_url=None,
+        redoc_url=None,
     )
+
+    def openapi() -> dict[str, Any]:
+        """FastAPI's schema plus the bearer scheme (required by every route when a token is set)."""
+        if app.openapi_schema is None:
+            schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
+            schema.setdefault("components", {})["securitySchemes"] = {"bearer": {"type": "http", "scheme": "bearer"}}
+            if config.token is not None:
+                schema["security"] = [{"bearer": []}]
+            app.openapi_schema = schema
+        return app.openapi_schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
+
+    @app.get("/docs", include_in_schema=False)
+    async def docs() -> HTMLResponse:
+        """The routes in a page that loads nothing from elsewhere (works offline)."""
+        return HTMLResponse(docs_page(app.openapi()))
 
     @app.exception_handler(RequestValidationError)
     async def invalid(_: Request, exc: RequestValidationError) -> Response:
@@ -132,15 +188,20 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
     async def internal(_: Request, exc: Exception) -> Response:
         return error_response(500, f"internal error ({type(exc).__name__}); see the server log")
 
-    async def run(request: Request, kind: str, payload: dict[str, Any], status: int = 200) -> Response:
+    async def run(request: Request, kind: str, payload: dict[str, Any]) -> Response:
+        return await answer(kind, payload, request.is_disconnected)
+
+    async def answer(kind: str, payload: dict[str, Any], gone: Callable[[], Awaitable[bool]]) -> Response:
+        """Run a job in its lane (queries apart from planning) and make its reply a response."""
+        lane = queries if kind == "sparql" else pool
         try:
-            reply = await pool.run(kind, payload, config.request_time_limit, request.is_disconnected)
+            reply = await lane.run(kind, payload, config.request_time_limit, gone)
         except Busy as exc:
             return error_response(503, str(exc), headers={"Retry-After": "1"})
         except PoolError as exc:
             return error_response(exc.status, str(exc))
         if reply[0] == "ok":
-            return Response(reply[1], status_code=status, media_type=reply[2])
+            return Response(reply[1], media_type=reply[2])
         return error_response(reply[1], reply[2])
 
     def task_payload(task: TaskFile, **extra: Any) -> dict[str, Any]:
@@ -150,8 +211,15 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
     # -- tasks and problems ----------------------------------------------------------------
     @app.get("/health", tags=["service"])
     async def health() -> dict[str, Any]:
-        """Liveness, the workers (pid, busy) and how many requests wait."""
-        return {"status": "ok", "version": __version__, **pool.status()}
+        """Liveness, the planning and query workers (pid, ready, busy) and how many requests wait;
+        "degraded" while a dead worker is being replaced."""
+        lanes = pool.status()
+        return {
+            "status": "ok" if pool.healthy() and queries.healthy() else "degraded",
+            "version": __version__,
+            **lanes,
+            "query_workers": queries.status()["workers"],
+        }
 
     @app.post("/constraints", response_model=TaskOutcome, tags=["tasks"], openapi_extra=JSON_OR_YAML)
     async def constraints(request: Request, task: TaskFile) -> Response:
@@ -173,6 +241,65 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         """Plan a planning problem (`hriplan solve`): constraints given, not derived."""
         refuse_server_files(problem)
         return await run(request, "solve", {"problem": problem.model_dump(mode="json", by_alias=True), "ros": ros})
+
+    # -- background jobs: long plans submitted, polled, cancelled ------------------------------
+    def submit(kind: str, payload: dict[str, Any]) -> Response:
+        if len(background) >= config.max_jobs:
+            finished = [i for i, j in background.items() if j.state.status == "done"]
+            if not finished:
+                raise RequestError(409, f"the server runs {config.max_jobs} jobs, its limit; cancel one first")
+            del background[finished[0]]
+        job = BackgroundJob(JobState(id=uuid.uuid4().hex[:12], kind=kind, status="running"))
+
+        async def work() -> None:
+            response = await answer(kind, payload, job.cancelled)
+            job.result = response
+            job.state = job.state.model_copy(update={"status": "done", "result_status": response.status_code})
+
+        job.task = asyncio.get_running_loop().create_task(work())
+        background[job.state.id] = job
+        return Response(
+            job.state.model_dump_json(),
+            202,
+            media_type="application/json",
+            headers={"Location": f"/jobs/{job.state.id}"},
+        )
+
+    def background_job(job_id: str) -> BackgroundJob:
+        if job_id not in background:
+            raise RequestError(404, f"no job {job_id!r}")
+        return background[job_id]
+
+    @app.post("/jobs/plan", response_model=JobState, status_code=202, tags=["jobs"], openapi_extra=JSON_OR_YAML)
+    async def plan_job(task: TaskFile, ros: bool = False) -> Response:
+        """Start `POST /plan` in the background: poll /jobs/{id}, then fetch /jobs/{id}/result."""
+        return submit("plan", task_payload(task, ros=ros))
+
+    @app.post("/jobs/solve", response_model=JobState, status_code=202, tags=["jobs"])
+    async def solve_job(problem: PlanningProblem, ros: bool = False) -> Response:
+        """Start `POST /solve` in the background."""
+        refuse_server_files(problem)
+        return submit("solve", {"problem": problem.model_dump(mode="json", by_alias=True), "ros": ros})
+
+    @app.get("/jobs/{job_id}", response_model=JobState, tags=["jobs"])
+    async def get_job(job_id: str) -> JobState:
+        """Whether the job is running or done (and the status its answer has)."""
+        return background_job(job_id).state
+
+    @app.get("/jobs/{job_id}/result", tags=["jobs"])
+    async def job_result(job_id: str) -> Response:
+        """The answer the synchronous route would have given; 409 while the job runs."""
+        job = background_job(job_id)
+        if job.result is None:
+            raise RequestError(409, f"job {job_id!r} is still running; poll /jobs/{job_id}")
+        return job.result
+
+    @app.delete("/jobs/{job_id}", status_code=204, tags=["jobs"])
+    async def cancel_job(job_id: str) -> Response:
+        """Cancel a running job (its worker is stopped and replaced) or forget a finished one."""
+        background_job(job_id).cancel.set()
+        del background[job_id]
+        return Response(status_code=204)
 
     # -- sessions ----------------------------------------------------------------------------
     def session(session_id: str) -> SessionState:
@@ -287,7 +414,14 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
 
     add_sparql_routes(app, run_query, stored)
 
-    app.add_middleware(Guard, body_limit=config.body_limit, token=config.token)
+    app.add_middleware(
+        Guard,
+        body_limit=config.body_limit,
+        token=config.token,
+        body_timeout=config.body_timeout,
+        allowed_hosts=config.allowed_hosts,
+        allowed_origins=config.cors_origins,
+    )
     if config.cors_origins:
         app.add_middleware(
             CORSMiddleware,

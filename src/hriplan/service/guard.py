@@ -1,13 +1,17 @@
-"""The server's edge (plain ASGI): bearer token, body size limit, one reader for bodies.
+"""The server's edge (plain ASGI): bearer token, Host and Origin, body size and time limits,
+one reader for bodies.
 
 It runs before routing, so an oversized or unauthorised request is refused before anything
-parses it. JSON and YAML bodies (`application/yaml`) are read here by the reader `hriplan` uses
+parses it. Without a token (the loopback default) the Host header must name loopback at the
+server's port (or a configured name) and a browser's Origin must be the server's own: a web
+page can neither rebind a name to 127.0.0.1 nor send a form POST to the planner. JSON and YAML bodies (`application/yaml`) are read here by the reader `hriplan` uses
 for files and handed on as JSON, so each route has one schema (the file format) and a body gets
 the same one-line message as the same text in a file (a key given twice included).
 """
 
 from __future__ import annotations
 
+import asyncio
 import hmac
 import json
 
@@ -15,6 +19,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from hriplan import HriplanError
 from hriplan.files import parse_data
+from hriplan.service.config import is_loopback
 
 YAML_TYPES = ("application/yaml", "application/x-yaml", "text/yaml", "text/x-yaml")
 
@@ -45,9 +50,45 @@ async def _refuse(send: Send, status: int, message: str, headers: list[tuple[byt
     await send({"type": "http.response.body", "body": body})
 
 
+def _split_host(value: str) -> tuple[str, int | None]:
+    """A Host header's name and port ("[::1]:8000" -> ("::1", 8000)); port None if absent or bad."""
+    if value.startswith("["):
+        name, _, rest = value[1:].partition("]")
+        port = rest.removeprefix(":")
+    else:
+        name, _, port = value.partition(":")
+    return name.lower(), int(port) if port.isdigit() else None
+
+
 class Guard:
-    def __init__(self, app: ASGIApp, body_limit: int, token: str | None) -> None:
-        self.app, self.body_limit, self.token = app, body_limit, token
+    def __init__(
+        self,
+        app: ASGIApp,
+        body_limit: int,
+        token: str | None,
+        body_timeout: float = 30.0,
+        allowed_hosts: list[str] | tuple[str, ...] = (),
+        allowed_origins: list[str] | tuple[str, ...] = (),
+    ) -> None:
+        self.app, self.body_limit, self.token, self.body_timeout = app, body_limit, token, body_timeout
+        self.allowed_hosts = {h.lower() for h in allowed_hosts}
+        self.allowed_origins = set(allowed_origins)
+
+    def _foreign(self, scope: Scope, headers: dict[str, str]) -> str | None:
+        """Why a request without a token comes from somewhere it may not (None: it may)."""
+        host = headers.get("host", "")
+        name, port = _split_host(host)
+        server_port = (scope.get("server") or ("", None))[1]
+        if not (
+            (is_loopback(name) and (port or 80) == server_port)
+            or name in self.allowed_hosts
+            or host.lower() in self.allowed_hosts
+        ):
+            return f"the Host header {host!r} is not this server (loopback at port {server_port}); serve another name with --allowed-host NAME"
+        origin = headers.get("origin")
+        if origin is not None and origin not in self.allowed_origins and origin != f"http://{host}":
+            return f"requests from the web page at {origin} are refused (not this server's origin; allow one with --cors-origin)"
+        return None
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -62,13 +103,21 @@ class Guard:
                 [(b"www-authenticate", b"Bearer")],
             )
             return
+        if self.token is None and (why := self._foreign(scope, headers)):
+            await _refuse(send, 403, why)
+            return
         declared = headers.get("content-length", "")
         if declared.isdigit() and int(declared) > self.body_limit:
             await _refuse(send, 413, f"the request body is larger than the limit of {self.body_limit} bytes")
             return
         body, more = bytearray(), True
+        deadline = asyncio.get_running_loop().time() + self.body_timeout
         while more:
-            message = await receive()
+            try:
+                message = await asyncio.wait_for(receive(), max(deadline - asyncio.get_running_loop().time(), 0.0))
+            except asyncio.TimeoutError:
+                await _refuse(send, 408, f"the request body did not arrive within {self.body_timeout:g} s")
+                return
             if message["type"] == "http.disconnect":
                 return
             body += message.get("body", b"")

@@ -1,4 +1,5 @@
-"""What a worker process does with one request: derive, explain, plan, solve, query.
+"""What a planning worker does with one request: derive, explain, plan, solve (a query worker's
+job is in query_jobs.py, which imports nothing of the planner, so it starts faster).
 
 Every job takes plain data (the validated request as JSON-able dicts) and returns the response
 body as JSON text, so nothing but strings crosses the process boundary. Sessions are rebuilt
@@ -9,19 +10,12 @@ request's scene and constraints (rebuilding only when they changed).
 
 from __future__ import annotations
 
-import hashlib
-import json
-from collections import OrderedDict
-from pathlib import Path
 from typing import Any
 
-from hriplan.ontology.knowledge_base import KnowledgeBase
-from hriplan.ontology.sparql import QueryLimits, prepare_query, run_query
 from hriplan.planner.problem import PlanningProblem
 from hriplan.planner.session import PlanningSession, PlanResult, worker_session
 from hriplan.rules.explain import explain
-from hriplan.service.errors import RequestError
-from hriplan.service.negotiation import choose
+from hriplan.service.query_jobs import JSON, Reply, task_runner
 from hriplan.service.ros import joint_trajectory
 from hriplan.service.schemas import (
     ExplainResponse,
@@ -31,27 +25,14 @@ from hriplan.service.schemas import (
     StepExplanation,
     TaskPlanResponse,
 )
-from hriplan.tasks.knowledge import _ontology_graph
-from hriplan.tasks.model import TaskFile
-from hriplan.tasks.pipeline import TaskRunner
-
-Reply = tuple[str, str]  # (body, media type)
-JSON = "application/json"
-
-_task_bases: OrderedDict[str, dict[str, KnowledgeBase]] = OrderedDict()  # recent tasks' knowledge bases
-
-
-def _runner(payload: dict[str, Any]) -> TaskRunner:
-    rules_dir = payload.get("rules_dir")
-    return TaskRunner(TaskFile.model_validate(payload["task"]), Path(rules_dir) if rules_dir else Path("."))
 
 
 def derive(payload: dict[str, Any]) -> Reply:
-    return _runner(payload).run(plan=False).model_dump_json(), JSON
+    return task_runner(payload).run(plan=False).model_dump_json(), JSON
 
 
 def explain_task(payload: dict[str, Any]) -> Reply:
-    outcome = _runner(payload).run(plan=False)
+    outcome = task_runner(payload).run(plan=False)
     steps = [
         StepExplanation(name=s.name, kind=s.kind, arms=s.arms, explanation=explain(s.derivation)) for s in outcome.steps
     ]
@@ -59,7 +40,7 @@ def explain_task(payload: dict[str, Any]) -> Reply:
 
 
 def plan_task(payload: dict[str, Any]) -> Reply:
-    outcome = _runner(payload).run(plan=True)
+    outcome = task_runner(payload).run(plan=True)
     ros = (
         {s.name: joint_trajectory(s.trajectory) for s in outcome.steps if s.trajectory is not None}
         if payload.get("ros")
@@ -117,32 +98,6 @@ def plan_in_session(payload: dict[str, Any]) -> Reply:
     )
 
 
-def _task_graph(payload: dict[str, Any]):
-    key = hashlib.sha256(json.dumps([payload["task"], payload.get("rules_dir")], sort_keys=True).encode()).hexdigest()
-    if key not in _task_bases:
-        runner = _runner(payload)
-        runner.run(plan=False)
-        _task_bases[key] = dict(runner.knowledge_bases)
-        while len(_task_bases) > 8:
-            _task_bases.popitem(last=False)
-    _task_bases.move_to_end(key)
-    bases, step = _task_bases[key], payload.get("step")
-    if step is None:
-        return next(iter(bases.values())).graph
-    if step not in bases:
-        raise RequestError(404, f"the task has no step {step!r}; steps: {', '.join(bases)}")
-    return bases[step].graph
-
-
-def sparql(payload: dict[str, Any]) -> Reply:
-    """A SPARQL query over the ontology alone or a task step's reasoned graph, negotiated."""
-    prepare_query(payload["query"])  # refusals and syntax errors before any reasoning
-    graph = _ontology_graph() if payload.get("task") is None else _task_graph(payload)
-    result = run_query(graph, payload["query"], QueryLimits.model_validate(payload["limits"]))
-    syntax, media = choose(result.graph is not None, payload.get("accept"), payload.get("format"))
-    return result.serialize(syntax), media
-
-
 JOBS = {
     "constraints": derive,
     "explain": explain_task,
@@ -150,5 +105,4 @@ JOBS = {
     "solve": solve,
     "session_check": check_session,
     "session_plan": plan_in_session,
-    "sparql": sparql,
 }

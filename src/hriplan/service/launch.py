@@ -1,5 +1,6 @@
 """Start a real server (`hriplan serve` in a subprocess) on a free loopback port: for tests,
-benchmarks, and anyone who wants a throw-away server from Python."""
+benchmarks, and anyone who wants a throw-away server from Python; and the hostile queries
+(issue 22) the tests and the benchmark send it."""
 
 from __future__ import annotations
 
@@ -12,10 +13,29 @@ import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import IO
 
 import httpx
 
 SRC = Path(__file__).resolve().parents[2]
+TENFOLD = '".", "0123456789"'  # REPLACE's arguments that write each character ten times
+
+
+def nested_replace(levels: int) -> str:
+    """Each comment's length after `levels` nested tenfold REPLACEs: 10^levels x ~100 characters."""
+    nested = "STR(?o)"
+    for _ in range(levels):
+        nested = f"REPLACE({nested}, {TENFOLD})"
+    return f"SELECT (STRLEN({nested}) AS ?n) WHERE {{ ?s rdfs:comment ?o }}"
+
+
+BOMBS = {  # each checks no deadline inside rdflib: only a killed process stops it
+    "regex": 'SELECT ?o WHERE { ?s rdfs:comment ?o FILTER(REGEX(STR(?o), "^(.*)*(.*)*(.*)*(.*)*x$")) }',
+    "values": "SELECT (COUNT(*) AS ?n) WHERE { "
+    + " ".join(f"VALUES ?v{i} {{ 1 2 3 4 5 6 7 8 9 10 }}" for i in range(8))
+    + " }",
+    "replace": nested_replace(6),
+}
 
 
 def free_port() -> int:
@@ -25,14 +45,18 @@ def free_port() -> int:
 
 
 @contextlib.contextmanager
-def running_server(*args: str, token: str | None = None, startup: float = 120.0) -> Iterator[str]:
-    """The base URL of a server started with `args`; stopped (workers included) afterwards.
-    Its log goes to a temporary file (a pipe nobody reads would fill up and stall the server)."""
+def running_server(
+    *args: str, token: str | None = None, startup: float = 120.0, log: IO[str] | None = None, src: Path = SRC
+) -> Iterator[str]:
+    """The base URL of a server started with `args` from the sources in `src` (another checkout's,
+    for a before/after benchmark); stopped (workers included) afterwards. Its log goes to `log` or
+    a temporary file (a pipe nobody reads would fill up and stall the server)."""
     port = free_port()
-    env = dict(os.environ, PYTHONPATH=f"{SRC}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
+    env = dict(os.environ, PYTHONPATH=f"{src}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
     env.pop("HRIPLAN_TOKEN", None)
     command = [sys.executable, "-m", "hriplan.cli", "serve", "--port", str(port), *args]
-    log = tempfile.TemporaryFile(mode="w+")
+    own_log = log is None
+    log = tempfile.TemporaryFile(mode="w+") if log is None else log
     process = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT, text=True)
     url = f"http://127.0.0.1:{port}"
     headers = {"Authorization": f"Bearer {token}"} if token else {}
@@ -56,4 +80,5 @@ def running_server(*args: str, token: str | None = None, startup: float = 120.0)
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
-        log.close()
+        if own_log:
+            log.close()

@@ -1,7 +1,8 @@
 """SPARQL Protocol content negotiation: which syntax answers which Accept header.
 
 A SELECT or ASK result is served as SPARQL results JSON, XML, CSV or TSV; a CONSTRUCT or
-DESCRIBE graph as Turtle, JSON-LD or N-Triples. `format=` (what SPARQLWrapper and browsers
+DESCRIBE graph as Turtle, JSON-LD, N-Triples or RDF/XML (what SPARQLWrapper's and rdflib
+SPARQLStore's defaults ask for). `format=` (what SPARQLWrapper and browsers
 send) overrides the header.
 """
 
@@ -19,16 +20,21 @@ GRAPH_TYPES: dict[str, tuple[str, ...]] = {
     "turtle": ("text/turtle", "application/x-turtle", "application/turtle"),
     "json-ld": ("application/ld+json", "application/json", "application/x-json+ld"),
     "nt": ("application/n-triples", "text/plain"),
+    "xml": ("application/rdf+xml",),
 }
 FORMAT_NAMES = {
     "json": ("json", "json-ld"),
-    "xml": ("xml", None),
+    "xml": ("xml", "xml"),
+    "rdf+xml": (None, "xml"),
+    "rdfxml": (None, "xml"),
     "csv": ("csv", None),
     "tsv": ("tsv", None),
     "turtle": (None, "turtle"),
     "json-ld": (None, "json-ld"),
     "jsonld": (None, "json-ld"),
     "nt": (None, "nt"),
+    "ntriples": (None, "nt"),
+    "n-triples": (None, "nt"),
 }
 
 

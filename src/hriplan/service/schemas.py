@@ -3,6 +3,8 @@ trajectory files, derivations) wrapped as little as possible, so /docs shows the
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import BaseModel, ConfigDict, Field
 
 from hriplan.planner.constraints.spec import ConstraintSet
@@ -105,3 +107,13 @@ class StoredTask(BaseModel):
     id: str
     task: str
     steps: list[str]
+
+
+class JobState(BaseModel):
+    """A background plan (`POST /jobs/plan`, `/jobs/solve`): running, or done with its answer's
+    HTTP status (GET /jobs/{id}/result gives the answer)."""
+
+    id: str
+    kind: str
+    status: Literal["running", "done"]
+    result_status: int | None = None

@@ -47,11 +47,11 @@ async def _parameters(request: Request) -> dict[str, list[str]]:
             for name, values in parse_qs(body, keep_blank_values=True).items():
                 params.setdefault(name, []).extend(values)
         elif media == "application/sparql-update":
-            raise RequestError(400, UPDATES_REFUSED)
+            raise RequestError(403, UPDATES_REFUSED)
         else:
             raise RequestError(415, f"POST a query as {QUERY} or {FORM} (query=...), not {media or 'no content type'}")
     if "update" in params:
-        raise RequestError(400, UPDATES_REFUSED)
+        raise RequestError(403, UPDATES_REFUSED)
     if "default-graph-uri" in params or "named-graph-uri" in params:
         raise RequestError(
             400, "default-graph-uri and named-graph-uri are not supported: each endpoint's dataset is fixed"
@@ -89,6 +89,13 @@ def service_description(endpoint: str, accept: str | None) -> Response:
     return Response(graph.serialize(format=syntax), media_type=media)
 
 
+def _own_url(request: Request) -> str:
+    """The endpoint's URL from the address the client reached, never from its Host header (which
+    a page could set to anything)."""
+    host, port = request.scope["server"]
+    return f"http://{f'[{host}]' if ':' in host else host}:{port}{request.url.path}"
+
+
 def add_sparql_routes(app: FastAPI, run: Run, task: TaskLookup) -> None:
     """/sparql (the ontology), /tasks/{id}/sparql and /tasks/{id}/steps/{step}/sparql."""
     media = sorted({t for table in (RESULT_TYPES, GRAPH_TYPES) for types in table.values() for t in types})
@@ -97,9 +104,7 @@ def add_sparql_routes(app: FastAPI, run: Run, task: TaskLookup) -> None:
     async def answer(request: Request, target: dict[str, Any]) -> Response:
         params = await _parameters(request)
         if "query" not in params:
-            return service_description(
-                str(request.url.remove_query_params(list(request.query_params))), request.headers.get("accept")
-            )
+            return service_description(_own_url(request), request.headers.get("accept"))
         payload = {
             **target,
             "query": params["query"][0],

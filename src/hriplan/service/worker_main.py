@@ -2,8 +2,10 @@
 
 BLAS thread pools are capped before numpy loads: a planning worker uses one core, and the pool
 size says how many cores planning may take. Each request is a (kind, payload) pair on the pipe;
-each answer is ("ok", body, media type) or ("error", status, one-line message). A traceback
-goes to the server's log, never into an answer.
+the worker first answers ("accepted",) (a job never accepted is retried elsewhere), may announce
+("deadline", seconds, why) (past it the server kills it), and ends with ("ok", body, media type)
+or ("error", status, one-line message). A traceback goes to the server's log, never into an
+answer. On Linux the worker gets SIGKILL when the server dies, even in the middle of a C call.
 """
 
 import os
@@ -11,17 +13,79 @@ import os
 for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_variable] = "1"
 
-import sys  # noqa: E402 - after the thread caps
+import contextlib  # noqa: E402 - after the thread caps
+import ctypes  # noqa: E402
+import signal  # noqa: E402
+import sys  # noqa: E402
 import traceback  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
 from multiprocessing.connection import Connection  # noqa: E402
 
+PR_SET_PDEATHSIG = 1
 
-def serve(conn: Connection) -> None:
-    """Answer requests until the server closes the pipe."""
+
+class _Serving:
+    """This worker's pipe to the server (once serving) and the bytes a bounded job may add."""
+
+    pipe: Connection | None = None
+    memory_limit: int | None = None
+
+
+def die_with(parent: int) -> None:
+    """Ask Linux to SIGKILL this process when the server ends (a killed server leaves no worker
+    spinning on a query); elsewhere the pipe's end stops an idle worker."""
+    if sys.platform.startswith("linux"):
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    if os.getppid() != parent:  # the server died before the signal was set
+        os._exit(1)
+
+
+def announce_deadline(seconds: float, why: str) -> None:
+    """Tell the server to kill this worker if the job has not answered within `seconds` from now
+    (`why` is the 504 message): for work that checks no deadline itself, a regex, a VALUES join."""
+    if _Serving.pipe is not None:
+        _Serving.pipe.send(("deadline", seconds, why))
+
+
+class OutOfMemory(Exception):
+    """A bounded job needed more memory than the worker's limit."""
+
+
+@contextlib.contextmanager
+def bounded_memory() -> Iterator[None]:
+    """Run a block with the address space capped at what the worker uses now plus its limit;
+    past it an allocation fails (MemoryError), raised here as OutOfMemory, and the cap is lifted."""
+    limit = _Serving.memory_limit
+    if limit is None or not sys.platform.startswith("linux"):
+        yield
+        return
+    import resource
+
+    with open("/proc/self/statm") as statm:
+        used = int(statm.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    cap = used + limit if hard == resource.RLIM_INFINITY else min(used + limit, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
+    try:
+        yield
+    except MemoryError:
+        raise OutOfMemory(f"the query needed more than the memory limit of {limit >> 20} MB; narrow it") from None
+    finally:
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+
+
+def serve(conn: Connection, parent: int, memory_limit: int | None = None, lane: str = "planning") -> None:
+    """Answer requests until the server closes the pipe: planning jobs, or queries (`lane`)."""
+    die_with(parent)
+    _Serving.pipe, _Serving.memory_limit = conn, memory_limit
     from hriplan import HriplanError
-    from hriplan.ontology.sparql import QueryTimeout
+    from hriplan.ontology.sparql import QueryTimeout, UpdateRefused
     from hriplan.service.errors import RequestError
-    from hriplan.service.jobs import JOBS
+
+    if lane == "queries":
+        from hriplan.service.query_jobs import JOBS
+    else:
+        from hriplan.service.jobs import JOBS
     from hriplan.service.negotiation import NotAcceptable
 
     conn.send(("ready", os.getpid()))
@@ -30,6 +94,7 @@ def serve(conn: Connection) -> None:
             kind, payload = conn.recv()
         except (EOFError, OSError):
             return
+        conn.send(("accepted",))
         try:
             body, media = JOBS[kind](payload)
             reply = ("ok", body, media)
@@ -39,7 +104,9 @@ def serve(conn: Connection) -> None:
             reply = ("error", 406, str(exc))
         except QueryTimeout as exc:
             reply = ("error", 504, str(exc))
-        except HriplanError as exc:
+        except UpdateRefused as exc:
+            reply = ("error", 403, str(exc))
+        except (HriplanError, OutOfMemory) as exc:
             reply = ("error", 400, str(exc))
         except Exception as exc:
             traceback.print_exc(file=sys.stderr)
