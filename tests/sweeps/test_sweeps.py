@@ -351,3 +351,32 @@ def test_derive_only_then_plan_in_one_folder_is_refused_unless_merged(tmp_path):
     for run in manifest["runs"]:
         assert run["version"] == __version__ and datetime.fromisoformat(run["started"]).tzinfo is not None
         assert run["spec"]["vary"] == ["planning.seed=3"] and run["spec"]["file"] == str(GIVE)
+
+
+@pytest.mark.parametrize(
+    ("option", "says"),
+    [
+        ("{bad", "error: --ray-runtime-env: line 1: not valid JSON"),
+        ("[1]", "error: --ray-runtime-env: a runtime_env is a mapping (pip, py_modules, env_vars, ...), got '[1]'"),
+        ("missing.yaml", "error: --ray-runtime-env: missing.yaml: no such file"),
+    ],
+)
+def test_a_bad_runtime_env_is_one_line_before_ray_starts(tmp_path, option, says):
+    out = tmp_path / "s"
+    result = CliRunner().invoke(
+        app,
+        [
+            "sweep",
+            str(GIVE),
+            "--vary",
+            "planning.seed=1",
+            "-o",
+            str(out),
+            "--engine",
+            "ray",
+            "--ray-runtime-env",
+            option,
+        ],
+    )
+    assert result.exit_code == 2 and result.output.startswith(says) and result.output.count("\n") == 1
+    assert not out.exists()

@@ -48,7 +48,10 @@ def _runtime_env(text: str | None) -> dict | None:
 
     if text is None:
         return None
-    data = parse_data(text, "json") if text.lstrip().startswith("{") else read_data(Path(text))
+    try:
+        data = parse_data(text, "json") if text.lstrip()[:1] in "{[" else read_data(Path(text))
+    except HriplanError as exc:
+        raise HriplanError(f"--ray-runtime-env: {exc}") from None
     if not isinstance(data, dict):
         raise HriplanError(
             f"--ray-runtime-env: a runtime_env is a mapping (pip, py_modules, env_vars, ...), got {text!r}"
