@@ -182,10 +182,15 @@ def test_batch_from_the_command_line_then_its_report(tmp_path):
     ).read_text()
 
 
-@pytest.mark.parametrize(("signal_name", "code"), [("SIGINT", 130), ("SIGTERM", 143)])
-def test_ctrl_c_or_sigterm_stops_the_workers_keeps_what_is_done_and_a_rerun_resumes(tmp_path, signal_name, code):
-    """Ctrl-C and SIGTERM (a scheduler, `timeout`, `docker stop`) alike: the local pool's worker
-    processes end with the sweep (were orphaned by SIGTERM), the finished rows are kept."""
+@pytest.mark.parametrize(
+    ("signal_name", "code", "engine"), [("SIGINT", 130, "local"), ("SIGTERM", 143, "local"), ("SIGTERM", 143, "ray")]
+)
+def test_ctrl_c_or_sigterm_stops_the_workers_keeps_what_is_done_and_a_rerun_resumes(
+    tmp_path, signal_name, code, engine
+):
+    """Ctrl-C and SIGTERM (a scheduler, `timeout`, `docker stop`) alike: the workers (the local
+    pool's processes, or the local Ray runtime's) end with the sweep, the finished rows are kept
+    (SIGTERM orphaned the local pool, and ray.init's own handler exited at once with 15)."""
     import os
     import signal
     import subprocess
@@ -205,13 +210,15 @@ def test_ctrl_c_or_sigterm_stops_the_workers_keeps_what_is_done_and_a_rerun_resu
         "--derive-only",
         "--workers",
         "2",
+        "--engine",
+        engine,
     ]
     env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
     process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     first = process.stderr.readline()  # the first progress line: one variant is done
     assert first.startswith("... 1/40 variants"), first
     workers = helpers.children(process.pid)
-    assert len(workers) >= 2  # the pool's workers (and multiprocessing's resource tracker)
+    assert len(workers) >= 2  # the pool's workers and resource tracker, or Ray's services
     process.send_signal(getattr(signal, signal_name))
     _, err = process.communicate(timeout=120)
     assert process.returncode == code, err

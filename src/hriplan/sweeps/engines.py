@@ -14,9 +14,11 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
+import signal
 import socket
 import sys
 import tempfile
+import threading
 from collections import Counter, deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -184,6 +186,19 @@ def _captured_stderr() -> Iterator[Callable[[], str]]:
             os.close(saved)
 
 
+@contextlib.contextmanager
+def _own_sigterm() -> Iterator[None]:
+    """ray.init replaces the SIGTERM handler with a bare exit: keep the caller's (the sweep stops
+    on SIGTERM as on Ctrl-C, keeping its rows)."""
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.getsignal(signal.SIGTERM) if main else None
+    try:
+        yield
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
 def _join(ray: Any, address: str, runtime_env: dict[str, Any]) -> None:
     """Join a cluster, or one line saying why not, within about 20 s and before anything is written."""
     from ray._private.services import canonicalize_bootstrap_address_or_die
@@ -239,6 +254,12 @@ class RayEngine:
 
         if ray.is_initialized():
             return ray
+        with _own_sigterm():
+            self._init(ray)
+        self._started = True
+        return ray
+
+    def _init(self, ray: Any) -> None:
         if self.address:
             _join(ray, self.address, cluster_runtime_env(self.runtime_env))
         else:
@@ -254,8 +275,6 @@ class RayEngine:
                 logging_level="ERROR",
                 log_to_driver=False,
             )
-        self._started = True
-        return ray
 
     def start(self, work: Work, count: int) -> None:
         """Connect and start the actors: as many as asked, but no more than the cluster's CPUs

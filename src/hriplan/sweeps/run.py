@@ -157,8 +157,11 @@ def run_sweep(
     finished = store.finished_keys() - (_failed_keys(store) if retry_failed else set())
     todo = [v for v in variants if v.key not in finished]
     engine = engine or LocalEngine()
-    if todo:
-        engine.start(work, len(todo))
+    try:
+        if todo:
+            engine.start(work, len(todo))
+    except KeyboardInterrupt:  # while joining a cluster or starting workers: nothing new to keep
+        raise SweepInterrupted(len(variants) - len(todo), directory) from None
     try:
         store.create()
         manifest["runs"] = manifest.get("runs", []) + [
