@@ -45,6 +45,8 @@ SKIPPED = {
     ),
     ".venv/bin/hriplan sweep --report out/where": "needs the 220-variant sweep above",
     ".venv/bin/hriplan batch examples/*.yaml -o out/all": "every example takes minutes; the demo and the sweeps plan tasks",
+    ".venv/bin/hriplan sweep examples/handover_full_can_receiver.yaml -o out/cluster --vary planning.seed=1:64:1 "
+    "--ray-address HEAD:6379": "needs a Ray cluster; tests/sweeps/test_sweeps_cluster.py joins a real one",
 }
 
 # Numbers that differ from run to run (planning and wall times); masked on both sides.

@@ -47,3 +47,29 @@ def dies_once_on_seed_7(log, variant, plan):
 def calls(directory: Path) -> list[str]:
     log = Path(directory) / "calls.log"
     return log.read_text().split() if log.exists() else []
+
+
+class Holder:
+    """A Ray actor that only holds its CPU (a cluster busy with another job)."""
+
+    def ping(self) -> bool:
+        return True
+
+
+def alive(pid: int) -> bool:
+    """The process exists and is not a zombie waiting to be reaped."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def children(pid: int) -> list[int]:
+    """The processes `pid` started (Linux /proc)."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            found += [int(c) for c in (task / "children").read_text().split()]
+        except OSError:
+            pass
+    return found

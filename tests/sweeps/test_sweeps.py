@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
@@ -228,3 +229,154 @@ def test_progress_is_a_bar_on_a_terminal_and_plain_lines_otherwise():
     assert "3/3" in terminal.getvalue() and "variant/s" in terminal.getvalue() and "\r" in terminal.getvalue()
     lines = log.getvalue().splitlines()
     assert lines[-1].startswith("... 3/3 variants,") and "ETA 0 s" in lines[-1] and len(lines) == 3
+
+
+@pytest.mark.parametrize(
+    ("first", "second", "message"),
+    [
+        ("planning.seed=1,2", "planning.seed=3", "--vary planning.seed is given twice: give all its values in one"),
+        ("humans.bob.position=[[0, 1.4]]", "humans.bob.position.1=1.5", "--vary humans.bob.position.1 overlaps"),
+    ],
+)
+def test_a_path_varied_twice_is_one_line(first, second, message):
+    with pytest.raises(HriplanError) as info:
+        expand(GIVE, [parse_vary(first), parse_vary(second)])  # was: the last one silently won
+    assert str(info.value).startswith(message) and "\n" not in str(info.value)
+
+
+def test_the_run_key_changes_with_the_mode_the_rules_the_robot_and_the_version(tmp_path, monkeypatch):
+    """A result is reused only for the same task, mode, rule files' contents, robot description and
+    hriplan version (a derive-only row was reused by a planning run: it planned nothing)."""
+    from dataclasses import replace
+
+    import hriplan
+    from hriplan.robots.descriptions import registry
+    from hriplan.sweeps.variants import run_key
+
+    rules = tmp_path / "extra.rules"
+    rules.write_text("# no rules yet\n")
+    base = expand(GIVE, [parse_vary("planning.seed=3")])[0]
+    variant = base.model_copy(update={"task": base.task.model_copy(update={"rule_files": [str(rules)]})})
+    planned = run_key(variant, plan=True)
+    assert run_key(variant, plan=True) == planned and len(planned) == 16  # stable
+    assert run_key(variant, plan=False) != planned
+    rules.write_text("# one rule changed\n")
+    changed_rules = run_key(variant, plan=True)
+    assert changed_rules != planned
+    madar = registry.DESCRIPTIONS["madar"]
+    monkeypatch.setitem(registry.DESCRIPTIONS, "madar", replace(madar, postures={**madar.postures, "new": {}}))
+    changed_robot = run_key(variant, plan=True)
+    assert changed_robot != changed_rules
+    monkeypatch.setattr(hriplan, "__version__", "99.0")
+    assert run_key(variant, plan=True) != changed_robot
+
+
+def _pixels(image: Path, colour: str) -> int:
+    """How many pixels of the PNG have exactly this colour."""
+    import matplotlib.colors
+    import matplotlib.image
+
+    rgb = (matplotlib.image.imread(image)[:, :, :3] * 255).round()
+    want = np.array(matplotlib.colors.to_rgb(colour)) * 255
+    return int((np.abs(rgb - want.round()) < 0.5).all(axis=2).sum())
+
+
+def test_report_maps_a_numeric_axis_against_words_and_tells_failure_kinds_apart(tmp_path):
+    """A position component against the fill level (was a blank map) with three failure kinds:
+    each kind its own colour in the outcome panel and its count on the page."""
+    from hriplan.sweeps.report import OUTCOME_COLOURS, write_report
+
+    store = ResultStore(tmp_path)
+    outcomes = {(-0.2, "Full"): "timeout", (0.0, "Full"): "worker_died", (0.2, "Full"): "solved"}
+    outcomes |= {(-0.2, "Empty"): "error", (0.0, "Empty"): "solved", (0.2, "Empty"): "solved"}
+    for i, ((x, fill), status) in enumerate(outcomes.items()):
+        store.add(
+            [
+                {
+                    "key": f"k{i}",
+                    "vary.humans.bob.position.0": x,
+                    "vary.objects.can.fill_level": fill,
+                    "step_index": 0,
+                    "status": status,
+                    "reason": f"why {status}",
+                    "min_separation.bob": 0.3 + 0.1 * i if status == "solved" else None,
+                }
+            ]
+        )
+    store.compact()
+    page = write_report(tmp_path).read_text()
+    assert "6 variants, 3 succeeded in every step; failed: 1 timeout, 1 worker_died, 1 error." in page
+    assert "<td>worker_died</td><td>why worker_died</td>" in page
+    image = tmp_path / "success_map.png"
+    cell = 5_000  # one cell of the 3 x 2 map is far more pixels than any legend or colour bar patch
+    for kind in ("timeout", "worker_died", "error"):
+        assert _pixels(image, OUTCOME_COLOURS[kind]) > cell, kind
+    assert _pixels(image, OUTCOME_COLOURS["success"]) > 3 * cell  # three solved cells
+    assert _pixels(image, OUTCOME_COLOURS["invalid_path"]) < cell  # no such outcome
+
+
+def test_derive_only_then_plan_in_one_folder_is_refused_unless_merged(tmp_path):
+    """A derive-only run does not pass for a planned one (was: 'succeeded' with nothing planned).
+    The folder's manifest records each run; --save-trajectories keeps each variant's files."""
+    from hriplan.planner.trajectory import load_trajectory
+    from independent import constraint_violations
+
+    out = tmp_path / "s"
+    sweep = ["sweep", str(GIVE), "--vary", "planning.seed=3", "-o", str(out), "--workers", "1", "-q"]
+    derived = CliRunner().invoke(app, [*sweep, "--derive-only"])
+    assert derived.exit_code == 0 and derived.output.startswith("1 variants: 1 run"), derived.output
+    refused = CliRunner().invoke(app, sweep)
+    assert refused.exit_code == 2 and refused.output.count("\n") == 1
+    assert refused.output.startswith(f"error: {out} holds the results of another mode (derive-only, this one is plan)")
+    other = CliRunner().invoke(app, ["sweep", str(TAKE), "--vary", "planning.seed=3", "-o", str(out), "--derive-only"])
+    assert other.exit_code == 2 and "holds the results of another task (handover_full_can_receiver.yaml" in other.output
+    planned = CliRunner().invoke(app, [*sweep, "--merge", "--save-trajectories"])
+    assert planned.exit_code == 0 and planned.output.startswith("1 variants: 1 run, 0 already done; 1 succeeded")
+    rows = read_results(out)
+    assert sorted((r["mode"], r["status"]) for r in rows) == [
+        ("derive-only", "derived"),
+        ("plan", "solved"),
+        ("plan", "solved"),
+    ]
+    for row in (r for r in rows if r["mode"] == "plan"):
+        trajectory = load_trajectory(out / row["trajectory_file"])
+        assert trajectory.step == row["step"] and constraint_violations(trajectory) == []
+        assert trajectory.points[-1].time_from_start == pytest.approx(row["duration"])
+    manifest = json.loads((out / "sweep.json").read_text())
+    assert [r["identity"]["mode"] for r in manifest["runs"]] == ["derive-only", "plan"]
+    from datetime import datetime
+
+    from hriplan import __version__
+
+    for run in manifest["runs"]:
+        assert run["version"] == __version__ and datetime.fromisoformat(run["started"]).tzinfo is not None
+        assert run["spec"]["vary"] == ["planning.seed=3"] and run["spec"]["file"] == str(GIVE)
+
+
+@pytest.mark.parametrize(
+    ("option", "says"),
+    [
+        ("{bad", "error: --ray-runtime-env: line 1: not valid JSON"),
+        ("[1]", "error: --ray-runtime-env: a runtime_env is a mapping (pip, py_modules, env_vars, ...), got '[1]'"),
+        ("missing.yaml", "error: --ray-runtime-env: missing.yaml: no such file"),
+    ],
+)
+def test_a_bad_runtime_env_is_one_line_before_ray_starts(tmp_path, option, says):
+    out = tmp_path / "s"
+    result = CliRunner().invoke(
+        app,
+        [
+            "sweep",
+            str(GIVE),
+            "--vary",
+            "planning.seed=1",
+            "-o",
+            str(out),
+            "--engine",
+            "ray",
+            "--ray-runtime-env",
+            option,
+        ],
+    )
+    assert result.exit_code == 2 and result.output.startswith(says) and result.output.count("\n") == 1
+    assert not out.exists()

@@ -1,5 +1,7 @@
 """Engines: local worker processes and a real local Ray runtime (2 CPUs) give the same results;
-a rerun skips finished variants; a worker that dies is retried once, then recorded."""
+a rerun skips finished variants; a worker that dies is retried once, then recorded, and run again
+on --retry-failed; a Ray cluster whose CPUs are all taken is one line after a bound; Ctrl-C and
+SIGTERM stop the workers and keep what is done."""
 
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ import sweeps_helpers as helpers
 
 from hriplan.sweeps.engines import LocalEngine, RayEngine
 from hriplan.sweeps.run import run_sweep
-from hriplan.sweeps.variants import expand, parse_vary
+from hriplan.sweeps.variants import expand, parse_vary, run_key
 
 ray = pytest.importorskip("ray")
 
@@ -37,9 +39,8 @@ def _by_key(directory: Path) -> dict:
 
 @pytest.fixture(scope="module")
 def ray_runtime():
-    engine = RayEngine(workers=2)
-    engine._connect()
-    yield engine
+    RayEngine(workers=2)._connect()  # the module's runtime, shut down at its end
+    yield RayEngine(workers=2)  # an engine on a runtime it did not start leaves it running
     ray.shutdown()
 
 
@@ -102,8 +103,55 @@ def test_a_dying_worker_is_retried_once_then_recorded(tmp_path, log_dir, engine,
     dead = [r for r in rows if r["status"] == "worker_died"]
     assert len(dead) == 1 and '"seed":7' in dead[0]["task"] and "died on each of 2 attempts" in dead[0]["reason"]
     assert sorted(r["status"] for r in rows) == ["derived"] * 2 + ["worker_died"]
-    seven = next(v.key for v in variants if v.task.planning.seed == 7)
+    seven = run_key(next(v for v in variants if v.task.planning.seed == 7), plan=False)
     assert helpers.calls(log_dir).count(seven) == 2 and summary.solved == 2
+
+
+def test_retry_failed_runs_a_died_variant_again_and_keeps_only_its_latest_rows(tmp_path, log_dir):
+    from hriplan.sweeps.results import read_results
+
+    variants = expand(GIVE, [parse_vary("planning.seed=6:8:1")])
+    _derive_locally(variants, tmp_path / "s", partial(helpers.dies_on_seed_7, log_dir))
+    assert sorted(r["status"] for r in read_results(tmp_path / "s")) == ["derived"] * 2 + ["worker_died"]
+    counting = partial(helpers.counting, log_dir)
+    assert _derive_locally(variants, tmp_path / "s", counting).ran == 0  # a rerun alone keeps the failure
+    summary = run_sweep(
+        variants, tmp_path / "s", LocalEngine(2), plan=False, work=counting, progress=False, retry_failed=True
+    )
+    assert summary.ran == 1 and summary.solved == 3 and summary.statuses == {"derived": 3}
+    rows = read_results(tmp_path / "s")  # the died row is replaced, not kept beside the new one
+    assert sorted(r["status"] for r in rows) == ["derived"] * 3 and len({r["key"] for r in rows}) == 3
+    assert [r["status"] for r in rows if '"seed":7' in r["task"]] == ["derived"]
+    seven = run_key(next(v for v in variants if v.task.planning.seed == 7), plan=False)
+    assert helpers.calls(log_dir).count(seven) == 3 and helpers.calls(log_dir)[-1] == seven  # died twice, ran again
+
+
+def test_more_workers_than_the_cluster_has_cpus_start_only_as_many(tmp_path, ray_runtime):
+    """Four actors asked of a 2-CPU runtime: two start and take every variant (was: four actors,
+    two of which could never start, and the variants given to them waited for ever)."""
+    from hriplan.sweeps.results import read_results
+
+    variants = expand(GIVE, [parse_vary("planning.seed=1:4:1")])
+    summary = run_sweep(variants, tmp_path / "s", RayEngine(workers=4), plan=False, progress=False)
+    rows = read_results(tmp_path / "s")
+    assert summary.solved == 4 and sorted(r["status"] for r in rows) == ["derived"] * 4
+    assert 1 <= len({r["worker"] for r in rows}) <= 2
+
+
+def test_a_cluster_whose_cpus_are_all_taken_is_one_line_after_the_bound(tmp_path, ray_runtime):
+    from hriplan import HriplanError
+
+    holders = [ray.remote(num_cpus=1)(helpers.Holder).remote() for _ in range(2)]
+    ray.get([h.ping.remote() for h in holders])  # both CPUs of the 2-CPU runtime are held
+    try:
+        variants = expand(GIVE, [parse_vary("planning.seed=1,2")])
+        engine = RayEngine(workers=2, start_timeout=3)
+        with pytest.raises(HriplanError, match=r"^no Ray worker started within 3 s \(the cluster has 2 CPUs"):
+            run_sweep(variants, tmp_path / "s", engine, plan=False, progress=False)
+        assert not (tmp_path / "s").exists()  # nothing is created before a worker has started
+    finally:
+        for holder in holders:
+            ray.kill(holder)
 
 
 def test_a_worker_that_dies_once_is_retried_and_its_variant_kept(tmp_path, log_dir):
@@ -134,10 +182,19 @@ def test_batch_from_the_command_line_then_its_report(tmp_path):
     ).read_text()
 
 
-def test_ctrl_c_stops_keeps_what_is_done_and_a_rerun_resumes(tmp_path):
+@pytest.mark.parametrize(
+    ("signal_name", "code", "engine"), [("SIGINT", 130, "local"), ("SIGTERM", 143, "local"), ("SIGTERM", 143, "ray")]
+)
+def test_ctrl_c_or_sigterm_stops_the_workers_keeps_what_is_done_and_a_rerun_resumes(
+    tmp_path, signal_name, code, engine
+):
+    """Ctrl-C and SIGTERM (a scheduler, `timeout`, `docker stop`) alike: the workers (the local
+    pool's processes, or the local Ray runtime's) end with the sweep, the finished rows are kept
+    (SIGTERM orphaned the local pool, and ray.init's own handler exited at once with 15)."""
     import os
     import signal
     import subprocess
+    import time
 
     out = tmp_path / "s"
     command = [
@@ -152,17 +209,26 @@ def test_ctrl_c_stops_keeps_what_is_done_and_a_rerun_resumes(tmp_path):
         str(out),
         "--derive-only",
         "--workers",
-        "1",
+        "2",
+        "--engine",
+        engine,
     ]
     env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
     process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     first = process.stderr.readline()  # the first progress line: one variant is done
     assert first.startswith("... 1/40 variants"), first
-    process.send_signal(signal.SIGINT)
+    workers = helpers.children(process.pid)
+    assert len(workers) >= 2  # the pool's workers and resource tracker, or Ray's services
+    process.send_signal(getattr(signal, signal_name))
     _, err = process.communicate(timeout=120)
-    assert process.returncode == 130, err
+    assert process.returncode == code, err
     kept = int(err.split("interrupted: ")[1].split()[0])
     assert 1 <= kept < 40 and len(_by_key(out)) == kept and not list((out / "parts").glob("*"))
+    for _ in range(300):  # a bounded wait for the workers to be gone (orphans would stay for ever)
+        if not any(helpers.alive(pid) for pid in workers):
+            break
+        time.sleep(0.1)
+    assert [pid for pid in workers if helpers.alive(pid)] == []
     rerun = subprocess.run(command + ["-q"], env=env, capture_output=True, text=True, timeout=600)
     assert rerun.returncode == 0 and rerun.stdout.startswith(f"40 variants: {40 - kept} run, {kept} already done"), (
         rerun.stdout

@@ -123,9 +123,13 @@ class TrajectoryFile(BaseModel):
                 )
         return self
 
+    def text(self) -> str:
+        """The trajectory file's content (what `save` writes)."""
+        return self.model_dump_json(indent=1, by_alias=True)
+
     def save(self, path: str | Path) -> None:
         """Write atomically: a partly written trajectory never replaces a good one."""
-        write_atomically(path, self.model_dump_json(indent=1, by_alias=True))
+        write_atomically(path, self.text())
 
 
 def is_trajectory_file(path: str | Path) -> bool:

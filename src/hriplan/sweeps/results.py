@@ -2,9 +2,10 @@
 
 Rows arrive as variants finish and are written in small batches, each batch one Parquet part
 file written to a temporary name and renamed (a crash never leaves a torn file). Compaction
-merges the parts into `results.parquet` (and `results.csv` on request) the same way, dropping
-repeated (key, step_index) rows, then removes the parts. Finished variants are the keys found in
-the table and the parts, so a rerun skips them.
+merges the parts into `results.parquet` (and `results.csv` on request) the same way, keeping only
+the latest run of a variant (all its rows come in one part), then removes the parts. Finished
+variants are the keys found in the table and the parts, so a rerun skips them. Nothing is
+created until rows are written (a sweep that cannot start leaves no folder).
 """
 
 from __future__ import annotations
@@ -53,13 +54,16 @@ class ResultStore:
     def __init__(self, directory: Path, flush_rows: int = 64, flush_seconds: float = 5.0) -> None:
         self.directory = Path(directory)
         self.parts = self.directory / "parts"
+        self.flush_rows, self.flush_seconds = flush_rows, flush_seconds
+        self._buffer: list[Row] = []
+        self._last_flush = time.monotonic()
+
+    def create(self) -> None:
+        """The folder and its parts folder; one line if they cannot be made."""
         try:
             self.parts.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise HriplanError(f"{self.directory}: cannot write results here ({exc.strerror})") from None
-        self.flush_rows, self.flush_seconds = flush_rows, flush_seconds
-        self._buffer: list[Row] = []
-        self._last_flush = time.monotonic()
 
     @property
     def path(self) -> Path:
@@ -73,6 +77,7 @@ class ResultStore:
 
     def flush(self) -> None:
         if self._buffer:
+            self.create()
             _write_table(to_table(self._buffer), self.parts / f"part-{time.time_ns()}-{os.getpid()}.parquet")
             self._buffer = []
         self._last_flush = time.monotonic()
@@ -85,12 +90,14 @@ class ResultStore:
         return {key for f in self._files() for key in pq.read_table(f, columns=["key"]).column("key").to_pylist()}
 
     def rows(self) -> list[Row]:
-        """Every recorded row, the latest of any repeated (key, step) kept."""
-        latest: dict[tuple[str, int], Row] = {}
+        """Every recorded row; a variant run again (--retry-failed) keeps only its latest rows."""
+        latest: dict[str, list[Row]] = {}
         for f in self._files():
+            found: dict[str, list[Row]] = {}
             for row in pq.read_table(f).to_pylist():
-                latest[(row["key"], row.get("step_index", -1))] = row
-        return list(latest.values())
+                found.setdefault(row["key"], []).append(row)
+            latest |= found
+        return [row for rows in latest.values() for row in rows]
 
     def compact(self, csv: bool = False) -> Path:
         """Merge the parts into the results table (and a CSV copy on request); remove the parts."""

@@ -68,12 +68,14 @@ class Dimension(BaseModel):
 
 
 class Variant(BaseModel):
-    """One task to plan: where it came from, what was varied, and the task itself."""
+    """One task to plan: where it came from, what was varied, and the task itself. A sweep keys it
+    by what its result depends on (`run_key`); `trajectories`: its worker returns them too."""
 
     key: str
     source: str
     values: dict[str, Any]
     task: TaskFile
+    trajectories: bool = False
 
 
 def _scalar(text: str) -> Any:
@@ -166,6 +168,34 @@ def task_key(task: TaskFile) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+def _digest(parts: dict[str, Any]) -> str:
+    return hashlib.sha256(json.dumps(parts, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def run_key(variant: Variant, plan: bool) -> str:
+    """What a variant's result depends on, hashed: its task, the mode (planned or derive-only),
+    the rule files' contents (the package's and the task's), the robot's description and hriplan's
+    version. A rerun skips a key already recorded, so a change of any of these runs it again."""
+    from dataclasses import replace
+
+    from hriplan import __version__
+    from hriplan.ontology.ruleset import RULES_DIR
+    from hriplan.robots.descriptions.registry import description_of
+
+    files = sorted(RULES_DIR.glob("*.rules")) + [Path(f) for f in variant.task.rule_files]
+    rules = {str(f): hashlib.sha256(f.read_bytes()).hexdigest() if f.is_file() else None for f in files}
+    robot = description_of(variant.task.robot)
+    return _digest(
+        {
+            "task": task_key(variant.task),
+            "mode": "plan" if plan else "derive",
+            "rules": rules,
+            "robot": robot.urdf() + repr(replace(robot, urdf=None)),
+            "version": __version__,
+        }
+    )
+
+
 def _absolute_rules(task: TaskFile, base_dir: Path) -> TaskFile:
     """Rule files by absolute path, so a variant runs the same from any directory (and row)."""
     return task.model_copy(update={"rule_files": [str((base_dir / f).resolve()) for f in task.rule_files]})
@@ -191,6 +221,12 @@ def _validated(data: dict[str, Any], values: dict[str, Any], source: str) -> Var
 def expand(path: Path, dimensions: list[Dimension], samples: int | None = None, seed: int = 0) -> list[Variant]:
     """The sweep's variants (cross product, or `samples` random draws), each validated; repeats dropped."""
     data, _ = load_base(path)
+    for i, d in enumerate(dimensions):
+        for other in dimensions[:i]:
+            if d.path == other.path:
+                raise HriplanError(f"--vary {d.path} is given twice: give all its values in one --vary")
+            if f"{d.path}.".startswith(f"{other.path}.") or f"{other.path}.".startswith(f"{d.path}."):
+                raise HriplanError(f"--vary {d.path} overlaps --vary {other.path}: vary one of them")
     if samples is not None:
         if samples < 1:
             raise HriplanError("--samples must be at least 1")

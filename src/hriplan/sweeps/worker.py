@@ -5,7 +5,7 @@ A worker keeps one planning session per robot and hand postures for its whole li
 not once per variant. Each step becomes one result row: the varied values, derived constraint
 kinds, status and reason, planning time, path length, motion duration, the closest approach per
 person and the worst speed-and-separation margin (when the trajectory report carries per-person
-separation traces).
+separation traces), and the trajectory itself when the sweep keeps them (--save-trajectories).
 """
 
 from __future__ import annotations
@@ -97,8 +97,16 @@ def run_variant(variant: Variant, plan: bool = True) -> list[Row]:
             }
             | separation_columns(report, people)
             | timing
+            | _trajectory(variant, step.trajectory)
         )
     return rows
+
+
+def _trajectory(variant: Variant, trajectory: Any) -> Row:
+    """The step's trajectory file's text, when the sweep keeps them (written by the driver)."""
+    if not variant.trajectories or trajectory is None:
+        return {}
+    return {"trajectory": trajectory.text()}
 
 
 def failure_rows(variant: Variant, reason: str) -> list[Row]:
