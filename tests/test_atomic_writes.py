@@ -114,3 +114,20 @@ def test_an_interrupted_command_removes_the_temporaries_of_the_outputs_it_named(
     outputs.remove_partial_outputs()
     assert [t.exists() for t in temporaries_made] == [False, False, True]  # "other" is no output of the command
     assert kept.read_text() == "{}" and list(folder.iterdir()) == []
+
+
+def test_an_interrupted_plot_leaves_no_temporary_in_its_step_folders(tmp_path: Path, monkeypatch) -> None:
+    """`plot -o DIR` writes DIR/STEP/*.png: Ctrl-C left DIR/STEP/.joint_positions.png.*.tmp (the
+    clean-up looked in DIR only). Another file in the folders stays."""
+    from hriplan.cli import outputs
+
+    monkeypatch.setattr(outputs, "_NAMED", [])
+    plots = outputs.directory_output(tmp_path / "plots")
+    step = plots / "take_can"
+    step.mkdir(parents=True)
+    tmp = step / ".joint_positions.png.5f3a9c.tmp"  # as atomic_path names it, left by a kill
+    tmp.write_bytes(b"half a png")
+    (step / "kept.png").write_bytes(b"png")
+    assert temporaries(step / "joint_positions.png") == [tmp]
+    outputs.remove_partial_outputs()  # what the interrupt handler runs
+    assert sorted(p.name for p in step.iterdir()) == ["kept.png"]

@@ -49,10 +49,11 @@ def directory_output(path: Path, option: str = "--output") -> Path:
 
 
 def remove_partial_outputs() -> None:
-    """Remove the temporary files of the named outputs (and their directories' temporaries)."""
+    """Remove the temporary files of the named outputs (and those anywhere in their directories:
+    `plot` writes one folder per step)."""
     from hriplan.files import temporaries  # (loads pydantic and yaml: not for `--help`)
 
     for path in _NAMED:
-        candidates = temporaries(path) + (list(path.glob(".*.tmp")) if path.is_dir() else [])
+        candidates = temporaries(path) + (list(path.rglob(".*.tmp")) if path.is_dir() else [])
         for tmp in candidates:
             tmp.unlink(missing_ok=True)
