@@ -99,8 +99,19 @@ def test_plugin_api_example_runs():
         [sys.executable, str(ROOT / "examples" / "plugin_api.py")], capture_output=True, text=True, timeout=600
     )
     assert result.returncode == 0, result.stderr
-    assert "first plan: solved" in result.stdout and "after bob moved: solved" in result.stdout
-    assert "task step place_can: solved, constraints: ['keep_out_alice', 'upright_coke_can']" in result.stdout
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("first plan: solved") and lines[1].startswith("after alice moved: solved")
+    # the crate the session saw on the place spot fails the place (it was planned through before)
+    assert "task step place_can: unreachable_goal, constraints: ['keep_out_alice', 'upright_coke_can']" in lines
+    assert (
+        "- crate"
+        in lines[
+            lines.index("task step place_can: unreachable_goal, constraints: ['keep_out_alice', 'upright_coke_can']")
+            + 1
+        ]
+    )
+    # moved away, the task continues from the session's state at the failed step
+    assert lines[-2:] == ["continued place_can: solved", "continued place_can_release: solved"]
 
 
 def test_view_and_plot_take_reasons_from_the_task(planned, tmp_path):

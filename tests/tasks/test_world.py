@@ -51,7 +51,7 @@ def test_the_session_world_overrides_the_files_people_and_objects_and_adds_the_r
     assert can.in_hand_of is None and can.pose.xyz == (0.4, 0.8, 0.78) and can.shape.radius == 0.03
     assert can.kind == "Can" and can.fill_level == "Full"  # what the file says of it stays
     held = next(o for o in placed.objects if o.name == "lid")
-    assert (held.kind, held.held_by) == (PERCEIVED_KIND, "left")
+    assert (held.kind, held.holding_arm) == (PERCEIVED_KIND, "left")
     assert grasps == {"lid": Grasp("perceived", "+z", pytest.approx(-0.02 / 0.01))}
     obstacles = {o.name: o for o in placed.scene.obstacles}
     assert obstacles["crate"].touched_by is None and obstacles["crate"].pose == CRATE.pose
