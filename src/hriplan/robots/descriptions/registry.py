@@ -81,15 +81,17 @@ def _add_hand(robot: ET.Element, prefix: str, side: str) -> None:
     X.joint(robot, f"{prefix}tool_joint", "fixed", palm, f"{prefix}tool", *TOOL_IN_PALM)
 
 
-def madar_urdf() -> str:
-    """MADAR: torso primitives, three omni wheels, two UR5 arms, an Allegro hand on each wrist."""
+def madar_urdf(hands: bool = True) -> str:
+    """MADAR: torso primitives, three omni wheels, two UR5 arms, an Allegro hand on each wrist
+    (`hands=False`: bare flanges, as Kautham's madar_dual_arm; examples/robots/madar_bare.urdf)."""
     robot = ET.Element("robot", name="madar")
     _add_structure(robot)
     for side, (xyz, rpy) in ARM_MOUNTS.items():
         prefix = f"{side}_"
         add_ur5(robot, prefix)
         X.joint(robot, f"{prefix}arm_mount_joint", "fixed", MADAR_BASE, f"{prefix}base_link", xyz, rpy)
-        _add_hand(robot, prefix, side)
+        if hands:
+            _add_hand(robot, prefix, side)
     return X.to_string(robot)
 
 
