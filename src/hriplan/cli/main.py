@@ -50,6 +50,7 @@ def main(
       hriplan robot info madar                                 joints, groups, limits, tool frames
       hriplan robot init --urdf panda.urdf --srdf panda.srdf -o panda.yaml   a robot file for any robot
       hriplan robot check panda.yaml                           what it holds, its IK measured
+      hriplan robot srdf madar -o madar.srdf                   its SRDF, for MoveIt
 
     \b
     Exit codes:
@@ -115,6 +116,29 @@ def robot_urdf(
     from hriplan.robots.robot_file import robot_name
 
     sys.stdout.write(portable_urdf(description_of(robot_name(name)).urdf(), mesh_dir) + "\n")
+
+
+@robot_app.command("srdf")
+@clear_errors
+def robot_srdf(
+    name: Annotated[str, typer.Argument(help="madar, ur5 or a robot file.", show_default=False)],
+    output: Annotated[Path | None, typer.Option("-o", "--output", help="Write the SRDF here.")] = None,
+) -> None:
+    """Print (or write) the robot's SRDF for MoveIt: a group per arm and the whole robot, an end
+    effector per arm, a group state per posture, and the pairs hriplan does not check for self-collision."""
+    from hriplan.cli.outputs import file_output
+    from hriplan.files import write_atomically
+    from hriplan.robots.model import load_robot
+    from hriplan.robots.robot_file import robot_name
+    from hriplan.robots.srdf_export import srdf_text
+
+    target = None if output is None else file_output(output)
+    text = srdf_text(load_robot(robot_name(name)))
+    if target is None:
+        sys.stdout.write(text)
+    else:
+        write_atomically(target, text)
+        typer.echo(f"wrote {target}")
 
 
 @robot_app.command("check")

@@ -289,6 +289,10 @@ def import_kautham(
             help="A folder with Kautham's robot, obstacle and controls files, like its demos/models (repeatable).",
         ),
     ] = None,
+    robot: Annotated[
+        str | None,
+        typer.Option("--robot", help="Plan with this robot (a name or a robot file) instead of the one Kautham names."),
+    ] = None,
 ) -> None:
     """Convert a Kautham problem (robot, obstacles, constraints, controls, query) to hriplan's problem format, and plan it."""
     from hriplan.cli.solve import solve_problem_file
@@ -299,7 +303,9 @@ def import_kautham(
         file_output(target.with_suffix(".trajectory.json"))
     from hriplan.files import write_atomically
 
-    converted = convert(problem, rpy, models or (), warn=lambda message: typer.echo(f"warning: {message}", err=True))
+    converted = convert(
+        problem, rpy, models or (), warn=lambda message: typer.echo(f"warning: {message}", err=True), robot=robot
+    )
     write_atomically(target, converted.model_dump_json(indent=1))
     typer.echo(
         f"{len(converted.constraints.constraints)} constraints, group {converted.group}, "

@@ -44,6 +44,20 @@ def _mount(description: RobotDescription) -> pin.SE3:
     return Pose(xyz=xyz, rpy=rpy).se3()
 
 
+def _add_alias_frames(model: pin.Model, aliases: Mapping[str, str], robot: str) -> None:
+    """A frame per link alias, on its link (same joint and placement), so every frame lookup
+    (constraint target links, IK, tool frames) takes the alias like the link."""
+    for alias, link in aliases.items():
+        if model.existFrame(alias):
+            raise HriplanError(f"robot {robot!r}: link alias {alias!r} is already a frame of its URDF")
+        if not model.existFrame(link):
+            raise HriplanError(f"robot {robot!r}: link alias {alias!r} names an unknown link {link!r}")
+        frame = model.frames[model.getFrameId(link)]
+        model.addFrame(
+            pin.Frame(alias, frame.parentJoint, model.getFrameId(link), frame.placement, pin.FrameType.OP_FRAME)
+        )
+
+
 def arms_of(name: str) -> dict[str, tuple[str, str]]:
     """Arm name -> (joint prefix, tool frame) of a robot description."""
     return {arm: (d.prefix, d.tool_frame) for arm, d in description_of(name).arms.items()}
@@ -59,6 +73,7 @@ class Robot:
         self.urdf = self.description.urdf()
         self.full_model = pin.buildModelFromXML(self.urdf)
         self._place_base(self.full_model, spec.base_pose.se3() * _mount(self.description))
+        _add_alias_frames(self.full_model, self.description.link_aliases, spec.name)
         self.full_collision = pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.COLLISION)
         self.hand_postures = dict(spec.hand_postures)
         self._q_locked = self.full_configuration({})

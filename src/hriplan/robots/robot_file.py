@@ -15,6 +15,10 @@ arms:
     hand: {gripper: [panda_finger_joint1, panda_finger_joint2], open: 0.04, closed: 0.0}  # or none, allegro
     ik: numeric                              # or an analytic UR kind (ur10_analytic, ...)
     object_axis: -z                          # the tool axis along a held object's z (default)
+    ros_industrial: true                     # frames `base` (the arm's base link) and `tool0` (the
+                                             # last joint's link, its flange) too; ARM_base, ARM_tool0
+                                             # with several arms; a link the URDF names so is kept
+frame_aliases: {flange: panda_link8}         # other names of links (constraints, tool: take them)
 postures: {ready: {panda_joint4: -2.0}}      # with the SRDF's group states
 limits: {panda_joint1: {velocity: 1.0, acceleration: 3.75}}
 base_pose: {xyz: [0, 0, 0.8]}
@@ -92,6 +96,9 @@ class ArmSpec(_Strict):
         description="The tool axis along a held object's z axis (-z: held out of the tool, upright when it points down).",
     )
     model: str | None = Field(None, description="The arm's model in words (default: the robot's label).")
+    ros_industrial: bool = Field(
+        False, description="Also name the arm's base link `base` and its flange (the last joint's link) `tool0`."
+    )
 
     @field_validator("ik")
     @classmethod
@@ -139,6 +146,7 @@ class RobotFile(_Strict):
     srdf: str | None = None
     packages: dict[str, str] = Field(default_factory=dict)
     arms: dict[Identifier, ArmSpec] = Field(min_length=1)
+    frame_aliases: dict[Identifier, str] = Field(default_factory=dict, description="Other names of links.")
     postures: dict[str, dict[str, float]] = Field(default_factory=dict)
     limits: dict[str, JointLimits] = Field(default_factory=dict)
     base_pose: Pose = Field(default_factory=Pose)
@@ -197,6 +205,11 @@ class _Builder:
         for el in self.root.iter("mesh"):
             el.set("filename", str(resolve_file(el.get("filename", ""), packages, urdf.parent, "mesh")))
         self.tree = UrdfTree(self.root)
+        self.frame_aliases = {}
+        for alias, link in spec.frame_aliases.items():
+            if alias in self.tree.links:
+                raise HriplanError(f"frame_aliases.{alias}: the URDF already has a link {alias!r}")
+            self.frame_aliases[alias] = self.tree.link(link, f"frame_aliases.{alias}")
         if spec.srdf is None:
             self.srdf = Srdf()
         else:
@@ -224,10 +237,25 @@ class _Builder:
                 raise HriplanError(f"{what}: not a serial chain: joint {after!r} does not follow joint {before!r}")
         return movable
 
+    def aliases(self, arm: str, a: ArmSpec, prefix: str, joints: list[str]) -> None:
+        """Add the arm's ROS-Industrial names (`base`, `tool0`) to `self.frame_aliases`, except
+        where the URDF has a link of that name already (ur_description's own base and tool0)."""
+        if not a.ros_industrial:
+            return
+        names = {
+            f"{prefix}base": self.tree.joints[joints[0]].parent,
+            f"{prefix}tool0": self.tree.joints[joints[-1]].child,
+        }
+        for alias, link in names.items():
+            if alias in self.frame_aliases:
+                raise HriplanError(f"arms.{arm}.ros_industrial: {alias!r} is also in frame_aliases")
+            if alias not in self.tree.links:
+                self.frame_aliases[alias] = link
+
     def tool(self, arm: str, a: ArmSpec, joints: list[str]) -> str:
         what = f"arms.{arm}.tool"
         if a.tool is not None:
-            link = self.tree.link(a.tool, what)
+            link = self.tree.link(self.frame_aliases.get(a.tool, a.tool), what)
         elif a.group is not None:
             ends = [e for e in self.srdf.end_effectors if a.group in (e.parent_group, e.group)]
             if not ends:
@@ -315,6 +343,7 @@ class _Builder:
         for arm, a in spec.arms.items():
             prefix = "" if len(spec.arms) == 1 else f"{arm}_"
             joints = self.arm_joints(arm, a)
+            self.aliases(arm, a, prefix, joints)
             tool = self.tool(arm, a, joints)
             arms[arm] = ArmDescription(
                 prefix,
@@ -346,6 +375,7 @@ class _Builder:
             acceleration_limits=acceleration,
             source=source,
             srdf=self.srdf if spec.srdf else None,
+            link_aliases=self.frame_aliases,
             stopping={} if spec.stopping is None else {ONTOLOGY_STOPPING[k]: v for k, v in spec.stopping},
         )
 

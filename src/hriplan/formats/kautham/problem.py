@@ -41,7 +41,9 @@ from hriplan.planner.constraints.spec import VOLUME_TYPES, ConstraintSet, FrameR
 from hriplan.planner.motion import JointTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.problem import PlanningProblem
+from hriplan.robots.descriptions.registry import description_of
 from hriplan.robots.model import ROBOT_NAMES, Robot, load_robot
+from hriplan.robots.robot_file import robot_name
 from hriplan.robots.scene import Obstacle, Scene
 from hriplan.robots.spatial import Pose
 
@@ -330,8 +332,11 @@ def import_kautham(
     rpy: Literal["kautham", "urdf"] = "kautham",
     models: Sequence[str | Path] = (),
     warn: Warn | None = None,
+    robot: str | None = None,
 ) -> PlanningProblem:
-    """A hriplan planning problem from a Kautham problem file (robot madar or ur5).
+    """A hriplan planning problem from a Kautham problem file (robot madar or ur5, or `robot`:
+    a robot name or a robot file, for a Kautham robot hriplan has no description of, such as
+    the hand-less MADAR of Kautham's madar_dual_arm demo).
 
     `models`: folders with Kautham's robot, obstacle and controls files (Kautham's
     demos/models), searched after the problem's own folder. `warn` receives one line per thing
@@ -344,7 +349,8 @@ def import_kautham(
     if robot_el is None:
         raise reader.fail("no <Robot> element")
     folders = [path.parent, *(Path(m) for m in models)]
-    robot = load_robot(_robot_name(reader, robot_el))
+    description = description_of(robot_name(robot) if robot else _robot_name(reader, robot_el))
+    robot = load_robot(description.name)
     world = reader.home(robot_el.find("Home"), "robot <Home>").se3().inverse()
     obstacles, frames = _obstacles(reader, root, folders, world, warn)
     constraints = [_constraint(reader, robot, el, frames, world, rpy) for el in robot_el.findall("Constraint")]
@@ -366,6 +372,7 @@ def import_kautham(
         name=path.stem,
         description=f"imported from the Kautham problem {path.name} (world = the robot's <Home> frame)",
         robot=robot.name,
+        robot_file=description.source,
         scene=Scene(obstacles=obstacles),
         constraints=ConstraintSet(constraints=constraints),
         group=group,

@@ -81,15 +81,17 @@ def _add_hand(robot: ET.Element, prefix: str, side: str) -> None:
     X.joint(robot, f"{prefix}tool_joint", "fixed", palm, f"{prefix}tool", *TOOL_IN_PALM)
 
 
-def madar_urdf() -> str:
-    """MADAR: torso primitives, three omni wheels, two UR5 arms, an Allegro hand on each wrist."""
+def madar_urdf(hands: bool = True) -> str:
+    """MADAR: torso primitives, three omni wheels, two UR5 arms, an Allegro hand on each wrist
+    (`hands=False`: bare flanges, as Kautham's madar_dual_arm; examples/robots/madar_bare.urdf)."""
     robot = ET.Element("robot", name="madar")
     _add_structure(robot)
     for side, (xyz, rpy) in ARM_MOUNTS.items():
         prefix = f"{side}_"
         add_ur5(robot, prefix)
         X.joint(robot, f"{prefix}arm_mount_joint", "fixed", MADAR_BASE, f"{prefix}base_link", xyz, rpy)
-        _add_hand(robot, prefix, side)
+        if hands:
+            _add_hand(robot, prefix, side)
     return X.to_string(robot)
 
 
@@ -150,8 +152,10 @@ class RobotDescription:
     arms: dict[str, ArmDescription]  # the first is the arm a step moves when nothing says which
     whole_group: str  # every arm joint, in the model's order
     postures: dict[str, dict[str, float]]  # named start configurations (joints not listed are 0)
-    # Other names of links, as other descriptions of the same robot spell them (same frame,
-    # checked by forward kinematics in tests/formats/test_kautham.py).
+    # Other names of links (alias -> link), as other descriptions of the same robot spell them:
+    # ROS-Industrial's `base` and `tool0` per arm (`ros_industrial_aliases`), Kautham's names
+    # (same frame, checked by forward kinematics in tests/formats/test_kautham.py). Every loaded
+    # robot has a frame per alias (robots/model.py), so constraints, IK and tools take them.
     link_aliases: dict[str, str] = field(default_factory=dict)
     # Where the robot stands in the world, (xyz, rpy) (a task's base pose moves it further).
     base_pose: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
@@ -171,6 +175,32 @@ class RobotDescription:
         return [arm for arm, description in self.arms.items() if description.hand is not None]
 
 
+def ros_industrial_aliases(arms: dict[str, ArmDescription], flange: str) -> dict[str, str]:
+    """ROS-Industrial's frame names per arm (REP-199): `{prefix}base`, the arm's base link, and
+    `{prefix}tool0`, its flange link `{prefix}{flange}` (no tool mounted)."""
+    aliases = {}
+    for arm in arms.values():
+        aliases[f"{arm.prefix}base"] = arm.base_link
+        aliases[f"{arm.prefix}tool0"] = f"{arm.prefix}{flange}"
+    return aliases
+
+
+_MADAR_ARMS = {
+    side: ArmDescription(
+        f"{side}_",
+        f"{side}_tool",
+        f"{side}_arm",
+        tuple(joint_names(f"{side}_")),
+        f"{side}_base_link",
+        hand="allegro",
+        object_axis="+y",
+    )
+    for side in ("right", "left")
+}
+_UR5_ARMS = {"arm": ArmDescription("", "tool", "arm", tuple(joint_names()), "base_link")}
+# The UR5's DH-style base_link and wrist_3_link are the frames its controller and its analytic
+# IK call base and flange (measured: ur5_analytic fits them with identity offsets), so they are
+# ROS-Industrial's `base` and `tool0`.
 DESCRIPTIONS = {
     "madar": RobotDescription(
         name="madar",
@@ -180,20 +210,13 @@ DESCRIPTIONS = {
         base_link=MADAR_BASE,
         whole_group="both_arms",
         postures=MADAR_POSTURES,
-        arms={
-            side: ArmDescription(
-                f"{side}_",
-                f"{side}_tool",
-                f"{side}_arm",
-                tuple(joint_names(f"{side}_")),
-                f"{side}_base_link",
-                hand="allegro",
-                object_axis="+y",
-            )
-            for side in ("right", "left")
-        },
+        arms=_MADAR_ARMS,
         # Kautham's MADAR names the adapter and the hand's base (the Allegro palm) differently.
-        link_aliases={"right_hand_adapter_link": "right_hand_adapter", "right_hand_base_link": "right_hand_palm_link"},
+        link_aliases={
+            "right_hand_adapter_link": "right_hand_adapter",
+            "right_hand_base_link": "right_hand_palm_link",
+            **ros_industrial_aliases(_MADAR_ARMS, "wrist_3_link"),
+        },
     ),
     "ur5": RobotDescription(
         name="ur5",
@@ -203,7 +226,8 @@ DESCRIPTIONS = {
         base_link="base_link",
         whole_group="arm",
         postures=UR5_POSTURES,
-        arms={"arm": ArmDescription("", "tool", "arm", tuple(joint_names()), "base_link")},
+        arms=_UR5_ARMS,
+        link_aliases=ros_industrial_aliases(_UR5_ARMS, "wrist_3_link"),
     ),
 }
 # The robot a task, a problem, a situation or a session has when it names none.

@@ -1,0 +1,96 @@
+"""`hriplan import-kautham --robot ROBOT_FILE`: a Kautham problem planned with a robot given as a
+robot file, here the hand-less MADAR of Kautham's madar_dual_arm demo (examples/robots/
+madar_bare.yaml). The trajectory is re-checked here: joint limits read from the robot's URDF,
+the orientation and box constraints evaluated with pinocchio built from that URDF."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+ROOT = Path(__file__).parents[2]
+KAUTHAM = ROOT / "tests" / "data" / "kautham"
+PROBLEM = KAUTHAM / "madar_bare_dual_arm.xml"
+ROBOT = ROOT / "examples" / "robots" / "madar_bare.yaml"
+URDF = ROBOT.with_suffix(".urdf")
+
+
+def run(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "hriplan.cli", "import-kautham", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+
+
+def test_a_kautham_problem_plans_with_the_handless_madar_robot_file(tmp_path):
+    out = tmp_path / "bare.json"
+    done = run(PROBLEM, "--models", KAUTHAM / "models", "--robot", ROBOT, "-o", out, "--plan")
+    assert done.returncode == 0, done.stderr
+    assert "2 constraints, group all_arms, 2 obstacles" in done.stdout and "madar_bare_dual_arm: solved" in done.stdout
+    trajectory = json.loads(out.with_suffix(".trajectory.json").read_text())
+    assert trajectory["robot"] == "madar_bare" and trajectory["robot_file"] == str(ROBOT)
+    urdf = ET.parse(URDF).getroot()
+    limits = {
+        j.get("name"): (float(j.find("limit").get("lower")), float(j.find("limit").get("upper")))
+        for j in urdf.findall("joint")
+        if j.get("type") == "revolute"
+    }
+    model = pin.buildModelFromUrdf(str(URDF))
+    data = model.createData()
+    base, flange = model.getFrameId("madar_base_link"), model.getFrameId("right_wrist_3_link")
+    target = pin.rpy.rpyToMatrix(math.pi, 0.0, 0.0)  # Kautham's qx = 1: a half turn about x
+    box_centre, box_half = np.array([0.25, 0.65, 1.1]), np.array([0.5, 0.4, 0.3]) / 2
+    names = trajectory["joint_names"]
+    assert len(names) == 12 and len(trajectory["points"]) > 2
+    for point in trajectory["points"]:
+        values = dict(trajectory["start"]) | dict(zip(names, point["positions"]))
+        for joint, value in values.items():
+            lower, upper = limits[joint]
+            assert lower - 1e-9 <= value <= upper + 1e-9, joint
+        q = pin.neutral(model)
+        for joint, value in values.items():
+            q[model.joints[model.getJointId(joint)].idx_q] = value
+        pin.framesForwardKinematics(model, data, q)
+        relative = data.oMf[base].rotation.T @ data.oMf[flange].rotation
+        angle = np.arccos(np.clip((np.trace(target.T @ relative) - 1.0) / 2.0, -1.0, 1.0))
+        assert angle <= 0.1 + 1e-3
+        assert np.all(np.abs(data.oMf[flange].translation - box_centre) <= box_half + 1e-3)
+    # Both arms move, from the query's start to its goal (within the 6-decimal controls).
+    first, last = np.array(trajectory["points"][0]["positions"]), np.array(trajectory["points"][-1]["positions"])
+    goal_left_pan = 4 * math.pi * 0.531831 - 2 * math.pi
+    assert abs(last[names.index("left_shoulder_pan_joint")] - goal_left_pan) < 1e-4
+    assert np.abs(last - first)[names.index("right_shoulder_lift_joint")] > 0.3
+
+
+def test_the_shipped_handless_madar_urdf_is_the_built_in_madar_without_hands():
+    from hriplan.cli.urdf_export import portable_urdf
+    from hriplan.robots.descriptions.registry import madar_urdf
+
+    shipped = ET.parse(URDF).getroot()
+    built = ET.fromstring(portable_urdf(madar_urdf(hands=False)))
+    ET.indent(built)
+    assert ET.tostring(shipped, encoding="unicode") == ET.tostring(built, encoding="unicode")
+    assert not any("hand" in link.get("name") for link in shipped.findall("link"))
+
+
+def test_a_bad_robot_is_one_line(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: bad\nurdf: nowhere.urdf\narms: {arm: {base: a, tip: b}}\n")
+    for robot, message in (
+        ("nope", "unknown robot 'nope'"),
+        (tmp_path / "missing.yaml", "missing.yaml: no such file"),
+        (bad, "missing URDF file"),
+    ):
+        done = run(PROBLEM, "--robot", robot, "-o", tmp_path / "x.json")
+        lines = done.stderr.strip().splitlines()
+        assert done.returncode == 2 and "Traceback" not in done.stderr
+        assert len(lines) == 1 and lines[0].startswith("error: ") and message in lines[0], done.stderr
