@@ -33,6 +33,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Annotated, Literal
 
+import numpy as np
 import pinocchio as pin
 from pydantic import (
     BaseModel,
@@ -271,6 +272,31 @@ class _Builder:
         )
         return kind
 
+    def hand_axes(self, arm: str, a: ArmSpec, tool: str) -> tuple[str, str, str]:
+        """Where hriplan's hand frame (grasps are written in it: z out of the palm, y across the
+        fingers, x = y x z) lies in the tool frame: for a parallel gripper, z is the tool's z
+        (the approach) and y the tool axis across both the approach and the direction its first
+        finger joint moves in, read from the URDF (a gripper closing along its tool y holds a
+        side-grasped cylinder along its tool x)."""
+        if not isinstance(a.hand, Gripper):
+            return ("+x", "+y", "+z")
+        model = pin.buildModelFromXML(ET.tostring(self.root, encoding="unicode"))
+        data = model.createData()
+        pin.framesForwardKinematics(model, data, pin.neutral(model))
+        finger = a.hand.gripper[0]
+        element = next(el for el in self.root.findall("joint") if el.get("name") == finger)
+        axis = element.find("axis")
+        local = np.array([float(v) for v in (axis.get("xyz", "1 0 0") if axis is not None else "1 0 0").split()])
+        world = data.oMi[model.getJointId(finger)].rotation @ local
+        moves = data.oMf[model.getFrameId(tool)].rotation.T @ world
+        k = int(np.argmax(np.abs(moves)))
+        if k == 2 or abs(moves[k]) < 0.99 * np.linalg.norm(moves):
+            raise HriplanError(
+                f"arms.{arm}.hand: finger joint {finger!r} moves along {np.round(moves, 3).tolist()} in the tool frame "
+                f"{tool!r}, not along its x or y axis (the tool's z is the approach, out of the hand)"
+            )
+        return ("+x", "+y", "+z") if k == 0 else ("-y", "+x", "+z")
+
     def postures(self, planning: list[str]) -> dict[str, dict[str, float]]:
         limits = {
             el.get("name"): (float(el.find("limit").get("lower", "-inf")), float(el.find("limit").get("upper", "inf")))
@@ -316,6 +342,7 @@ class _Builder:
             prefix = "" if len(spec.arms) == 1 else f"{arm}_"
             joints = self.arm_joints(arm, a)
             tool = self.tool(arm, a, joints)
+            hand_axes = self.hand_axes(arm, a, tool)
             arms[arm] = ArmDescription(
                 prefix,
                 tool,
@@ -326,6 +353,7 @@ class _Builder:
                 ik=a.ik,
                 model=a.model or label,
                 object_axis=a.object_axis,
+                hand_axes=hand_axes,
             )
         planning = [j for a in arms.values() for j in a.joints]
         if len(set(planning)) != len(planning):
