@@ -13,6 +13,7 @@ arms:
     tool: panda_hand_tcp                     # default: the SRDF end effector's parent link, or the tip
     tool_offset: {xyz: [0, 0, 0.05]}         # optional: a frame ARM_tool at this offset
     hand: {gripper: [panda_finger_joint1, panda_finger_joint2], open: 0.04, closed: 0.0}  # or none, allegro
+                                             # (a gripper's closes_along: x or y, default from its URDF)
     ik: numeric                              # or an analytic UR kind (ur10_analytic, ...)
     object_axis: -z                          # the tool axis along a held object's z (default)
 postures: {ready: {panda_joint4: -2.0}}      # with the SRDF's group states
@@ -78,6 +79,10 @@ class Gripper(_Strict):
     gripper: list[str] = Field(min_length=1)
     open: float
     closed: float
+    closes_along: Literal["x", "y"] | None = Field(
+        None,
+        description="The tool axis the fingers close along (default: read from the first finger joint's axis in the URDF).",
+    )
 
 
 class ArmSpec(_Strict):
@@ -280,6 +285,8 @@ class _Builder:
         side-grasped cylinder along its tool x)."""
         if not isinstance(a.hand, Gripper):
             return ("+x", "+y", "+z")
+        if a.hand.closes_along is not None:
+            return ("+x", "+y", "+z") if a.hand.closes_along == "x" else ("-y", "+x", "+z")
         model = pin.buildModelFromXML(ET.tostring(self.root, encoding="unicode"))
         data = model.createData()
         pin.framesForwardKinematics(model, data, pin.neutral(model))
@@ -288,12 +295,14 @@ class _Builder:
         axis = element.find("axis")
         local = np.array([float(v) for v in (axis.get("xyz", "1 0 0") if axis is not None else "1 0 0").split()])
         world = data.oMi[model.getJointId(finger)].rotation @ local
-        moves = data.oMf[model.getFrameId(tool)].rotation.T @ world
+        in_tool = data.oMf[model.getFrameId(tool)].rotation.T @ world
+        # A sliding finger closes along its axis; a hinged one swings across its axis and the approach.
+        moves = in_tool if element.get("type") == "prismatic" else np.cross(in_tool, [0.0, 0.0, 1.0])
         k = int(np.argmax(np.abs(moves)))
-        if k == 2 or abs(moves[k]) < 0.99 * np.linalg.norm(moves):
+        if k == 2 or abs(moves[k]) < 0.99 * max(float(np.linalg.norm(moves)), 1e-9):
             raise HriplanError(
-                f"arms.{arm}.hand: finger joint {finger!r} moves along {np.round(moves, 3).tolist()} in the tool frame "
-                f"{tool!r}, not along its x or y axis (the tool's z is the approach, out of the hand)"
+                f"arms.{arm}.hand: finger joint {finger!r} ({element.get('type')}, axis {np.round(in_tool, 3).tolist()} "
+                f"in the tool frame {tool!r}) does not close along the tool's x or y axis; say which: closes_along: x or y"
             )
         return ("+x", "+y", "+z") if k == 0 else ("-y", "+x", "+z")
 
