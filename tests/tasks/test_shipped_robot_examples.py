@@ -24,6 +24,8 @@ from independent import clearance, constraint_violations, trajectory_speed_margi
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 
+pytestmark = pytest.mark.usefixtures("module_robot_registry")
+
 
 @functools.cache
 def planned(task: str, out: Path) -> dict[str, object]:
@@ -66,7 +68,11 @@ def test_the_panda_hands_a_full_cup_upright_to_the_receiver(out):
     trajectories = planned("panda_handover_full_cup.yaml", out / "panda")
     assert sorted(trajectories) == ["hand_over", "hand_over_release"]
     hand_over, release = trajectories["hand_over"], trajectories["hand_over_release"]
-    assert hand_over.robot == "panda" and hand_over.hands == {"arm": "closed"} and release.hands == {"arm": "release"}
+    assert (
+        hand_over.robot == "franka_panda"
+        and hand_over.hands == {"arm": "closed"}
+        and release.hands == {"arm": "release"}
+    )
     assert sorted(c.spec.id for c in hand_over.constraints) == [
         "approach_cone_rita",
         "exclusion_box_rita",
@@ -95,7 +101,7 @@ def test_the_ur10_carries_the_container_upright_past_the_supervisor(out):
     trajectories = planned("ur10_carry_upright_supervisor.yaml", out / "ur10")
     assert sorted(trajectories) == ["carry", "carry_release"]
     carry = trajectories["carry"]
-    assert carry.robot == "ur10" and carry.robot_file == str((EXAMPLES / "robots" / "ur10.yaml").resolve())
+    assert carry.robot == "ur10_on_stand" and carry.robot_file == str((EXAMPLES / "robots" / "ur10.yaml").resolve())
     assert sorted((c.spec.type, c.spec.id) for c in carry.constraints) == [
         ("cylinder", "keep_out_sam"),
         ("orientation", "upright_tray"),
