@@ -89,6 +89,8 @@ class UrdfRobot:
         self.data = self.model.createData()
         self.geometry = pin.buildGeomFromUrdfString(self.model, urdf, pin.COLLISION)
         self.geometry_data = pin.GeometryData(self.geometry)
+        xyz, rpy = description.base_pose  # where the robot stands in the world (its root link)
+        self.base = pin.SE3(pin.rpy.rpyToMatrix(*rpy), np.array(xyz, dtype=float))
         self.fingers = {}  # each hand's finger joint values at its posture (the hand model's data)
         for side, posture in hands.items():
             arm = description.arms[side]
@@ -102,9 +104,11 @@ class UrdfRobot:
             q[self.model.joints[self.model.getJointId(joint)].idx_q] = value
         pin.framesForwardKinematics(self.model, self.data, q)
         pin.updateGeometryPlacements(self.model, self.data, self.geometry, self.geometry_data)
+        for i, placed in enumerate(self.geometry_data.oMg):
+            self.geometry_data.oMg[i] = self.base * placed
 
     def pose(self, frame: str) -> pin.SE3:
-        return self.data.oMf[self.model.getFrameId(frame)]
+        return self.base * self.data.oMf[self.model.getFrameId(frame)]
 
     def surface_distance(self, spec, frame: np.ndarray, prefix: str) -> tuple[float, str]:
         """Smallest distance from the collision meshes of links named `prefix...` to the solid of

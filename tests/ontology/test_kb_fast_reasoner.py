@@ -12,6 +12,7 @@ import math
 from pathlib import Path
 
 import pytest
+import yaml
 
 from hriplan import HriplanError
 from hriplan.ontology import rule_engine
@@ -47,6 +48,8 @@ def with_object(situation: Situation, name: str, **update: object) -> Situation:
 def _task_steps() -> list[tuple[str, Situation]]:
     found = []
     for path in sorted(EXAMPLE_TASKS.glob("*.yaml")):
+        if str(yaml.safe_load(path.read_text()).get("robot", "")).endswith(".yaml"):
+            continue  # a robot file registers its robot for good at collection (known robots: madar, ur5)
         runner = TaskRunner(load_task(path), path.parent)
         runner.run(plan=False)
         found += [(f"{path.stem}:{step}", kb.situation) for step, kb in runner.knowledge_bases.items()]

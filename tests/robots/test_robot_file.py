@@ -75,6 +75,9 @@ def test_the_panda_is_its_srdf_arm_group_end_effector_and_states(panda):
     assert panda.hand_postures == {"arm": "open"}
     assert dict(panda.finger_values) == {"panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}
     assert "package://" not in panda.urdf
+    # Its fingers slide along panda_hand_tcp's y (the URDF's finger joint axis): hriplan's hand
+    # frame, in which grasps are written, has its y (a side-grasped cylinder's axis) along the tool's x.
+    assert panda.description.arms["arm"].hand_axes == ("-y", "+x", "+z")
 
 
 @pytest.mark.parametrize("name, urdf, tool", [("panda", PANDA_URDF, "panda_hand_tcp"), ("ur10", UR10_URDF, "tool0")])
@@ -234,7 +237,12 @@ def fork(tmp_path):
             "{group: a_only, tool: c, ik: kdl}",
             "arms.arm.ik: unknown IK kind 'kdl'; choose one of numeric, ur3_analytic",
         ),
-        ("{group: a_only, tool: c, hand: {gripper: [jb], open: 1, closed: 0}}", None),
+        (
+            "{group: a_only, tool: c, hand: {gripper: [jb], open: 1, closed: 0}}",
+            "arms.arm.hand: finger joint 'jb' (revolute, axis [0.0, 0.0, 1.0] in the tool frame 'c') does not close "
+            "along the tool's x or y axis; say which: closes_along: x or y",
+        ),
+        ("{group: a_only, tool: c, hand: {gripper: [jb], open: 1, closed: 0, closes_along: y}}", None),
     ],
 )
 def test_every_bad_robot_file_is_one_line(fork, arm, message):

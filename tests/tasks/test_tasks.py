@@ -138,7 +138,7 @@ def test_taking_from_a_giver_gets_the_handover_constraints_and_the_upright_once_
 
 
 @pytest.mark.parametrize("example", sorted(p.stem for p in EXAMPLES.glob("*.yaml")))
-def test_every_shipped_example_plans_and_validates(example):
+def test_every_shipped_example_plans_and_validates(example, robot_registry):
     outcome = TaskRunner(load_task(EXAMPLES / f"{example}.yaml")).run(plan=True)
     assert outcome.solved, [(s.name, s.status, s.message) for s in outcome.steps]
     for step in outcome.steps:

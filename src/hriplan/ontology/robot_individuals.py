@@ -42,7 +42,11 @@ def _robot(d: RobotDescription) -> list[str]:
         owner = d.label if len(d.arms) == 1 else f"{d.label} {arm}"
         tool_id, hand_id = f"hp:{d.name}_{a.tool_frame}", f"hp:{d.name}_{a.prefix}hand"
         joints = a.joints
-        hand = f" hp:hasRobotHand {hand_id} ;" if a.hand is not None else ""
+        hand = (
+            f" hp:hasRobotHand {hand_id} ; hp:hasHandAxesInTool {_text(' '.join(a.hand_axes))} ;"
+            if a.hand is not None
+            else ""
+        )
         lines += [
             f"{arm_id} a owl:NamedIndividual , hp:Arm ; rdfs:label {_text(f'{owner} arm')} ;",
             f"    hp:hasArmName {_text(arm)} ; hp:hasObjectAxisInTool {_text(a.object_axis)} ;",

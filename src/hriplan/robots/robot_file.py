@@ -13,6 +13,7 @@ arms:
     tool: panda_hand_tcp                     # default: the SRDF end effector's parent link, or the tip
     tool_offset: {xyz: [0, 0, 0.05]}         # optional: a frame ARM_tool at this offset
     hand: {gripper: [panda_finger_joint1, panda_finger_joint2], open: 0.04, closed: 0.0}  # or none, allegro
+                                             # (a gripper's closes_along: x or y, default from its URDF)
     ik: numeric                              # or an analytic UR kind (ur10_analytic, ...)
     object_axis: -z                          # the tool axis along a held object's z (default)
     ros_industrial: true                     # frames `base` (the arm's base link) and `tool0` (the
@@ -37,6 +38,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Annotated, Literal
 
+import numpy as np
 import pinocchio as pin
 from pydantic import (
     BaseModel,
@@ -81,6 +83,10 @@ class Gripper(_Strict):
     gripper: list[str] = Field(min_length=1)
     open: float
     closed: float
+    closes_along: Literal["x", "y"] | None = Field(
+        None,
+        description="The tool axis the fingers close along (default: read from the first finger joint's axis in the URDF).",
+    )
 
 
 class ArmSpec(_Strict):
@@ -299,6 +305,35 @@ class _Builder:
         )
         return kind
 
+    def hand_axes(self, arm: str, a: ArmSpec, tool: str) -> tuple[str, str, str]:
+        """Where hriplan's hand frame (grasps are written in it: z out of the palm, y across the
+        fingers, x = y x z) lies in the tool frame: for a parallel gripper, z is the tool's z
+        (the approach) and y the tool axis across both the approach and the direction its first
+        finger joint moves in, read from the URDF (a gripper closing along its tool y holds a
+        side-grasped cylinder along its tool x)."""
+        if not isinstance(a.hand, Gripper):
+            return ("+x", "+y", "+z")
+        if a.hand.closes_along is not None:
+            return ("+x", "+y", "+z") if a.hand.closes_along == "x" else ("-y", "+x", "+z")
+        model = pin.buildModelFromXML(ET.tostring(self.root, encoding="unicode"))
+        data = model.createData()
+        pin.framesForwardKinematics(model, data, pin.neutral(model))
+        finger = a.hand.gripper[0]
+        element = next(el for el in self.root.findall("joint") if el.get("name") == finger)
+        axis = element.find("axis")
+        local = np.array([float(v) for v in (axis.get("xyz", "1 0 0") if axis is not None else "1 0 0").split()])
+        world = data.oMi[model.getJointId(finger)].rotation @ local
+        in_tool = data.oMf[model.getFrameId(tool)].rotation.T @ world
+        # A sliding finger closes along its axis; a hinged one swings across its axis and the approach.
+        moves = in_tool if element.get("type") == "prismatic" else np.cross(in_tool, [0.0, 0.0, 1.0])
+        k = int(np.argmax(np.abs(moves)))
+        if k == 2 or abs(moves[k]) < 0.99 * max(float(np.linalg.norm(moves)), 1e-9):
+            raise HriplanError(
+                f"arms.{arm}.hand: finger joint {finger!r} ({element.get('type')}, axis {np.round(in_tool, 3).tolist()} "
+                f"in the tool frame {tool!r}) does not close along the tool's x or y axis; say which: closes_along: x or y"
+            )
+        return ("+x", "+y", "+z") if k == 0 else ("-y", "+x", "+z")
+
     def postures(self, planning: list[str]) -> dict[str, dict[str, float]]:
         limits = {
             el.get("name"): (float(el.find("limit").get("lower", "-inf")), float(el.find("limit").get("upper", "inf")))
@@ -345,6 +380,7 @@ class _Builder:
             joints = self.arm_joints(arm, a)
             self.aliases(arm, a, prefix, joints)
             tool = self.tool(arm, a, joints)
+            hand_axes = self.hand_axes(arm, a, tool)
             arms[arm] = ArmDescription(
                 prefix,
                 tool,
@@ -355,6 +391,7 @@ class _Builder:
                 ik=a.ik,
                 model=a.model or label,
                 object_axis=a.object_axis,
+                hand_axes=hand_axes,
             )
         planning = [j for a in arms.values() for j in a.joints]
         if len(set(planning)) != len(planning):

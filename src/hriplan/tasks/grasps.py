@@ -74,7 +74,8 @@ def allowed_grasps(facts: Facts, obj: str, arm_individual: str, usual_axis: str)
             f"its kind affords {', '.join(sorted(afforded))}"
         )
     return [
-        _grasp(facts, n) for n in sorted((str(n) for n in names), key=lambda n: (facts.number(n, "hasPreference"), n))
+        _grasp(facts, n, arm_individual)
+        for n in sorted((str(n) for n in names), key=lambda n: (facts.number(n, "hasPreference"), n))
     ]
 
 
@@ -89,12 +90,27 @@ def stated_grasp(facts: Facts, obj: str, name: str, arm_individual: str) -> Gras
         raise HriplanError(
             f"{obj} is held by {name}, which its kind does not afford; it affords {', '.join(afforded) or 'no grasp'}"
         )
-    return _grasp(facts, name)
+    return _grasp(facts, name, arm_individual)
 
 
-def _grasp(facts: Facts, name: str) -> Grasp:
-    """A grasp individual of the ontology: its tool axis and offset."""
-    grasp = Grasp(name, str(facts.one(name, "hasGraspAxis")), facts.number(name, "hasGraspOffset"))
-    if grasp.axis not in ("+x", "-x", "+y", "-y", "+z", "-z"):
-        raise HriplanError(f"grasp {name} has axis {grasp.axis!r} in the ontology; use one of +x, -x, +y, -y, +z, -z")
-    return grasp
+SIGNED_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+
+
+def _grasp(facts: Facts, name: str, arm_individual: str) -> Grasp:
+    """A grasp individual of the ontology in an arm's hand: its axis (written in hriplan's hand
+    frame) as the arm's tool axis (the arm's hasHandAxesInTool; the same axis without it) and
+    its offset."""
+    axis = str(facts.one(name, "hasGraspAxis"))
+    if axis not in SIGNED_AXES:
+        raise HriplanError(f"grasp {name} has axis {axis!r} in the ontology; use one of {', '.join(SIGNED_AXES)}")
+    hand_axes = facts.get(arm_individual, "hasHandAxesInTool")
+    if hand_axes:
+        axes = str(hand_axes[0]).split()
+        if len(axes) != 3 or any(a not in SIGNED_AXES for a in axes) or len({a[1] for a in axes}) != 3:
+            raise HriplanError(
+                f"arm {arm_individual} has hand axes {str(hand_axes[0])!r} in the ontology; "
+                "give three signed tool axes, one per hand axis x, y, z (e.g. '-y +x +z')"
+            )
+        tool = axes[AXIS_INDEX[axis[1]]]
+        axis = tool if axis[0] == "+" else ("-" if tool[0] == "+" else "+") + tool[1]
+    return Grasp(name, axis, facts.number(name, "hasGraspOffset"))

@@ -129,7 +129,8 @@ class ArmDescription:
     """One arm: the prefix of its hand's joints and individuals, its tool frame, its planning
     group, its joints (a serial chain, root first) and the link they are mounted on, the kind of
     IK solver that solves it (robots/ik.py), the model of the robot hand on it (None: a bare
-    flange), the arm's model and the tool axis along a held object's axis."""
+    flange), the arm's model, the tool axis along a held object's axis and where hriplan's hand
+    frame lies in the tool frame."""
 
     prefix: str
     tool_frame: str
@@ -140,6 +141,11 @@ class ArmDescription:
     ik: str = "ur5_analytic"
     model: str = "UR5"
     object_axis: str = "-z"  # a bare flange holds an object out of it; a hand's tool frame says (+y)
+    # The signed tool axes along hriplan's hand frame x (along the fingers), y (across them: a
+    # cylinder's axis in a side grasp) and z (out of the palm), the frame the ontology's grasps
+    # are written in: the Allegro's tool frame is that frame; a parallel gripper closing along
+    # its tool y holds a cylinder along its tool x.
+    hand_axes: tuple[str, str, str] = ("+x", "+y", "+z")
 
 
 @dataclass(frozen=True)
