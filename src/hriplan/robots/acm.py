@@ -47,7 +47,7 @@ MESH = "mesh"  # the reason of pairs checked on their meshes rather than their f
 
 def _key(robot: Robot, parts: tuple[RobotPart, ...], samples: int) -> str:
     shapes = [(p.name, p.joint, p.placement.homogeneous.round(6).tolist(), _shape_key(p.geometry)) for p in parts]
-    text = repr((RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, shapes, samples))
+    text = repr((RULES, FALSE_SHARE, robot.urdf, robot.spec.hand_postures, robot.finger_values, shapes, samples))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
