@@ -120,7 +120,7 @@ def _false_collisions(
     robot: Robot, pairs: list[tuple[RobotPart, RobotPart]], states: np.ndarray, hits: np.ndarray
 ) -> np.ndarray:
     """Per pair: in how many of `states` its fitted parts collide (`hits`) and its URDF collision
-    meshes do not."""
+    meshes do not (none for a part without collision shapes: it stays checked on its fitted part)."""
     meshes = pin.GeometryModel()
     slots: dict[str, list[int]] = {}
     for part in {part.name: part for pair in pairs for part in pair}.values():
@@ -139,7 +139,7 @@ def _false_collisions(
             continue
         pin.updateGeometryPlacements(robot.model, robot.data, meshes, mesh_data, q)
         for c in np.flatnonzero(row):
-            if not any(pin.computeCollision(meshes, mesh_data, k) for k in shape_pairs[c]):
+            if shape_pairs[c] and not any(pin.computeCollision(meshes, mesh_data, k) for k in shape_pairs[c]):
                 false[c] += 1
     return false
 
