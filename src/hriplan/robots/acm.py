@@ -3,13 +3,24 @@
 As MoveIt's setup assistant does: parts on the same rigid body or on adjacent links are not
 checked, nor pairs that were in collision in none of many random samples of the collision model
 the planner checks (the fitted parts, which contain the meshes, so the meshes never touch
-either). A pair whose fitted parts touch in every sample, or two links with one link between
-them, is checked on its URDF collision meshes ("mesh"): their capsules overlap around the link
-between (UR5 base and upper arm: 43 % of the samples against 3.5 % for the meshes; forearm and
-wrist 2: 37 % against 4 %), which would forbid motions, and starts, the robot can make. Nothing is taken from a published SRDF: its pairs were judged on other models, and
+either). Some pairs are checked on their URDF collision meshes ("mesh") instead of their fitted
+parts, which are bigger than the meshes and would forbid motions, and starts or goals, the
+robot can make:
+- a pair whose fitted parts touch in every sample;
+- two links with one link between them: their capsules overlap around the link between (UR5
+  base and upper arm: 43 % of the samples against 3.5 % for the meshes; forearm and wrist 2:
+  37 % against 4 %);
+- a pair whose fitted parts collide while its meshes do not in FALSE_SHARE (5 %) of the samples
+  or more, measured on the same samples (the meshes are checked where the fitted parts touch).
+  On a UR arm that is the forearm and wrist 3, three links apart (fitted 29 %, meshes 7.6 %:
+  21 % false; Kautham's madar_dual_arm demo ends with them 2.4 cm apart), and the base and the
+  forearm (6.5 % false); on MADAR's hands also the forearm against the hand adapter, palm and
+  the thumb (10 to 16 %). The next pairs make 4 % or less (upper arm and wrist 3, 4.1 %).
+Nothing is taken from a published SRDF: its pairs were judged on other models, and
 the UR5's forearm and wrists, or its base and upper arm, do touch in some configurations
-(tests/robots/test_acm.py checks every disabled pair at mesh level).
-Sampling costs about a second, so the result is cached on disk per robot description and
+(tests/robots/test_acm.py checks every disabled pair at mesh level, and that no state is free
+where the meshes touch).
+Sampling costs a few seconds, so the result is cached on disk per robot description and
 per RULES (change it whenever the rules that decide a pair change).
 """
 
@@ -24,16 +35,19 @@ import pinocchio as pin
 from hriplan.files import write_atomically
 from hriplan.robots.fit_cache import cache_dir
 from hriplan.robots.model import Robot
-from hriplan.robots.robot_geometry import RobotPart, parent_links
+from hriplan.robots.robot_geometry import RobotPart, parent_links, part_collision_shapes
 
 DEFAULT_SAMPLES = 10000
-RULES = "adjacent; never (sampled); always or two apart -> mesh; no SRDF pairs"
+# A pair whose fitted parts collide while its meshes do not in this share of the samples or more
+# is checked on its meshes: its fitted parts alone would forbid that much of the joint space.
+FALSE_SHARE = 0.05
+RULES = f"adjacent; never (sampled); always, two apart or false in >= {FALSE_SHARE} -> mesh; no SRDF pairs"
 MESH = "mesh"  # the reason of pairs checked on their meshes rather than their fitted parts
 
 
 def _key(robot: Robot, parts: tuple[RobotPart, ...], samples: int) -> str:
     shapes = [(p.name, p.joint, p.placement.homogeneous.round(6).tolist(), _shape_key(p.geometry)) for p in parts]
-    text = repr((RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, shapes, samples))
+    text = repr((RULES, FALSE_SHARE, robot.urdf, robot.spec.hand_postures, robot.finger_values, shapes, samples))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -81,17 +95,53 @@ def compute_acm(
     geom_data = geom_model.createData()
     rng = np.random.default_rng(seed)
     lower, upper = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
-    hits = np.zeros(len(candidates), dtype=int)
-    for _ in range(samples):
-        q = rng.uniform(lower, upper)
+    states = rng.uniform(lower, upper, size=(samples, robot.model.nq))
+    hits = np.zeros((samples, len(candidates)), dtype=bool)
+    for k, q in enumerate(states):
         pin.computeCollisions(robot.model, robot.data, geom_model, geom_data, q, False)
-        hits += [r.isCollision() for r in geom_data.collisionResults]
-    for (a, b), pair, count in zip(candidate_parts, candidates, hits):
+        hits[k] = [r.isCollision() for r in geom_data.collisionResults]
+    counts = hits.sum(axis=0)
+    loose = [
+        c
+        for c, ((a, b), count) in enumerate(zip(candidate_parts, counts))
+        if count >= FALSE_SHARE * samples and count < samples and not two_apart(robot, a, b)
+    ]
+    false_hits = _false_collisions(robot, [candidate_parts[c] for c in loose], states, hits[:, loose])
+    false_share = dict(zip(loose, false_hits / samples))
+    for c, ((a, b), pair, count) in enumerate(zip(candidate_parts, candidates, counts)):
         if count == 0:
             disabled[pair] = "never"
-        elif count == samples or two_apart(robot, a, b):
+        elif count == samples or two_apart(robot, a, b) or false_share.get(c, 0.0) >= FALSE_SHARE:
             disabled[pair] = MESH
     return disabled
+
+
+def _false_collisions(
+    robot: Robot, pairs: list[tuple[RobotPart, RobotPart]], states: np.ndarray, hits: np.ndarray
+) -> np.ndarray:
+    """Per pair: in how many of `states` its fitted parts collide (`hits`) and its URDF collision
+    meshes do not (none for a part without collision shapes: it stays checked on its fitted part)."""
+    meshes = pin.GeometryModel()
+    slots: dict[str, list[int]] = {}
+    for part in {part.name: part for pair in pairs for part in pair}.values():
+        slots[part.name] = [meshes.addGeometryObject(s) for s in part_collision_shapes(robot, part)]
+    shape_pairs: list[list[int]] = []
+    for a, b in pairs:
+        shape_pairs.append([])
+        for i in slots[a.name]:
+            for j in slots[b.name]:
+                shape_pairs[-1].append(len(meshes.collisionPairs))
+                meshes.addCollisionPair(pin.CollisionPair(i, j))
+    mesh_data = meshes.createData()
+    false = np.zeros(len(pairs), dtype=int)
+    for q, row in zip(states, hits):
+        if not row.any():
+            continue
+        pin.updateGeometryPlacements(robot.model, robot.data, meshes, mesh_data, q)
+        for c in np.flatnonzero(row):
+            if shape_pairs[c] and not any(pin.computeCollision(meshes, mesh_data, k) for k in shape_pairs[c]):
+                false[c] += 1
+    return false
 
 
 def load_acm(robot: Robot, parts: tuple[RobotPart, ...], samples: int = DEFAULT_SAMPLES) -> dict[str, str]:
