@@ -79,7 +79,7 @@ def check_report(path: str | Path) -> str:
     description = load_robot_file(path)
     robot = load_robot(description.name)
     srdf = description.srdf
-    lines = [f"robot {description.name} from {description.source}"]
+    lines = [f"robot {description.name} from {Path(path).resolve()}"]
     if srdf is None:
         lines.append("SRDF: none (arms by base and tip links)")
     else:

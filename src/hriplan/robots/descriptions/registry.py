@@ -87,12 +87,12 @@ def registered_robot_file(data: object) -> object:
 
 def load_robot_file(path: str | Path) -> RobotDescription:
     """The robot in a robot file, registered under its name (once per process; a name another
-    file or a built-in robot has is an error)."""
+    file or a built-in robot has is an error; a built-in robot's own file is that robot)."""
     path = Path(path).resolve()
     spec = load_model(path, RobotFile)
     known = DESCRIPTIONS.get(spec.name)
-    if known is not None and known.source == str(path):
-        return known
+    if known is not None and known.source == (str(path) if path != DATA / f"{spec.name}.yaml" else ""):
+        return known  # this file's robot, loaded before (a built-in robot's file: at import)
     if known is not None:
         raise HriplanError(f"{path}: robot name {spec.name!r} is taken (by {known.source or 'a built-in robot'})")
     description = robot_description(spec, path, source=str(path))
