@@ -21,12 +21,15 @@ arms:
                                              # with several arms; a link the URDF names so is kept
 frame_aliases: {flange: panda_link8}         # other names of links (constraints, tool: take them)
 postures: {ready: {panda_joint4: -2.0}}      # with the SRDF's group states
+                                             # (the SRDF group of exactly the arms' joints, if any, is
+                                             # the whole-robot group: MADAR's both_arms; else all_arms)
 limits: {panda_joint1: {velocity: 1.0, acceleration: 3.75}}
 base_pose: {xyz: [0, 0, 0.8]}
 stopping: {reaction_time: 0.1, stopping_time: 0.2, position_uncertainty: 0.02, moving_mass: 6.0}  # ISO/TS 15066
 ```
 Every problem (a group with no joints, an unknown link, a missing mesh, a non-serial arm, no tool
-frame) is one line naming the file and what is wrong.
+frame) is one line naming the file and what is wrong. The built-in robots are robot files too
+(robots/data/madar.yaml, ur5.yaml), read by this module as any other (descriptions/registry.py).
 """
 
 from __future__ import annotations
