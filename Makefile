@@ -20,7 +20,7 @@ $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 demo: $(VENV)/.installed
 	$(BIN)/hriplan plan examples/handover_full_can.yaml -o out/handover_full_can.json --html out/handover_full_can.html --plots out/plots
 
-LINTED := src tests benchmarks examples
+LINTED := src tests benchmarks examples tools
 
 test: $(VENV)/.installed-test
 	$(BIN)/ruff check $(LINTED)

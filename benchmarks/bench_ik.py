@@ -16,10 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from hriplan.robots.descriptions.registry import DESCRIPTIONS
+from hriplan.robots.descriptions.registry import DESCRIPTIONS, load_robot_file
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import load_robot
-from hriplan.robots.robot_file import load_robot_file
 
 ROBOT_FILES = Path(__file__).parents[1] / "tests" / "data" / "robots"
 

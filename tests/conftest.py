@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hriplan.planner.problem import load_problem
-from hriplan.robots.descriptions import registry
+from hriplan.robots.descriptions import description, registry
 from hriplan.robots.model import load_robot
 
 
@@ -29,9 +29,9 @@ def problem():
 @contextlib.contextmanager
 def _restored_robot_registry() -> Iterator[None]:
     """Robot files register their robots and hand models: undo it when the block ends."""
-    descriptions, hands = dict(registry.DESCRIPTIONS), dict(registry.HAND_MODELS)
+    descriptions, hands = dict(registry.DESCRIPTIONS), dict(description.HAND_MODELS)
     yield
-    for table, saved in ((registry.DESCRIPTIONS, descriptions), (registry.HAND_MODELS, hands)):
+    for table, saved in ((registry.DESCRIPTIONS, descriptions), (description.HAND_MODELS, hands)):
         table.clear()
         table.update(saved)
 

@@ -20,7 +20,8 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.planner.trajectory import TrajectoryFile
-from hriplan.robots.descriptions.registry import description_of, hand_model
+from hriplan.robots.descriptions.description import hand_model
+from hriplan.robots.descriptions.registry import description_of
 from hriplan.robots.human import Human
 from hriplan.robots.model import load_robot
 from hriplan.robots.robot_geometry import robot_parts

@@ -50,10 +50,9 @@ from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.session import PlanningSession, PlanResult
 from hriplan.planner.trajectory import TrajectoryFile, load_trajectory
-from hriplan.robots.descriptions.registry import POSTURES, posture
+from hriplan.robots.descriptions.registry import POSTURES, load_robot_file, posture
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
-from hriplan.robots.robot_file import load_robot_file
 from hriplan.robots.scene import AttachedObject, Box, Capsule, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
 from hriplan.safety.policy import default_policy

@@ -18,9 +18,8 @@ from hriplan.cli.main import app
 from hriplan.planner.constraints.binding import bind
 from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.robots.collision import CollisionChecker
-from hriplan.robots.descriptions.registry import description_of
+from hriplan.robots.descriptions.registry import description_of, load_robot_file
 from hriplan.robots.model import load_robot
-from hriplan.robots.robot_file import load_robot_file
 
 DATA = Path(__file__).parents[1] / "data" / "robots"
 

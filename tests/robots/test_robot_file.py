@@ -18,9 +18,9 @@ import pytest
 from hriplan import HriplanError
 from hriplan.planner.motion import JointTarget
 from hriplan.planner.session import PlanningSession
+from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.ik import ik_solutions, solve_ik
 from hriplan.robots.model import load_robot
-from hriplan.robots.robot_file import load_robot_file
 
 DATA = Path(__file__).parents[1] / "data" / "robots"
 ROBOTS = Path(example_robot_data.getModelPath("panda_description/urdf/panda.urdf")).resolve()

@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from hriplan import HriplanError
-from hriplan.robots.descriptions.registry import madar_urdf
+from hriplan.robots.descriptions.registry import description_of
 from hriplan.robots.model import load_robot
 from hriplan.robots.spatial import Pose
 
@@ -97,7 +97,7 @@ def test_base_pose_moves_every_frame(rng):
 
 
 def test_urdf_loads_back_with_the_same_kinematics(madar, rng):
-    model = pin.buildModelFromXML(madar_urdf())
+    model = pin.buildModelFromXML(description_of("madar").urdf())
     data = model.createData()
     q_arm = rng.uniform(-1, 1, 12)
     values = dict(zip(madar.group_joints(), q_arm))
@@ -189,17 +189,18 @@ def test_a_robot_is_its_description_not_its_name(monkeypatch):
     from hriplan.planner.motion import JointTarget
     from hriplan.planner.session import PlanningSession
     from hriplan.robots.descriptions import registry as descriptions
+    from hriplan.robots.descriptions.description import ArmDescription, RobotDescription
 
-    main = descriptions.RobotDescription(
+    main = RobotDescription(
         name="cell_ur5",
         label="UR5 cell",
         summary="A single arm",
-        urdf=descriptions.ur5_urdf,
+        urdf=descriptions.DESCRIPTIONS["ur5"].urdf,
         base_link="base_link",
         whole_group="all",
         postures={"ready": {}},
         arms={
-            "main": descriptions.ArmDescription(
+            "main": ArmDescription(
                 "", "tool", "main_arm", descriptions.DESCRIPTIONS["ur5"].arms["arm"].joints, "base_link"
             )
         },

@@ -13,8 +13,7 @@ from typer.testing import CliRunner
 
 from hriplan.cli.main import app
 from hriplan.robots.descriptions.allegro import hand_joint_name
-from hriplan.robots.descriptions.registry import description_of
-from hriplan.robots.robot_file import load_robot_file
+from hriplan.robots.descriptions.registry import description_of, load_robot_file
 from hriplan.robots.srdf import read_srdf
 from hriplan.robots.urdf_tree import UrdfTree
 

@@ -15,7 +15,7 @@ import yaml
 from hriplan.planner.constraints.spec import CylinderConstraint, OrientationConstraint
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
-from hriplan.robots.descriptions.ur5_arm import joint_names
+from hriplan.robots.descriptions.registry import description_of
 from hriplan.robots.spatial import Pose
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
@@ -109,7 +109,7 @@ def test_the_independent_check_sees_a_link_surface_in_a_keep_out_and_a_tilted_cu
     # the same through a written trajectory: the tool is outside, the breach is the forearm's surface
     tool = robot.pose("right_tool").translation
     assert outside_distance(keep_out, (tool - frame[:3, 3])[None])[0] > 0.0
-    joints = joint_names("right_")
+    joints = list(description_of("madar").arms["right"].joints)
     written = TrajectoryFile(
         robot="madar",
         step="s",

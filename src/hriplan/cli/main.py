@@ -90,9 +90,9 @@ def robot_info(name: RobotName = None, hand: HandOption = []) -> None:  # noqa: 
     if name is None:
         typer.echo("robots: " + ", ".join(DESCRIPTIONS) + " (hriplan robot info NAME for one)")
         return
+    from hriplan.robots.descriptions.registry import robot_name
     from hriplan.robots.info import describe
     from hriplan.robots.model import load_robot
-    from hriplan.robots.robot_file import robot_name
 
     typer.echo(describe(load_robot(robot_name(name), _postures(hand))))
 
@@ -112,8 +112,7 @@ def robot_urdf(
     example-robot-data/: `python -c "from hriplan.cli.urdf_export import package_root; print(package_root())"`.
     """
     from hriplan.cli.urdf_export import portable_urdf
-    from hriplan.robots.descriptions.registry import description_of
-    from hriplan.robots.robot_file import robot_name
+    from hriplan.robots.descriptions.registry import description_of, robot_name
 
     sys.stdout.write(portable_urdf(description_of(robot_name(name)).urdf(), mesh_dir) + "\n")
 
@@ -128,8 +127,8 @@ def robot_srdf(
     effector per arm, a group state per posture, and the pairs hriplan does not check for self-collision."""
     from hriplan.cli.outputs import file_output
     from hriplan.files import write_atomically
+    from hriplan.robots.descriptions.registry import robot_name
     from hriplan.robots.model import load_robot
-    from hriplan.robots.robot_file import robot_name
     from hriplan.robots.srdf_export import srdf_text
 
     target = None if output is None else file_output(output)

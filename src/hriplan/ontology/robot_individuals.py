@@ -1,14 +1,15 @@
 """The ontology's robot individuals, generated from the robot descriptions (one home per robot).
 
-Each `RobotDescription` becomes a `hp:Robot` with its arms, each arm its tool link, its joints
-(URDF names, chain order) and its robot hand, so the ontology and the planner cannot disagree
-about a robot. The ISO/TS 15066 stopping data of a robot stay in hriplan.ttl (section "Speed and
-separation"), with their sources, as statements about these individuals.
+Each `RobotDescription` (a robot file's: the built-in MADAR and UR5 are robot files too) becomes
+a `hp:Robot` with its arms, each arm its tool link, its joints (URDF names, chain order) and its
+robot hand, and the robot its ISO/TS 15066 stopping data, so the ontology and the planner cannot
+disagree about a robot; hriplan.ttl names no robot.
 """
 
 from __future__ import annotations
 
-from hriplan.robots.descriptions.registry import DESCRIPTIONS, RobotDescription, hand_model
+from hriplan.robots.descriptions.description import RobotDescription, hand_model
+from hriplan.robots.descriptions.registry import DESCRIPTIONS
 
 PREFIXES = """@prefix hp: <https://hriplan.org/ontology#> .
 @prefix owl: <http://www.w3.org/2002/07/owl#> .

@@ -14,8 +14,7 @@ from hriplan.files import load_model
 from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.planner.motion import Target
 from hriplan.planner.options import PlanOptions
-from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
-from hriplan.robots.robot_file import registered_robot_file, with_robot_name
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, registered_robot_file, with_robot_name
 from hriplan.robots.scene import Scene
 
 

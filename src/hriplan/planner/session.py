@@ -40,11 +40,10 @@ from hriplan.planner.timing import TimedPath, at_rest, joined, time_parameterize
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
 from hriplan.planner.validate import PathValidation, densify, validate_path
 from hriplan.robots.collision import CollisionChecker
-from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, robot_name
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.ik import solve_two_arms
 from hriplan.robots.model import JointValues, Robot, load_robot
-from hriplan.robots.robot_file import robot_name
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose, Transform
 from hriplan.safety.approach import ApproachMonitor

@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from hriplan.files import load_model, write_atomically
 from hriplan.planner.constraints.spec import ConstraintSpec
 from hriplan.planner.outcome import Status
-from hriplan.robots.robot_file import registered_robot_file
+from hriplan.robots.descriptions.registry import registered_robot_file
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.safety.report import SeparationTrace

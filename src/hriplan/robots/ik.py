@@ -25,6 +25,7 @@ from pydantic import BaseModel
 from hriplan import HriplanError
 from hriplan.robots import numeric_ik
 from hriplan.robots.collision import ZONE_NAMING
+from hriplan.robots.descriptions.description import IK_KINDS, NUMERIC_IK, UR_MODELS
 from hriplan.robots.model import Robot
 
 AXES = {"x": 0, "y": 1, "z": 2}
@@ -32,28 +33,9 @@ ORTHONORMAL_TOLERANCE = 1e-6
 POLISH_ITERATIONS = 10
 POLISH_DAMPING = 1e-6
 TWO_PI = 2.0 * math.pi
-# The arms ur_analytic_ik solves (the UR7e and UR12e are the UR5e and UR10e renamed).
-UR_MODELS = (
-    "ur3",
-    "ur3e",
-    "ur5",
-    "ur5e",
-    "ur7e",
-    "ur8long",
-    "ur10",
-    "ur10e",
-    "ur12e",
-    "ur15",
-    "ur16e",
-    "ur18",
-    "ur20",
-    "ur30",
-)
 # Per analytic IK kind an arm description names: the solver's module (forward_kinematics,
 # inverse_kinematics: every closed-form solution for a flange pose in the solver's base frame).
 ANALYTIC_IK = {f"{model}_analytic": getattr(ur_analytic_ik, model) for model in UR_MODELS}
-NUMERIC_IK = "numeric"
-IK_KINDS = (NUMERIC_IK, *ANALYTIC_IK)
 DEFAULT_TOLERANCE = 1e-6  # m and rad
 DISTINCT = 1e-3  # rad: numeric solutions closer than this in every joint are one solution
 CALIBRATION_SAMPLES = 20

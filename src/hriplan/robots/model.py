@@ -15,7 +15,8 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan import HriplanError
-from hriplan.robots.descriptions.registry import DESCRIPTIONS, RobotDescription, description_of, hand_model
+from hriplan.robots.descriptions.description import RobotDescription, hand_model
+from hriplan.robots.descriptions.registry import DESCRIPTIONS, description_of
 from hriplan.robots.spatial import Pose
 
 JointValues = Mapping[str, float] | Sequence[float] | np.ndarray

@@ -18,11 +18,12 @@ import yaml
 from hriplan import HriplanError
 from hriplan.files import read_text, write_atomically
 from hriplan.robots.acm import MESH, load_acm
-from hriplan.robots.descriptions.registry import DESCRIPTIONS, hand_model
+from hriplan.robots.descriptions.description import hand_model
+from hriplan.robots.descriptions.registry import DESCRIPTIONS, load_robot_file
 from hriplan.robots.ik import ANALYTIC_IK, fit_analytic, solve_ik
 from hriplan.robots.info import describe
 from hriplan.robots.model import Robot, load_robot
-from hriplan.robots.robot_file import load_robot_file, package_search_path, resolve_file
+from hriplan.robots.robot_file import package_search_path, resolve_file
 from hriplan.robots.robot_geometry import robot_parts
 from hriplan.robots.srdf import Srdf, read_srdf
 from hriplan.robots.urdf_tree import MOVABLE, UrdfTree
@@ -78,7 +79,7 @@ def check_report(path: str | Path) -> str:
     description = load_robot_file(path)
     robot = load_robot(description.name)
     srdf = description.srdf
-    lines = [f"robot {description.name} from {description.source}"]
+    lines = [f"robot {description.name} from {Path(path).resolve()}"]
     if srdf is None:
         lines.append("SRDF: none (arms by base and tip links)")
     else:

@@ -21,12 +21,15 @@ arms:
                                              # with several arms; a link the URDF names so is kept
 frame_aliases: {flange: panda_link8}         # other names of links (constraints, tool: take them)
 postures: {ready: {panda_joint4: -2.0}}      # with the SRDF's group states
+                                             # (the SRDF group of exactly the arms' joints, if any, is
+                                             # the whole-robot group: MADAR's both_arms; else all_arms)
 limits: {panda_joint1: {velocity: 1.0, acceleration: 3.75}}
 base_pose: {xyz: [0, 0, 0.8]}
 stopping: {reaction_time: 0.1, stopping_time: 0.2, position_uncertainty: 0.02, moving_mass: 6.0}  # ISO/TS 15066
 ```
 Every problem (a group with no joints, an unknown link, a missing mesh, a non-serial arm, no tool
-frame) is one line naming the file and what is wrong.
+frame) is one line naming the file and what is wrong. The built-in robots are robot files too
+(robots/data/madar.yaml, ur5.yaml), read by this module as any other (descriptions/registry.py).
 """
 
 from __future__ import annotations
@@ -52,18 +55,17 @@ from pydantic import (
 )
 
 from hriplan import HriplanError
-from hriplan.files import load_model, read_text
+from hriplan.files import read_text
 from hriplan.robots import urdf_xml as X
 from hriplan.robots.assets import robots_dir
 from hriplan.robots.descriptions.allegro import hand_joint_name
-from hriplan.robots.descriptions.registry import (
-    DESCRIPTIONS,
+from hriplan.robots.descriptions.description import (
     HAND_MODELS,
+    IK_KINDS,
     ArmDescription,
     HandModel,
     RobotDescription,
 )
-from hriplan.robots.ik import IK_KINDS
 from hriplan.robots.spatial import Pose
 from hriplan.robots.srdf import Srdf, read_srdf
 from hriplan.robots.urdf_tree import MOVABLE, UrdfTree
@@ -371,6 +373,17 @@ class _Builder:
                 acceleration[j] = limits.acceleration
         return acceleration
 
+    def whole_group(self, arms: dict[str, ArmDescription], planning: list[str]) -> str:
+        """The group of every arm joint: a one-armed robot's arm group, else the SRDF group of
+        exactly the arms' joints (MADAR's both_arms), else `all_arms`."""
+        if len(arms) == 1:
+            return next(iter(arms.values())).group
+        for name, joints in self.srdf.groups.items():
+            movable = [j for j in self.tree.movable(joints) if self.tree.joints[j].mimic is None]
+            if sorted(movable) == sorted(planning):
+                return name
+        return "all_arms"
+
     def description(self, source: str) -> RobotDescription:
         spec = self.spec
         label = spec.label or spec.name
@@ -396,7 +409,7 @@ class _Builder:
         planning = [j for a in arms.values() for j in a.joints]
         if len(set(planning)) != len(planning):
             raise HriplanError("arms: two arms share a joint")
-        whole = next(iter(arms.values())).group if len(arms) == 1 else "all_arms"
+        whole = self.whole_group(arms, planning)
         acceleration = self.limits()
         text = ET.tostring(self.root, encoding="unicode")
         return RobotDescription(
@@ -419,63 +432,13 @@ class _Builder:
 
 def _xyz_rpy(pose: Pose) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     rpy = pin.rpy.matrixToRpy(pose.se3().rotation)
-    return tuple(pose.xyz), (float(rpy[0]), float(rpy[1]), float(rpy[2]))
+    return tuple(pose.xyz), (float(rpy[0]) + 0.0, float(rpy[1]) + 0.0, float(rpy[2]) + 0.0)  # no -0.0
 
 
-ROBOT_FILE_SUFFIXES = (".yaml", ".yml", ".json")
-
-
-def is_robot_file(robot: str) -> bool:
-    """Whether a `robot` value names a robot file (a path) rather than a robot."""
-    return robot.endswith(ROBOT_FILE_SUFFIXES)
-
-
-def robot_name(robot: str) -> str:
-    """The name of a robot given by name or by a robot file (loaded and registered)."""
-    return load_robot_file(robot).name if is_robot_file(robot) else robot
-
-
-def with_robot_name(data: dict, folder: Path) -> dict:
-    """A task's or problem's data with a robot file its `robot:` names (a path relative to
-    `folder`) loaded: `robot` becomes the robot's name and `robot_file` the file's absolute path
-    (so a process that reads the data again, a sweep's worker, loads it too); a name is left as it is."""
-    robot = data.get("robot")
-    if not isinstance(robot, str) or not is_robot_file(robot):
-        return data
-    path = (folder / robot).resolve()
+def robot_description(spec: RobotFile, path: Path, source: str) -> RobotDescription:
+    """The robot of the robot file `spec` read from `path`; `source` is what the description
+    names as its file ("" for a built-in robot: a trajectory of it names the robot only)."""
     try:
-        return data | {"robot": robot_name(str(path)), "robot_file": str(path)}
-    except HriplanError as exc:
-        raise HriplanError(f"robot: {exc}") from None
-
-
-def registered_robot_file(data: object) -> object:
-    """A model's data before validation, its `robot_file` (if any) loaded and registered; for the
-    models whose `robot` may come from a robot file (tasks, problems, trajectories)."""
-    robot_file = data.get("robot_file") if isinstance(data, dict) else None
-    if isinstance(robot_file, str) and robot_file:
-        try:
-            name = load_robot_file(robot_file).name
-        except HriplanError as exc:
-            raise ValueError(f"robot_file: {exc}") from None
-        if name != data.get("robot"):
-            raise ValueError(f"robot_file: {robot_file} is robot {name!r}, not {data.get('robot')!r}")
-    return data
-
-
-def load_robot_file(path: str | Path) -> RobotDescription:
-    """The robot in a robot file, registered under its name (once per process; a name another
-    file or a built-in robot has is an error)."""
-    path = Path(path).resolve()
-    spec = load_model(path, RobotFile)
-    known = DESCRIPTIONS.get(spec.name)
-    if known is not None and known.source == str(path):
-        return known
-    if known is not None:
-        raise HriplanError(f"{path}: robot name {spec.name!r} is taken (by {known.source or 'a built-in robot'})")
-    try:
-        description = _Builder(spec, path.parent).description(str(path))
+        return _Builder(spec, path.parent).description(source)
     except HriplanError as exc:
         raise HriplanError(f"{path}: {exc}") from None
-    DESCRIPTIONS[spec.name] = description
-    return description

@@ -8,6 +8,7 @@ cylinder and boxes, wheels, hand adapter) are kept as they are. The hand's palm 
 from __future__ import annotations
 
 import re
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import coal
@@ -16,7 +17,6 @@ import pinocchio as pin
 
 from hriplan.robots.assets import resolve_package_uri
 from hriplan.robots.bounding import fit_box, fit_capsule
-from hriplan.robots.descriptions.registry import TORSO
 from hriplan.robots.fit_cache import cached_fit, se3, se3_data, shape, shape_data
 from hriplan.robots.model import Robot, RobotSpec
 
@@ -86,16 +86,23 @@ def _part_data(part: RobotPart) -> dict:
     }
 
 
+def _collision_names(urdf: str) -> dict[str, list[str | None]]:
+    """Per link, the names of its URDF <collision> elements, in order (pinocchio's geometry
+    objects are `{link}_{index}`)."""
+    return {el.get("name"): [c.get("name") for c in el.findall("collision")] for el in ET.fromstring(urdf).iter("link")}
+
+
 def _fitted_parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:
     model = robot.model
     clouds: dict[str, list[np.ndarray]] = {}
     owners: dict[str, tuple[str, int]] = {}
     parts: list[RobotPart] = []
-    torso_names = iter(name for name, _, _ in TORSO)
+    names = _collision_names(robot.urdf)
     for geom in robot.collision_meshes.geometryObjects:
         link = _link(model, geom)
         if _STRUCTURE.match(link):
-            name = next(torso_names) if link == "madar_base_link" else link
+            # A primitive is named as the URDF names it (MADAR's torso: madar_base_cylinder, ...).
+            name = names[link][int(geom.name.rsplit("_", 1)[1])] or link
             parts.append(RobotPart(name, link, geom.parentJoint, geom.geometry, geom.placement))
             continue
         group = _group(link)

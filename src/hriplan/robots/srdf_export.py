@@ -18,7 +18,7 @@ import itertools
 import xml.etree.ElementTree as ET
 
 from hriplan.robots.acm import MESH, load_acm
-from hriplan.robots.descriptions.registry import hand_model
+from hriplan.robots.descriptions.description import hand_model
 from hriplan.robots.model import Robot
 from hriplan.robots.robot_geometry import robot_parts
 from hriplan.robots.urdf_tree import MOVABLE, UrdfTree

@@ -1,4 +1,5 @@
-"""Small helpers to write URDF elements with xml.etree (the assembled robots are generated)."""
+"""Small helpers to write URDF elements with xml.etree (a robot file's offset tool frame; the
+maintainer script that writes the built-in robots' URDFs, tools/builtin_robot_urdfs.py)."""
 
 from __future__ import annotations
 
@@ -38,40 +39,3 @@ def joint(
     if limit is not None:
         ET.SubElement(el, "limit", **{k: repr(float(v)) for k, v in limit.items()})
     return el
-
-
-def shape(
-    link_el: ET.Element,
-    role: str,
-    geometry: tuple[str, dict[str, str]],
-    xyz=(0.0, 0.0, 0.0),
-    rpy=(0.0, 0.0, 0.0),
-    name: str | None = None,
-) -> ET.Element:
-    """Add a <visual> or <collision> with one geometry, e.g. ("box", {"size": "1 1 1"})."""
-    el = ET.SubElement(link_el, role, **({"name": name} if name else {}))
-    origin(el, xyz, rpy)
-    geo = ET.SubElement(el, "geometry")
-    ET.SubElement(geo, geometry[0], **geometry[1])
-    return el
-
-
-def box(size: Sequence[float]) -> tuple[str, dict[str, str]]:
-    return "box", {"size": _fmt(size)}
-
-
-def cylinder(radius: float, length: float) -> tuple[str, dict[str, str]]:
-    return "cylinder", {"radius": repr(float(radius)), "length": repr(float(length))}
-
-
-def sphere(radius: float) -> tuple[str, dict[str, str]]:
-    return "sphere", {"radius": repr(float(radius))}
-
-
-def mesh(filename: str) -> tuple[str, dict[str, str]]:
-    return "mesh", {"filename": filename}
-
-
-def to_string(robot: ET.Element) -> str:
-    ET.indent(robot)
-    return ET.tostring(robot, encoding="unicode")

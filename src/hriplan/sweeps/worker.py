@@ -58,7 +58,7 @@ def separation_columns(report: Any, people: list[str]) -> Row:
 def run_variant(variant: Variant, plan: bool = True) -> list[Row]:
     """Every step of the variant as a row; a bad variant is one `error` row with the reason."""
     from hriplan.planner.session import worker_session
-    from hriplan.robots.robot_file import load_robot_file
+    from hriplan.robots.descriptions.registry import load_robot_file
     from hriplan.tasks.pipeline import TaskRunner
 
     began, cpu = time.perf_counter(), time.process_time()

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from hriplan.files import load_model
-from hriplan.robots.robot_file import with_robot_name
+from hriplan.robots.descriptions.registry import with_robot_name
 from hriplan.tasks.model import TaskFile
 
 

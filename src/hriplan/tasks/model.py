@@ -17,9 +17,9 @@ from hriplan.files import validation_message
 from hriplan.ontology.situation import FillLevel, Name, Role
 from hriplan.planner.constraints.spec import Axis
 from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
-from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, DESCRIPTIONS, HAND_MODELS, description_of, hand_model
+from hriplan.robots.descriptions.description import HAND_MODELS, hand_model
+from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, DESCRIPTIONS, description_of, registered_robot_file
 from hriplan.robots.human import HAND, HumanSpec, Side, hand_they_reach_out
-from hriplan.robots.robot_file import registered_robot_file
 from hriplan.robots.scene import Obstacle, Shape
 from hriplan.robots.spatial import Pose
 from hriplan.safety.separation import SafetyMargin

@@ -25,7 +25,8 @@ from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import SUCCEEDED, Status
 from hriplan.planner.prepare import preparatory_goal
 from hriplan.planner.trajectory import ConstraintOrigin, ResolvedConstraint, TrajectoryFile
-from hriplan.robots.descriptions.registry import hand_model, posture
+from hriplan.robots.descriptions.description import hand_model
+from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.model import Robot, arms_of, description_of, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.rules.infer import Derivation, derive

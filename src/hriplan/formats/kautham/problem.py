@@ -41,9 +41,8 @@ from hriplan.planner.constraints.spec import VOLUME_TYPES, ConstraintSet, FrameR
 from hriplan.planner.motion import JointTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.problem import PlanningProblem
-from hriplan.robots.descriptions.registry import description_of
+from hriplan.robots.descriptions.registry import description_of, robot_name
 from hriplan.robots.model import ROBOT_NAMES, Robot, load_robot
-from hriplan.robots.robot_file import robot_name
 from hriplan.robots.scene import Obstacle, Scene
 from hriplan.robots.spatial import Pose
 

@@ -1,14 +1,10 @@
-"""The Allegro V4 hand from example-robot-data, renamed for mounting, and its finger postures.
+"""The Allegro V4 hand (example-robot-data's, mounted renamed `{arm prefix}hand_*` in a robot's
+URDF, as MADAR's) and its finger postures: a robot file's `hand: allegro` names this model.
 
 Finger joints are fixed during arm planning: a posture is a value per finger joint.
 """
 
 from __future__ import annotations
-
-import xml.etree.ElementTree as ET
-from typing import Literal
-
-from hriplan.robots.assets import asset, resolve_package_uri
 
 # `release`: how the hand lets an object go (fingers straight, the thumb still opposed but
 # straight), opening without swinging the thumb out into what the object stands on.
@@ -46,23 +42,6 @@ def posture_values(posture: str) -> dict[str, float]:
     return values
 
 
-def add_allegro(robot: ET.Element, prefix: str, side: Literal["right", "left"]) -> str:
-    """Append the hand's links and joints renamed `{prefix}hand_*`; return the palm link's name."""
-    source = ET.parse(asset(f"allegro_hand_description/urdf/allegro_{side}_hand.urdf")).getroot()
-    rename = lambda name: f"{prefix}hand_{name}"  # noqa: E731
-    for el in source:
-        if el.tag == "link":
-            el.set("name", rename(el.get("name")))
-            for mesh in el.iter("mesh"):
-                mesh.set("filename", resolve_package_uri(mesh.get("filename")))
-            robot.append(el)
-        elif el.tag == "joint":
-            el.set("name", rename(el.get("name")))
-            for tag in ("parent", "child"):
-                el.find(tag).set("link", rename(el.find(tag).get("link")))
-            robot.append(el)
-    return rename("palm_link")
-
-
 def hand_joint_name(prefix: str, name: str) -> str:
+    """A hand joint's name in the robot (`joint_0.0` on the right arm: `right_hand_joint_0.0`)."""
     return f"{prefix}hand_{name}"
