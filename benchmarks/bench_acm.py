@@ -23,8 +23,8 @@ import numpy as np
 
 from hriplan.robots import acm
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.model import load_robot
-from hriplan.robots.robot_file import load_robot_file
 
 # MADAR without hands, as Kautham's madar_dual_arm demo has it (a robot file).
 MADAR_BARE = "examples/robots/madar_bare.yaml"

@@ -134,8 +134,8 @@ def test_a_wrist_beside_its_forearm_three_links_apart_plans(tmp_path):
     assert 0.02 < gaps[-1] < 0.03
     # There the hand-less MADAR's fitted capsules of the pair overlap: on them alone the goal
     # would be in collision.
+    from hriplan.robots.descriptions.registry import load_robot_file
     from hriplan.robots.model import load_robot
-    from hriplan.robots.robot_file import load_robot_file
     from hriplan.robots.robot_geometry import robot_parts
 
     robot = load_robot(load_robot_file(ROBOT).name)

@@ -17,8 +17,8 @@ import pytest
 
 from hriplan.robots import acm as acm_module
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.model import load_robot
-from hriplan.robots.robot_file import load_robot_file
 from hriplan.robots.robot_geometry import part_collision_shapes, robot_parts
 
 FINGER_LINK = re.compile(r"^(\w*?)hand_link_(\d+)\.0(_tip)?$")
