@@ -33,11 +33,14 @@ class _DeferredPyplot(types.ModuleType):
 
 def _import_toppra() -> types.ModuleType:
     """TOPP-RA, without the matplotlib.pyplot it imports at module level (toppra.algorithm.algorithm,
-    toppra.parametrizer) for plotting methods hriplan never calls: half a second of a `plan` process.
+    toppra.parametrizer) for plotting methods hriplan never calls: 0.6 s CPU of the demo's `plan`
+    process (benchmarks/REPORT-startup.md).
 
     While toppra is imported, and only then, `matplotlib` and `matplotlib.pyplot` in sys.modules are
     stand-ins; toppra's `plt` is a _DeferredPyplot that imports the real pyplot on first use, so its
-    plots still work. When matplotlib is already loaded nothing is stood in.
+    plots still work. When matplotlib is already loaded nothing is stood in. (Another thread that
+    imported matplotlib during those milliseconds would get the stand-ins: this module is imported
+    with the planning session, before any plot.)
     """
     if "matplotlib" in sys.modules:
         import toppra
