@@ -32,7 +32,7 @@ lint: $(VENV)/.installed-test
 	$(BIN)/ruff format $(LINTED)
 
 # Every benchmarks/bench_*.py with its defaults, each one's seconds and the total at the end (about
-# half an hour on 2 shared cores, bench_planner.py 20 minutes of it: README, Benchmarks).
+# 30-35 minutes on 2 shared cores, bench_planner.py 20 or more of it: README, Benchmarks).
 bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/run_all.py
 

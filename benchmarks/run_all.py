@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 BENCHMARKS = ROOT / "benchmarks"
 
 # Said before they start, so that nobody waits blind (README, Benchmarks, has every script's time).
-SLOW = {"bench_planner.py": "about 20 minutes on 2 cores (REPORT-planner.md)"}
+SLOW = {"bench_planner.py": "20 minutes or more on 2 shared cores (README, Benchmarks)"}
 
 
 def main() -> None:
