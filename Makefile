@@ -31,11 +31,10 @@ lint: $(VENV)/.installed-test
 	$(BIN)/ruff check --fix $(LINTED)
 	$(BIN)/ruff format $(LINTED)
 
+# Every benchmarks/bench_*.py with its defaults, each one's seconds and the total at the end (about
+# 30-35 minutes on 2 shared cores, bench_planner.py 20 or more of it: README, Benchmarks).
 bench: $(VENV)/.installed
-	$(BIN)/python benchmarks/bench_foundation.py
-	$(BIN)/python benchmarks/bench_planner.py
-	$(BIN)/python benchmarks/bench_reasoning.py
-	$(BIN)/python benchmarks/bench_cli.py
+	$(BIN)/python benchmarks/run_all.py
 
 # Not part of `make test` (too slow for CI): mutants of the safety-critical modules against the fast
 # tests that reach them ([tool.mutmut] in pyproject.toml), one worker; then the rule files' mutants.

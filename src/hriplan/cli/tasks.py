@@ -50,7 +50,6 @@ def load_for_task(trajectory: Path, task: Path | None, quiet: bool = True):
     """A trajectory file, with its step's constraints and scene taken from `task` if given."""
     from hriplan.planner.trajectory import load_trajectory
     from hriplan.tasks.joints import check_joint_values
-    from hriplan.tasks.pipeline import against_task
 
     plan_file = load_trajectory(trajectory)
     check_joint_values(
@@ -58,6 +57,8 @@ def load_for_task(trajectory: Path, task: Path | None, quiet: bool = True):
     )
     if task is None:
         return plan_file
+    from hriplan.tasks.pipeline import against_task  # the reasoning (rdflib, the rules) only for a task
+
     with progress(quiet) as report:
         return against_task(plan_file, _runner(task, report))
 

@@ -11,16 +11,57 @@ validated polyline is measured, reported and optionally bounded.
 from __future__ import annotations
 
 import logging
+import sys
+import types
 from collections.abc import Callable, Sequence
 
 import numpy as np
-import toppra
-import toppra.algorithm
-import toppra.constraint
 from pydantic import BaseModel, ConfigDict
 
 from hriplan import HriplanError
 from hriplan.safety.separation import SPEED_LIMIT_SLACK
+
+
+class _DeferredPyplot(types.ModuleType):
+    """Stands in for matplotlib.pyplot in TOPP-RA's modules: loads the real one when first used."""
+
+    def __getattr__(self, name: str):
+        import matplotlib.pyplot
+
+        return getattr(matplotlib.pyplot, name)
+
+
+def _import_toppra() -> types.ModuleType:
+    """TOPP-RA, without the matplotlib.pyplot it imports at module level (toppra.algorithm.algorithm,
+    toppra.parametrizer) for plotting methods hriplan never calls: 0.6 s CPU of the demo's `plan`
+    process (benchmarks/REPORT-startup.md).
+
+    While toppra is imported, and only then, `matplotlib` and `matplotlib.pyplot` in sys.modules are
+    stand-ins; toppra's `plt` is a _DeferredPyplot that imports the real pyplot on first use, so its
+    plots still work. When matplotlib is already loaded nothing is stood in. (Another thread that
+    imported matplotlib during those milliseconds would get the stand-ins: this module is imported
+    with the planning session, before any plot.)
+    """
+    if "matplotlib" in sys.modules:
+        import toppra
+    else:
+        pyplot = _DeferredPyplot("matplotlib.pyplot")
+        stand_ins = {"matplotlib": types.ModuleType("matplotlib"), "matplotlib.pyplot": pyplot}
+        stand_ins["matplotlib"].pyplot = pyplot  # type: ignore[attr-defined]
+        sys.modules.update(stand_ins)
+        try:
+            import toppra
+        finally:
+            for name, stand_in in stand_ins.items():
+                if sys.modules.get(name) is stand_in:
+                    del sys.modules[name]
+    import toppra.algorithm
+    import toppra.constraint
+
+    return toppra
+
+
+toppra = _import_toppra()
 
 # TOPP-RA logs every solve at INFO and a failure at WARNING; we report failures ourselves.
 logging.getLogger("toppra").setLevel(logging.ERROR)

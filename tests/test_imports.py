@@ -1,0 +1,81 @@
+"""Start-up (issue 21): a command imports what it uses. Asserted on `sys.modules` after the command
+ran in a fresh process, not on timing; `benchmarks/bench_startup.py` measures the seconds."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "handover_full_can.yaml"
+
+# Never used by `plan` (without --html/--plots) or `validate`: plotting (TOPP-RA imports pyplot at
+# module level), the viewer, the service, the sweep engines' data and cluster libraries, and the
+# Pellet route's OWL library (the derivation is cached on disk, or the in-process rules reason).
+UNUSED = ("matplotlib", "matplotlib.pyplot", "meshcat", "fastapi", "uvicorn", "pyarrow", "ray", "owlready2")
+
+PROBE = (
+    "import sys\n"
+    "from hriplan.cli.main import app\n"
+    "try:\n"
+    "    app(sys.argv[2:], prog_name='hriplan')\n"
+    "except SystemExit as exit:\n"
+    "    assert exit.code in (0, None), exit.code\n"
+    "print('loaded:', ' '.join(m for m in sys.argv[1].split(',') if m in sys.modules))\n"
+)
+
+
+def loaded_after(args: list[str], watched: tuple[str, ...], env: dict[str, str] | None = None) -> list[str]:
+    """Which of `watched` are in sys.modules after `hriplan ARGS` ran in a fresh process."""
+    out = subprocess.run(
+        [sys.executable, "-c", PROBE, ",".join(watched), *args],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env=env,
+    )
+    assert out.returncode == 0, out.stderr
+    [line] = [line for line in out.stdout.splitlines() if line.startswith("loaded:")]
+    return line.removeprefix("loaded:").split()
+
+
+def test_plan_and_validate_import_no_plotting_viewer_or_service(tmp_path):
+    plan = ["plan", str(EXAMPLE), "-q", "-o", str(tmp_path / "can.json")]
+    loaded_after(plan, UNUSED)  # warm: the derivation cached on disk, as a second `plan` finds it
+    assert loaded_after(plan, UNUSED) == []
+    validate = ["validate", str(tmp_path / "can.take_can.json"), "-q"]
+    # Without --task, validate re-checks the file: no task pipeline, no rules, no planner search or timing.
+    reasoning = ("hriplan.tasks.pipeline", "hriplan.rules.infer", "toppra", "ompl", "scipy")
+    assert loaded_after(validate, UNUSED + reasoning) == []
+
+
+def test_toppra_plots_still_load_pyplot_when_used():
+    """TOPP-RA's modules get a stand-in for pyplot while they are imported (planner/timing.py):
+    nothing of matplotlib loads with them, and the stand-in loads the real pyplot when used."""
+    probe = (
+        "import sys\n"
+        "import hriplan.planner.timing\n"
+        "import toppra.algorithm.algorithm as algorithm, toppra.parametrizer as parametrizer\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib'))\n"
+        "import matplotlib.pyplot\n"
+        "print(algorithm.plt.plot is matplotlib.pyplot.plot, parametrizer.plt.subplot is matplotlib.pyplot.subplot)\n"
+        "print(type(sys.modules['matplotlib.pyplot']).__name__)\n"
+    )
+    env = dict(os.environ, MPLBACKEND="Agg")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == ["[]", "True True", "module"]
+
+
+def test_toppra_imported_after_matplotlib_is_left_alone():
+    probe = (
+        "import matplotlib.pyplot\n"
+        "import hriplan.planner.timing\n"
+        "import toppra.algorithm.algorithm as algorithm\n"
+        "print(algorithm.plt is matplotlib.pyplot)\n"
+    )
+    env = dict(os.environ, MPLBACKEND="Agg")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["True"]
