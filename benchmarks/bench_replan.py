@@ -23,8 +23,8 @@ import pinocchio as pin
 
 from hriplan.api import PlanningSession, load_task, run_task
 from hriplan.planner.session import PlanningSession as Session
-from hriplan.safety.approach import ApproachMonitor
-from hriplan.safety.separation import allowed_speeds
+from hriplan.safety.approach import CLOSING, ApproachMonitor
+from hriplan.safety.separation import kept_speeds
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "handover_full_can_receiver.yaml"
 
@@ -126,9 +126,10 @@ def _per_point_scale(monitor: ApproachMonitor, x: np.ndarray, dx: np.ndarray) ->
         whole = np.array([person.contact_region(c) is not None for c in capsules]) | (d <= 1e-6)
         towards = np.einsum("ij,ij->i", v, pairs.person_point[rows] - pairs.robot_point[rows]) / np.maximum(d, 1e-6)
         approach = np.where(whole, np.linalg.norm(v, axis=1), towards)
-        allowed = allowed_speeds(monitor.policy.robot, person, d, capsules)
-        if (approach > 0.0).any():
-            scale = min(scale, float(np.min(allowed[approach > 0.0] / approach[approach > 0.0])))
+        allowed = kept_speeds(monitor.policy, person, d, capsules)  # with the policy's margin, as timed
+        closing = approach > CLOSING
+        if closing.any():
+            scale = min(scale, float(np.min(allowed[closing] / approach[closing])))
     return scale
 
 
