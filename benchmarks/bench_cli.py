@@ -52,8 +52,9 @@ def children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def imported(args: list[str], src: Path) -> tuple[float, list[str]]:
-    """Seconds spent importing (python -X importtime, top-level modules) and which heavy ones load."""
+def imported(args: list[str], src: Path, heavy_modules: tuple[str, ...] = HEAVY) -> tuple[float, list[str]]:
+    """Seconds spent importing (python -X importtime, top-level modules) and which of
+    `heavy_modules` load, in their order."""
     env = dict(os.environ, PYTHONPATH=str(src))
     out = subprocess.run(
         [sys.executable, "-X", "importtime", "-m", "hriplan.cli", *args],
@@ -70,9 +71,9 @@ def imported(args: list[str], src: Path) -> tuple[float, list[str]]:
         name = fields[2].strip()
         if not fields[2].startswith("  "):  # a top-level import (nested ones are indented further)
             total += int(fields[1]) / 1e6
-        if name in HEAVY:
+        if name in heavy_modules:
             heavy.add(name)
-    return total, sorted(heavy)
+    return total, sorted(heavy, key=heavy_modules.index)
 
 
 def row(name: str, runs: list[tuple[list[float], list[float]]], target: float | None) -> str:

@@ -27,6 +27,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import bench_cli
+
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src"
 EXAMPLE = ROOT / "examples" / "handover_full_can.yaml"
@@ -57,29 +59,6 @@ def run(args: list[str], src: Path) -> tuple[float, float]:
     wall = time.perf_counter() - started
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
-
-
-def imported(args: list[str], src: Path) -> tuple[float, list[str]]:
-    """Seconds of the top-level imports (python -X importtime) and the HEAVY modules that loaded."""
-    env = dict(os.environ, PYTHONPATH=str(src))
-    out = subprocess.run(
-        [sys.executable, "-X", "importtime", "-m", "hriplan.cli", *args],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-        check=True,
-    )
-    total, heavy = 0.0, set()
-    for line in out.stderr.splitlines():
-        fields = line.split("|")
-        if not line.startswith("import time:") or len(fields) != 3 or not fields[1].strip().isdigit():
-            continue
-        if not fields[2].startswith("  "):  # top level: nested imports are indented further
-            total += int(fields[1]) / 1e6
-        if fields[2].strip() in HEAVY:
-            heavy.add(fields[2].strip())
-    return total, sorted(heavy, key=HEAVY.index)
 
 
 def main() -> None:
@@ -123,7 +102,7 @@ def main() -> None:
     print()
     for label, command in commands.items():
         for name, src in zip(names, sources, strict=True):
-            runs = [imported(command, src) for _ in range(3)]
+            runs = [bench_cli.imported(command, src, HEAVY) for _ in range(3)]
             seconds, heavy = statistics.median(s for s, _ in runs), runs[0][1]
             print(
                 f"- {label}, {name}: imports {seconds:.2f} s (importtime, median of 3); loaded: {', '.join(heavy) or 'none'}"
