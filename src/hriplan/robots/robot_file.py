@@ -297,12 +297,19 @@ class _Builder:
                 raise HriplanError(f"arms.{arm}.hand: {j!r} is not a finger joint (fixed, or an arm joint)")
         kind = f"{self.spec.name}_{arm}_gripper"
         values = {"open": a.hand.open, "release": a.hand.open, "closed": a.hand.closed}
-        fingers = tuple(a.hand.gripper)
+        # A listed finger that mimics another takes the URDF's multiplier and offset of its value
+        # (Baxter's right finger mirrors its left, multiplier -1); the others take the value.
+        follows = {}
+        for el in self.root.findall("joint"):
+            mimic = el.find("mimic")
+            if el.get("name") in a.hand.gripper and mimic is not None and mimic.get("joint") in a.hand.gripper:
+                follows[el.get("name")] = (float(mimic.get("multiplier", 1.0)), float(mimic.get("offset", 0.0)))
+        fingers = {j: follows.get(j, (1.0, 0.0)) for j in a.hand.gripper}
         HAND_MODELS[kind] = HandModel(
             "parallel gripper",
             GRIPPER_POSTURES,
             "release",
-            lambda posture: dict.fromkeys(fingers, values[posture]),
+            lambda posture: {j: m * values[posture] + o for j, (m, o) in fingers.items()},
             lambda _prefix, joint: joint,
         )
         return kind
