@@ -260,3 +260,20 @@ def test_both_arms_to_tool_poses_in_one_motion(baxter, urdf):
     check_trajectory(trajectory, urdf, start)
     for arm, target in targets.items():
         assert np.abs(end_pose(trajectory, urdf, arm) - target).max() < 1e-5
+
+
+def test_the_allowed_collision_matrix_of_baxter(baxter):
+    """Was: the torso and each upper shoulder (joined through `*_arm_mount`, a link without
+    geometry) were checked on meshes that always overlap, as were the covers against the links
+    they cover: the ready posture and the zero configuration were in collision."""
+    from hriplan.robots.acm import load_acm
+    from hriplan.robots.collision import CollisionChecker
+
+    acm = load_acm(baxter, robot_parts(baxter))
+    reason = {frozenset(k.split("|")): v for k, v in acm.items()}
+    for side in ARMS:
+        assert reason[frozenset(("torso", f"{side}_upper_shoulder"))] == "adjacent"
+        assert reason[frozenset((f"{side}_upper_elbow_visual", f"{side}_lower_elbow"))] == "user"
+    checker = CollisionChecker(baxter, Scene())
+    assert not checker.in_collision(baxter.configuration(baxter.description.postures["ready"]))
+    assert not checker.in_collision(np.zeros(baxter.model.nq))
