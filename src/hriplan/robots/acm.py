@@ -41,13 +41,26 @@ DEFAULT_SAMPLES = 10000
 # A pair whose fitted parts collide while its meshes do not in this share of the samples or more
 # is checked on its meshes: its fitted parts alone would forbid that much of the joint space.
 FALSE_SHARE = 0.05
-RULES = f"adjacent; never (sampled); always, two apart or false in >= {FALSE_SHARE} -> mesh; no SRDF pairs"
+RULES = f"adjacent past links without parts; never (sampled); always on meshes too; always, two apart or false in >= {FALSE_SHARE} -> mesh; no SRDF pairs"
+USER = "user"  # the reason of pairs the robot file allows (allowed_collisions)
+ALWAYS = "always"  # the reason of pairs whose meshes touch in every sample
 MESH = "mesh"  # the reason of pairs checked on their meshes rather than their fitted parts
 
 
 def _key(robot: Robot, parts: tuple[RobotPart, ...], samples: int) -> str:
     shapes = [(p.name, p.joint, p.placement.homogeneous.round(6).tolist(), _shape_key(p.geometry)) for p in parts]
-    text = repr((RULES, FALSE_SHARE, robot.urdf, robot.spec.hand_postures, robot.finger_values, shapes, samples))
+    text = repr(
+        (
+            RULES,
+            FALSE_SHARE,
+            robot.description.allowed_collisions,
+            robot.urdf,
+            robot.spec.hand_postures,
+            robot.finger_values,
+            shapes,
+            samples,
+        )
+    )
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -59,12 +72,22 @@ def _shape_key(geometry: object) -> tuple:
     )
 
 
-def adjacent(robot: Robot, a: RobotPart, b: RobotPart) -> bool:
-    """Same rigid body, or links directly connected in the URDF tree."""
+def adjacent(robot: Robot, a: RobotPart, b: RobotPart, parts: tuple[RobotPart, ...] = ()) -> bool:
+    """Same rigid body, or links directly connected in the URDF tree, as MoveIt's setup
+    assistant sees them: through links that carry none of `parts` (no geometry; Baxter's
+    `right_arm_mount` between its torso and shoulder)."""
     if a.joint == b.joint:
         return True
     parents = parent_links(robot)
-    return parents.get(a.link) == b.link or parents.get(b.link) == a.link
+    carried = {p.link for p in parts}
+
+    def above(link: str) -> str | None:
+        up = parents.get(link)
+        while up is not None and carried and up not in carried:
+            up = parents.get(up)
+        return up
+
+    return above(a.link) == b.link or above(b.link) == a.link
 
 
 def two_apart(robot: Robot, a: RobotPart, b: RobotPart) -> bool:
@@ -83,10 +106,13 @@ def compute_acm(
     for part in parts:
         geom_model.addGeometryObject(pin.GeometryObject(part.name, part.joint, part.placement, part.geometry))
     candidates, candidate_parts = [], []
+    allowed = {frozenset(pair) for pair in robot.description.allowed_collisions}
     for i, a in enumerate(parts):
         for j in range(i + 1, len(parts)):
             b = parts[j]
-            if adjacent(robot, a, b):
+            if frozenset((a.link, b.link)) in allowed:
+                disabled[f"{a.name}|{b.name}"] = USER
+            elif adjacent(robot, a, b, parts):
                 disabled[f"{a.name}|{b.name}"] = "adjacent"
             else:
                 geom_model.addCollisionPair(pin.CollisionPair(i, j))
@@ -104,13 +130,17 @@ def compute_acm(
     loose = [
         c
         for c, ((a, b), count) in enumerate(zip(candidate_parts, counts))
-        if count >= FALSE_SHARE * samples and count < samples and not two_apart(robot, a, b)
+        if count == samples or (count >= FALSE_SHARE * samples and not two_apart(robot, a, b))
     ]
     false_hits = _false_collisions(robot, [candidate_parts[c] for c in loose], states, hits[:, loose])
     false_share = dict(zip(loose, false_hits / samples))
     for c, ((a, b), pair, count) in enumerate(zip(candidate_parts, candidates, counts)):
         if count == 0:
             disabled[pair] = "never"
+        elif count == samples and false_share[c] == 0.0 and all(part_collision_shapes(robot, p) for p in (a, b)):
+            # Their meshes touch in every sample too (MoveIt's "Always": Baxter's arm cylinders
+            # overlap at their joints): no state of the robot is free of the pair, so it says nothing.
+            disabled[pair] = ALWAYS
         elif count == samples or two_apart(robot, a, b) or false_share.get(c, 0.0) >= FALSE_SHARE:
             disabled[pair] = MESH
     return disabled

@@ -68,7 +68,7 @@ def _srdf_pairs(robot: Robot, srdf: Srdf) -> str:
             agree += 1
     touched = f" ({', '.join(checked)})" if checked else ""
     return (
-        f"SRDF disabled pairs: {len(srdf.disabled)}: {agree} not checked here either (adjacent or never touching "
+        f"SRDF disabled pairs: {len(srdf.disabled)}: {agree} not checked here either (adjacent, never or always touching "
         f"in sampling), {meshes} checked on meshes, {len(checked)} checked on parts: they touched in sampling"
         f"{touched}, {bare} without collision geometry"
     )

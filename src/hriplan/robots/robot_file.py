@@ -25,6 +25,7 @@ postures: {ready: {panda_joint4: -2.0}}      # with the SRDF's group states
                                              # the whole-robot group: MADAR's both_arms; else all_arms)
 limits: {panda_joint1: {velocity: 1.0, acceleration: 3.75}}
 base_pose: {xyz: [0, 0, 0.8]}
+allowed_collisions: [[panda_link5, panda_link7]]  # link pairs never checked (the user's word, as MoveIt's "User")
 stopping: {reaction_time: 0.1, stopping_time: 0.2, position_uncertainty: 0.02, moving_mass: 6.0}  # ISO/TS 15066
 ```
 Every problem (a group with no joints, an unknown link, a missing mesh, a non-serial arm, no tool
@@ -158,6 +159,10 @@ class RobotFile(_Strict):
     postures: dict[str, dict[str, float]] = Field(default_factory=dict)
     limits: dict[str, JointLimits] = Field(default_factory=dict)
     base_pose: Pose = Field(default_factory=Pose)
+    allowed_collisions: list[tuple[str, str]] = Field(
+        default_factory=list,
+        description="Link pairs never checked for self-collision, as the user says (MoveIt's 'User' reason).",
+    )
     stopping: Stopping | None = Field(None, description="Needed to plan: speed and separation use it.")
 
 
@@ -297,12 +302,19 @@ class _Builder:
                 raise HriplanError(f"arms.{arm}.hand: {j!r} is not a finger joint (fixed, or an arm joint)")
         kind = f"{self.spec.name}_{arm}_gripper"
         values = {"open": a.hand.open, "release": a.hand.open, "closed": a.hand.closed}
-        fingers = tuple(a.hand.gripper)
+        # A listed finger that mimics another takes the URDF's multiplier and offset of its value
+        # (Baxter's right finger mirrors its left, multiplier -1); the others take the value.
+        follows = {}
+        for el in self.root.findall("joint"):
+            mimic = el.find("mimic")
+            if el.get("name") in a.hand.gripper and mimic is not None and mimic.get("joint") in a.hand.gripper:
+                follows[el.get("name")] = (float(mimic.get("multiplier", 1.0)), float(mimic.get("offset", 0.0)))
+        fingers = {j: follows.get(j, (1.0, 0.0)) for j in a.hand.gripper}
         HAND_MODELS[kind] = HandModel(
             "parallel gripper",
             GRIPPER_POSTURES,
             "release",
-            lambda posture: dict.fromkeys(fingers, values[posture]),
+            lambda posture: {j: m * values[posture] + o for j, (m, o) in fingers.items()},
             lambda _prefix, joint: joint,
         )
         return kind
@@ -426,6 +438,10 @@ class _Builder:
             source=source,
             srdf=self.srdf if spec.srdf else None,
             link_aliases=self.frame_aliases,
+            allowed_collisions=tuple(
+                (self.tree.link(a, "allowed_collisions"), self.tree.link(b, "allowed_collisions"))
+                for a, b in spec.allowed_collisions
+            ),
             stopping={} if spec.stopping is None else {ONTOLOGY_STOPPING[k]: v for k, v in spec.stopping},
         )
 

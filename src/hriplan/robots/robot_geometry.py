@@ -15,6 +15,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from hriplan import HriplanError
 from hriplan.robots.assets import resolve_package_uri
 from hriplan.robots.bounding import fit_box, fit_capsule
 from hriplan.robots.fit_cache import cached_fit, se3, se3_data, shape, shape_data
@@ -33,17 +34,25 @@ class RobotPart:
     placement: pin.SE3
 
 
-def _points(geom: pin.GeometryObject) -> np.ndarray | None:
+def _points(geom: pin.GeometryObject) -> np.ndarray:
     shape = geom.geometry
     if isinstance(shape, coal.Box):
         half = shape.halfSide
         corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
     elif isinstance(shape, coal.Sphere):
         corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * shape.radius
+    elif isinstance(shape, (coal.Cylinder, coal.Capsule)):
+        # The rims of a polygon circumscribing the cylinder's circles (a capsule: its cylinder
+        # lengthened by the radius at each end), so their hull contains the solid.
+        n = 32
+        angle = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+        rim = np.column_stack([np.cos(angle), np.sin(angle)]) * shape.radius / np.cos(np.pi / n)
+        half = shape.halfLength + (shape.radius if isinstance(shape, coal.Capsule) else 0.0)
+        corners = np.vstack([np.column_stack([rim, np.full(n, z)]) for z in (-half, half)])
     elif isinstance(shape, coal.BVHModelBase):
         corners = np.asarray(coal.MeshLoader().load(resolve_package_uri(geom.meshPath), geom.meshScale).vertices())
     else:
-        return None
+        raise HriplanError(f"collision geometry {geom.name!r}: no fit for a {type(shape).__name__}")
     return corners @ geom.placement.rotation.T + geom.placement.translation
 
 

@@ -85,7 +85,9 @@ def disabled_pairs(robot: Robot, urdf: ET.Element) -> list[tuple[str, str, str]]
             continue
         reasons = {acm.get(f"{p}|{r}", acm.get(f"{r}|{p}")) for p in by_link[a] for r in by_link[b] if p != r}
         if reasons and None not in reasons and MESH not in reasons:
-            pairs[(a, b)] = "Never" if "never" in reasons else "Adjacent"
+            pairs[(a, b)] = {"never": "Never", "always": "Always", "user": "User"}.get(
+                min(reasons - {"adjacent"}, default=""), "Adjacent"
+            )
     return [(a, b, reason) for (a, b), reason in sorted(pairs.items())]
 
 

@@ -103,6 +103,8 @@ class RobotDescription:
     # What the robot's SRDF says (None without one); its disabled pairs are only reported
     # (`hriplan robot check`) against the sampled allowed-collision matrix (acm.py), which decides.
     srdf: Srdf | None = None
+    # Link pairs the robot file says never to check for self-collision (acm.py: reason "user").
+    allowed_collisions: tuple[tuple[str, str], ...] = ()
     # ISO/TS 15066 stopping data (ontology property -> value, e.g. hasReactionTime -> 0.1 s),
     # stated about the robot's individual in the ontology (ontology/robot_individuals.py).
     stopping: dict[str, float] = field(default_factory=dict)
