@@ -23,6 +23,7 @@ TOKEN = "s3cret-token-for-tests"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
 TASK = yaml.safe_load((ROOT / "examples" / "handover_empty_can.yaml").read_text())
 PROBLEM = json.loads((ROOT / "benchmarks" / "scenarios" / "b_madar_handover.json").read_text())
+PANDA = ROOT / "tests" / "data" / "robots" / "panda.yaml"
 RULE = (
     "# Any can is carried upright, full or not (a test rule).\n"
     "[upright_any_can] TransportingTask(?t) ^ movesObject(?t, ?o) ^ Can(?o) -> isConstrainedBy(?o, UprightPartial)\n"
@@ -50,6 +51,8 @@ def server(rules_dir):
         "8192",
         "--rules-dir",
         str(rules_dir),
+        "--robot-file",
+        str(PANDA),
     )
     with running_server(*args, token=TOKEN) as url:
         yield url
@@ -128,6 +131,41 @@ def test_rule_files_come_only_from_the_configured_folder(client):
     ]:
         refused = client.post("/constraints", json={**TASK, "rule_files": [name]})
         assert refused.status_code == 400 and refused.json()["error"] == f"rule file {name!r} {message}"
+
+
+def test_a_robot_file_is_read_only_if_the_server_was_started_with_it(client):
+    """Was: any `robot_file` a request named was read at validation ('/etc/passwd: expected a
+    mapping of fields at the top level, got str'), telling a client about any file the server
+    could read. Now only the files given to `--robot-file`, in JSON, YAML or a body without a type."""
+    refused = "robot_file '/etc/passwd' is not one of the robot files this server was started with"
+    problem = copy.deepcopy(PROBLEM) | {"robot_file": "/etc/passwd"}
+    for path, body, headers in [
+        ("/constraints", json.dumps({**TASK, "robot_file": "/etc/passwd"}), {"content-type": "application/json"}),
+        ("/constraints", yaml.safe_dump({**TASK, "robot_file": "/etc/passwd"}), {"content-type": "application/yaml"}),
+        ("/solve", json.dumps(problem), {}),
+    ]:
+        response = client.post(path, content=body, headers=headers)
+        assert response.status_code == 400 and response.json()["error"].startswith(refused), response.text
+    # the Panda it was started with derives (its worker loads the file too)
+    task = yaml.safe_load((PANDA.parent / "panda_cup.yaml").read_text()) | {"robot": "panda", "robot_file": str(PANDA)}
+    derived = client.post("/constraints", json=task)
+    assert derived.status_code == 200, derived.text
+    kinds = {c["kind"] for c in derived.json()["steps"][0]["derivation"]["constraints"]}
+    assert "UprightPartial" in kinds
+
+
+def test_serve_refuses_a_bad_robot_file_at_start(tmp_path):
+    bad = tmp_path / "robot.yaml"
+    bad.write_text("name: x\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "hriplan.cli", "serve", "--port", "0", "--robot-file", str(bad)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={"PYTHONPATH": str(SRC), "PATH": "/usr/bin:/bin"},
+    )
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert done.stderr.startswith(f"error: --robot-file: {bad}: "), done.stderr
 
 
 def test_mesh_shapes_which_name_server_files_are_refused_everywhere(client):

@@ -46,6 +46,9 @@ def serve(
     rules_dir: Annotated[
         Path | None, typer.Option(help="The folder a task's rule_files may name files in (else none).")
     ] = None,
+    robot_file: Annotated[
+        list[Path], typer.Option(help="A robot file requests may name by robot_file (repeatable; else none).")
+    ] = [],  # noqa: B006
     cors_origin: Annotated[
         list[str], typer.Option(help="Allow this browser origin (repeatable; default: CORS off).")
     ] = [],  # noqa: B006
@@ -82,6 +85,7 @@ def serve(
             body_limit=body_limit,
             query={"time_limit": query_time_limit, "row_limit": row_limit, "byte_limit": response_limit},
             rules_dir=rules_dir,
+            robot_files=robot_file,
             cors_origins=cors_origin,
             allowed_hosts=allowed_host,
             max_connections=max_connections,
@@ -93,6 +97,13 @@ def serve(
         field = ".".join(str(p) for p in first["loc"])
         option = OPTIONS.get(field, field.replace("_", "-"))
         raise HriplanError(f"--{option}: {first['msg'].removeprefix('Value error, ')}") from None
+    from hriplan.robots.descriptions.registry import load_robot_file
+
+    for path in config.robot_files:  # a bad robot file is one line now, not at a request
+        try:
+            load_robot_file(path)
+        except HriplanError as exc:
+            raise HriplanError(f"--robot-file: {exc}") from None
     config.check_binding()
     _enough_file_descriptors(config.max_connections)
     uvicorn.run(

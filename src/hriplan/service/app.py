@@ -421,6 +421,7 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         body_timeout=config.body_timeout,
         allowed_hosts=config.allowed_hosts,
         allowed_origins=config.cors_origins,
+        robot_files=config.robot_files,
     )
     if config.cors_origins:
         app.add_middleware(

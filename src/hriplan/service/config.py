@@ -40,6 +40,9 @@ class ServiceConfig(BaseModel):
     rules_dir: Path | None = Field(
         default=None, description="The only folder `rule_files` of a task may name files in."
     )
+    robot_files: list[Path] = Field(
+        default_factory=list, description="The robot files a request's `robot_file` may name (else none)."
+    )
     query: QueryLimits = Field(default_factory=QueryLimits)
     max_sessions: int = Field(default=64, ge=1)
     max_tasks: int = Field(default=64, ge=1)

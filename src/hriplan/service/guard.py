@@ -14,6 +14,7 @@ from __future__ import annotations
 import asyncio
 import hmac
 import json
+from pathlib import Path
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -24,18 +25,42 @@ from hriplan.service.config import is_loopback
 YAML_TYPES = ("application/yaml", "application/x-yaml", "text/yaml", "text/x-yaml")
 
 
-def body_as_json(body: bytes, syntax: str) -> bytes:
+def robot_files_named(data: object) -> list[str]:
+    """Every non-empty `robot_file` in a parsed body (tasks, problems and trajectories carry one)."""
+    if isinstance(data, dict):
+        own = [data["robot_file"]] if isinstance(data.get("robot_file"), str) and data["robot_file"] else []
+        return own + [f for value in data.values() for f in robot_files_named(value)]
+    if isinstance(data, list):
+        return [f for value in data for f in robot_files_named(value)]
+    return []
+
+
+def refuse_robot_files(data: object, allowed: frozenset[str]) -> None:
+    """A robot file is a file on the server: a request may name only those it was started with
+    (--robot-file), else reading it would tell a client about any file the server can read."""
+    for named in robot_files_named(data):
+        if str(Path(named).resolve()) not in allowed:
+            raise ValueError(
+                f"robot_file {named!r} is not one of the robot files this server was started with "
+                "(hriplan serve --robot-file FILE); name a built-in robot or one of those"
+            )
+
+
+def body_as_json(body: bytes, syntax: str, robot_files: frozenset[str] = frozenset()) -> bytes:
     """A JSON or YAML request body as JSON bytes, read by the same reader as files (a key given
     twice, a value JSON has no type for, deep nesting: one line); YAML aliases are refused, since a
-    few bytes of them can expand to gigabytes. A ValueError says what is wrong."""
+    few bytes of them can expand to gigabytes; a robot file not in `robot_files` (absolute paths)
+    is refused. A ValueError says what is wrong."""
     try:
         text = body.decode("utf-8")
     except UnicodeDecodeError:
         raise ValueError("body: not UTF-8 text") from None
     try:
-        return json.dumps(parse_data(text, syntax, aliases=False)).encode()
+        data = parse_data(text, syntax, aliases=False)
     except HriplanError as exc:
         raise ValueError(f"body: {exc}") from None
+    refuse_robot_files(data, robot_files)
+    return json.dumps(data).encode()
 
 
 async def _refuse(send: Send, status: int, message: str, headers: list[tuple[bytes, bytes]] = ()) -> None:  # type: ignore[assignment]
@@ -69,8 +94,10 @@ class Guard:
         body_timeout: float = 30.0,
         allowed_hosts: list[str] | tuple[str, ...] = (),
         allowed_origins: list[str] | tuple[str, ...] = (),
+        robot_files: list[Path] | tuple[Path, ...] = (),
     ) -> None:
         self.app, self.body_limit, self.token, self.body_timeout = app, body_limit, token, body_timeout
+        self.robot_files = frozenset(str(Path(f).resolve()) for f in robot_files)
         self.allowed_hosts = {h.lower() for h in allowed_hosts}
         self.allowed_origins = set(allowed_origins)
 
@@ -126,9 +153,11 @@ class Guard:
                 await _refuse(send, 413, f"the request body is larger than the limit of {self.body_limit} bytes")
                 return
         content_type = headers.get("content-type", "").split(";")[0].strip().lower()
-        if content_type in YAML_TYPES or (content_type == "application/json" and body.strip()):
+        # FastAPI reads a body without a content type as JSON too: it goes through the same reader
+        if content_type in YAML_TYPES or (content_type in ("application/json", "") and body.strip()):
             try:
-                body = bytearray(body_as_json(bytes(body), "json" if content_type == "application/json" else "yaml"))
+                syntax = "yaml" if content_type in YAML_TYPES else "json"
+                body = bytearray(body_as_json(bytes(body), syntax, self.robot_files))
             except ValueError as exc:
                 await _refuse(send, 400, str(exc))
                 return
