@@ -75,9 +75,9 @@ def test_a_task_file_names_a_robot_file_and_its_plan_keeps_the_derived_constrain
     assert result.exit_code == 0, result.output
     forget_robot_files()
     written = sorted(tmp_path.glob("cup*.json"))
-    # Held from the top by the gripper pointing down, the cup is upright from the start: no turn
-    # first (a side grasp across the closing fingers held it lying down before the gripper's
-    # hand axes were read from its URDF).
+    # Held from the top (as the task states) by the gripper pointing down, the cup is upright from
+    # the start: no turn first (the top grasp held it lying down before the gripper's hand axes
+    # were read from its URDF). Unstated, the preferred side grasp plans with a turn first.
     assert [p.name for p in written] == ["cup.json"]
     assert load_trajectory(written[0]).grasps == {"cup": "TopGrasp"}
     for path in written:
