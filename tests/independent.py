@@ -28,6 +28,18 @@ from hriplan.robots.robot_geometry import robot_parts
 from hriplan.robots.scene import Scene
 
 
+def urdf_frame_pose(urdf, joint_names, positions, frame: str) -> pin.SE3:
+    """`frame`'s pose by pinocchio on the URDF file itself, the named joints at `positions` and
+    the others at their neutral values (the robot's base at the URDF's root)."""
+    model = pin.buildModelFromUrdf(str(urdf))
+    data = model.createData()
+    q = pin.neutral(model)
+    for name, value in zip(joint_names, positions):
+        q[model.joints[model.getJointId(name)].idx_q] = value
+    pin.framesForwardKinematics(model, data, q)
+    return pin.SE3(data.oMf[model.getFrameId(frame)])
+
+
 def nearest(shape_a: coal.ShapeBase, at_a: pin.SE3, shape_b: coal.ShapeBase, at_b: pin.SE3) -> coal.DistanceResult:
     """coal's distance between two placed shapes, with their nearest points."""
     result = coal.DistanceResult()

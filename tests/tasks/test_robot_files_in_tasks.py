@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 from hriplan.cli.main import app
 from hriplan.planner.trajectory import load_trajectory
 from hriplan.robots.descriptions import registry
-from independent import constraint_violations
+from independent import constraint_violations, urdf_frame_pose
 
 DATA = Path(__file__).parents[1] / "data" / "robots"
 ROBOTS = Path(example_robot_data.getModelPath("panda_description/urdf/panda.urdf")).resolve()
@@ -54,13 +54,7 @@ def test_a_problem_file_names_a_robot_file_and_reaches_its_tool_pose(tmp_path):
     assert trajectory.robot == "panda" and trajectory.robot_file == str((DATA / "panda.yaml").resolve())
     assert registry.DESCRIPTIONS["panda"].source == trajectory.robot_file
     # The last point's tool pose, by pinocchio on the URDF file itself.
-    model = pin.buildModelFromUrdf(str(PANDA_URDF))
-    data = model.createData()
-    q = pin.neutral(model)
-    for name, value in zip(trajectory.joint_names, trajectory.points[-1].positions):
-        q[model.joints[model.getJointId(name)].idx_q] = value
-    pin.framesForwardKinematics(model, data, q)
-    tool = data.oMf[model.getFrameId("panda_hand_tcp")]
+    tool = urdf_frame_pose(PANDA_URDF, trajectory.joint_names, trajectory.points[-1].positions, "panda_hand_tcp")
     assert np.abs(tool.translation - (0.4, 0.3, 0.4)).max() < 1e-4
     assert np.abs(tool.rotation - pin.rpy.rpyToMatrix(3.14159, 0.0, 0.0)).max() < 1e-4
     limits = urdf_limits()

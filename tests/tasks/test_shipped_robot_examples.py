@@ -20,7 +20,7 @@ from hriplan.cli.main import app
 from hriplan.planner.trajectory import load_trajectory
 from hriplan.robots.robot_file import resolve_file
 from hriplan.safety.policy import default_policy
-from independent import clearance, constraint_violations, trajectory_speed_margins
+from independent import clearance, constraint_violations, trajectory_speed_margins, urdf_frame_pose
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 
@@ -45,14 +45,8 @@ def urdf_tool_pose(robot_file: Path, trajectory, tool: str, offset: np.ndarray |
     placed at the file's base pose (its own reading of the YAML)."""
     spec = yaml.safe_load(robot_file.read_text())
     urdf = resolve_file(spec["urdf"], {}, robot_file.parent, "URDF file")
-    model = pin.buildModelFromUrdf(str(urdf))
-    data = model.createData()
-    q = pin.neutral(model)
-    for name, value in zip(trajectory.joint_names, trajectory.points[-1].positions):
-        q[model.joints[model.getJointId(name)].idx_q] = value
-    pin.framesForwardKinematics(model, data, q)
     base = pin.SE3(np.eye(3), np.array(spec.get("base_pose", {}).get("xyz", [0.0, 0.0, 0.0]), dtype=float))
-    at = base * data.oMf[model.getFrameId(tool)]
+    at = base * urdf_frame_pose(urdf, trajectory.joint_names, trajectory.points[-1].positions, tool)
     return at if offset is None else at * pin.SE3(np.eye(3), offset)
 
 
