@@ -234,3 +234,22 @@ def test_ctrl_c_or_sigterm_stops_the_workers_keeps_what_is_done_and_a_rerun_resu
         rerun.stdout
     )
     assert len(_by_key(out)) == 40
+
+
+def test_with_no_route_out_the_ray_sweep_prints_only_its_own_lines(tmp_path):
+    """Offline (as the CI machine is), Ray's core warns on file descriptor 2 that it cannot reach
+    8.8.8.8 to learn its own address: the sweep's stderr stays its own (was: that warning first,
+    so every one-line contract broke). Run in a network namespace with only loopback."""
+    import os
+    import shutil
+    import subprocess
+
+    if not shutil.which("unshare") or subprocess.run(["unshare", "-rn", "true"], capture_output=True).returncode:
+        pytest.skip("no network namespace can be made here (the CI machine is offline by itself)")
+    command = [sys.executable, "-m", "hriplan.cli", "sweep", str(GIVE), "--vary", "planning.seed=1:2:1"]
+    command += ["-o", str(tmp_path / "s"), "--derive-only", "--workers", "1", "--engine", "ray"]
+    offline = ["unshare", "-rn", "sh", "-c", 'ip link set lo up 2>/dev/null || ifconfig lo up; exec "$@"', "sh"]
+    env = os.environ | {"PYTHONPATH": os.pathsep.join(sys.path)}
+    done = subprocess.run(offline + command, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0 and done.stdout.startswith("2 variants: 2 run"), done.stderr
+    assert [line for line in done.stderr.splitlines() if not line.startswith("... ")] == [], done.stderr

@@ -172,8 +172,9 @@ def cluster_runtime_env(extra: dict[str, Any] | None = None) -> dict[str, Any]:
 
 @contextlib.contextmanager
 def _captured_stderr() -> Iterator[Callable[[], str]]:
-    """Ray's C++ core logs connection retries straight to file descriptor 2: keep them aside
-    (read back to explain a failure) instead of dozens of lines on the terminal."""
+    """Ray's C++ core logs straight to file descriptor 2 (connection retries; on a machine with no
+    route out, a warning that it falls back to the host name for its own address): keep them
+    aside (read back to explain a failure) so the sweep's stderr stays its own lines."""
     sys.stderr.flush()
     saved = os.dup(2)
     with tempfile.TemporaryFile("w+") as log:
@@ -199,8 +200,9 @@ def _own_sigterm() -> Iterator[None]:
             signal.signal(signal.SIGTERM, previous)
 
 
-def _join(ray: Any, address: str, runtime_env: dict[str, Any]) -> None:
-    """Join a cluster, or one line saying why not, within about 20 s and before anything is written."""
+def _join(ray: Any, address: str, runtime_env: dict[str, Any], logged: Callable[[], str]) -> None:
+    """Join a cluster, or one line saying why not, within about 20 s and before anything is written
+    (`logged` reads what Ray wrote to stderr meanwhile, to tell a refused token)."""
     from ray._private.services import canonicalize_bootstrap_address_or_die
 
     try:
@@ -218,12 +220,11 @@ def _join(ray: Any, address: str, runtime_env: dict[str, Any]) -> None:
         reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
         raise HriplanError(f"cannot reach the Ray cluster at {address} ({gcs}: {reason})") from None
     os.environ.setdefault("RAY_gcs_server_port_wait_time_s", JOIN_RETRIES)
-    with _captured_stderr() as logged:
-        try:
-            ray.init(address=gcs, runtime_env=runtime_env, logging_level="ERROR", log_to_driver=False)
-            return
-        except Exception as exc:  # Ray raises many kinds: each becomes one line
-            failure, log = exc, logged()
+    try:
+        ray.init(address=gcs, runtime_env=runtime_env, logging_level="ERROR", log_to_driver=False)
+        return
+    except Exception as exc:  # Ray raises many kinds: each becomes one line
+        failure, log = exc, logged()
     if "InvalidAuthToken" in log or "Unauthenticated" in log:
         raise HriplanError(
             f"the Ray cluster at {address} refused this client's token: set RAY_AUTH_MODE=token and "
@@ -254,14 +255,14 @@ class RayEngine:
 
         if ray.is_initialized():
             return ray
-        with _own_sigterm():
-            self._init(ray)
+        with _own_sigterm(), _captured_stderr() as logged:
+            self._init(ray, logged)
         self._started = True
         return ray
 
-    def _init(self, ray: Any) -> None:
+    def _init(self, ray: Any, logged: Callable[[], str]) -> None:
         if self.address:
-            _join(ray, self.address, cluster_runtime_env(self.runtime_env))
+            _join(ray, self.address, cluster_runtime_env(self.runtime_env), logged)
         else:
             env = {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)} | _blas_threads()  # as the driver
             # address="local": a runtime of our own even when RAY_ADDRESS names a cluster (joining
