@@ -185,3 +185,20 @@ def test_a_long_list_of_colliding_pairs_is_cut_to_one_line_with_its_count():
     assert shown == [f"link_{k} - alice/segment_{k}" for k in range(len(shown))] and len(shown) >= 4
     assert listed_contacts(many[:2], 200) == "link_0 - alice/segment_0, link_1 - alice/segment_1"
     assert listed_contacts([Contact("a" * 300, "b")] * 3, 200) == "3 colliding pairs"
+
+
+def test_touches_is_any_contact_of_that_geometry_on_random_states(madar, rng):
+    """`touches(q, name)` computes only the pairs of `name` (a retreat asks it at every state):
+    the same answer as looking for `name` in all of `contacts`, on states that touch and not."""
+    clear = madar.configuration(CLEAR)
+    ahead = madar.frame_pose("right_tool", clear)[:3, 3] + (0.0, 0.15, 0.0)  # MADAR faces +y
+    ball = Obstacle(name="ball", shape=Sphere(radius=0.15), pose=Pose(xyz=tuple(ahead)))
+    checker = CollisionChecker(madar, Scene(obstacles=[ball, table("table", (0.5, 0.5, 0.04), 0.72, (0.45, 0.85))]))
+    states = [clear + rng.normal(0.0, 0.4, clear.size) for _ in range(300)]
+    told = [checker.touches(q, "ball") for q in states]
+    assert told == [any("ball" in (c.a, c.b) for c in checker.contacts(q)) for q in states]
+    assert 5 < sum(told) < len(states) - 5  # both answers were asked
+    assert [checker.touches(q, "table") for q in states[:40]] == [
+        any("table" in (c.a, c.b) for c in checker.contacts(q)) for q in states[:40]
+    ]
+    assert checker.touches(states[0], "no such thing") is False

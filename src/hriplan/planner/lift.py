@@ -161,7 +161,7 @@ def _retreat_along(
         if hit is not None:
             told = f"{distance} m away it collides: {_contacts(checker, hit)}"
             continue
-        touches = [any(released in (c.a, c.b) for c in untouched.contacts(q)) for q in states]
+        touches = [untouched.touches(q, released) for q in states]
         if touches[-1] or (False in touches and True in touches[touches.index(False) :]):
             told = f"{distance} m away the hand {'still' if touches[-1] else 'again'} touches {released}"
             continue

@@ -84,6 +84,7 @@ class PersonPairs:
 # What a build of the scene sets, remembered for the last few builds.
 _BUILT = (
     "kind",
+    "_pairs_of",
     "_touched_by",
     "_resting",
     "_human_slots",
@@ -102,17 +103,35 @@ _BUILT = (
 _REMEMBERED_BUILDS = 8
 
 
+@dataclass
+class _RobotGeometry:
+    """What every checker of one robot (its description and hand postures, at one padding)
+    builds alike: its allowed-collision matrix, its geometry objects and its own pairs. A task
+    makes several checkers of a robot per step (the retreat after a release makes three), each
+    of which built these (~15 ms)."""
+
+    acm: dict[str, str]
+    objects: list[tuple[pin.GeometryObject, str]]
+    internal_pairs: list[tuple[int, int]] | None = None  # made by the first checker's first build
+
+
+_BY_ROBOT: dict[tuple[object, float], _RobotGeometry] = {}  # by robot spec and padding, as robot_parts
+
+
 class CollisionChecker:
     """Robot vs scene, robot vs people, robot self-collision and carried objects vs the rest."""
 
     def __init__(self, robot: Robot, scene: Scene | None = None, padding: float = 0.0) -> None:
         self.robot = robot
         self.parts = robot_parts(robot, padding)
-        self.acm = load_acm(robot, robot_parts(robot))
+        key = (robot.spec, padding)
+        if key not in _BY_ROBOT:
+            self.acm = load_acm(robot, robot_parts(robot))
+            _BY_ROBOT[key] = _RobotGeometry(self.acm, self._robot_objects())
+        self._robot = _BY_ROBOT[key]
+        self.acm, self._robot_geometry = self._robot.acm, self._robot.objects
         self.humans: dict[str, Human] = {}
         self.zones: SeparationZones | None = None
-        self._robot_geometry = self._robot_objects()
-        self._internal_pairs: list[tuple[int, int]] | None = None
         self._builds: dict[str, dict[str, object]] = {}  # most recent last
         self._people_models: dict[str, tuple] = {}  # distance and person models by what is carried and the people
         self.scene: Scene | None = None
@@ -321,11 +340,13 @@ class CollisionChecker:
         gm.removeAllCollisionPairs()
         self._fixed_contacts: set[tuple[int, int]] = set()
         robot = len(self._robot_geometry)
-        if self._internal_pairs is None:  # the robot's own pairs are the same in every scene
-            self._internal_pairs = [(i, j) for i in range(robot) for j in range(i + 1, robot) if self._checked(i, j)]
+        if self._robot.internal_pairs is None:  # the robot's own pairs are the same in every scene
+            self._robot.internal_pairs = [
+                (i, j) for i in range(robot) for j in range(i + 1, robot) if self._checked(i, j)
+            ]
         # A scene geometry pairs only with robot parts and carried objects (added before the rest).
         movers = [i for i, kind in enumerate(self.kind) if kind == "robot" or kind.startswith("attached:")]
-        pairs = list(self._internal_pairs)
+        pairs = list(self._robot.internal_pairs)
         for j in range(robot, gm.ngeoms):
             before = [i for i in movers if i < j]
             if self.kind[j] == "human":  # a person against every part and carried object
@@ -337,6 +358,7 @@ class CollisionChecker:
         for i, j in sorted(pairs):
             gm.addCollisionPair(pin.CollisionPair(i, j))
         self.geom_data = gm.createData()
+        self._pairs_of: dict[str, list[int]] = {}  # a geometry's pairs, as `touches` asks them
         # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
         self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self.geom_data)
 
@@ -409,6 +431,20 @@ class CollisionChecker:
             for p, r in zip(self.geom_model.collisionPairs, self.geom_data.collisionResults)
             if r.isCollision()
         ]
+
+    def touches(self, q: np.ndarray, name: str) -> bool:
+        """Does the geometry `name` touch anything it is checked against at `q`? Only its own
+        pairs are computed (a retreat asks this at every dense state: `contacts` computes all)."""
+        pairs = self._pairs_of.get(name)
+        if pairs is None:
+            i = self._index.get(name)
+            listed = self.geom_model.collisionPairs
+            pairs = [k for k, p in enumerate(listed) if i in (p.first, p.second)] if i is not None else []
+            self._pairs_of[name] = pairs
+        if not pairs:
+            return False
+        pin.updateGeometryPlacements(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q)
+        return any(pin.computeCollision(self.geom_model, self.geom_data, k) for k in pairs)
 
     def human_distance(self, q: np.ndarray) -> tuple[float, str, str]:
         """(distance, robot part, human part) of the closest robot-human pair; inf without people."""
