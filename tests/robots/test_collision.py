@@ -202,3 +202,35 @@ def test_touches_is_any_contact_of_that_geometry_on_random_states(madar, rng):
         any("table" in (c.a, c.b) for c in checker.contacts(q)) for q in states[:40]
     ]
     assert checker.touches(states[0], "no such thing") is False
+
+
+def test_a_build_remembered_where_a_person_stood_measures_where_she_stands_now(madar, rng):
+    """Builds are remembered without the people's poses (a re-plan after a person moved reuses
+    them): each use places the person's capsules, zones and distance models anew. Contacts,
+    the closest distance and the person's pairs equal a fresh checker's at each pose."""
+    from hriplan.robots.collision import SeparationZones
+
+    q0 = madar.configuration(CLEAR)
+    tool = madar.frame_pose("right_tool", q0)[:3, 3]
+    far = HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)
+    near = HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2, reach={"right": tuple(tool)})
+    ball = Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=(3, 3, 3)))
+    joints = {madar.model.getJointId(j) for j in madar.group_joints("right_arm")}
+    zones = SeparationZones(
+        moving_joints=frozenset(joints), distances={"bob": {"middle_thorax": 0.2, "right_hand": 0.1}}
+    )
+    checker = CollisionChecker(madar)
+    states = [q0 + rng.normal(0.0, 0.3, q0.size) for _ in range(20)]
+    for k, person in enumerate((far, near, far, near)):  # each pose after the first is a remembered build
+        elsewhere = ball.model_copy(update={"pose": Pose(xyz=(3, 3, 3 + k))})  # a new build, its people models not
+        for extra in ([elsewhere], [], [ball]):
+            scene = Scene(obstacles=extra, humans=[person])
+            checker.set_world(scene, zones)
+            fresh = CollisionChecker(madar)
+            fresh.set_world(scene, zones)
+            for q in states:
+                assert checker.contacts(q) == fresh.contacts(q)
+                assert checker.human_distance(q) == pytest.approx(fresh.human_distance(q), abs=1e-9)
+                mine, theirs = checker.person_pairs(q, "bob"), fresh.person_pairs(q, "bob")
+                assert np.allclose(mine.distance, theirs.distance, atol=1e-9)
+    assert any(checker.contacts(q) for q in states)  # near: the person and her zones are touched

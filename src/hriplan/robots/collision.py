@@ -101,6 +101,10 @@ _BUILT = (
     "_person_models",
 )
 _REMEMBERED_BUILDS = 8
+# A person's pose (where they stand and reach) moves their capsules; their body (height) and
+# margin make them. Builds are remembered by the body, and placed anew for the pose.
+_PERSON_POSE = {"posture", "position", "yaw", "reach"}
+_PERSON_BODY = {"name", "height", "margin"}
 
 
 @dataclass
@@ -167,7 +171,7 @@ class CollisionChecker:
         """The geometry and pairs of the scene and zones, or the remembered ones of an earlier build
         (planning adds and removes keep-out and separation zones around every call)."""
         key = (
-            self.scene.model_dump_json(),
+            self.scene.model_dump_json(exclude={"humans": {"__all__": _PERSON_POSE}}),
             None
             if self.zones is None
             else (
@@ -180,6 +184,7 @@ class CollisionChecker:
             vars(self).update(self._builds.pop(key))
             for spec in self.scene.humans:  # the Human objects are shared between builds
                 self.humans[spec.name].pose(spec)
+                self._place_person(spec.name)
         else:
             self._build_new()
         self._builds[key] = {name: getattr(self, name) for name in _BUILT}
@@ -253,9 +258,11 @@ class CollisionChecker:
         robot_ids = [i for i, k in enumerate(self.kind) if k == "robot"]
         human_ids = [i for i, k in enumerate(self.kind) if k == "human"]
         self._distance_slots = {i: k for k, i in enumerate(robot_ids + human_ids)}
-        key = self.scene.model_dump_json(include={"attached", "humans"})
+        key = self.scene.model_dump_json(include={"attached": True, "humans": {"__all__": _PERSON_BODY}})
         if key in self._people_models:
             self._distance_model, self._distance_data, self._person_models = self._people_models[key]
+            for name in self.humans:  # built where the people stood then
+                self._place_person(name)
             return
         dm = pin.GeometryModel()
         for i in robot_ids + human_ids:
@@ -399,22 +406,25 @@ class CollisionChecker:
         """Re-pose a person already in the scene: only capsule placements change (and the scene)."""
         if spec.name not in self.humans:
             raise HriplanError(f"the scene has no person {spec.name!r}")
-        self._builds.clear()  # the current build changes in place
-        self._people_models.clear()
-        human = self.humans[spec.name]
-        human.pose(spec)
+        self.humans[spec.name].pose(spec)
         self.scene = self.scene.model_copy(
             update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]}
         )
-        for slot, placement in zip(self._human_slots[spec.name], human.capsule_placements()):
+        self._place_person(spec.name)
+
+    def _place_person(self, name: str) -> None:
+        """Set the person's capsules, and the separation zones grown from them, where the Human
+        stands now, in the build and in the distance and person models. Builds are remembered
+        without the people's poses (a person who moved changes no pair), so using one places them."""
+        placements = self.humans[name].capsule_placements()
+        for slot, placement in zip(self._human_slots[name], placements):
             self.geom_model.geometryObjects[slot].placement = placement
             self._distance_model.geometryObjects[self._distance_slots[slot]].placement = placement
-        placements = human.capsule_placements()
-        for slot, k in self._zone_slots.get(spec.name, []):
+        for slot, k in self._zone_slots.get(name, []):
             self.geom_model.geometryObjects[slot].placement = placements[k]
-        person_model = self._person_models[spec.name][0]
-        first = person_model.ngeoms - len(human.capsules)
-        for k, placement in enumerate(human.capsule_placements()):
+        person_model = self._person_models[name][0]
+        first = person_model.ngeoms - len(placements)
+        for k, placement in enumerate(placements):
             person_model.geometryObjects[first + k].placement = placement
 
     # -- queries --------------------------------------------------------------------------
