@@ -58,7 +58,7 @@ from hriplan.robots.scene import AttachedObject, Box, Capsule, Cylinder, Obstacl
 from hriplan.robots.spatial import Pose
 from hriplan.safety.policy import default_policy
 from hriplan.safety.separation import SeparationPolicy
-from hriplan.tasks.feasibility import Feasibility, StepConstraint, feasible
+from hriplan.tasks.feasibility import Feasibility, feasible
 from hriplan.tasks.load import load_task
 from hriplan.tasks.model import Step, TaskFile
 from hriplan.tasks.pipeline import TaskOutcome, TaskRunner
@@ -137,7 +137,6 @@ __all__ = [
     "SphereConstraint",
     "Status",
     "Step",
-    "StepConstraint",
     "TaskFile",
     "TaskOutcome",
     "TaskRunner",

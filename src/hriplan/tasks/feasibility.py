@@ -20,6 +20,8 @@ from pydantic import BaseModel, Field, ValidationError
 from hriplan import HriplanError
 from hriplan.files import validation_message
 from hriplan.planner.outcome import Status
+from hriplan.planner.trajectory import TrajectoryFile
+from hriplan.rules.infer import DerivedConstraint
 from hriplan.tasks.model import Step, TaskFile, step_name
 from hriplan.tasks.pipeline import StepOutcome, TaskRunner
 from hriplan.tasks.world import in_world
@@ -31,17 +33,6 @@ if TYPE_CHECKING:
 # (they solve in 0.05 s or less), short enough that a task planner can ask for every action.
 TIME_LIMIT = 1.0
 _ANSWERS: weakref.WeakKeyDictionary[PlanningSession, dict[str, Feasibility]] = weakref.WeakKeyDictionary()
-
-
-class StepConstraint(BaseModel):
-    """One constraint the rules derived for the step, and where it came from."""
-
-    id: str
-    kind: str  # the ontology's constraint kind, e.g. UprightFull
-    arm: str
-    anchor: str  # the object or person it is about
-    rules: list[str]  # the rules that required it, then the rules behind their facts
-    reason: str  # the rules' rationale, one line
 
 
 class Feasibility(BaseModel):
@@ -56,9 +47,14 @@ class Feasibility(BaseModel):
         description="Seconds: the duration of the step's motions timed for ISO/TS 15066 (slowed near people), "
         "summed; None when not ok.",
     )
-    constraints: list[StepConstraint] = Field(default_factory=list)
+    constraints: list[DerivedConstraint] = Field(
+        default_factory=list, description="What the rules derived for the step: each constraint and why (its rules)."
+    )
     reason: str = ""
     motions: list[str] = Field(default_factory=list, description="The motions planned: the step and those added.")
+    trajectories: list[TrajectoryFile] = Field(
+        default_factory=list, description="When ok: the validated, timed motions, in order, as a task's plan has them."
+    )
 
 
 def feasible(
@@ -121,10 +117,7 @@ def _one_step(state: TaskFile, step: Step | str, time_limit: float) -> TaskFile:
 def _answer(name: str, steps: list[StepOutcome]) -> Feasibility:
     """The answer from the step's outcomes (its own motion and those the pipeline added)."""
     main = next((s for s in steps if s.name == name), steps[-1])
-    constraints = [
-        StepConstraint(id=c.spec.id, kind=c.kind, arm=c.arm, anchor=c.anchor, rules=c.rules, reason=c.reason)
-        for c in main.derivation.constraints
-    ]
+    constraints = main.derivation.constraints
     motions = [s.name for s in steps]
     failed = next((s for s in steps if s.status != Status.SOLVED), None)
     if failed is not None:
@@ -136,5 +129,13 @@ def _answer(name: str, steps: list[StepOutcome]) -> Feasibility:
             reason=f"{failed.name}: {failed.message}" if failed.name != name else failed.message,
             motions=motions,
         )
-    cost = sum(s.trajectory.points[-1].time_from_start for s in steps if s.trajectory is not None)
-    return Feasibility(step=name, ok=True, status=Status.SOLVED, cost=cost, constraints=constraints, motions=motions)
+    trajectories = [s.trajectory for s in steps if s.trajectory is not None]
+    return Feasibility(
+        step=name,
+        ok=True,
+        status=Status.SOLVED,
+        cost=sum(t.points[-1].time_from_start for t in trajectories),
+        constraints=constraints,
+        motions=motions,
+        trajectories=trajectories,
+    )
