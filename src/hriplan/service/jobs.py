@@ -110,8 +110,9 @@ def feasible_in_session(payload: dict[str, Any]) -> Reply:
         session.set_configuration(request.configuration)
     rules_dir = payload.get("rules_dir")
     answer = feasible(session, request.state, request.step, Path(rules_dir or "."), request.time_limit)
-    kept = None if payload.get("trajectories") else {"trajectories"}
-    return answer.model_dump_json(by_alias=True, exclude=kept), JSON
+    if not payload.get("trajectories"):
+        answer = answer.model_copy(update={"trajectories": []})
+    return answer.model_dump_json(by_alias=True), JSON
 
 
 JOBS = {
