@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import weakref
+from collections import OrderedDict
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -32,7 +33,8 @@ if TYPE_CHECKING:
 # The planning budget of one answer (s): enough for a handover's constrained motion on MADAR
 # (they solve in 0.05 s or less), short enough that a task planner can ask for every action.
 TIME_LIMIT = 1.0
-_ANSWERS: weakref.WeakKeyDictionary[PlanningSession, dict[str, Feasibility]] = weakref.WeakKeyDictionary()
+KEPT_ANSWERS = 256  # per session, the most recently asked (an answer holds its motions)
+_ANSWERS: weakref.WeakKeyDictionary[PlanningSession, OrderedDict[str, Feasibility]] = weakref.WeakKeyDictionary()
 
 
 class Feasibility(BaseModel):
@@ -82,8 +84,9 @@ def feasible(
         ],
         sort_keys=True,
     )
-    answers = _ANSWERS.setdefault(session, {})
+    answers = _ANSWERS.setdefault(session, OrderedDict())
     if key in answers:
+        answers.move_to_end(key)
         return answers[key]
     placed, grasps = in_world(task, world, session.roles)
     if session.configuration is not None:
@@ -95,8 +98,10 @@ def feasible(
     finally:
         session.set_scene(world)
         session.set_constraints(constraints)
-    answers[key] = _answer(step_name(task.steps[0], 0), outcome.steps)
-    return answers[key]
+    answer = answers[key] = _answer(step_name(task.steps[0], 0), outcome.steps)
+    while len(answers) > KEPT_ANSWERS:
+        answers.popitem(last=False)
+    return answer
 
 
 def _one_step(state: TaskFile, step: Step | str, time_limit: float) -> TaskFile:
