@@ -133,6 +133,9 @@ def report(title: str, choice: Choice) -> None:
         else:
             print(f"  {action}: infeasible ({answer.status}): {answer.reason}")
     print(f"  plan: {'; '.join(choice.plan) or 'none'}")
+    refused = [action for action, answer in choice.answers.items() if not answer.ok]
+    allowed = f"without {', '.join(refused)}, which hriplan refused" if refused else "every robot action allowed"
+    print(f"  why: pyperplan's shortest plan, {allowed}")
 
 
 def main() -> None:
