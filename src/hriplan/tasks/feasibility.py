@@ -25,7 +25,7 @@ from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.rules.infer import DerivedConstraint
 from hriplan.tasks.model import Step, TaskFile, step_name
 from hriplan.tasks.pipeline import StepOutcome, TaskRunner
-from hriplan.tasks.world import in_world
+from hriplan.tasks.world import continued, in_world
 
 if TYPE_CHECKING:
     from hriplan.planner.session import PlanningSession
@@ -88,17 +88,16 @@ def feasible(
     if key in answers:
         answers.move_to_end(key)
         return answers[key]
+    name = step_name(task.steps[0], 0)
     placed, grasps = in_world(task, world, session.roles)
     if session.configuration is not None:
-        placed = placed.model_copy(
-            update={"start": placed.start.model_copy(update={"joints": placed.start.joints | session.configuration})}
-        )
+        placed = continued(placed, name, session.configuration)
     try:
         outcome = TaskRunner(placed, Path(base_dir), session=session).run(plan=True, grasps=grasps)
     finally:
         session.set_scene(world)
         session.set_constraints(constraints)
-    answer = answers[key] = _answer(step_name(task.steps[0], 0), outcome.steps)
+    answer = answers[key] = _answer(name, outcome.steps)
     while len(answers) > KEPT_ANSWERS:
         answers.popitem(last=False)
     return answer
