@@ -9,6 +9,7 @@
 
     outcome = run_task(load_task("examples/handover_full_can.yaml"), session)  # rules decide
     rest = run_task(task, session, from_step="place_can")                  # continue where it stopped
+    feasible(session, task, "place_can").ok                                # a task planner's question
 
 Safe by default: near people `session.plan` is timed to ISO/TS 15066 with the ontology's policy
 for them (`session.policy()`: by `session.roles`, else bystanders; `default_policy` and
@@ -57,8 +58,9 @@ from hriplan.robots.scene import AttachedObject, Box, Capsule, Cylinder, Obstacl
 from hriplan.robots.spatial import Pose
 from hriplan.safety.policy import default_policy
 from hriplan.safety.separation import SeparationPolicy
+from hriplan.tasks.feasibility import Feasibility, feasible
 from hriplan.tasks.load import load_task
-from hriplan.tasks.model import TaskFile
+from hriplan.tasks.model import Step, TaskFile
 from hriplan.tasks.pipeline import TaskOutcome, TaskRunner
 from hriplan.tasks.world import continued, in_world
 
@@ -116,6 +118,7 @@ __all__ = [
     "ConstraintSet",
     "Cylinder",
     "CylinderConstraint",
+    "Feasibility",
     "FrameRef",
     "HumanSpec",
     "JointTarget",
@@ -133,12 +136,14 @@ __all__ = [
     "Sphere",
     "SphereConstraint",
     "Status",
+    "Step",
     "TaskFile",
     "TaskOutcome",
     "TaskRunner",
     "ToolTarget",
     "TrajectoryFile",
     "default_policy",
+    "feasible",
     "load_robot",
     "load_robot_file",
     "load_task",

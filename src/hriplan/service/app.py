@@ -37,6 +37,7 @@ from hriplan.service.guard import Guard
 from hriplan.service.schemas import (
     ErrorBody,
     ExplainResponse,
+    FeasibleRequest,
     JobState,
     PlanResponse,
     SessionCreate,
@@ -47,6 +48,7 @@ from hriplan.service.schemas import (
 )
 from hriplan.service.sparql_protocol import add_sparql_routes
 from hriplan.service.workers import Busy, PoolError, WorkerPool
+from hriplan.tasks.feasibility import Feasibility
 from hriplan.tasks.model import TaskFile
 from hriplan.tasks.pipeline import TaskOutcome, step_name
 
@@ -387,6 +389,24 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
         state = session(session_id)
         payload = {"state": state.model_dump(mode="json"), "request": body.model_dump(mode="json"), "ros": ros}
         return await run(request, "session_plan", payload)
+
+    @app.post("/sessions/{session_id}/feasible", response_model=Feasibility, tags=["sessions"])
+    async def feasible_in_session(
+        request: Request, session_id: str, body: FeasibleRequest, trajectories: bool = False
+    ) -> Response:
+        """Whether a task step can be done from a state in the session's world, at what cost (seconds
+        of ISO/TS 15066-timed motion), under which derived constraints, else why not: a task
+        planner's question, answered by planning and validating the step with a short budget.
+        With ?trajectories=true the answer carries the validated motions too."""
+        state = session(session_id)
+        refuse_server_files(body)
+        payload = {
+            "state": state.model_dump(mode="json"),
+            "request": body.model_dump(mode="json", by_alias=True),
+            "rules_dir": _rules_dir(body.state, config),
+            "trajectories": trajectories,
+        }
+        return await run(request, "session_feasible", payload)
 
     # -- stored tasks, for SPARQL --------------------------------------------------------------
     def stored(task_id: str) -> dict[str, Any]:

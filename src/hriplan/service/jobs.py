@@ -10,6 +10,7 @@ request's scene and constraints (rebuilding only when they changed).
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from hriplan.planner.problem import PlanningProblem
@@ -19,12 +20,14 @@ from hriplan.service.query_jobs import JSON, Reply, task_runner
 from hriplan.service.ros import joint_trajectory
 from hriplan.service.schemas import (
     ExplainResponse,
+    FeasibleRequest,
     PlanResponse,
     SessionPlanRequest,
     SessionState,
     StepExplanation,
     TaskPlanResponse,
 )
+from hriplan.tasks.feasibility import feasible
 
 
 def derive(payload: dict[str, Any]) -> Reply:
@@ -98,6 +101,20 @@ def plan_in_session(payload: dict[str, Any]) -> Reply:
     )
 
 
+def feasible_in_session(payload: dict[str, Any]) -> Reply:
+    """Whether a step can be done from a state in the session's world, the robot where the request has it."""
+    session = _session(SessionState.model_validate(payload["state"]))
+    request = FeasibleRequest.model_validate(payload["request"])
+    session.configuration = None  # where another request left the worker's session is not this robot's
+    if request.configuration is not None:
+        session.set_configuration(request.configuration)
+    rules_dir = payload.get("rules_dir")
+    answer = feasible(session, request.state, request.step, Path(rules_dir or "."), request.time_limit)
+    if not payload.get("trajectories"):
+        answer = answer.model_copy(update={"trajectories": []})
+    return answer.model_dump_json(by_alias=True), JSON
+
+
 JOBS = {
     "constraints": derive,
     "explain": explain_task,
@@ -105,4 +122,5 @@ JOBS = {
     "solve": solve,
     "session_check": check_session,
     "session_plan": plan_in_session,
+    "session_feasible": feasible_in_session,
 }

@@ -15,6 +15,8 @@ from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.scene import Scene
 from hriplan.service.ros import JointTrajectory
+from hriplan.tasks.feasibility import TIME_LIMIT
+from hriplan.tasks.model import Step, TaskFile
 from hriplan.tasks.pipeline import StepOutcome
 
 SessionId = str
@@ -99,6 +101,22 @@ class SessionPlanRequest(BaseModel):
     goal: Target
     options: PlanOptions = Field(default_factory=PlanOptions)
     group: str | None = None
+
+
+class FeasibleRequest(BaseModel):
+    """A task planner's question: can this step be done from this state (`hriplan.api.feasible`)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    state: TaskFile = Field(
+        description="The world as a task file states it (objects and who holds them, people and roles, tables, "
+        "start); the session's scene overrides it where it perceives the same people and objects."
+    )
+    step: Step | str = Field(description="A step as a task file writes one, or the name of one of the state's steps.")
+    configuration: dict[str, float] | None = Field(
+        default=None, description="Where the robot is now (joint values); default: the state's start."
+    )
+    time_limit: float = Field(default=TIME_LIMIT, gt=0.0, le=60.0, description="The planning budget, seconds.")
 
 
 class StoredTask(BaseModel):
