@@ -40,7 +40,7 @@ def export(
     \b
     Example:
       hriplan plan examples/handover_full_can.yaml -o out/can.json
-      hriplan export out/can.take_can.json out/can.place_can.json out/can.place_can_release.json -o out/can.bag
+      hriplan export out/can.take_can.json out/can.place_can.json out/can.place_can_release.json -o out/can_bag
     """
     from hriplan.cli.outputs import directory_output
     from hriplan.formats.rosbag import export_bag

@@ -243,7 +243,12 @@ class Written:
 
 
 def check_output(path: Path, force: bool) -> None:
-    """A bag is a directory: an existing one is replaced only with `force`, and only if it is a bag."""
+    """A bag is a directory: an existing one is replaced only with `force`, and only if it is a
+    bag. Not named `.bag`: rosbags' AnyReader takes that for a ROS 1 bag file."""
+    if path.suffix == ".bag":
+        raise HriplanError(
+            f"--output {path}: .bag names a ROS 1 bag file; a ROS 2 bag is a directory, name it without .bag"
+        )
     if not path.exists():
         return
     if not force:
