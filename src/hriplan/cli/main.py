@@ -46,7 +46,7 @@ def main(
       hriplan explain examples/handover_full_can.yaml          the rules and facts behind each one
       hriplan plan examples/handover_full_can.yaml -o out/can.json --html out/can.html --plots out/plots
       hriplan validate out/can.take_can.json                   re-check a trajectory densely
-      hriplan export out/can.*.json -o out/can_bag             the steps as a ROS 2 bag (MoveIt, ros2_control)
+      hriplan export out/can.take_can.json out/can.place_can.json -o out/can_bag   steps in order, as a ROS 2 bag
       hriplan query --task examples/handover_full_can.yaml "SELECT ?c WHERE { ?h hp:isConstrainedBy ?c }"
       hriplan import-kautham problem.xml --plan                a Kautham problem, converted and planned
       hriplan robot info madar                                 joints, groups, limits, tool frames

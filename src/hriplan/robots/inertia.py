@@ -111,4 +111,5 @@ def with_inertias(urdf: str) -> str:
         if link.find("inertial") is not None:
             link.remove(link.find("inertial"))
         _inertial(link, found)
+    ET.indent(root)
     return ET.tostring(root, encoding="unicode")
