@@ -273,3 +273,47 @@ def test_bad_topics_are_one_line(topic, says, planned, tmp_path):
     result = cli("export", planned / "peg.json", "-o", tmp_path / "out_bag", "--topic", topic)
     assert result.exit_code == 2 and says in result.stderr and len(result.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "out_bag").exists()
+
+
+def test_controllers_come_from_the_description_a_grippers_too(module_robot_registry):
+    from hriplan.formats.rosbag import controllers, finger_values
+    from hriplan.robots.descriptions.registry import load_robot_file
+
+    panda = load_robot_file(EXAMPLES / "robots" / "panda.yaml")
+    found = {c.name: (c.topic, c.joints) for c in controllers(panda)}
+    assert found == {
+        "arm_controller": ("/arm_controller/joint_trajectory", tuple(f"panda_joint{k}" for k in range(1, 8))),
+        "arm_hand_controller": (
+            "/arm_hand_controller/joint_trajectory",
+            ("panda_finger_joint1", "panda_finger_joint2"),
+        ),
+    }
+    # the robot file's gripper: open 0.04 m per finger, closed 0
+    assert finger_values(panda, "arm", "release") == {"panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}
+    assert finger_values(panda, "arm", "closed") == {"panda_finger_joint1": 0.0, "panda_finger_joint2": 0.0}
+
+
+def test_a_failed_write_leaves_the_old_bag_and_no_temporary(planned, tmp_path, monkeypatch):
+    from hriplan.cli import outputs
+    from hriplan.formats import rosbag
+
+    out = tmp_path / "out_bag"
+    assert cli("export", planned / "peg.json", "-o", out).exit_code == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def broken(self, connection, timestamp, data):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(rosbag.Writer, "write", broken)
+    with pytest.raises(OSError, match="disk full"):
+        rosbag.export_bag(can_files(planned), out, force=True)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out_bag"]
+    # an interrupted export: Ctrl-C removes the bag being made beside the output
+    half = tmp_path / ".out_bag.0123456789abcdef.tmp" / "out_bag"
+    half.mkdir(parents=True)
+    (half / "metadata.yaml").write_text("half")
+    monkeypatch.setattr(outputs, "_NAMED", [])
+    outputs.directory_output(out)
+    outputs.remove_partial_outputs()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out_bag"]

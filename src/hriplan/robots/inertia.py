@@ -5,7 +5,8 @@ Gazebo drops a link without mass and ROS tooling (KDL, MoveIt's dynamics, physic
 positive mass and a physical inertia on every link; hriplan plans kinematics only. Its built-in
 URDFs state no inertia for the UR5 links, the torso, the wheels, the hand adapters and the tool
 frames; upstream URDFs state some that are not physical (zero mass on the Panda's and UR10's
-frames, Allegro fingertips whose principal moments break the triangle inequality).
+frames, the Allegro's last finger links before the tips, whose principal moments break the
+triangle inequality).
 A link with collision shapes (else visual shapes) gets the inertia of its shapes as solids of
 DENSITY (each primitive exactly; a mesh by its closed surface, or its bounding box where the
 surface encloses no volume), summed with overlaps counted twice; a link with no shape (a frame)
