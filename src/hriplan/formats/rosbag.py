@@ -267,22 +267,15 @@ def export_bag(
     found = controllers(description, topics)
     store = typestore()
     stamps = step_stamps(steps)
-    timeline = [(0, None, display_trajectory(store, description, steps, stamps))]
+    timeline = [(0, DISPLAY_TOPIC, DISPLAY_TRAJECTORY, display_trajectory(store, description, steps, stamps))]
     for step, stamp in zip(steps, stamps):
-        timeline += [(stamp, c, m) for c, m in step_messages(store, description, found, step, stamp)]
-    with atomic_directory(output) as where:
-        with Writer(where, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-            connections = {DISPLAY_TOPIC: writer.add_connection(DISPLAY_TOPIC, DISPLAY_TRAJECTORY, typestore=store)}
-            for c in found:
-                if any(controller == c for _, controller, _ in timeline):
-                    connections[c.topic] = writer.add_connection(c.topic, JOINT_TRAJECTORY, typestore=store)
-            for stamp, controller, message in timeline:
-                topic, kind = (
-                    (DISPLAY_TOPIC, DISPLAY_TRAJECTORY) if controller is None else (controller.topic, JOINT_TRAJECTORY)
-                )
-                writer.write(connections[topic], stamp, store.serialize_cdr(message, kind))
-    counts: dict[str, int] = {}
-    for _, controller, _ in timeline:
-        topic = DISPLAY_TOPIC if controller is None else controller.topic
-        counts[topic] = counts.get(topic, 0) + 1
+        timeline += [
+            (stamp, c.topic, JOINT_TRAJECTORY, m) for c, m in step_messages(store, description, found, step, stamp)
+        ]
+    kinds = {topic: kind for _, topic, kind, _ in timeline}  # the topics that carry a message, in order
+    with atomic_directory(output) as where, Writer(where, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        connections = {topic: writer.add_connection(topic, kind, typestore=store) for topic, kind in kinds.items()}
+        for stamp, topic, kind, message in timeline:
+            writer.write(connections[topic], stamp, store.serialize_cdr(message, kind))
+    counts = {topic: sum(t == topic for _, t, _, _ in timeline) for topic in kinds}
     return Written(output, counts, sum(s.points[-1].time_from_start for s in steps))
