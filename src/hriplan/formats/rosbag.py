@@ -54,15 +54,14 @@ class Controller:
 def controllers(description: RobotDescription, topics: Mapping[str, str] | None = None) -> list[Controller]:
     """The robot's controllers, each on `/{name}/joint_trajectory` unless `topics` names another
     topic for it (controller name -> absolute topic name)."""
-    found = []
+    groups = []  # (name, arm, joints, hand)
     for arm_name, arm in description.arms.items():
-        found.append(Controller(f"{arm.group}_controller", "", arm_name, arm.joints, hand=False))
+        groups.append((f"{arm.group}_controller", arm_name, arm.joints, False))
         if arm.hand is not None:
-            hand = hand_model(arm.hand)
-            fingers = tuple(hand.joint_name(arm.prefix, j) for j in hand.joint_values(hand.postures[0]))
-            found.append(Controller(f"{arm_name}_hand_controller", "", arm_name, fingers, hand=True))
+            fingers = finger_values(description, arm_name, hand_model(arm.hand).postures[0])
+            groups.append((f"{arm_name}_hand_controller", arm_name, tuple(fingers), True))
     topics = dict(topics or {})
-    names = [c.name for c in found]
+    names = [name for name, *_ in groups]
     if unknown := sorted(set(topics) - set(names)):
         raise HriplanError(f"--topic {unknown[0]}: robot {description.name!r} has controllers {', '.join(names)}")
     for name, topic in topics.items():
@@ -71,7 +70,7 @@ def controllers(description: RobotDescription, topics: Mapping[str, str] | None 
                 f"--topic {name}={topic}: not an absolute ROS topic name (e.g. /{name}/joint_trajectory)"
             )
     found = [
-        Controller(c.name, topics.get(c.name, f"/{c.name}/joint_trajectory"), c.arm, c.joints, c.hand) for c in found
+        Controller(n, topics.get(n, f"/{n}/joint_trajectory"), arm, joints, hand) for n, arm, joints, hand in groups
     ]
     taken = [c.topic for c in found] + [DISPLAY_TOPIC]
     if twice := next((t for t in taken if taken.count(t) > 1), None):
