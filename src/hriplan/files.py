@@ -11,6 +11,7 @@ import glob
 import json
 import os
 import secrets
+import shutil
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -173,8 +174,27 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         raise
 
 
+@contextmanager
+def atomic_directory(path: str | Path) -> Iterator[Path]:
+    """Where to make a new directory that replaces `path` when the block ends (an old one there
+    is moved aside, then removed): the same name in a new temporary folder beside `path`
+    (`.NAME.<random>.tmp`, which `temporaries` finds), removed on any failure. A reader sees the
+    old directory or the new one, whole (for a moment, between two renames, neither)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    folder = path.with_name(f".{path.name}.{secrets.token_hex(8)}.tmp")
+    folder.mkdir()
+    try:
+        yield folder / path.name
+        if path.exists():
+            os.replace(path, folder / f"{path.name}.replaced")
+        os.replace(folder / path.name, path)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 def temporaries(path: Path) -> list[Path]:
-    """The temporaries `atomic_path` has open for `path` (what an interrupted command removes)."""
+    """The temporaries `atomic_path` (files) and `atomic_directory` (folders) have open for `path` (what an interrupted command removes)."""
     return list(path.parent.glob(f".{glob.escape(path.name)}.*.tmp"))
 
 

@@ -8,6 +8,7 @@ any reasoning or planning. Files are written through a temporary `.NAME.<random>
 
 from __future__ import annotations
 
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -56,4 +57,7 @@ def remove_partial_outputs() -> None:
     for path in _NAMED:
         candidates = temporaries(path) + (list(path.rglob(".*.tmp")) if path.is_dir() else [])
         for tmp in candidates:
-            tmp.unlink(missing_ok=True)
+            if tmp.is_dir():  # a directory being made (files.atomic_directory: a bag)
+                shutil.rmtree(tmp, ignore_errors=True)
+            else:
+                tmp.unlink(missing_ok=True)

@@ -1,4 +1,5 @@
-"""`hriplan robot urdf`: the assembled URDF with mesh paths that work on another machine.
+"""`hriplan robot urdf`: the assembled URDF with mesh paths that work on another machine, and an
+inertia on every link (robots/inertia.py: simulators and ROS tooling want one).
 
 Inside hriplan the meshes are absolute paths into the installed example-robot-data. The exported
 file names them `package://example-robot-data/robots/...` instead: the package root is the
@@ -25,12 +26,14 @@ def package_root() -> Path:
 
 
 def portable_urdf(urdf: str, mesh_dir: Path | None = None) -> str:
-    """`urdf` with every mesh below example-robot-data as a package:// URI (or a path in `mesh_dir`)."""
+    """`urdf` with an inertia on every link and every mesh below example-robot-data as a
+    package:// URI (or a path in `mesh_dir`)."""
     from hriplan.robots.assets import robots_dir
+    from hriplan.robots.inertia import with_inertias
 
     if mesh_dir is not None and not mesh_dir.is_dir():
         raise HriplanError(f"--mesh-dir {mesh_dir}: no such directory")
-    root, installed = ET.fromstring(urdf), str(robots_dir()) + "/"
+    root, installed = ET.fromstring(with_inertias(urdf)), str(robots_dir()) + "/"
     for mesh in root.iter("mesh"):
         filename = mesh.get("filename", "")
         if filename.startswith(installed):
