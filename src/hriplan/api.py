@@ -59,10 +59,10 @@ from hriplan.robots.spatial import Pose
 from hriplan.safety.policy import default_policy
 from hriplan.safety.separation import SeparationPolicy
 from hriplan.tasks.feasibility import Feasibility, feasible
+from hriplan.tasks.in_session import run_in_session
 from hriplan.tasks.load import load_task
 from hriplan.tasks.model import Step, TaskFile
 from hriplan.tasks.pipeline import TaskOutcome, TaskRunner
-from hriplan.tasks.world import continued, in_world
 
 PERSON_FRAMES: tuple[str, ...] = Human.FRAMES
 
@@ -75,38 +75,14 @@ def run_task(
     from_step: str | None = None,
     advance: bool = True,
 ) -> TaskOutcome:
-    """Derive every step's constraints with the rules and plan it, on `session` if given.
-
-    On a session the task is planned in the session's world (`tasks/world.py`): the task's
-    people and objects as the file places them unless the session perceives them elsewhere, plus
-    everything else the session perceives (obstacles, people, what the robot holds). `from_step`
-    continues the task from that step, the robot where the session's `configuration` has it,
-    holding what the session's scene has it hold. The session's own constraints are put back
-    afterwards; with `advance` its scene, configuration and roles become what the solved steps
-    leave (as if executed), so the task can be continued; without, its scene is put back too.
-    """
+    """Derive every step's constraints with the rules and plan it, on `session` if given: in
+    the session's world, continued `from_step` where its robot is, the session advanced to
+    where the solved steps leave it (`tasks/in_session.py` says how)."""
     if session is None:
         if from_step is not None:
             raise HriplanError("continuing a task (from_step) needs the session whose state it continues")
         return TaskRunner(task, Path(base_dir)).run(plan=True)
-    world, constraints = session.checker.scene, list(session.constraints.values())
-    placed, grasps = in_world(task, world, session.roles)
-    if from_step is not None:
-        if session.configuration is None:
-            raise HriplanError(
-                "the session does not know where the robot is: plan on it, run a task or set_configuration first"
-            )
-        placed = continued(placed, from_step, session.configuration)
-    try:
-        outcome = TaskRunner(placed, Path(base_dir), session=session).run(plan=True, grasps=grasps)
-    finally:
-        session.set_scene(world)
-        session.set_constraints(constraints)
-    if advance:
-        session.set_scene(outcome.world)
-        session.configuration = outcome.end
-        session.roles |= {h.name: h.role for h in task.humans}
-    return outcome
+    return run_in_session(task, session, base_dir, from_step=from_step, advance=advance)
 
 
 __all__ = [

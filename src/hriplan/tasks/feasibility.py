@@ -23,9 +23,9 @@ from hriplan.files import validation_message
 from hriplan.planner.outcome import Status
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.rules.infer import DerivedConstraint
+from hriplan.tasks.in_session import run_in_session
 from hriplan.tasks.model import Step, TaskFile, step_name
-from hriplan.tasks.pipeline import StepOutcome, TaskRunner
-from hriplan.tasks.world import continued, in_world
+from hriplan.tasks.pipeline import StepOutcome
 
 if TYPE_CHECKING:
     from hriplan.planner.session import PlanningSession
@@ -73,7 +73,7 @@ def feasible(
     `configuration` when it knows it, else at the state's start. The session's scene and
     constraints are put back: asking changes nothing."""
     task = _one_step(state, step, time_limit)
-    world, constraints = session.checker.scene, list(session.constraints.values())
+    world = session.checker.scene
     key = json.dumps(
         [
             task.model_dump(mode="json", by_alias=True),
@@ -89,14 +89,8 @@ def feasible(
         answers.move_to_end(key)
         return answers[key]
     name = step_name(task.steps[0], 0)
-    placed, grasps = in_world(task, world, session.roles)
-    if session.configuration is not None:
-        placed = continued(placed, name, session.configuration)
-    try:
-        outcome = TaskRunner(placed, Path(base_dir), session=session).run(plan=True, grasps=grasps)
-    finally:
-        session.set_scene(world)
-        session.set_constraints(constraints)
+    start = name if session.configuration is not None else None  # else the state's start posture
+    outcome = run_in_session(task, session, base_dir, from_step=start, advance=False)
     answer = answers[key] = _answer(name, outcome.steps)
     while len(answers) > KEPT_ANSWERS:
         answers.popitem(last=False)
