@@ -433,8 +433,10 @@ class CollisionChecker:
         return bool(pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True))
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
-        """Every colliding pair at `q`, by name (for error messages and reports)."""
-        pin.computeCollisions(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q, False)
+        """Every colliding pair at `q`, by name (for error messages and reports). A free state
+        lists nothing: reading every pair's result back costs more than computing them."""
+        if not pin.computeCollisions(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q, False):
+            return []
         names = self.geom_model.geometryObjects
         return [
             Contact(names[p.first].name, names[p.second].name)
