@@ -13,6 +13,7 @@ from hriplan.cli.errors import OneLineErrors, clear_errors
 from hriplan.cli.serve import serve
 from hriplan.cli.sweeps import SWEEP_COMMANDS
 from hriplan.cli.tasks import TASK_COMMANDS
+from hriplan.cli.validate import validate
 from hriplan.cli.view import plot, view
 
 app = typer.Typer(
@@ -45,6 +46,7 @@ def main(
       hriplan explain examples/handover_full_can.yaml          the rules and facts behind each one
       hriplan plan examples/handover_full_can.yaml -o out/can.json --html out/can.html --plots out/plots
       hriplan validate out/can.take_can.json                   re-check a trajectory densely
+      hriplan validate msg.yaml --task TASK --step NAME        a ROS JointTrajectory, checked in a task step
       hriplan query --task examples/handover_full_can.yaml "SELECT ?c WHERE { ?h hp:isConstrainedBy ?c }"
       hriplan import-kautham problem.xml --plan                a Kautham problem, converted and planned
       hriplan robot info madar                                 joints, groups, limits, tool frames
@@ -181,5 +183,12 @@ def solve(
     raise typer.Exit(code)
 
 
-for _name, _command in {"view": view, "plot": plot, "serve": serve, **TASK_COMMANDS, **SWEEP_COMMANDS}.items():
+for _name, _command in {
+    "view": view,
+    "plot": plot,
+    "serve": serve,
+    **TASK_COMMANDS,
+    "validate": validate,
+    **SWEEP_COMMANDS,
+}.items():
     app.command(_name)(clear_errors(_command))
