@@ -108,17 +108,15 @@ class PlacedTrajectory(BaseModel):
     notes: list[str] = Field(default_factory=list)
 
 
-def _documents(text: str, syntax: str) -> list[str]:
-    return [text] if syntax == "json" else [d for d in _DOCUMENT_END.split(text) if d.strip()]
-
-
-def _message_data(path: Path) -> object:
-    """The one message a file holds, as data (a YAML stream's empty documents left out)."""
+def _message_data(path: Path, only: bool = True) -> object:
+    """The message a file holds, as data (a YAML stream's empty documents left out): the only
+    one (else one line), or with `only` False the first."""
     syntax = "json" if path.suffix == ".json" else "yaml"
-    documents = _documents(read_text(path, "JointTrajectory message"), syntax)
+    text = read_text(path, "JointTrajectory message")
+    documents = [text] if syntax == "json" else [d for d in _DOCUMENT_END.split(text) if d.strip()]
     if not documents:
         raise HriplanError(f"{path}: the file is empty")
-    if len(documents) > 1:
+    if len(documents) > 1 and only:
         raise HriplanError(
             f"{path}: holds {len(documents)} messages (separated by ---); give one (ros2 topic echo --once)"
         )
@@ -132,7 +130,7 @@ def is_joint_trajectory_message(path: str | Path) -> bool:
     """Does `path` look like a ROS JointTrajectory (a mapping with one of its fields and no hriplan
     `schema`)? Anything unreadable is not one (the trajectory reader then says why)."""
     try:
-        data = _message_data(Path(path))
+        data = _message_data(Path(path), only=False)
     except HriplanError:
         return False
     return isinstance(data, dict) and "schema" not in data and any(f in data for f in MESSAGE_FIELDS)

@@ -67,18 +67,29 @@ class Spline:
         off = h * (s * (1 - s) ** 2 * (v0 - m) - s**2 * (1 - s) * (v1 - m))
         return np.abs(off).max(axis=(1, 2))
 
+    def accelerations(self) -> np.ndarray:
+        """The spline's largest |acceleration| in every segment (rows) and joint (columns): at an
+        end, since a cubic's acceleration is linear in time."""
+        h = np.diff(self.times)[:, None]
+        dp = np.diff(self.positions, axis=0)
+        v0, v1 = self.velocities[:-1], self.velocities[1:]
+        start = (6 * dp / h - 4 * v0 - 2 * v1) / h
+        end = (-6 * dp / h + 2 * v0 + 4 * v1) / h
+        return np.maximum(np.abs(start), np.abs(end))
+
     def executed_states(self, tolerance: float = CHORD_TOLERANCE) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Times, positions and velocities of the written points plus spline samples in every
         segment that bulges more than `tolerance`, so that straight lines between the states
-        stay within about `tolerance` of the spline (a cubic's bulge over a piece 1/n as long is
-        about 1/n^2 as large)."""
+        stay within `tolerance` of the spline (a straight line between samples dt apart is off a
+        curve by at most dt^2/8 times its largest acceleration)."""
         times, positions, velocities = [self.times[:1]], [self.positions[:1]], [self.velocities[:1]]
+        h, accelerations = np.diff(self.times), self.accelerations().max(axis=1)
         for k, bulge in enumerate(self.bulges()):
-            pieces = 1 if bulge <= tolerance else int(np.ceil(2.0 * np.sqrt(bulge / tolerance)))
+            pieces = 1 if bulge <= tolerance else int(np.ceil(h[k] * np.sqrt(accelerations[k] / (8.0 * tolerance))))
             s = np.arange(1, pieces + 1) / pieces
             p, v = self.at(k, s)
             p[-1], v[-1] = self.positions[k + 1], self.velocities[k + 1]  # the written point itself
-            times.append(self.times[k] + s * (self.times[k + 1] - self.times[k]))
+            times.append(self.times[k] + s * h[k])
             positions.append(p)
             velocities.append(v)
         return np.concatenate(times), np.vstack(positions), np.vstack(velocities)
