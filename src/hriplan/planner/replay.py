@@ -143,7 +143,8 @@ class PlannedWorld:
         return group
 
     def speed_check(self, policy: SeparationPolicy) -> SpeedCheck:
-        """ISO/TS 15066 speed and separation at every written point and velocity, for `policy`."""
+        """ISO/TS 15066 speed and separation at every written point and spline sample (the states a
+        controller passes, with their velocities), for `policy`."""
         monitor = ApproachMonitor(self.robot, self.checker, policy, self.group(), self.planning_q(self.positions[0]))
         times, positions, velocities = self.spline().executed_states()
         try:
