@@ -14,6 +14,7 @@ from hriplan.cli.export import export
 from hriplan.cli.serve import serve
 from hriplan.cli.sweeps import SWEEP_COMMANDS
 from hriplan.cli.tasks import TASK_COMMANDS
+from hriplan.cli.validate import validate
 from hriplan.cli.view import plot, view
 
 app = typer.Typer(
@@ -46,6 +47,7 @@ def main(
       hriplan explain examples/handover_full_can.yaml          the rules and facts behind each one
       hriplan plan examples/handover_full_can.yaml -o out/can.json --html out/can.html --plots out/plots
       hriplan validate out/can.take_can.json                   re-check a trajectory densely
+      hriplan validate msg.yaml --task TASK --step NAME        a ROS JointTrajectory, checked in a task step
       hriplan export out/can.take_can.json out/can.place_can.json -o out/can_bag   steps in order, as a ROS 2 bag
       hriplan query --task examples/handover_full_can.yaml "SELECT ?c WHERE { ?h hp:isConstrainedBy ?c }"
       hriplan import-kautham problem.xml --plan                a Kautham problem, converted and planned
@@ -189,6 +191,7 @@ for _name, _command in {
     "serve": serve,
     "export": export,
     **TASK_COMMANDS,
+    "validate": validate,
     **SWEEP_COMMANDS,
 }.items():
     app.command(_name)(clear_errors(_command))

@@ -1,4 +1,4 @@
-"""Task commands: plan, constraints, explain, query, validate, import-kautham, schema.
+"""Task commands: plan, constraints, explain, query, import-kautham, schema (validate: cli/validate.py).
 
 Exit codes: 0 success, 1 planning (or validation) failed with the reason, 2 bad input, 130
 interrupted. Outputs are checked before the work starts (`cli/outputs.py`).
@@ -238,42 +238,6 @@ def query(
     typer.echo(result.render(output_format))
 
 
-def validate(
-    trajectory: Annotated[Path, typer.Argument(help="A trajectory file.", show_default=False)],
-    task: TaskOption = None,
-    quiet: Quiet = False,
-) -> None:
-    """Re-check a trajectory densely against its constraints and collisions, and its speed near
-    people against ISO/TS 15066 at every written point (exit 1 if it fails)."""
-    from hriplan.planner.replay import PlannedWorld
-    from hriplan.safety.policy import default_policy
-    from hriplan.safety.separation import NO_MARGIN
-
-    plan_file = load_for_task(trajectory, task, quiet)
-    world = PlannedWorld.load(plan_file)
-    result = world.validate()
-    for check in result.constraints:
-        typer.echo(
-            f"{check.id:32s} worst margin {check.max_violation:+.4f} {'kept' if check.satisfied else 'VIOLATED'}"
-        )
-    typer.echo(f"collision: {result.collision or 'none'}; checked {result.states_checked} states")
-    speed = None
-    if plan_file.report.separation and plan_file.scene.humans:  # timed for people: re-check it, by their roles
-        roles = {trace.person: trace.role for trace in plan_file.report.separation if trace.role}
-        margin = plan_file.report.safety_margin or NO_MARGIN  # as the file was timed
-        policy = default_policy(plan_file.robot, plan_file.scene.humans, roles).model_copy(update={"margin": margin})
-        speed = world.speed_check(policy)
-        typer.echo(
-            f"speed and separation (ISO/TS 15066, {margin}): {'kept' if speed.kept else 'EXCEEDED'}, {speed.message}"
-        )
-    if not result.valid:
-        typer.echo(f"invalid: {result.message}", err=True)
-        raise typer.Exit(1)
-    if speed is not None and not speed.kept:
-        typer.echo(f"invalid: faster than ISO/TS 15066 allows near people: {speed.message}", err=True)
-        raise typer.Exit(1)
-
-
 def import_kautham(
     problem: Annotated[Path, typer.Argument(help="A Kautham problem file (XML).", show_default=False)],
     output: Annotated[
@@ -328,7 +292,6 @@ TASK_COMMANDS = {
     "constraints": constraints,
     "explain": explain,
     "query": query,
-    "validate": validate,
     "import-kautham": import_kautham,
     "schema": schema,
 }

@@ -1,14 +1,17 @@
 """The planned world rebuilt from a trajectory file alone: robot, people, bound constraints, states.
 
 A trajectory file is self-contained (robot, hand postures, start configuration, scene, resolved
-constraints), so the viewer, the plots and `hriplan validate` need nothing else. Constraints are
-bound again with the planner's own code so that margins are exactly the ones the validator
-computes.
+constraints), so the viewer, the plots and `hriplan validate` need nothing else; a motion made
+elsewhere (a ROS JointTrajectory placed in a task step: formats/ros_trajectory.py) has the same
+parts. Constraints are bound again with the planner's own code so that margins are exactly the
+ones the validator computes. What is checked is what a controller executes: the spline through
+the written points (planner/spline.py).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -16,12 +19,45 @@ from hriplan import HriplanError
 from hriplan.planner.constraints.binding import BoundConstraint, bind, set_goal_positions
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.motion import with_keep_out
-from hriplan.planner.trajectory import TrajectoryFile
+from hriplan.planner.spline import Spline
+from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryPoint
 from hriplan.planner.validate import PathValidation, validate_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot, load_robot
+from hriplan.robots.scene import Scene
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.safety.separation import SPEED_LIMIT_SLACK, SeparationPolicy
+
+
+class Motion(Protocol):
+    """What a re-check needs of a motion: a trajectory file (`TrajectoryFile`) has it, and so has
+    a ROS JointTrajectory placed in a task step or a problem (`PlacedTrajectory`)."""
+
+    robot: str
+    hands: dict[str, str]
+    joint_names: list[str]
+    start: dict[str, float]  # every joint of the robot at the start
+    scene: Scene
+    points: list[TrajectoryPoint]
+    constraints: list[ResolvedConstraint]
+
+
+@dataclass(frozen=True)
+class MotionSetting:
+    """Where a motion made elsewhere is checked, as a planned one would be: the robot (every joint
+    at the start), the scene, the constraints placed in it, the ISO/TS 15066 policy (None: no
+    one to keep a speed from) and the velocity scale the joint speed limits are taken at.
+    `unknown_start` names the joints whose start is not known (an earlier task step moves them,
+    and nothing is planned to find where it leaves them): a motion must give them itself."""
+
+    robot: str
+    hands: dict[str, str]
+    start: dict[str, float]
+    scene: Scene
+    constraints: list[ResolvedConstraint]
+    policy: SeparationPolicy | None
+    velocity_scale: float = 1.0
+    unknown_start: frozenset[str] = frozenset()
 
 
 @dataclass(frozen=True)
@@ -32,13 +68,13 @@ class SpeedCheck:
 
 @dataclass
 class PlannedWorld:
-    trajectory: TrajectoryFile
+    trajectory: Motion
     robot: Robot
     checker: CollisionChecker
     constraints: list[BoundConstraint]
 
     @classmethod
-    def load(cls, trajectory: TrajectoryFile) -> PlannedWorld:
+    def load(cls, trajectory: Motion) -> PlannedWorld:
         if not trajectory.points:
             raise HriplanError("the trajectory has no points")
         robot = load_robot(trajectory.robot, trajectory.hands or None)
@@ -65,6 +101,11 @@ class PlannedWorld:
     def positions(self) -> np.ndarray:
         """Planned joint values at the trajectory's points (rows), in `joint_names` order."""
         return np.array([p.positions for p in self.trajectory.points])
+
+    def spline(self) -> Spline:
+        """The path a controller follows through the written points (positions and velocities)."""
+        velocities = np.array([p.velocities for p in self.trajectory.points])
+        return Spline(self.times, self.positions, velocities.reshape(self.positions.shape))
 
     def positions_at(self, times: np.ndarray) -> np.ndarray:
         """Planned joint values at any times (linear between the timed points, which are dense)."""
@@ -102,11 +143,12 @@ class PlannedWorld:
         return group
 
     def speed_check(self, policy: SeparationPolicy) -> SpeedCheck:
-        """ISO/TS 15066 speed and separation at every written point and velocity, for `policy`."""
+        """ISO/TS 15066 speed and separation at every written point and spline sample (the states a
+        controller passes, with their velocities), for `policy`."""
         monitor = ApproachMonitor(self.robot, self.checker, policy, self.group(), self.planning_q(self.positions[0]))
-        velocities = np.array([p.velocities for p in self.trajectory.points])
+        times, positions, velocities = self.spline().executed_states()
         try:
-            scales = monitor.speed_scale(self.positions, velocities)
+            scales = monitor.speed_scale(positions, velocities)
         except HriplanError as exc:  # a moving part inside a person's S_0
             return SpeedCheck(kept=False, message=str(exc))
         k = int(np.argmin(scales))
@@ -117,18 +159,64 @@ class PlannedWorld:
                 if np.isfinite(scales[k])
                 else "no moving part approaches a person",
             )
-        sample = min(monitor.samples(self.positions[k], velocities[k]), key=lambda s: s.scale)  # the person who binds
+        sample = min(monitor.samples(positions[k], velocities[k]), key=lambda s: s.scale)  # the person who binds
         return SpeedCheck(
             kept=False,
             message=(
                 f"{1 / scales[k]:.2f}x the speed allowed towards {sample.capsule} ({sample.part}, {sample.separation:.3f} m away) "
-                f"at t={self.times[k]:.2f} s"
+                f"at t={times[k]:.2f} s"
             ),
         )
 
+    def joint_check(self, velocity_scale: float = 1.0) -> SpeedCheck:
+        """Every joint within its position limits and, between every two points, within its speed
+        limit times `velocity_scale` (the rules' or the problem's): the mean speed the positions
+        imply, then the peak of the controller's spline (SPEED_LIMIT_SLACK allowed, as timing)."""
+        group = self.group()
+        lower, upper = self.robot.limits(group)
+        limit = self.robot.velocity_limit(group) * velocity_scale
+        names, spline = self.trajectory.joint_names, self.spline()
+        times, positions, _ = spline.executed_states()
+        beyond = np.maximum(lower - positions, positions - upper)
+        if beyond.max() > 1e-9:
+            k, j = np.unravel_index(np.argmax(beyond), beyond.shape)
+            return SpeedCheck(
+                False,
+                f"{names[j]} at {positions[k, j]:.4f} rad is beyond its limits [{lower[j]:.4g}, {upper[j]:.4g}] rad "
+                f"at t={times[k]:.3f} s",
+            )
+        if len(self.times) == 1:
+            return SpeedCheck(True, "positions within their limits, at rest")
+        allowed = limit * (1.0 + SPEED_LIMIT_SLACK)
+        mean, peak = spline.mean_speeds(), spline.peak_speeds()
+        for speeds, what in (
+            (mean, "the positions imply"),
+            (peak, "the spline through positions and velocities reaches"),
+        ):
+            if (speeds > allowed).any():
+                k, j = np.unravel_index(np.argmax(speeds / limit), speeds.shape)
+                t0, t1 = self.times[k], self.times[k + 1]
+                moved = self.positions[k + 1, j] - self.positions[k, j]
+                return SpeedCheck(
+                    False,
+                    f"{names[j]} moves {moved:+.4f} rad in {t1 - t0:.4f} s from t={t0:.3f} s: {what} "
+                    f"{speeds[k, j]:.3f} rad/s, {speeds[k, j] / limit[j]:.2f}x its limit {limit[j]:.3f} rad/s"
+                    + ("" if velocity_scale == 1.0 else f" (velocity scale {velocity_scale:g})"),
+                )
+        bulge, added = float(spline.bulges().max()), len(times) - len(self.times)
+        return SpeedCheck(
+            True,
+            f"positions within their limits, speeds at most {(peak / limit).max():.0%} of their limits at velocity scale "
+            f"{velocity_scale:g}; the controller's spline leaves the straight segments by at most {bulge:.1e} rad"
+            + (f" ({added} spline samples checked between the points)" if added else ""),
+        )
+
     def validate(self, step: float = 0.01) -> PathValidation:
-        """Dense validation of the timed points, as the planner validated its path."""
+        """Dense validation of the path the controller follows (straight between the executed
+        states: the written points, plus spline samples where it bulges), as the planner
+        validated its path."""
         group = self.group()
         evaluator = ConstraintEvaluator(self.robot, self.constraints, group, self.planning_q(self.positions[0]))
+        _, states, _ = self.spline().executed_states()
         with with_keep_out(self.checker, self.constraints):
-            return validate_path(evaluator, self.checker, list(self.positions), step)
+            return validate_path(evaluator, self.checker, list(states), step)

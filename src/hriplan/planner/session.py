@@ -35,6 +35,7 @@ from hriplan.planner.motion import (
 )
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
+from hriplan.planner.replay import MotionSetting
 from hriplan.planner.search.ompl_solver import ompl_seed
 from hriplan.planner.timing import TimedPath, at_rest, joined, time_parameterize
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
@@ -172,6 +173,28 @@ class PlanningSession:
         """The enabled constraints with their frames placed in the session's scene (a person's
         hand, an obstacle), as a trajectory planned here would record them."""
         return _resolved(bind(list(constraints), self.robot, self.checker))
+
+    def setting(
+        self,
+        start: JointValues,
+        velocity_scale: float = 1.0,
+        safety: Safety = ONTOLOGY,
+        unknown_start: frozenset[str] = frozenset(),
+    ) -> MotionSetting:
+        """Where a motion made elsewhere (a ROS JointTrajectory) is checked as one planned here
+        would be: from `start` (joints not given at the robot's neutral values, as `plan`), in
+        the session's scene, under its constraints and its ISO/TS 15066 policy by `safety`."""
+        q = self.robot.configuration(start)
+        return MotionSetting(
+            robot=self.robot.name,
+            hands=self.robot.hand_postures,
+            start=dict(zip(self.robot.joint_names, q.tolist())),
+            scene=self.checker.scene,
+            constraints=self.resolve(self.constraints.values()),
+            policy=self.policy(safety),
+            velocity_scale=velocity_scale,
+            unknown_start=unknown_start,
+        )
 
     # -- goals in the session's scene -------------------------------------------------------
     def held_axes(

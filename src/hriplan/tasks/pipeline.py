@@ -24,6 +24,7 @@ from hriplan.planner.motion import JointTarget, MotionResult, Target, ToolTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import SUCCEEDED, Status
 from hriplan.planner.prepare import preparatory_goal
+from hriplan.planner.replay import MotionSetting
 from hriplan.planner.trajectory import ConstraintOrigin, ResolvedConstraint, TrajectoryFile
 from hriplan.robots.descriptions.description import hand_model
 from hriplan.robots.descriptions.registry import posture
@@ -219,7 +220,7 @@ class TaskRunner:
         trajectory records them) fixes the grasp of those objects by name."""
         task, state, robot = self.task, TaskState.initial(self.task), self._robot()
         state.grasps |= {obj: g for obj, g in (grasps or {}).items() if obj in state.held_by_arm}
-        start = posture(task.robot, task.start.posture) | task.start.joints
+        start = task_start(task)
         if plan and task.humans:
             session = self._session()
             session.set_scene(Scene(humans=[human_spec(h) for h in task.humans]))
@@ -631,6 +632,11 @@ def _added_motion(done: StepOutcome, suffix: str, scene: Scene, derivation: Deri
     return done.model_copy(update=update | {"trajectory": None})
 
 
+def task_start(task: TaskFile) -> dict[str, float]:
+    """The joint values a task starts from: its start posture, then the joints it gives."""
+    return posture(task.robot, task.start.posture) | task.start.joints
+
+
 def _pairs(derivation: Derivation) -> list[tuple[str, ConstraintSpec]]:
     """The derived constraints as (arm, constraint) pairs, as the planning session takes them."""
     return [(c.arm, c.spec) for c in derivation.constraints]
@@ -674,3 +680,27 @@ def against_task(trajectory: TrajectoryFile, runner: TaskRunner) -> TrajectoryFi
     session.set_scene(step.scene)
     resolved = session.resolve(c.spec for c in step.derivation.constraints)
     return trajectory.model_copy(update={"constraints": _with_origins(resolved, step.derivation), "scene": step.scene})
+
+
+def step_setting(runner: TaskRunner, name: str) -> MotionSetting:
+    """Where a motion made elsewhere for task step `name` is checked, as `plan` would check its
+    own: the step's scene, constraints (derived by the rules), ISO/TS 15066 policy and velocity
+    scale. Nothing is planned, so the start is the task's start, and the joints of the arms an
+    earlier step moves have no known start (a motion must give them)."""
+    outcome = runner.run(plan=False)
+    index = next((k for k, s in enumerate(outcome.steps) if s.name == name), None)
+    if index is None:
+        steps = ", ".join(s.name for s in outcome.steps)
+        raise HriplanError(f"--step: task {runner.task.name!r} has no step {name!r}; its steps: {steps}")
+    step, session = outcome.steps[index], runner._session()
+    session.set_scene(step.scene)
+    session.set_constraints(c.spec for c in step.derivation.constraints)
+    robot = session.robot
+    moved = frozenset(
+        joint
+        for done in outcome.steps[:index]
+        for arm in done.arms
+        for joint in robot.group_joints(robot.arm_group(arm))
+    )
+    derivation = step.derivation
+    return session.setting(task_start(runner.task), derivation.velocity_scale, derivation.separation, moved)
