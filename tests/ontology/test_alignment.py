@@ -10,6 +10,7 @@ cores, against 10 to 25 s for the consistency alone, so it runs only with HRIPLA
 import os
 from pathlib import Path
 
+import owlready2
 import pyhornedowl
 import pytest
 import rdflib
@@ -64,6 +65,11 @@ def test_hriplan_with_the_alignment_and_soma_is_consistent_under_hermit(soma, tm
     graph = merged(soma, exported)
     assert (rdflib.URIRef(HP + "Pick"), rdflib.RDFS.subClassOf, None) in graph
     graph.serialize(tmp_path / "aligned.owl", format="xml")
+    world = owlready2.World()  # owlready2 loads it (its HermiT run would classify SOMA: minutes)
+    world.get_ontology((tmp_path / "aligned.owl").as_uri()).load()
+    pick, picking_up = world[HP + "Pick"], world["http://www.ease-crc.org/ont/SOMA.owl#PickingUp"]
+    assert any(getattr(c, "value", None) is picking_up for c in pick.is_a)
+    assert world[HP + "Cup"] in world["http://www.ease-crc.org/ont/SOMA.owl#Crockery"].descendants()
     assert hermit_says_consistent(tmp_path / "aligned.owl")
 
 

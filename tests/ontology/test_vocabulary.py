@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 import rdflib
-from rdflib.namespace import OWL, RDF, RDFS, XSD
+from rdflib.namespace import OWL, RDF, RDFS
 
 import hriplan
 from hriplan.ontology.sparql import example_queries, run_query
@@ -17,7 +17,7 @@ HP = rdflib.Namespace("https://hriplan.org/ontology#")
 DCTERMS = rdflib.Namespace("http://purl.org/dc/terms/")
 QUDT_UNIT = rdflib.URIRef("http://qudt.org/schema/qudt/unit")
 UNIT = "http://qudt.org/vocab/unit/"
-NUMERIC = {XSD.decimal, XSD.integer, XSD.double, XSD.float}
+NUMERIC = {rdflib.XSD.decimal, rdflib.XSD.integer, rdflib.XSD.double, rdflib.XSD.float}
 # Numbers without a unit: a factor, a fraction of an object's length, a count, an order.
 DIMENSIONLESS = {"hasVelocityScale", "hasTransientFactor", "hasGraspOffset", "hasChainIndex", "hasPreference"}
 # How the comments write units, read here apart from the annotations they must agree with.
