@@ -1,5 +1,5 @@
 """What a task planner's question costs: `feasible` for the handover of
-examples/task_planner_handover.yaml on a warm session (robot, collision model, reasoner loaded,
+examples/task_planner/deliver_cup.yaml on a warm session (robot, collision model, reasoner loaded,
 the question asked once before).
 
 Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_feasible.py [--repeats 9]
@@ -59,7 +59,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=9)
     args = parser.parse_args()
-    world = load_task(EXAMPLES / "task_planner_handover.yaml")
+    world = load_task(EXAMPLES / "task_planner" / "deliver_cup.yaml")
     session = PlanningSession(world.robot, hands=dict(world.hands))
     warm = feasible(session, world, STEP, EXAMPLES)
     assert warm.ok, warm.reason

@@ -1,7 +1,7 @@
 """A symbolic task planner (unified-planning, with pyperplan as its engine) that asks hriplan
 whether each of the robot's grounded actions can be done before it plans.
 
-MADAR holds a full, open cup (examples/task_planner_handover.yaml); alice asked for it. There are
+MADAR holds a full, open cup (examples/task_planner/deliver_cup.yaml); alice asked for it. There are
 two ways to deliver it: hand it to her (one action), or put it on the table beside her and let
 her take it (two actions, the second hers). pyperplan finds the shortest plan among the actions
 allowed, and an action is allowed only if hriplan's `feasible` says so: its constraints derived
@@ -25,7 +25,7 @@ from unified_planning.engines import PlanGenerationResultStatus
 from hriplan.api import Feasibility, HumanSpec, PlanningSession, Step, feasible, load_task
 
 EXAMPLES = Path(__file__).parent
-WORLD = EXAMPLES / "task_planner_handover.yaml"
+WORLD = EXAMPLES / "task_planner" / "deliver_cup.yaml"
 # Where the robot would put each object down on each table (world frame, m): a grounded place.
 SPOTS = {("cup", "table"): (0.5, 0.8, 0.77)}
 BOB_AWAY = HumanSpec(name="bob", position=(1.4, -0.3), yaw=3.1416)

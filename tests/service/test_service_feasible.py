@@ -14,7 +14,7 @@ from hriplan.planner.trajectory import TrajectoryFile
 from independent import constraint_violations
 
 ROOT = Path(__file__).resolve().parents[2]
-WORLD = yaml.safe_load((ROOT / "examples" / "task_planner_handover.yaml").read_text())
+WORLD = yaml.safe_load((ROOT / "examples" / "task_planner" / "deliver_cup.yaml").read_text())
 BOB = {"name": "bob", "position": [-0.25, 1.4], "yaw": 1.5708}  # beside alice's hand
 
 

@@ -19,7 +19,7 @@ from hriplan.tasks import feasibility
 from independent import clearance, constraint_violations
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
-WORLD = load_task(EXAMPLES / "task_planner_handover.yaml")
+WORLD = load_task(EXAMPLES / "task_planner" / "deliver_cup.yaml")
 BOB_BESIDE_ALICE = HumanSpec(name="bob", position=(-0.25, 1.4), yaw=1.5708)
 HAND_OVER = Step(name="give", goal={"hand_over": "cup", "to": "alice"})
 
