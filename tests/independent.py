@@ -411,11 +411,14 @@ class PathCheck:
         return out
 
 
-def check_path(problem, joint_names: list[str], positions: np.ndarray, step: float = 0.01) -> PathCheck:
+def check_path(
+    problem, joint_names: list[str], positions: np.ndarray, step: float = 0.01, robot: UrdfRobot | None = None
+) -> PathCheck:
     """A planning problem's joint path (the named joints at each row, the others at the
     problem's start) re-checked at states <= `step` rad apart by the geometry here: pinocchio on
-    the URDF, coal on its collision meshes, the orientation error as the specification defines it."""
-    robot = UrdfRobot(problem.robot, dict(problem.hands))
+    the URDF, coal on its collision meshes, the orientation error as the specification defines it.
+    `robot`: the problem's robot with its hands, if one is at hand (building it reads the URDF)."""
+    robot = robot or UrdfRobot(problem.robot, dict(problem.hands))
     arms = description_of(problem.robot).arms
     obstacles = [(o.name, _coal_shape(o.shape), pin.SE3(o.pose.matrix())) for o in problem.scene.obstacles]
     held = [(h, _coal_shape(h.shape), pin.SE3(h.grasp.matrix())) for h in problem.scene.attached]

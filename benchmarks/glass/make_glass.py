@@ -21,6 +21,7 @@ shelves and people are at +y.
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import sys
 from dataclasses import dataclass, field
@@ -43,7 +44,7 @@ from hriplan.robots.spatial import Pose
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-from independent import check_path  # noqa: E402  (the tests' geometry, apart from hriplan's)
+from independent import UrdfRobot, check_path  # noqa: E402  (the tests' geometry, apart from hriplan's)
 
 PANDA_FILE = "../../examples/robots/panda.yaml"  # relative to this folder, as the files name it
 GLASS = Cylinder(radius=0.035, height=0.10)
@@ -227,11 +228,17 @@ def problem(g: Glass) -> PlanningProblem:
     )
 
 
+@functools.cache
+def urdf_robot(name: str, hands: tuple[tuple[str, str], ...]) -> UrdfRobot:
+    return UrdfRobot(name, dict(hands))
+
+
 def refuse_invalid(p: PlanningProblem) -> None:
     """Stop unless the start and the goal are valid by the tests' own geometry."""
     joints = list(p.goal.values)
+    robot = urdf_robot(p.robot, tuple(p.hands.items()))
     for what, values in (("start", [p.start[j] for j in joints]), ("goal", list(p.goal.values.values()))):
-        check = check_path(p, joints, np.array([values]))
+        check = check_path(p, joints, np.array([values]), robot=robot)
         tolerances = {c.id: c.tolerance for c in p.constraints.constraints if c.type == "orientation"}
         breaches = check.breaches(tolerances)
         if breaches:
