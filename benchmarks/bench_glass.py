@@ -1,8 +1,8 @@
 """Carry a glass upright, free to spin about vertical: the 20 problems of benchmarks/glass/ planned
-by hriplan (CBiRRT, the default, and OMPL's RRTConnect on the projected space) and by mplib
+by hriplan (CBiRRT, its default; with --ompl also OMPL's RRTConnect on the projected space) and by mplib
 0.2.1's constrained mode, every path re-checked by the tests' own geometry.
 
-Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_glass.py [--seeds N] [--time-limit S]
+Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_glass.py [--seeds N] [--time-limit S] [--ompl]
      [--only PROBLEM ...] [--no-mplib] [--mplib-python PATH] [--report PATH]
 
 Per problem, planner and seed: hriplan plans, validates and times the motion (ISO/TS 15066 speed
@@ -96,14 +96,14 @@ def recheck(run: Run, problem: PlanningProblem, joints: list[str], positions: np
     run.length = path_length(positions)
 
 
-def hriplan_runs(problem: PlanningProblem, seeds: int, time_limit: float) -> list[Run]:
+def hriplan_runs(problem: PlanningProblem, planners: list[str], seeds: int, time_limit: float) -> list[Run]:
     session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
     session.set_constraints(problem.constraints)
     policy = default_policy(problem.robot, problem.scene.humans, problem.roles)
     runs = []
-    for planner, chosen in PLANNERS.items():
+    for planner in planners:
         for seed in range(1, seeds + 1):
-            options = problem.options.model_copy(update={**chosen, "seed": seed, "time_limit": time_limit})
+            options = problem.options.model_copy(update={**PLANNERS[planner], "seed": seed, "time_limit": time_limit})
             began = time.perf_counter()
             result = session.plan(problem.start, problem.goal, options, problem.group, safety=policy)
             run = Run(problem.name, planner, str(result.status), time.perf_counter() - began)
@@ -204,7 +204,10 @@ def mplib_runs(problems: list[PlanningProblem], python: Path, runs: int, time_li
                 run.solved = True
                 positions = np.array(raw["positions"])
                 recheck(run, problem, raw["joints"], positions)
-                run.note = f"mplib's own check flags {raw['flagged']} of {len(positions)} states"
+                pairs = ", ".join(raw["pairs"][:4]) + (", ..." if len(raw["pairs"]) > 4 else "")
+                run.note = f"{problem.name}: {raw['flagged']} of {len(positions)} states" + (
+                    f" ({pairs})" if pairs else ""
+                )
                 run.cycle = iso_cycle(problem, raw["joints"], positions)
             out.append(run)
     return out, note
@@ -228,6 +231,12 @@ def _f(value: float | None, digits: int = 3) -> str:
     return "-" if value is None or not np.isfinite(value) else f"{value:.{digits}f}"
 
 
+def _median(values: list[float]) -> float | None:
+    """The median of the finite values, None without one."""
+    finite = [v for v in values if np.isfinite(v)]
+    return float(np.median(finite)) if finite else None
+
+
 def summary_rows(runs: list[Run], planners: list[str]) -> list[str]:
     rows = []
     for planner in planners:
@@ -240,9 +249,9 @@ def summary_rows(runs: list[Run], planners: list[str]) -> list[str]:
             f"| {planner} | {len(mine)} | {len(solved)} | {sum(r.valid for r in mine)} | "
             f"{_f(float(np.median(times)), 2)} | {_f(float(np.percentile(times, 90)), 2)} | "
             f"{_f(max((r.tilt for r in solved), default=None), 4)} | "
-            f"{_f(min((r.clearance for r in solved), default=None))} | "
-            f"{_f(float(np.median([r.length for r in solved])) if solved else None, 2)} | "
-            f"{_f(float(np.nanmedian([r.cycle for r in solved])) if solved else None, 2)} |"
+            f"{_f(min((r.clearance for r in solved), default=None), 4)} | "
+            f"{_f(_median([r.length for r in solved]), 2)} | "
+            f"{_f(_median([r.cycle for r in solved]), 2)} |"
         )
     return rows
 
@@ -259,13 +268,13 @@ def problem_rows(runs: list[Run], problems: list[PlanningProblem]) -> list[str]:
             rows.append(
                 f"| {p.name} | {tolerance_of(p)} | {planner} | {len(solved)}/{len(mine)} | "
                 f"{sum(r.valid for r in mine)}/{len(mine)} | "
-                f"{_f(float(np.median([r.seconds for r in solved])) if solved else None, 2)} | "
+                f"{_f(_median([r.seconds for r in solved]), 2)} | "
                 f"{_f(max((r.tilt for r in solved), default=None), 4)} | "
-                f"{_f(min((r.clearance for r in solved), default=None))} | "
+                f"{_f(min((r.clearance for r in solved), default=None), 4)} | "
                 f"{_f(min((r.keep_out for r in solved), default=None))} | "
                 f"{_f(min(speeds, default=None))} | "
-                f"{_f(float(np.median([r.length for r in solved])) if solved else None, 2)} | "
-                f"{_f(float(np.nanmedian([r.cycle for r in solved])) if solved else None, 2)} |"
+                f"{_f(_median([r.length for r in solved]), 2)} | "
+                f"{_f(_median([r.cycle for r in solved]), 2)} |"
             )
     return rows
 
@@ -274,7 +283,7 @@ def report(runs: list[Run], problems: list[PlanningProblem], command: str, note:
     planners = [*PLANNERS, MPLIB]
     failures = sorted({f"{r.planner} on {r.problem}: {r.status}" for r in runs if not r.solved})
     broken = [f"{r.planner} on {r.problem}: {'; '.join(r.breaches)}" for r in runs if r.solved and not r.valid]
-    flagged = sorted({r.note for r in runs if r.note})
+    flagged = sorted(r.note for r in runs if r.note)
     lines = [
         "# Carry a glass upright, free to spin about vertical",
         "",
@@ -310,7 +319,12 @@ def report(runs: list[Run], problems: list[PlanningProblem], command: str, note:
     if broken:
         lines += ["Solved runs the re-check refuses:", "", *[f"- {b}" for b in broken], ""]
     if flagged:
-        lines += ["mplib's own collision check on its returned paths:", "", *[f"- {f}" for f in flagged], ""]
+        lines += [
+            "States of mplib's returned paths that mplib's own collision check (`check_collision`) flags, and the pairs:",
+            "",
+            *[f"- {f}" for f in flagged],
+            "",
+        ]
     return "\n".join(lines)
 
 
@@ -319,6 +333,9 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=2, help="runs per problem and planner (default 2)")
     parser.add_argument("--time-limit", type=float, default=5.0, help="seconds per plan (default 5)")
     parser.add_argument("--only", nargs="*", default=[], help="only these problems (file names without .json)")
+    parser.add_argument(
+        "--ompl", action="store_true", help="also OMPL's RRTConnect on the projected space (slow: it mostly times out)"
+    )
     parser.add_argument("--no-mplib", action="store_true", help="leave mplib out")
     parser.add_argument("--mplib-python", type=Path, default=MPLIB_VENV / "bin" / "python")
     parser.add_argument("--report", type=Path, default=ROOT / "benchmarks" / "REPORT-glass.md")
@@ -327,8 +344,9 @@ def main() -> None:
     paths = [p for p in sorted(GLASS.glob("*.json")) if not args.only or p.stem in args.only]
     problems = [load_problem(p) for p in paths]
     runs: list[Run] = []
+    planners = list(PLANNERS) if args.ompl else list(PLANNERS)[:1]
     for problem in problems:
-        mine = hriplan_runs(problem, args.seeds, args.time_limit)
+        mine = hriplan_runs(problem, planners, args.seeds, args.time_limit)
         runs += mine
         print(
             problem.name,

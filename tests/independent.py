@@ -428,6 +428,7 @@ def check_path(
     check = PathCheck()
     for values in densified(positions, step):
         robot.configure(dict(problem.start) | dict(zip(joint_names, values)))
+        links = moving if check.states else {""}  # every link at the first state, then the moving ones
         check.states += 1
         for c in constraints:
             frame = frames[c.id]
@@ -439,7 +440,7 @@ def check_path(
                 distance, link = robot.surface_distance(c, frame.homogeneous, "")
                 check.keep_out = min(check.keep_out, (distance, f"{link} ({c.id})"))
         for name, shape, at in obstacles:
-            for prefix in moving:
+            for prefix in links:
                 distance, link = robot.nearest_link(shape, at, prefix)
                 check.clearance = min(check.clearance, (distance, f"{link} - {name}"))
             for h, solid, grasp in held:

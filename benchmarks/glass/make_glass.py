@@ -433,10 +433,10 @@ def panda_problems() -> list[Glass]:
 
 def madar_problems() -> list[Glass]:
     top = 0.72
-    table = box("table", (1.2, 0.5, 0.04), (0.0, 0.65, top - 0.02))
+    table = box("table", (1.2, 0.45, 0.04), (0.0, 0.675, top - 0.02))  # clear of the base (y < 0.4)
     clutter = [
         table,
-        can("bottle_1", 0.04, 0.25, 0.26, 0.42, top),
+        can("bottle_1", 0.04, 0.25, 0.3, 0.5, top),
         can("bottle_2", 0.035, 0.25, -0.15, 0.78, top),
         box("crate", (0.18, 0.12, 0.2), (-0.3, 0.75, top + 0.1)),
         can("jug", 0.06, 0.22, 0.0, 0.8, top),

@@ -94,13 +94,18 @@ def solve(job: dict) -> list[dict]:
         run = {"status": result["status"], "seconds": seconds, "joints": moved}
         if result["status"] == "Success":
             path = np.asarray(result["position"])
-            flagged = 0
+            flagged, pairs = 0, set()
             for q in path:
                 full = start.copy()
                 full[planner.move_group_joint_indices] = q
                 planner.robot.set_qpos(full, True)
-                flagged += bool(planner.planning_world.check_collision())
-            run |= {"positions": path.tolist(), "duration": float(result["duration"]), "flagged": flagged}
+                collisions = planner.planning_world.check_collision()
+                flagged += bool(collisions)
+                pairs |= {
+                    " - ".join(sorted((c.link_name1 or c.object_name1, c.link_name2 or c.object_name2)))
+                    for c in collisions
+                }
+            run |= {"positions": path.tolist(), "flagged": flagged, "pairs": sorted(pairs)}
         runs.append(run)
     return runs
 
