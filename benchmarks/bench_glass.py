@@ -303,6 +303,7 @@ def report(runs: list[Run], problems: list[PlanningProblem], command: str, note:
         "TOPP). Tilt: the worst angle of the glass from vertical over all solved runs (rad). Clearance: the",
         "least (m; <= 0 a collision). Path: joint-space length (rad). Cycle: the motion timed by hriplan's",
         "ISO/TS 15066 timing (mplib's paths too, so the times compare; `-` where hriplan refuses to time one).",
+        'What the numbers mean: docs/benchmarks.md, section "Carry a glass upright, free to spin about vertical".',
         "",
         "| planner | runs | solved | valid | collide | tilt > tol | median s | p90 s | worst tilt | least clearance | median path | median cycle s |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
