@@ -388,3 +388,86 @@ def hermit_says_consistent(owl_file) -> bool:
     if line not in verdicts:
         raise AssertionError(f"HermiT gave no verdict: {out.stdout[-500:]} {out.stderr[-500:]}")
     return verdicts[line]
+
+
+# -- a planned joint path against a planning problem (benchmarks/bench_glass.py, its test) ------
+def densified(positions: np.ndarray, step: float) -> np.ndarray:
+    """The states of a joint path taken as straight segments between its rows, no two
+    consecutive ones more than `step` rad apart in any joint (both ends kept)."""
+    positions = np.asarray(positions, dtype=float)
+    states = [positions[:1]]
+    for a, b in zip(positions[:-1], positions[1:]):
+        n = max(1, int(math.ceil(np.max(np.abs(b - a)) / step)))
+        states.append(a + (b - a) * (np.arange(1, n + 1)[:, None] / n))
+    return np.concatenate(states)
+
+
+def _constraint_frame(entity: str, offset, humans) -> pin.SE3:
+    """A constraint frame in the world: `world`, or `PERSON/base` (on the floor at the person's
+    position, turned by their yaw), then the offset."""
+    if entity == "world":
+        at = pin.SE3.Identity()
+    else:
+        name, part = entity.split("/")
+        assert part == "base", f"no independent frame for {entity!r}"
+        person = next(h for h in humans if h.name == name)
+        at = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, person.yaw), np.array([*person.position, 0.0]))
+    return at * pin.SE3(offset.matrix())
+
+
+class PathCheck:
+    """What a joint path did, state by state: the worst orientation error of each orientation
+    constraint (rad), the least clearance of the moving links and held objects from the scene's
+    obstacles (m, negative: penetrating) and the least distance of any link from a keep-out volume."""
+
+    def __init__(self) -> None:
+        self.orientation: dict[str, float] = {}
+        self.clearance = (math.inf, "")
+        self.keep_out = (math.inf, "")
+        self.states = 0
+
+    def breaches(self, tolerances: dict[str, float], slack: float = 1e-6) -> list[str]:
+        """What broke: an orientation beyond its tolerance, a collision, a link in a keep-out."""
+        out = [f"{c} {e:.4f} rad > {tolerances[c]}" for c, e in self.orientation.items() if e > tolerances[c] + slack]
+        out += [f"collision {self.clearance[1]} ({self.clearance[0]:.4f} m)"] if self.clearance[0] <= 0.0 else []
+        out += [f"keep-out entered by {self.keep_out[1]}"] if self.keep_out[0] <= 0.0 else []
+        return out
+
+
+def check_path(
+    problem, joint_names: list[str], positions: np.ndarray, step: float = 0.01, robot: UrdfRobot | None = None
+) -> PathCheck:
+    """A planning problem's joint path (the named joints at each row, the others at the
+    problem's start) re-checked at states <= `step` rad apart by the geometry here: pinocchio on
+    the URDF, coal on its collision meshes, the orientation error as the specification defines it.
+    `robot`: the problem's robot with its hands, if one is at hand (building it reads the URDF)."""
+    robot = robot or UrdfRobot(problem.robot, dict(problem.hands))
+    arms = description_of(problem.robot).arms
+    obstacles = [(o.name, _coal_shape(o.shape), pin.SE3(o.pose.matrix())) for o in problem.scene.obstacles]
+    held = [(h, _coal_shape(h.shape), pin.SE3(h.grasp.matrix())) for h in problem.scene.attached]
+    constraints = problem.constraints.constraints
+    moving = {a.prefix for c in constraints for a in arms.values() if a.tool_frame == c.target_link}
+    frames = {c.id: _constraint_frame(c.frame.entity, c.frame.offset, problem.scene.humans) for c in constraints}
+    check = PathCheck()
+    for values in densified(positions, step):
+        robot.configure(dict(problem.start) | dict(zip(joint_names, values)))
+        links = moving if check.states else {""}  # every link at the first state, then the moving ones
+        check.states += 1
+        for c in constraints:
+            frame = frames[c.id]
+            if c.type == "orientation":
+                assert c.tolerance_gradient == 0.0, "a dynamic tolerance needs the goal's position"
+                error = orientation_error(c, frame.rotation.T @ robot.pose(c.target_link).rotation)
+                check.orientation[c.id] = max(check.orientation.get(c.id, 0.0), error)
+            elif c.region == "outside" and c.keep_out_all_links:
+                distance, link = robot.surface_distance(c, frame.homogeneous, "")
+                check.keep_out = min(check.keep_out, (distance, f"{link} ({c.id})"))
+        for name, shape, at in obstacles:
+            for prefix in links:
+                distance, link = robot.nearest_link(shape, at, prefix)
+                check.clearance = min(check.clearance, (distance, f"{link} - {name}"))
+            for h, solid, grasp in held:
+                placed = robot.pose(arms[h.arm].tool_frame) * grasp
+                distance = nearest(solid, placed, shape, at).min_distance
+                check.clearance = min(check.clearance, (distance, f"{h.name} - {name}"))
+    return check
