@@ -62,10 +62,7 @@ def test_toppra_plots_still_load_pyplot_when_used():
         "print(algorithm.plt.plot is matplotlib.pyplot.plot, parametrizer.plt.subplot is matplotlib.pyplot.subplot)\n"
         "print(type(sys.modules['matplotlib.pyplot']).__name__)\n"
     )
-    env = dict(os.environ, MPLBACKEND="Agg")
-    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, env=env)
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.splitlines() == ["[]", "True True", "module"]
+    assert _probed(probe).splitlines() == ["[]", "True True", "module"]
 
 
 def test_toppra_imported_after_matplotlib_is_left_alone():
@@ -75,7 +72,12 @@ def test_toppra_imported_after_matplotlib_is_left_alone():
         "import toppra.algorithm.algorithm as algorithm\n"
         "print(algorithm.plt is matplotlib.pyplot)\n"
     )
+    assert _probed(probe).split() == ["True"]
+
+
+def _probed(probe: str) -> str:
+    """What `probe` prints, run in a fresh process with a non-interactive matplotlib backend."""
     env = dict(os.environ, MPLBACKEND="Agg")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, env=env)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.split() == ["True"]
+    return out.stdout

@@ -340,16 +340,7 @@ def _expect(path, message, named=None):
 
 
 def test_cli_imports_with_models_and_plans(tmp_path):
-    import subprocess
-    import sys
-
-    def run(*args):
-        return subprocess.run(
-            [sys.executable, "-m", "hriplan.cli", "import-kautham", *map(str, args)],
-            capture_output=True,
-            text=True,
-            timeout=600,
-        )
+    from test_kautham_robot_file import run  # `hriplan import-kautham` in its own process
 
     done = run(UR5_CELL, "--models", MODELS, "-o", tmp_path / "cell.json", "--plan")
     assert done.returncode == 0, done.stderr
