@@ -14,6 +14,7 @@ only as data). It imports nothing from `hriplan.planner.constraints` or `hriplan
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET
 
 import coal
 import numpy as np
@@ -28,16 +29,39 @@ from hriplan.robots.robot_geometry import robot_parts
 from hriplan.robots.scene import Scene
 
 
+class UrdfFile:
+    """A URDF file as the tests read it: pinocchio's model of the file itself (the robot's base
+    at its root), and from its XML the joints' limits (lower, upper, velocity) and mimics
+    (follower -> (leader, multiplier))."""
+
+    def __init__(self, urdf) -> None:
+        self.model = pin.buildModelFromUrdf(str(urdf))
+        self.data = self.model.createData()
+        joints = ET.parse(urdf).getroot().findall("joint")
+        self.limits = {
+            el.get("name"): tuple(float(el.find("limit").get(k)) for k in ("lower", "upper", "velocity"))
+            for el in joints
+            if el.get("type") in ("revolute", "prismatic")
+        }
+        self.mimic = {
+            el.get("name"): (el.find("mimic").get("joint"), float(el.find("mimic").get("multiplier", 1.0)))
+            for el in joints
+            if el.find("mimic") is not None
+        }
+
+    def pose(self, frame: str, values: dict[str, float]) -> np.ndarray:
+        """`frame`'s 4x4 pose, the named joints at `values` and the others at their neutral values."""
+        q = pin.neutral(self.model)
+        for name, value in values.items():
+            q[self.model.joints[self.model.getJointId(name)].idx_q] = value
+        pin.framesForwardKinematics(self.model, self.data, q)
+        return self.data.oMf[self.model.getFrameId(frame)].homogeneous.copy()
+
+
 def urdf_frame_pose(urdf, joint_names, positions, frame: str) -> pin.SE3:
     """`frame`'s pose by pinocchio on the URDF file itself, the named joints at `positions` and
     the others at their neutral values (the robot's base at the URDF's root)."""
-    model = pin.buildModelFromUrdf(str(urdf))
-    data = model.createData()
-    q = pin.neutral(model)
-    for name, value in zip(joint_names, positions):
-        q[model.joints[model.getJointId(name)].idx_q] = value
-    pin.framesForwardKinematics(model, data, q)
-    return pin.SE3(data.oMf[model.getFrameId(frame)])
+    return pin.SE3(UrdfFile(urdf).pose(frame, dict(zip(joint_names, positions))))
 
 
 def nearest(shape_a: coal.ShapeBase, at_a: pin.SE3, shape_b: coal.ShapeBase, at_b: pin.SE3) -> coal.DistanceResult:

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 import shutil
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import example_robot_data
@@ -21,6 +20,7 @@ from hriplan.planner.session import PlanningSession
 from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.ik import ik_solutions, solve_ik
 from hriplan.robots.model import load_robot
+from independent import UrdfFile
 
 DATA = Path(__file__).parents[1] / "data" / "robots"
 ROBOTS = Path(example_robot_data.getModelPath("panda_description/urdf/panda.urdf")).resolve()
@@ -40,27 +40,6 @@ def panda():
 @pytest.fixture(scope="module")
 def ur10():
     return load_robot(load_robot_file(DATA / "ur10.yaml").name)
-
-
-class Independent:
-    """Forward kinematics of a URDF file by pinocchio, meshes from example-robot-data's share folder."""
-
-    def __init__(self, urdf: Path) -> None:
-        self.model = pin.buildModelFromUrdf(str(urdf))
-        self.data = self.model.createData()
-        root = ET.parse(urdf).getroot()
-        self.limits = {
-            el.get("name"): tuple(float(el.find("limit").get(k)) for k in ("lower", "upper", "velocity"))
-            for el in root.findall("joint")
-            if el.get("type") in ("revolute", "prismatic")
-        }
-
-    def pose(self, frame: str, values: dict[str, float]) -> np.ndarray:
-        q = pin.neutral(self.model)
-        for name, value in values.items():
-            q[self.model.joints[self.model.getJointId(name)].idx_q] = value
-        pin.framesForwardKinematics(self.model, self.data, q)
-        return self.data.oMf[self.model.getFrameId(frame)].homogeneous
 
 
 def random_values(robot, rng, n):
@@ -83,7 +62,7 @@ def test_the_panda_is_its_srdf_arm_group_end_effector_and_states(panda):
 @pytest.mark.parametrize("name, urdf, tool", [("panda", PANDA_URDF, "panda_hand_tcp"), ("ur10", UR10_URDF, "tool0")])
 def test_tool_frame_equals_forward_kinematics_of_the_urdf(request, name, urdf, tool):
     robot = request.getfixturevalue(name)
-    independent = Independent(urdf)
+    independent = UrdfFile(urdf)
     for values in random_values(robot, np.random.default_rng(0), 30):
         named = dict(zip(robot.group_joints("arm"), values))
         ours = robot.frame_pose(robot.tool_frame("arm"), values, "arm")
@@ -94,7 +73,7 @@ def test_tool_frame_equals_forward_kinematics_of_the_urdf(request, name, urdf, t
 def test_ik_solutions_reach_their_targets_by_independent_forward_kinematics(request, name, urdf, kind):
     robot = request.getfixturevalue(name)
     assert robot.description.arms["arm"].ik == kind
-    independent = Independent(urdf)
+    independent = UrdfFile(urdf)
     tool = robot.tool_frame("arm")
     failures = 0
     for values in random_values(robot, np.random.default_rng(1), 100):
@@ -112,7 +91,7 @@ def test_ik_solutions_reach_their_targets_by_independent_forward_kinematics(requ
 
 
 def test_numeric_ik_with_a_free_axis_keeps_only_that_axis_direction(panda):
-    independent = Independent(PANDA_URDF)
+    independent = UrdfFile(PANDA_URDF)
     values = np.array([0.3, 0.4, -0.2, -1.8, 0.1, 2.0, 0.5])
     target = independent.pose("panda_hand_tcp", dict(zip(panda.group_joints("arm"), values)))
     spun = target @ np.block([[pin.exp3(np.array([0.0, 0.0, 1.3])), np.zeros((3, 1))], [np.zeros((1, 3)), 1.0]])
@@ -163,7 +142,7 @@ def test_an_analytic_kind_that_does_not_fit_is_one_line(tmp_path):
 
 
 def test_a_panda_joint_goal_plan_keeps_its_urdf_limits_and_continuity(panda):
-    independent = Independent(PANDA_URDF)
+    independent = UrdfFile(PANDA_URDF)
     start = panda.description.postures["default"]
     goal = JointTarget(values={"panda_joint1": 1.0, "panda_joint2": 0.2, "panda_joint4": -1.5, "panda_joint6": 2.0})
     session = PlanningSession(str(DATA / "panda.yaml"))  # a session takes the robot file itself
@@ -197,7 +176,7 @@ def test_velocity_and_acceleration_overrides_and_the_base_pose(tmp_path):
     times = np.array([p.time_from_start for p in result.trajectory.points])
     # Timed by the file's 0.5 rad/s^2 (the planner's default is pi): at least 2 sqrt(1 / 0.5) s.
     assert np.abs(first).max() <= 0.5 * 1.05 and times[-1] >= 2.0 * math.sqrt(2.0) * 0.99
-    independent = Independent(PANDA_URDF)
+    independent = UrdfFile(PANDA_URDF)
     values = np.array([0.3, 0.4, -0.2, -1.8, 0.1, 2.0, 0.5])
     expected = independent.pose("panda_hand_tcp", dict(zip(robot.group_joints("arm"), values)))
     expected[:3, 3] += (0.5, 0.0, 0.8)

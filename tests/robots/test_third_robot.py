@@ -9,12 +9,10 @@ from __future__ import annotations
 
 import math
 import time
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import example_robot_data
 import numpy as np
-import pinocchio as pin
 import pytest
 
 from hriplan.planner.constraints.spec import OrientationConstraint
@@ -28,7 +26,7 @@ from hriplan.robots.model import load_robot
 from hriplan.robots.robot_geometry import robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
-from independent import constraint_violations, person_distances, trajectory_speed_margins
+from independent import UrdfFile, constraint_violations, person_distances, trajectory_speed_margins
 
 FILE = Path(__file__).parents[1] / "data" / "robots" / "baxter.yaml"
 URDF = Path(example_robot_data.getModelPath("baxter_description/urdf/baxter.urdf")) / (
@@ -41,30 +39,11 @@ TIMES: dict[str, float] = {}  # planning times, printed with -s
 pytestmark = pytest.mark.usefixtures("module_robot_registry")
 
 
-class Urdf:
-    """The URDF as this test reads it: pinocchio's forward kinematics of the file, its limits and mimics."""
-
-    def __init__(self) -> None:
-        self.model = pin.buildModelFromUrdf(str(URDF))
-        self.data = self.model.createData()
-        root = ET.parse(URDF).getroot()
-        self.limits = {
-            el.get("name"): tuple(float(el.find("limit").get(k)) for k in ("lower", "upper", "velocity"))
-            for el in root.findall("joint")
-            if el.get("type") in ("revolute", "prismatic")
-        }
-        self.mimic = {
-            el.get("name"): (el.find("mimic").get("joint"), float(el.find("mimic").get("multiplier", 1.0)))
-            for el in root.findall("joint")
-            if el.find("mimic") is not None
-        }
+class Urdf(UrdfFile):
+    """Baxter's URDF as this test reads it, its base lifted by BASE_Z as the robot file stands it."""
 
     def pose(self, frame: str, values: dict[str, float]) -> np.ndarray:
-        q = pin.neutral(self.model)
-        for name, value in values.items():
-            q[self.model.joints[self.model.getJointId(name)].idx_q] = value
-        pin.framesForwardKinematics(self.model, self.data, q)
-        pose = self.data.oMf[self.model.getFrameId(frame)].homogeneous.copy()
+        pose = super().pose(frame, values)
         pose[2, 3] += BASE_Z
         return pose
 
@@ -76,7 +55,7 @@ def baxter():
 
 @pytest.fixture(scope="module")
 def urdf():
-    return Urdf()
+    return Urdf(URDF)
 
 
 def ready(robot) -> dict[str, float]:
