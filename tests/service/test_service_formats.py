@@ -2,8 +2,8 @@
 
 import pytest
 
+from hriplan.formats.ros_trajectory import RosTime
 from hriplan.service.negotiation import NotAcceptable, choose
-from hriplan.service.ros import duration
 
 
 @pytest.mark.parametrize(
@@ -53,4 +53,4 @@ def test_unacceptable_requests_name_what_is_offered():
     ],
 )
 def test_durations_are_whole_seconds_and_nanoseconds(seconds, sec, nanosec):
-    assert duration(seconds).model_dump() == {"sec": sec, "nanosec": nanosec}
+    assert RosTime.of(seconds).model_dump() == {"sec": sec, "nanosec": nanosec}

@@ -1,6 +1,7 @@
-"""A bare ROS `trajectory_msgs/JointTrajectory`, as `ros2 topic echo /topic --once` prints it
-(YAML in block style, ending in `---`) or the same as JSON, placed in a task step or a planning
-problem (`MotionSetting`) so that `hriplan validate` checks it as it checks its own trajectories.
+"""ROS `trajectory_msgs/JointTrajectory` messages: hriplan's trajectories written as one (the
+service's `?ros=true`), and a bare one read as `ros2 topic echo /topic --once` prints it (YAML in
+block style, ending in `---`) or the same as JSON, placed in a task step or a planning problem
+(`MotionSetting`) so that `hriplan validate` checks it as it checks its own trajectories.
 
 The message may name the joints of one arm only, in any order: the motion is the smallest joint
 group holding them, and every joint it omits stays where the setting starts it. Positions and
@@ -19,7 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from hriplan import HriplanError
 from hriplan.files import parse_data, read_text, validation_message
 from hriplan.planner.replay import MotionSetting
-from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryPoint
+from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Scene
 
@@ -41,6 +42,12 @@ class RosTime(BaseModel):
     @property
     def seconds(self) -> float:
         return self.sec + self.nanosec * 1e-9
+
+    @classmethod
+    def of(cls, seconds: float) -> RosTime:
+        """Seconds as whole seconds + nanoseconds, rounded to the nearest nanosecond."""
+        sec, nanosec = divmod(round(seconds * 1e9), 1_000_000_000)
+        return cls(sec=sec, nanosec=nanosec)
 
 
 class RosHeader(BaseModel):
@@ -92,6 +99,21 @@ class JointTrajectoryMessage(BaseModel):
         if self.points[0].time_from_start.seconds < 0.0:
             raise ValueError(f"points.0.time_from_start: {self.points[0].time_from_start.seconds:g} s is negative")
         return self
+
+
+def joint_trajectory_message(trajectory: TrajectoryFile) -> JointTrajectoryMessage:
+    """The planned group's joints and timed points; the header is left empty (stamp 0: start on
+    receipt) and so is effort (hriplan plans kinematics only)."""
+    points = [
+        RosTrajectoryPoint(
+            positions=p.positions,
+            velocities=p.velocities,
+            accelerations=p.accelerations,
+            time_from_start=RosTime.of(p.time_from_start),
+        )
+        for p in trajectory.points
+    ]
+    return JointTrajectoryMessage(joint_names=trajectory.joint_names, points=points)
 
 
 class PlacedTrajectory(BaseModel):

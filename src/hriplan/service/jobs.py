@@ -13,11 +13,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from hriplan.formats.ros_trajectory import joint_trajectory_message
 from hriplan.planner.problem import PlanningProblem
 from hriplan.planner.session import PlanningSession, PlanResult, worker_session
 from hriplan.rules.explain import explain
 from hriplan.service.query_jobs import JSON, Reply, task_runner
-from hriplan.service.ros import joint_trajectory
 from hriplan.service.schemas import (
     ExplainResponse,
     FeasibleRequest,
@@ -45,7 +45,7 @@ def explain_task(payload: dict[str, Any]) -> Reply:
 def plan_task(payload: dict[str, Any]) -> Reply:
     outcome = task_runner(payload).run(plan=True)
     ros = (
-        {s.name: joint_trajectory(s.trajectory) for s in outcome.steps if s.trajectory is not None}
+        {s.name: joint_trajectory_message(s.trajectory) for s in outcome.steps if s.trajectory is not None}
         if payload.get("ros")
         else {}
     )
@@ -61,7 +61,7 @@ def _plan_response(result: PlanResult, ros: bool) -> Reply:
         message=message,
         trajectory=result.trajectory,
         leave=result.leave,
-        joint_trajectory=joint_trajectory(result.trajectory) if ros and result.trajectory else None,
+        joint_trajectory=joint_trajectory_message(result.trajectory) if ros and result.trajectory else None,
     )
     return response.model_dump_json(by_alias=True), JSON
 

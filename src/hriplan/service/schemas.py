@@ -7,6 +7,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from hriplan.formats.ros_trajectory import JointTrajectoryMessage
 from hriplan.planner.constraints.spec import ConstraintSet
 from hriplan.planner.motion import Target
 from hriplan.planner.options import PlanOptions
@@ -14,7 +15,6 @@ from hriplan.planner.outcome import Status
 from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.scene import Scene
-from hriplan.service.ros import JointTrajectory
 from hriplan.tasks.feasibility import TIME_LIMIT
 from hriplan.tasks.model import Step, TaskFile
 from hriplan.tasks.pipeline import StepOutcome
@@ -41,7 +41,7 @@ class PlanResponse(BaseModel):
         description="The leave phase to run first where the start lay in a keep-out volume or a person's "
         "minimum separation: the trajectory starts where it ends.",
     )
-    joint_trajectory: JointTrajectory | None = Field(
+    joint_trajectory: JointTrajectoryMessage | None = Field(
         default=None, description="With ?ros=true: the trajectory as a ROS JointTrajectory."
     )
 
@@ -52,7 +52,7 @@ class TaskPlanResponse(BaseModel):
     task: str
     steps: list[StepOutcome]
     solved: bool
-    joint_trajectories: dict[str, JointTrajectory] = Field(
+    joint_trajectories: dict[str, JointTrajectoryMessage] = Field(
         default_factory=dict, description="With ?ros=true: per solved step."
     )
 
