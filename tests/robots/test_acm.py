@@ -5,7 +5,6 @@ hriplan's fitted capsules: a pair the planner does not check must never touch at
 """
 
 import json
-import re
 import threading
 from pathlib import Path
 from types import SimpleNamespace
@@ -20,61 +19,14 @@ from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.model import load_robot
 from hriplan.robots.robot_geometry import part_collision_shapes, robot_parts
+from independent import UrdfMeshes
 
-FINGER_LINK = re.compile(r"^(\w*?)hand_link_(\d+)\.0(_tip)?$")
-FINGER_PART = re.compile(r"^(\w*?)hand_finger_(\d)$")
 MADAR_BARE = Path(__file__).parents[2] / "examples" / "robots" / "madar_bare.yaml"
 
 
 @pytest.fixture(scope="module")
 def ur5():
     return load_robot("ur5")
-
-
-class UrdfMeshes:
-    """Every collision shape of the URDF, by link, on the full (unreduced) model."""
-
-    def __init__(self, robot) -> None:
-        self.robot = robot
-        self.model = pin.buildModelFromXML(robot.urdf)
-        self.geoms = pin.buildGeomFromUrdfString(self.model, robot.urdf, pin.COLLISION)
-        self.data = self.model.createData()
-        self.by_link: dict[str, list[int]] = {}
-        for i, g in enumerate(self.geoms.geometryObjects):
-            self.by_link.setdefault(self.model.frames[g.parentFrame].name, []).append(i)
-        self.pair_names: dict[tuple[int, int], set[str]] = {}  # shape pair -> the part pairs it stands for
-
-    def links_of(self, part: str) -> list[str]:
-        """The URDF links a part name stands for (fingers group four links; torso parts are on the base)."""
-        finger = FINGER_PART.match(part)
-        if finger:
-            return [
-                link
-                for link in self.by_link
-                if (m := FINGER_LINK.match(link)) and m[1] == finger[1] and int(m[2]) // 4 == int(finger[2])
-            ]
-        return [part] if part in self.by_link else ["madar_base_link"]
-
-    def watch(self, pairs: list[str]) -> None:
-        for pair in pairs:
-            a, b = pair.split("|")
-            for i in (i for link in self.links_of(a) for i in self.by_link[link]):
-                for j in (j for link in self.links_of(b) for j in self.by_link[link]):
-                    key = (min(i, j), max(i, j))
-                    if key not in self.pair_names:  # torso parts share the base link's shapes
-                        self.geoms.addCollisionPair(pin.CollisionPair(*key))
-                    self.pair_names.setdefault(key, set()).add(pair)
-        self.geom_data = self.geoms.createData()
-
-    def touching(self, q: np.ndarray) -> set[str]:
-        """Watched part pairs whose meshes touch at planning configuration `q`."""
-        full = self.robot.full_configuration(dict(zip(self.robot.joint_names, q)))
-        pin.computeCollisions(self.model, self.data, self.geoms, self.geom_data, full, False)
-        touching = set()
-        for cp, r in zip(self.geoms.collisionPairs, self.geom_data.collisionResults):
-            if r.isCollision():
-                touching |= self.pair_names[(cp.first, cp.second)]
-        return touching
 
 
 def _valid_states(checker: CollisionChecker, count: int, seed: int):
@@ -102,7 +54,7 @@ def test_no_unchecked_pair_touches_at_mesh_level(name, states):
     assert touched == {}, f"pairs the planner skips touch at mesh level: {touched}"
 
 
-@pytest.mark.parametrize("name", ["madar", "madar_bare"])
+@pytest.mark.parametrize("name", ["ur5", "madar", "madar_bare"])
 @pytest.mark.usefixtures("robot_registry")
 def test_no_state_is_free_where_the_meshes_touch(name):
     """10 000 random states: wherever two parts that are not adjacent touch on their URDF

@@ -21,6 +21,7 @@ import pinocchio as pin
 from hriplan import HriplanError
 from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
+from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
 from hriplan.robots.robot_geometry import part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
@@ -93,6 +94,8 @@ _BUILT = (
     "geom_model",
     "geom_data",
     "_broadphase",
+    "_quick_data",
+    "_tabled",
     "_fixed_contacts",
     "_index",
     "_distance_model",
@@ -116,6 +119,7 @@ class _RobotGeometry:
 
     acm: dict[str, str]
     objects: list[tuple[pin.GeometryObject, str]]
+    tables: list[tuple[ClearanceTable, list[tuple[int, int]]]]  # and the mesh shape pairs each stands for
     internal_pairs: list[tuple[int, int]] | None = None  # made by the first checker's first build
 
 
@@ -131,7 +135,8 @@ class CollisionChecker:
         key = (robot.spec, padding)
         if key not in _BY_ROBOT:
             self.acm = load_acm(robot, robot_parts(robot))
-            _BY_ROBOT[key] = _RobotGeometry(self.acm, self._robot_objects())
+            objects = self._robot_objects()
+            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects))
         self._robot = _BY_ROBOT[key]
         self.acm, self._robot_geometry = self._robot.acm, self._robot.objects
         self.humans: dict[str, Human] = {}
@@ -153,6 +158,19 @@ class CollisionChecker:
             if part.name in meshed:
                 objects += [(shape, f"mesh:{part.name}") for shape in part_collision_shapes(self.robot, part)]
         return objects
+
+    def _tables(
+        self, objects: list[tuple[pin.GeometryObject, str]]
+    ) -> list[tuple[ClearanceTable, list[tuple[int, int]]]]:
+        """The mesh pairs' clearance tables, each with the pairs of mesh shapes it certifies."""
+        slots: dict[str, list[int]] = {}
+        for i, (_, kind) in enumerate(objects):
+            if kind.startswith("mesh:"):
+                slots.setdefault(kind.split(":", 1)[1], []).append(i)
+        return [
+            (table, [tuple(sorted((i, j))) for i in slots[table.parts[0]] for j in slots[table.parts[1]]])
+            for table in clearance_tables(self.robot, self.parts, self.acm)
+        ]
 
     def set_scene(self, scene: Scene) -> None:
         """Replace the scene's contents (pairs are recomputed; the robot model is kept). The same
@@ -366,8 +384,17 @@ class CollisionChecker:
             gm.addCollisionPair(pin.CollisionPair(i, j))
         self.geom_data = gm.createData()
         self._pairs_of: dict[str, list[int]] = {}  # a geometry's pairs, as `touches` asks them
+        # `in_collision` leaves the mesh pairs with a clearance table to the table first.
+        listed = {(p.first, p.second): k for k, p in enumerate(gm.collisionPairs)}
+        tabled = [(table, [listed[p] for p in pairs]) for table, pairs in self._robot.tables]
+        self._quick_data = gm.createData()
+        for _, pairs in tabled:
+            for k in pairs:
+                self._quick_data.deactivateCollisionPair(k)
+        # A table free in every cell proves the pair never touches (the crossbar and a shoulder).
+        self._tabled = [(table, pairs) for table, pairs in tabled if not table.free.all()]
         # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
-        self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self.geom_data)
+        self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self._quick_data)
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
@@ -429,8 +456,14 @@ class CollisionChecker:
 
     # -- queries --------------------------------------------------------------------------
     def in_collision(self, q: np.ndarray) -> bool:
-        """True if any checked pair collides at planning configuration `q`."""
-        return bool(pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True))
+        """True if any checked pair collides at planning configuration `q`. A tabled mesh pair is
+        checked on its meshes only where its table cannot certify it (the broad phase placed them)."""
+        if pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True):
+            return True
+        return any(
+            not table.certified(q) and any(pin.computeCollision(self.geom_model, self._quick_data, k) for k in pairs)
+            for table, pairs in self._tabled
+        )
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
         """Every colliding pair at `q`, by name (for error messages and reports). A free state

@@ -1,0 +1,310 @@
+"""Joint-space tables that certify a mesh pair free without touching its meshes.
+
+Two links with one link between them (a UR5's base and upper arm, its forearm and wrist 2) are
+checked on their URDF meshes (acm.MESH), which sit 1-2 cm apart in most states: coal's check of
+those two pairs is most of a UR5's collision check (23 of 32 us). Their relative pose depends
+only on the joints between them, so a grid over those joints, computed once per robot, says
+where the pair cannot touch. A cell is certified free when, at each of its corners, every slab
+of the child link's triangles is farther from the parent's shapes than that slab can move
+inside the cell: a point turning about a joint moves at most its distance from the joint's
+origin times the angle. A state in a certified cell skips the meshes; any other state checks
+them exactly, so the answer is always the meshes' answer.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import itertools
+import math
+from dataclasses import dataclass
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from hriplan.robots.acm import MESH
+from hriplan.robots.fit_cache import cached_fit
+from hriplan.robots.model import Robot
+from hriplan.robots.robot_geometry import RobotPart, part_collision_shapes
+
+RULES = "v1: 1-2 revolute joints between; median clearance < 5 cm; 128 cells a turn; 8 slabs; 0.1 mm"
+CELLS_PER_TURN = 128
+SLABS = 8
+EPSILON = 1e-4  # m beyond the bound, for coal's own tolerance
+# A pair whose meshes are farther apart than this in half of the sampled states is cheap to
+# check (coal's bounding volumes part them early): it keeps no table.
+NEAR = 0.05
+NEAR_SAMPLES = 64
+_REVOLUTE = {"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned"}
+
+
+@dataclass(frozen=True)
+class Slab:
+    """Some of the child link's triangles, placed in the child joint's frame, and per joint
+    between the links a bound on how fast any of its points moves about that joint (m/rad)."""
+
+    shape: coal.CollisionGeometry
+    placement: pin.SE3
+    reach: np.ndarray
+
+
+@dataclass(frozen=True)
+class ClearanceTable:
+    """Certified-free cells of one part pair over the joints between its two links."""
+
+    parts: tuple[str, str]
+    q_index: tuple[int, ...]  # the joints' places in q
+    lower: tuple[float, ...]
+    step: tuple[float, ...]
+    cells: tuple[int, ...]
+    periodic: tuple[bool, ...]  # a full turn or more: the grid wraps
+    free: np.ndarray  # bool, flat, row-major over `cells`
+
+    def certified(self, q: np.ndarray) -> bool:
+        """True if the pair cannot touch at `q`; False says nothing (check the meshes)."""
+        flat = 0
+        for i, lower, step, n, wrap in zip(self.q_index, self.lower, self.step, self.cells, self.periodic):
+            c = math.floor((q[i] - lower) / step)
+            if wrap:
+                c %= n
+            elif c == n and q[i] - lower <= step * n:  # the upper limit itself
+                c = n - 1
+            elif not 0 <= c < n:
+                return False
+            flat = flat * n + c
+        return bool(self.free[flat])
+
+
+def _chain(model: pin.Model, joint: int) -> list[int]:
+    """The joint and its ancestors, without the universe."""
+    out = []
+    while joint:
+        out.append(joint)
+        joint = model.parents[joint]
+    return out
+
+
+def joints_between(model: pin.Model, parent_joint: int, child_joint: int) -> list[int] | None:
+    """The joints that move `child_joint`'s body relative to `parent_joint`'s, root first; None if
+    the child is not below the parent."""
+    above = _chain(model, child_joint)
+    if parent_joint and parent_joint not in above:
+        return None
+    return sorted(set(above) - set(_chain(model, parent_joint)))
+
+
+def _points(shape: pin.GeometryObject) -> np.ndarray:
+    """Points whose hull holds the shape, in its joint's frame: a mesh's vertices, a primitive's
+    bounding-box corners."""
+    geometry = shape.geometry
+    if isinstance(geometry, coal.BVHModelBase):
+        local = np.asarray(geometry.vertices())
+    else:
+        geometry.computeLocalAABB()
+        box = geometry.aabb_local
+        local = np.array(list(itertools.product(*zip(box.min_, box.max_))))
+    return local @ shape.placement.rotation.T + shape.placement.translation
+
+
+def slabs(model: pin.Model, joints: list[int], shapes: list[pin.GeometryObject], count: int = SLABS) -> list[Slab]:
+    """The child's shapes, meshes cut into `count` slabs along their longest extent, each with its
+    reach about every joint in `joints`: the offsets of the joints after that joint plus the slab's
+    farthest point from the last joint (a bound on its distance from the joint's axis, whatever
+    the joints between)."""
+    pieces: list[tuple[coal.CollisionGeometry, pin.SE3, np.ndarray]] = []
+    for shape in shapes:
+        geometry = shape.geometry
+        if not (isinstance(geometry, coal.BVHModelBase) and geometry.num_tris > 0):
+            pieces.append((geometry, shape.placement, _points(shape)))
+            continue
+        vertices = _points(shape)
+        triangles = np.array([[geometry.tri_indices(t)[k] for k in range(3)] for t in range(geometry.num_tris)])
+        centres = vertices[triangles].mean(axis=1)
+        along = np.argsort(centres[:, np.argmax(np.ptp(centres, axis=0))])
+        for chosen in np.array_split(along, count):
+            mesh = coal.BVHModelOBBRSS()
+            mesh.beginModel(len(chosen), 3 * len(chosen))
+            for t in chosen:
+                mesh.addTriangle(*vertices[triangles[t]])
+            mesh.endModel()
+            pieces.append((mesh, pin.SE3.Identity(), vertices[triangles[chosen]].reshape(-1, 3)))
+    offsets = [float(np.linalg.norm(model.jointPlacements[j].translation)) for j in joints]
+    return [
+        Slab(piece, placement, np.array([radius + sum(offsets[k + 1 :]) for k in range(len(joints))]))
+        for piece, placement, points in pieces
+        for radius in [float(np.linalg.norm(points, axis=1).max())]
+    ]
+
+
+@dataclass(frozen=True)
+class _Grid:
+    q_index: tuple[int, ...]
+    lower: tuple[float, ...]
+    step: tuple[float, ...]
+    cells: tuple[int, ...]
+    periodic: tuple[bool, ...]
+
+    def nodes(self) -> list[np.ndarray]:
+        """Per joint, its node values: a wrapped axis has as many nodes as cells."""
+        return [
+            lower + step * np.arange(n if wrap else n + 1)
+            for lower, step, n, wrap in zip(self.lower, self.step, self.cells, self.periodic)
+        ]
+
+
+def _grid(model: pin.Model, joints: list[int]) -> _Grid:
+    turn = 2.0 * math.pi
+    q_index, lower, step, cells, periodic = [], [], [], [], []
+    for j in joints:
+        i = model.idx_qs[j]
+        low, high = float(model.lowerPositionLimit[i]), float(model.upperPositionLimit[i])
+        wrap = high - low >= turn - 1e-9
+        n = CELLS_PER_TURN if wrap else max(1, math.ceil((high - low) / turn * CELLS_PER_TURN))
+        q_index.append(i)
+        lower.append(0.0 if wrap else low)
+        step.append((turn if wrap else high - low) / n)
+        cells.append(n)
+        periodic.append(wrap)
+    return _Grid(tuple(q_index), tuple(lower), tuple(step), tuple(cells), tuple(periodic))
+
+
+class _RelativePose:
+    """The child joint's placement in the parent joint's frame, for values of the joints between."""
+
+    def __init__(self, model: pin.Model, parent: int, child: int, q_index: tuple[int, ...]) -> None:
+        self.model, self.data, self.parent, self.child, self.q_index = model, model.createData(), parent, child, q_index
+        self.q = pin.neutral(model)
+
+    def __call__(self, values: tuple[float, ...]) -> pin.SE3:
+        for i, v in zip(self.q_index, values):
+            self.q[i] = v
+        pin.forwardKinematics(self.model, self.data, self.q)
+        return self.data.oMi[self.parent].actInv(self.data.oMi[self.child])
+
+
+def _transform(placement: pin.SE3) -> coal.Transform3s:
+    return coal.Transform3s(placement.rotation, placement.translation)
+
+
+def _eligible_joints(model: pin.Model, parent: list[pin.GeometryObject], child: list[pin.GeometryObject]):
+    """The joints between the two parts' links if the pair can have a table (see RULES)."""
+    if len({s.parentJoint for s in parent}) > 1 or len({s.parentJoint for s in child}) > 1:
+        return None
+    joints = joints_between(model, parent[0].parentJoint, child[0].parentJoint)
+    if not joints or len(joints) > 2 or any(model.joints[j].shortname() not in _REVOLUTE for j in joints):
+        return None
+    return joints
+
+
+def _rounded(array: np.ndarray) -> list:
+    """Rounded to a micrometre, well inside EPSILON (and -0.0 made 0.0), so that two mounts of
+    one arm give one key."""
+    return (np.round(array, 6) + 0.0).tolist()
+
+
+def _shape_key(shape: pin.GeometryObject, frame: pin.SE3) -> tuple:
+    """A shape's content, placed in `frame`."""
+    geometry = shape.geometry
+    if isinstance(geometry, coal.BVHModelBase):
+        content = hashlib.sha256(np.asarray(geometry.vertices()).round(9).tobytes()).hexdigest()
+        content += str(geometry.num_tris)
+    else:
+        content = repr(_rounded(_points(shape)))
+    return (type(geometry).__name__, content, _rounded(frame.actInv(shape.placement).homogeneous))
+
+
+def _content_key(model: pin.Model, joints: list[int], parent: list[pin.GeometryObject], child) -> tuple:
+    """What a pair's table depends on, whichever robot it belongs to and wherever it is mounted
+    (MADAR's arms and the UR5 share their tables): the shapes, seen from the first joint between,
+    the joints' kinds, placements after the first and limits."""
+    grid = _grid(model, joints)
+    first = model.jointPlacements[joints[0]]
+    return (
+        RULES,
+        [_shape_key(s, first) for s in parent],
+        [_shape_key(s, pin.SE3.Identity()) for s in child],
+        [model.joints[j].shortname() for j in joints],
+        [_rounded(model.jointPlacements[j].homogeneous) for j in joints[1:]],
+        grid.lower,
+        grid.step,
+        grid.cells,
+        grid.periodic,
+    )
+
+
+def _free_cells(model: pin.Model, joints: list[int], parent: list[pin.GeometryObject], child) -> np.ndarray | None:
+    """The certified cells (flat), or None for a pair that is not near enough to need them."""
+    grid = _grid(model, joints)
+    pose = _RelativePose(model, parent[0].parentJoint, child[0].parentJoint, grid.q_index)
+    fixed = [(s.geometry, _transform(s.placement)) for s in parent]
+    lows = [model.lowerPositionLimit[i] for i in grid.q_index]
+    highs = [model.upperPositionLimit[i] for i in grid.q_index]
+    clearances = []
+    for values in np.random.default_rng(0).uniform(lows, highs, size=(NEAR_SAMPLES, len(joints))):
+        where = pose(tuple(values))
+        clearances += [
+            coal.distance(
+                g, t, s.geometry, _transform(where * s.placement), coal.DistanceRequest(), coal.DistanceResult()
+            )
+            for g, t in fixed
+            for s in child
+        ]
+    if np.median(clearances) >= NEAR:
+        return None
+    moving = slabs(model, joints, child)
+    requests = []
+    for slab in moving:
+        request = coal.CollisionRequest()
+        request.security_margin = float(slab.reach @ np.array(grid.step)) / 2.0 + EPSILON
+        requests.append(request)
+    axes = grid.nodes()
+    clear = np.zeros([len(a) for a in axes], dtype=bool)
+    for index in itertools.product(*(range(len(a)) for a in axes)):
+        where = pose(tuple(a[k] for a, k in zip(axes, index)))
+        clear[index] = not any(
+            coal.collide(g, t, slab.shape, _transform(where * slab.placement), request, coal.CollisionResult())
+            for slab, request in zip(moving, requests)
+            for g, t in fixed
+        )
+    return cells_with_clear_corners(clear, grid.periodic).ravel()
+
+
+def cells_with_clear_corners(clear: np.ndarray, periodic: tuple[bool, ...]) -> np.ndarray:
+    """Per cell, whether all its corner nodes are clear. A wrapped axis has as many nodes as
+    cells (its last cell closes on node 0); another has one node more."""
+    free = clear
+    for axis, wrap in enumerate(periodic):
+        before = (slice(None),) * axis
+        upper = np.roll(free, -1, axis=axis) if wrap else free[(*before, slice(1, None))]
+        free = (free if wrap else free[(*before, slice(0, -1))]) & upper
+    return free
+
+
+def clearance_tables(robot: Robot, parts: tuple[RobotPart, ...], acm: dict[str, str]) -> list[ClearanceTable]:
+    """The tables of the robot's mesh pairs that have one, each from the cache or computed (a few
+    seconds a pair, once per machine)."""
+    by_name = {part.name: part for part in parts}
+    tables = []
+    for pair in sorted(pair for pair, reason in acm.items() if reason == MESH):
+        names = tuple(pair.split("|"))
+        shapes = [part_collision_shapes(robot, by_name[name]) for name in names]
+        if not all(shapes):
+            continue
+        if joints_between(robot.model, shapes[1][0].parentJoint, shapes[0][0].parentJoint) is not None:
+            shapes.reverse()  # the parent first
+        joints = _eligible_joints(robot.model, *shapes)
+        if joints is None:
+            continue
+
+        def compute(joints: list[int] = joints, shapes: list = shapes) -> dict:
+            free = _free_cells(robot.model, joints, *shapes)
+            return {"free": None if free is None else base64.b64encode(np.packbits(free).tobytes()).decode()}
+
+        data = cached_fit("clearance", _content_key(robot.model, joints, *shapes), compute)
+        if data["free"] is not None:
+            grid = _grid(robot.model, joints)
+            bits = np.frombuffer(base64.b64decode(data["free"]), dtype=np.uint8)
+            free = np.unpackbits(bits)[: math.prod(grid.cells)].astype(bool)
+            tables.append(ClearanceTable(names, grid.q_index, grid.lower, grid.step, grid.cells, grid.periodic, free))
+    return tables

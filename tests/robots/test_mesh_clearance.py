@@ -1,0 +1,158 @@
+"""Clearance tables of mesh pairs, checked against the URDF meshes loaded independently.
+
+A table may only say "free" where the meshes cannot touch: states drawn inside the certified
+cells that border uncertified ones (where an error in the margin or the grid would show) are
+checked on the URDF's own meshes, and each slab's reach is checked against how far its points
+really move under forward kinematics.
+"""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.mesh_clearance import (
+    ClearanceTable,
+    cells_with_clear_corners,
+    clearance_tables,
+    joints_between,
+    slabs,
+)
+from hriplan.robots.model import load_robot
+from hriplan.robots.robot_geometry import part_collision_shapes
+from independent import UrdfMeshes
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    robot = load_robot("ur5")
+    checker = CollisionChecker(robot)
+    return robot, checker, clearance_tables(robot, checker.parts, checker.acm)
+
+
+def _cell_states(table: ClearanceTable, cells: np.ndarray, robot, rng, per_cell: int) -> np.ndarray:
+    """Random states inside the given flat cells, the other joints random too."""
+    index = np.array(np.unravel_index(np.repeat(cells, per_cell), table.cells)).T
+    q = rng.uniform(robot.model.lowerPositionLimit, robot.model.upperPositionLimit, size=(len(index), robot.model.nq))
+    for axis, i in enumerate(table.q_index):
+        q[:, i] = table.lower[axis] + (index[:, axis] + rng.uniform(0, 1, len(index))) * table.step[axis]
+    return q
+
+
+def _bordering(table: ClearanceTable) -> np.ndarray:
+    """Certified cells next to a cell that is not (wrapping where the joint turns fully)."""
+    free = table.free.reshape(table.cells)
+    border = np.zeros_like(free)
+    for axis in range(free.ndim):
+        for shift in (1, -1):
+            border |= ~np.roll(free, shift, axis=axis)
+    return np.flatnonzero(free & border)
+
+
+def test_the_ur5_tables_are_its_two_near_mesh_pairs(ur5):
+    """The two pairs 1-2 cm apart in most states get tables; the forearm and wrist 3 (three joints
+    between) and the pairs mostly far apart do not. Most of each table is certified."""
+    _, _, tables = ur5
+    assert {t.parts for t in tables} == {("base_link", "upper_arm_link"), ("fore_arm_link", "wrist_2_link")}
+    for table in tables:
+        assert table.cells == (128, 128) and all(table.periodic)
+        assert 0.6 < table.free.mean() < 0.97
+
+
+def test_a_certified_cell_is_free_of_contact_everywhere_inside(ur5):
+    robot, _, tables = ur5
+    meshes = UrdfMeshes(robot)
+    meshes.watch([f"{a}|{b}" for a, b in (t.parts for t in tables)])
+    rng = np.random.default_rng(4)
+    checked = 0
+    for table in tables:
+        pair = f"{table.parts[0]}|{table.parts[1]}"
+        for q in _cell_states(table, _bordering(table), robot, rng, per_cell=8):
+            assert table.certified(q)
+            assert pair not in meshes.touching(q), f"{pair} touches in a certified cell at {q.round(4).tolist()}"
+            checked += 1
+    assert checked > 3000
+
+
+def test_in_collision_answers_as_the_meshes_do_where_a_table_cannot_certify(ur5):
+    """States in uncertified cells where only the tabled pair's meshes touch: still a collision."""
+    robot, checker, tables = ur5
+    meshes = UrdfMeshes(robot)
+    meshes.watch([f"{a}|{b}" for a, b in (t.parts for t in tables)])
+    rng = np.random.default_rng(5)
+    touching = 0
+    for table in tables:
+        for q in _cell_states(table, np.flatnonzero(~table.free), robot, rng, per_cell=1)[:1500]:
+            assert not table.certified(q)
+            if meshes.touching(q):
+                touching += 1
+                assert checker.in_collision(q)
+    assert touching > 100
+
+
+def test_a_slab_moves_no_farther_than_its_reach(ur5):
+    """Forward kinematics of the child link's points, for small turns of the joints between: the
+    displacement relative to the parent never exceeds sum(reach * |turn|)."""
+    robot, checker, tables = ur5
+    model, data = robot.model, robot.model.createData()
+    parts = {p.name: p for p in checker.parts}
+    rng = np.random.default_rng(6)
+    for table in tables:
+        parent, child = (part_collision_shapes(robot, parts[name]) for name in table.parts)
+        joints = joints_between(model, parent[0].parentJoint, child[0].parentJoint)
+        columns = [model.idx_qs[j] for j in joints]
+        for slab in slabs(model, joints, child):
+            points = np.asarray(slab.shape.vertices()) @ slab.placement.rotation.T + slab.placement.translation
+            worst = 0.0
+            for _ in range(150):
+                q = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit)
+                turn = rng.uniform(-0.05, 0.05, len(joints))
+                moved = q.copy()
+                moved[columns] += turn
+                where = []
+                for state in (q, moved):
+                    pin.forwardKinematics(model, data, state)
+                    relative = data.oMi[parent[0].parentJoint].actInv(data.oMi[child[0].parentJoint])
+                    where.append(points @ relative.rotation.T + relative.translation)
+                shift = np.linalg.norm(where[1] - where[0], axis=1).max()
+                assert shift <= slab.reach @ np.abs(turn) + 1e-12
+                worst = max(worst, shift / (slab.reach @ np.abs(turn)))
+            assert worst > 0.3  # the bound is not vacuous either
+
+
+def test_an_arm_mounted_elsewhere_shares_the_ur5_table(ur5):
+    """MADAR's arms are UR5s on a torso: their tables are the UR5's, computed once."""
+    _, _, tables = ur5
+    madar = load_robot("madar")
+    checker = CollisionChecker(madar)
+    theirs = {t.parts: t for t in clearance_tables(madar, checker.parts, checker.acm)}
+    ours = {t.parts: t for t in tables}
+    for side in ("left", "right"):
+        mine = theirs[(f"{side}_base_link", f"{side}_upper_arm_link")]
+        assert np.array_equal(mine.free, ours[("base_link", "upper_arm_link")].free)
+        assert mine.q_index != ours[("base_link", "upper_arm_link")].q_index or side == "left"
+
+
+def test_certified_reads_the_cell_a_joint_value_falls_in():
+    wrapping = ClearanceTable(
+        ("a", "b"), (0, 1), (0.0, -1.0), (np.pi / 2, 0.5), (4, 4), (True, False), np.zeros(16, bool)
+    )
+    wrapping.free[3 * 4 + 2] = True  # turn cell 3 (3pi/2 .. 2pi), second joint 0.0 .. 0.5
+    assert wrapping.certified(np.array([-0.1, 0.2]))  # -0.1 rad is 2pi - 0.1
+    assert wrapping.certified(np.array([2 * np.pi - 0.1 + 4 * np.pi, 0.49]))
+    assert not wrapping.certified(np.array([0.1, 0.2]))
+    assert not wrapping.certified(np.array([-0.1, 0.51]))
+    wrapping.free[3 * 4 + 3] = True  # the second joint's last cell, up to its upper limit
+    assert wrapping.certified(np.array([-0.1, 1.0]))
+    assert not wrapping.certified(np.array([-0.1, 1.01]))  # beyond the grid: not certified
+
+
+def test_a_cell_is_free_only_if_all_its_corners_are_clear():
+    clear = np.ones((4, 3), bool)  # first axis wraps (4 nodes, 4 cells), second does not (3 nodes, 2 cells)
+    clear[0, 2] = False
+    free = cells_with_clear_corners(clear, (True, False))
+    assert free.shape == (4, 2)
+    # node (0, 2) is a corner of cells (0, 1) and, wrapping, (3, 1)
+    assert np.array_equal(np.argwhere(~free), [[0, 1], [3, 1]])
+    line = cells_with_clear_corners(np.array([True, True, False, True]), (False,))
+    assert line.tolist() == [True, False, False]
