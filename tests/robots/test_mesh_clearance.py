@@ -134,17 +134,21 @@ def test_an_arm_mounted_elsewhere_shares_the_ur5_table(ur5):
 
 
 def test_certified_reads_the_cell_a_joint_value_falls_in():
-    wrapping = ClearanceTable(
-        ("a", "b"), (0, 1), (0.0, -1.0), (np.pi / 2, 0.5), (4, 4), (True, False), np.zeros(16, bool)
-    )
-    wrapping.free[3 * 4 + 2] = True  # turn cell 3 (3pi/2 .. 2pi), second joint 0.0 .. 0.5
-    assert wrapping.certified(np.array([-0.1, 0.2]))  # -0.1 rad is 2pi - 0.1
-    assert wrapping.certified(np.array([2 * np.pi - 0.1 + 4 * np.pi, 0.49]))
-    assert not wrapping.certified(np.array([0.1, 0.2]))
-    assert not wrapping.certified(np.array([-0.1, 0.51]))
-    wrapping.free[3 * 4 + 3] = True  # the second joint's last cell, up to its upper limit
-    assert wrapping.certified(np.array([-0.1, 1.0]))
-    assert not wrapping.certified(np.array([-0.1, 1.01]))  # beyond the grid: not certified
+    """First joint: a full turn in 4 cells (wrapping); second: -1 .. 1 in 4 cells."""
+
+    def table(*free_cells: int) -> ClearanceTable:
+        free = np.zeros(16, bool)
+        free[list(free_cells)] = True
+        return ClearanceTable(("a", "b"), (0, 1), (0.0, -1.0), (np.pi / 2, 0.5), (4, 4), (True, False), free)
+
+    one = table(3 * 4 + 2)  # turn cell 3 (3pi/2 .. 2pi), second joint 0.0 .. 0.5
+    assert one.certified(np.array([-0.1, 0.2]))  # -0.1 rad is 2pi - 0.1
+    assert one.certified([2 * np.pi - 0.1 + 4 * np.pi, 0.49])
+    assert not one.certified([0.1, 0.2])
+    assert not one.certified([-0.1, 0.51])
+    last = table(3 * 4 + 3)  # the second joint's last cell, up to its upper limit
+    assert last.certified([-0.1, 1.0])
+    assert not last.certified([-0.1, 1.01])  # beyond the grid: not certified
 
 
 def test_a_cell_is_free_only_if_all_its_corners_are_clear():

@@ -460,10 +460,13 @@ class CollisionChecker:
         checked on its meshes only where its table cannot certify it (the broad phase placed them)."""
         if pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True):
             return True
-        return any(
-            not table.certified(q) and any(pin.computeCollision(self.geom_model, self._quick_data, k) for k in pairs)
-            for table, pairs in self._tabled
-        )
+        values = q.tolist()
+        for table, pairs in self._tabled:
+            if not table.certified(values):
+                for k in pairs:
+                    if pin.computeCollision(self.geom_model, self._quick_data, k):
+                        return True
+        return False
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
         """Every colliding pair at `q`, by name (for error messages and reports). A free state

@@ -17,7 +17,8 @@ import base64
 import hashlib
 import itertools
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import coal
 import numpy as np
@@ -60,11 +61,19 @@ class ClearanceTable:
     cells: tuple[int, ...]
     periodic: tuple[bool, ...]  # a full turn or more: the grid wraps
     free: np.ndarray  # bool, flat, row-major over `cells`
+    _axes: tuple = field(init=False, repr=False, compare=False)
+    _bits: bytes = field(init=False, repr=False, compare=False)
 
-    def certified(self, q: np.ndarray) -> bool:
-        """True if the pair cannot touch at `q`; False says nothing (check the meshes)."""
+    def __post_init__(self) -> None:  # plain Python for `certified`, asked at every collision check
+        axes = tuple(zip(self.q_index, self.lower, self.step, self.cells, self.periodic))
+        object.__setattr__(self, "_axes", axes)
+        object.__setattr__(self, "_bits", self.free.astype(np.uint8).tobytes())
+
+    def certified(self, q: Sequence[float]) -> bool:
+        """True if the pair cannot touch at `q` (a list is quickest); False says nothing: check the
+        meshes."""
         flat = 0
-        for i, lower, step, n, wrap in zip(self.q_index, self.lower, self.step, self.cells, self.periodic):
+        for i, lower, step, n, wrap in self._axes:
             c = math.floor((q[i] - lower) / step)
             if wrap:
                 c %= n
@@ -73,7 +82,7 @@ class ClearanceTable:
             elif not 0 <= c < n:
                 return False
             flat = flat * n + c
-        return bool(self.free[flat])
+        return self._bits[flat] == 1
 
 
 def _chain(model: pin.Model, joint: int) -> list[int]:

@@ -1,0 +1,106 @@
+"""Collision check and plan medians, this checkout against another tree's code in one run.
+
+Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_collision.py [--src /tmp/base/src] [--rounds 2]
+Per robot (UR5, MADAR): the cost of `in_collision` on free states drawn uniformly and on the states
+of planned paths; per scenario (benchmarks/scenarios, a without its constraints too): the median
+seconds of `PlanningSession.plan` with the scenario's own options (CBiRRT), over seeds, and the
+solved count. With --src, each round runs both trees in turn in fresh processes (alternating, so
+that the machine's load falls on both alike) and the table gives their ratio.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+SCENARIOS = Path(__file__).parent / "scenarios"
+PLANS = {"a_ur5_upright_box": 12, "a_ur5_unconstrained": 12, "b_madar_handover": 12, "c_madar_peg_in_hole": 4}
+UNCONSTRAINED = {"a_ur5_unconstrained": "a_ur5_upright_box"}
+
+
+def _per_state_us(checker, states: np.ndarray) -> float:
+    best = np.inf
+    for _ in range(3):
+        start = time.perf_counter()
+        for q in states:
+            checker.in_collision(q)
+        best = min(best, (time.perf_counter() - start) / len(states) * 1e6)
+    return best
+
+
+def measure() -> dict:
+    """One tree's numbers (the code on sys.path)."""
+    from hriplan.planner.problem import load_problem
+    from hriplan.planner.session import PlanningSession
+    from hriplan.robots.collision import CollisionChecker
+    from hriplan.robots.model import load_robot
+
+    out: dict = {}
+    rng = np.random.default_rng(0)
+    for name in ("ur5", "madar"):
+        robot = load_robot(name)
+        checker = CollisionChecker(robot)
+        drawn = rng.uniform(robot.model.lowerPositionLimit, robot.model.upperPositionLimit, (3000, robot.model.nq))
+        free = np.array([q for q in drawn if not checker.in_collision(q)][:500])
+        out[f"{name} free state (us)"] = _per_state_us(checker, free)
+    for scenario, seeds in PLANS.items():
+        problem = load_problem(SCENARIOS / f"{UNCONSTRAINED.get(scenario, scenario)}.json")
+        session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+        session.set_constraints([] if scenario in UNCONSTRAINED else problem.constraints)
+        seconds, solved, states = [], 0, []
+        for seed in range(seeds):
+            options = problem.options.model_copy(update={"seed": seed})
+            start = time.perf_counter()
+            result = session.plan(problem.start, problem.goal, options, problem.group, safety=None)
+            seconds.append(time.perf_counter() - start)
+            solved += result.status == "solved"
+            base = session.robot.configuration(problem.start)
+            states += [session.robot.configuration(x, problem.group, base=base) for x in result.motion.path]
+        out[f"{scenario} plan median (s)"] = float(np.median(seconds))
+        out[f"{scenario} solved"] = solved
+        if states:
+            out[f"{scenario} path state (us)"] = _per_state_us(session.checker, np.array(states))
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--src", type=Path, help="another tree's src, measured in the same run")
+    parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--measure", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.measure:
+        print(json.dumps(measure()))
+        return
+    here = Path(__file__).parents[1] / "src"
+    trees = {"this checkout": here, **({"other": args.src} if args.src else {})}
+    runs: dict[str, list[dict]] = {label: [] for label in trees}
+    for _ in range(args.rounds):
+        for label, src in trees.items():
+            env = {**os.environ, "PYTHONPATH": str(src), "OPENBLAS_NUM_THREADS": "1"}
+            done = subprocess.run(
+                [sys.executable, __file__, "--measure"], env=env, capture_output=True, text=True, check=True
+            )
+            runs[label].append(json.loads(done.stdout.strip().splitlines()[-1]))
+    keys = list(runs["this checkout"][0])
+    header = "| measure | this checkout |" + (" other | ratio |" if args.src else "")
+    print(header)
+    print("|---|---|" + ("---|---|" if args.src else ""))
+    for key in keys:
+        mine = float(np.median([r[key] for r in runs["this checkout"]]))
+        row = f"| {key} | {mine:.4g} |"
+        if args.src:
+            theirs = float(np.median([r.get(key, np.nan) for r in runs["other"]]))
+            row += f" {theirs:.4g} | {mine / theirs:.2f} |"
+        print(row)
+
+
+if __name__ == "__main__":
+    main()
