@@ -116,6 +116,11 @@ def _points(shape: pin.GeometryObject) -> np.ndarray:
     return local @ shape.placement.rotation.T + shape.placement.translation
 
 
+def _triangles(geometry: coal.BVHModelBase) -> np.ndarray:
+    """A mesh's triangles as rows of three vertex indices."""
+    return np.array([[geometry.tri_indices(t)[k] for k in range(3)] for t in range(geometry.num_tris)])
+
+
 def slabs(model: pin.Model, joints: list[int], shapes: list[pin.GeometryObject], count: int = SLABS) -> list[Slab]:
     """The child's shapes, meshes cut into `count` slabs along their longest extent, each with its
     reach about every joint in `joints`: the offsets of the joints after that joint plus the slab's
@@ -128,7 +133,7 @@ def slabs(model: pin.Model, joints: list[int], shapes: list[pin.GeometryObject],
             pieces.append((geometry, shape.placement, _points(shape)))
             continue
         vertices = _points(shape)
-        triangles = np.array([[geometry.tri_indices(t)[k] for k in range(3)] for t in range(geometry.num_tris)])
+        triangles = _triangles(geometry)
         centres = vertices[triangles].mean(axis=1)
         along = np.argsort(centres[:, np.argmax(np.ptp(centres, axis=0))])
         for chosen in np.array_split(along, count):
@@ -216,8 +221,8 @@ def _shape_key(shape: pin.GeometryObject, frame: pin.SE3) -> tuple:
     """A shape's content, placed in `frame`."""
     geometry = shape.geometry
     if isinstance(geometry, coal.BVHModelBase):
-        content = hashlib.sha256(np.asarray(geometry.vertices()).round(9).tobytes()).hexdigest()
-        content += str(geometry.num_tris)
+        vertices = np.asarray(geometry.vertices()).round(9)
+        content = hashlib.sha256(vertices.tobytes() + _triangles(geometry).astype(np.int64).tobytes()).hexdigest()
     else:
         content = repr(_rounded(_points(shape)))
     return (type(geometry).__name__, content, _rounded(frame.actInv(shape.placement).homogeneous))
