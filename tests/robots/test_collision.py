@@ -234,3 +234,39 @@ def test_a_build_remembered_where_a_person_stood_measures_where_she_stands_now(m
                 mine, theirs = checker.person_pairs(q, "bob"), fresh.person_pairs(q, "bob")
                 assert np.allclose(mine.distance, theirs.distance, atol=1e-9)
     assert any(checker.contacts(q) for q in states)  # near: the person and her zones are touched
+
+
+def test_a_build_remembered_where_an_obstacle_stood_places_it_where_it_is_now(rng):
+    """Builds are remembered without obstacles' poses (a keep-out follows its person, a released
+    object lands elsewhere): a reused build puts each obstacle where the scene has it, and a table
+    moved up into the fixed base changes the pairs. Contacts equal a fresh checker's each time."""
+    from hriplan.robots.model import load_robot
+
+    ur5 = load_robot("ur5")
+    up = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])  # arm straight up: clear of a table under the base
+    states = [up, *(up + rng.normal(0.0, 0.8, 6) for _ in range(30))]
+    table_at = lambda z: Obstacle(name="table", shape=Box(size=(0.5, 0.7, 0.76)), pose=Pose(xyz=(0.0, 0.0, z)))  # noqa: E731
+    ball_at = lambda x: Obstacle(name="keep-out:ball", shape=Sphere(radius=0.2), pose=Pose(xyz=(x, 0.3, 0.5)))  # noqa: E731
+    other = Scene(obstacles=[table_at(-0.39)])
+    checker = CollisionChecker(ur5, other)
+    built = None
+    for table_z, ball_x in ((-0.39, 0.6), (-0.39, 0.1), (-0.37, 0.6), (-0.39, -0.2), (-0.37, 0.1)):
+        scene = Scene(obstacles=[table_at(table_z), ball_at(ball_x)])
+        checker.set_scene(scene)
+        built = built or checker.geom_model
+        assert checker.geom_model is built  # the first build of this scene's contents, reused
+        fresh = CollisionChecker(ur5, scene)
+        for q in states:
+            assert checker.contacts(q) == fresh.contacts(q)
+            assert checker.in_collision(q) == fresh.in_collision(q)
+        into_base = ("base_link", "table") in [(c.a, c.b) for c in checker.contacts(up)]
+        assert into_base == (table_z == -0.37)
+        checker.set_scene(other)
+    checker.set_scene(Scene(obstacles=[table_at(-0.39), ball_at(0.6)]))
+    checker.move_obstacle("table", Pose(xyz=(0.0, 0.0, -0.37)))  # in place, into the base
+    checker.set_scene(other)
+    checker.set_scene(Scene(obstacles=[table_at(-0.37), ball_at(0.6)]))  # the moved build, as moved
+    assert checker.in_collision(up)
+    checker.set_scene(other)
+    checker.set_scene(Scene(obstacles=[table_at(-0.39), ball_at(0.6)]))  # table back under
+    assert not checker.in_collision(up) and checker.contacts(up) == []

@@ -108,6 +108,8 @@ _REMEMBERED_BUILDS = 8
 # margin make them. Builds are remembered by the body, and placed anew for the pose.
 _PERSON_POSE = {"posture", "position", "yaw", "reach"}
 _PERSON_BODY = {"name", "height", "margin"}
+# So are obstacles' poses: a keep-out follows its person, a released object lands elsewhere.
+_BUILD_KEY = {"humans": {"__all__": _PERSON_POSE}, "obstacles": {"__all__": {"pose"}}}
 
 
 @dataclass
@@ -189,7 +191,7 @@ class CollisionChecker:
         """The geometry and pairs of the scene and zones, or the remembered ones of an earlier build
         (planning adds and removes keep-out and separation zones around every call)."""
         key = (
-            self.scene.model_dump_json(exclude={"humans": {"__all__": _PERSON_POSE}}),
+            self.scene.model_dump_json(exclude=_BUILD_KEY),
             None
             if self.zones is None
             else (
@@ -197,15 +199,22 @@ class CollisionChecker:
                 sorted((p, sorted(d.items())) for p, d in self.zones.distances.items()),
             ),
         )
-        key = repr(key)
-        if key in self._builds:
-            vars(self).update(self._builds.pop(key))
+        self._key = repr(key)
+        if self._key in self._builds:
+            vars(self).update(self._builds.pop(self._key))
+            if any([self._place_obstacle(self._index[o.name], o.pose) for o in self.scene.obstacles]):
+                self._pair_up()
             for spec in self.scene.humans:  # the Human objects are shared between builds
                 self.humans[spec.name].pose(spec)
                 self._place_person(spec.name)
         else:
             self._build_new()
-        self._builds[key] = {name: getattr(self, name) for name in _BUILT}
+        self._remember()
+
+    def _remember(self) -> None:
+        """Keep the current build (the most recent last) under its key."""
+        self._builds.pop(self._key, None)
+        self._builds[self._key] = {name: getattr(self, name) for name in _BUILT}
         if len(self._builds) > _REMEMBERED_BUILDS:
             self._builds.pop(next(iter(self._builds)))
 
@@ -414,8 +423,6 @@ class CollisionChecker:
         i = self._index.get(name)
         if i is None or self.kind[i] != "obstacle":
             raise HriplanError(f"the scene has no obstacle {name!r}")
-        self._builds.clear()  # the current build changes in place
-        self.geom_model.geometryObjects[i].placement = pose.se3()
         self.scene = self.scene.model_copy(
             update={
                 "obstacles": [
@@ -423,11 +430,21 @@ class CollisionChecker:
                 ]
             }
         )
+        if self._place_obstacle(i, pose):
+            self._pair_up()
+            self._remember()
+
+    def _place_obstacle(self, i: int, pose: Pose) -> bool:
+        """Put obstacle `i` at `pose` in the current build; True if a part on the fixed base
+        touches it now and did not before, or the other way round (its pairs must change)."""
+        placement = pose.se3()
+        if np.array_equal(self.geom_model.geometryObjects[i].placement.homogeneous, placement.homogeneous):
+            return False
+        self.geom_model.geometryObjects[i].placement = placement
         fixed = [p for p, part in enumerate(self.parts) if part.joint == 0]
         before = {p for p, o in self._fixed_contacts if o == i}
         self._fixed_contacts -= {(p, i) for p in before}
-        if {p for p in fixed if self._fixed_part_touches(p, i)} != before:
-            self._pair_up()
+        return {p for p in fixed if self._fixed_part_touches(p, i)} != before
 
     def pose_human(self, spec: HumanSpec) -> None:
         """Re-pose a person already in the scene: only capsule placements change (and the scene)."""
