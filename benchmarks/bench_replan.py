@@ -4,10 +4,12 @@ motion manager derives and plans the handover again on the same session.
 
 Run: .venv/bin/python benchmarks/bench_replan.py [--updates 10]
 Prints, per update, the wall time of `run_task` (derive + plan + time, warm session and
-reasoner) and of its parts, then the medians. Times are wall seconds on this machine; compare
-the parts with each other, in one run. Last, the ISO/TS 15066 monitor on the last re-plan's own
-calls: the batched `ApproachMonitor.speed_scale` against the per-point route it replaced (coal
-on every pair through `CollisionChecker.person_pairs`, pinocchio Jacobians), same numbers checked.
+reasoner) and of its parts, then the medians, and the median CPU time per re-plan of each stage
+(STAGES: inclusive, a stage inside another is indented under it). Times are seconds on this
+machine; compare the parts with each other, in one run. Last, the ISO/TS 15066 monitor on the
+last re-plan's own calls: the batched `ApproachMonitor.speed_scale` against the per-point route it
+replaced (coal on every pair through `CollisionChecker.person_pairs`, pinocchio Jacobians), same
+numbers checked.
 """
 
 from __future__ import annotations
@@ -22,11 +24,30 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.api import PlanningSession, load_task, run_task
+from hriplan.planner import session as session_module
 from hriplan.planner.session import PlanningSession as Session
+from hriplan.robots.collision import CollisionChecker
 from hriplan.safety.approach import CLOSING, ApproachMonitor
 from hriplan.safety.separation import kept_speeds
+from hriplan.tasks import pipeline
+from hriplan.tasks.pipeline import TaskRunner
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "handover_full_can_receiver.yaml"
+# (label, owner, attribute): CPU time spent in each per re-plan; a label's leading spaces say
+# which stage above holds it. Functions are wrapped where the re-plan looks them up.
+STAGES = (
+    ("derivation (rules, nearness)", TaskRunner, "derive_step"),
+    ("planning (the handover)", pipeline, "plan_motion"),
+    ("retreat path after the release", pipeline, "retreat_path"),
+    ("leave check", Session, "leave"),
+    ("time and validate (both motions)", Session, "time"),
+    ("  TOPP-RA with the ISO/TS 15066 limit", session_module, "time_parameterize"),
+    ("    ISO/TS 15066 monitor (speed_scale)", ApproachMonitor, "speed_scale"),
+    ("  dense validation", session_module, "validate_path"),
+    ("    closest person distance (report)", CollisionChecker, "human_distance"),
+    ("    collision checks", CollisionChecker, "in_collision"),
+    ("collision builds (anywhere)", CollisionChecker, "_build"),
+)
 
 
 def main() -> None:
@@ -46,6 +67,7 @@ def main() -> None:
             timing["time"] += time.perf_counter() - started
 
     Session.time = timed_stage
+    spent = _spent_in_stages()
     batched, compared = (
         ApproachMonitor.speed_scale,
         {"on": False, "points": 0, "batch": 0.0, "point": 0.0, "worst": 0.0},
@@ -58,7 +80,7 @@ def main() -> None:
 
     ApproachMonitor.speed_scale = comparing
     run_task(task, session, advance=False)  # warm: robot, collision model, reasoner's schema
-    totals, cpu, stages = [], [], []
+    totals, cpu, stages, by_stage = [], [], [], []
     bob = task.humans[0]
     for k in range(args.updates):
         # 10 cm to and fro, plus 1 mm more each time: every update is a place she has not been
@@ -67,11 +89,13 @@ def main() -> None:
         moved = bob.model_copy(update={"position": (bob.position[0] + dx, bob.position[1]), "reach": reach})
         variant = task.model_copy(update={"humans": [moved]})
         timing["time"] = 0.0
+        spent.clear()
         started, started_cpu = time.perf_counter(), time.process_time()
         outcome = run_task(variant, session, advance=False)  # each re-plan from the task's start
         totals.append(time.perf_counter() - started)
         cpu.append(time.process_time() - started_cpu)
         stages.append(timing["time"])
+        by_stage.append(dict(spent))
         print(
             f"update {k + 1}: {outcome.steps[-1].status:>8} in {totals[-1]:.3f} s, CPU {cpu[-1]:.3f} s (timing stage {stages[-1]:.3f} s)"
         )
@@ -79,6 +103,9 @@ def main() -> None:
         f"median: {statistics.median(totals):.3f} s per re-plan (CPU {statistics.median(cpu):.3f} s), "
         f"of which the timing stage {statistics.median(stages):.3f} s"
     )
+    print("median CPU per re-plan by stage (inclusive):")
+    for label, _, _ in STAGES:
+        print(f"  {label:44s} {1e3 * statistics.median(s.get(label, 0.0) for s in by_stage):6.1f} ms")
     compared["on"] = True
     run_task(variant, session, advance=False)
     c = compared
@@ -87,6 +114,26 @@ def main() -> None:
         f"{1e3 * c['point']:.1f} ms ({c['point'] / c['batch']:.1f}x); largest relative difference {c['worst']:.1e} (coal's GJK "
         f"on the non-capsule pairs converges to 1e-6 from a guess that depends on the model's history)"
     )
+
+
+def _spent_in_stages() -> dict[str, float]:
+    """Wrap every STAGES function to add its CPU time (outermost calls only) under its label."""
+    spent: dict[str, float] = {}
+    for label, owner, name in STAGES:
+        original, depth = getattr(owner, name), [0]
+
+        def wrapper(*a, _original=original, _label=label, _depth=depth, **k):
+            _depth[0] += 1
+            started = time.process_time()
+            try:
+                return _original(*a, **k)
+            finally:
+                _depth[0] -= 1
+                if not _depth[0]:
+                    spent[_label] = spent.get(_label, 0.0) + time.process_time() - started
+
+        setattr(owner, name, wrapper)
+    return spent
 
 
 def _compare(batched: Callable, monitor: ApproachMonitor, xs: np.ndarray, dxs: np.ndarray, stats: dict) -> None:

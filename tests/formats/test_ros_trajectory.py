@@ -80,8 +80,8 @@ def test_placed_on_its_arm_the_omitted_joints_stay_at_the_start(tmp_path, settin
     row = world.joint_values(world.positions[-1])
     assert row == pytest.approx(setting.start | {"right_elbow_joint": -1.4, "right_shoulder_pan_joint": 1.2})
     # 0.2 rad in 1.5 s of the shoulder, at rest at both ends: the spline peaks at 1.5 x the mean
-    assert world.spline().peak_speeds().max() == pytest.approx(1.5 * 0.2 / 1.5)
-    assert np.isclose(world.spline().mean_speeds().max(), 0.2 / 1.5)
+    assert world.spline.peak_speeds().max() == pytest.approx(1.5 * 0.2 / 1.5)
+    assert np.isclose(world.spline.mean_speeds().max(), 0.2 / 1.5)
 
 
 def test_a_joint_whose_start_is_unknown_must_be_given(tmp_path, setting):

@@ -148,3 +148,31 @@ def test_bad_input_raises_one_line_error(waypoints, vmax, amax, options, message
     with pytest.raises(HriplanError, match=message) as error:
         time_parameterize(waypoints, np.array(vmax, dtype=float), np.array(amax, dtype=float), **options)
     assert "\n" not in str(error.value)
+
+
+def test_the_path_speed_limit_gives_toppras_per_gridpoint_bounds():
+    """The varying joint-velocity limit near people, computed for all gridpoints at once, gives
+    the bounds of TOPP-RA's own per-gridpoint class fed the limit written point by point here:
+    joint j within |q'_j(s)| times the smallest path-speed limit within 0.04 (arc length) of s,
+    interpolated where no sample is that near, unlimited as 1e6, and within vmax_j."""
+    from hriplan.planner.timing import _PathSpeedLimit
+
+    knots = _curved_path(60)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))])
+    path = toppra.SplineInterpolator(s, knots, bc_type="natural")
+    at = np.concatenate([np.linspace(0.0, s[-1] / 2, 40), np.linspace(s[-1] / 2 + 0.3, s[-1], 5)])  # a gap
+    sd_max = np.abs(np.sin(7 * at)) + 0.05
+    sd_max[::9] = np.inf  # no one near there
+
+    def vlim(x: float) -> np.ndarray:
+        near = [v for a, v in zip(at, sd_max) if abs(a - x) <= 0.04 + 1e-15]
+        cap = min(near) if near else float(np.interp(x, at, sd_max))
+        upper = np.minimum(VMAX, np.abs(path(x, 1)) * min(cap, 1e6) + 1e-9)
+        return np.stack([-upper, upper], axis=1)
+
+    grid = np.linspace(0.0, s[-1], 301)
+    assert any(not any(abs(a - x) <= 0.04 for a in at) for x in grid)  # the gap is interpolated
+    ours = _PathSpeedLimit(path, VMAX, at, sd_max).compute_constraint_params(path, grid)
+    theirs = toppra.constraint.JointVelocityConstraintVarying(vlim).compute_constraint_params(path, grid)
+    np.testing.assert_allclose(ours[-1], theirs[-1], rtol=1e-12, atol=0.0)
+    assert all(a is None and b is None for a, b in zip(ours[:-1], theirs[:-1]))

@@ -337,3 +337,39 @@ def test_the_monitor_does_not_query_every_pair_through_coal_point_by_point(hando
     monkeypatch.setattr(session.checker, "person_pairs", refused)
     scales = ApproachMonitor(session.robot, session.checker, policy, group, q0).speed_scale(xs, dxs)
     assert np.isfinite(scales).any()
+
+
+def test_monitors_share_a_persons_pair_geometry_which_follows_the_person():
+    """Every timing call makes a monitor; the pair geometry of a person model is made once
+    (`PersonDistances.of`) and serves the next monitors wherever the person has moved, and a
+    new model (another body) gets its own."""
+    sam = HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi)
+    session = PlanningSession("madar", Scene(humans=[sam]), hands={"right": "open"})
+    policy = default_policy("madar", [sam], {"sam": "Supervisor"}).model_copy(
+        update={"margin": SafetyMargin(padding=0.0, speed_factor=0.9)}
+    )
+    q0, xs, dxs = _right_arm_sweep(session)
+    first = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
+    first.speed_scale(xs, dxs)
+    closer = sam.model_copy(update={"position": (1.45, 0.6)})
+    session.pose_human(closer)  # the same person model, its capsules placed anew
+    second = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
+    moved = second.speed_scale(xs, dxs)
+    shared = first._pairs(policy.people[0])[0]
+    assert second._pairs(policy.people[0])[0] is shared
+    for x, dx in zip(xs[::5], dxs[::5]):
+        _assert_same(second, _reference(session, policy, "right_arm", q0, x, dx), x, dx)
+    assert not np.allclose(moved, first.speed_scale(xs, dxs))  # she moved: other limits
+    # Every pair, coal's included (palm, adapter), where she stands now (coal's GJK: to 1e-6).
+    qs = np.array([second.full(x) for x in xs[::5]])
+    pairs = shared.at(qs, np.zeros((len(qs), session.robot.model.nv)))
+    for q, distance in zip(qs, pairs.distance):
+        fresh = session.checker.person_pairs(q, "sam")
+        expected = {(p, c): d for p, c, d in zip(fresh.parts, fresh.capsules, fresh.distance)}
+        np.testing.assert_allclose(distance, [expected[pc] for pc in zip(pairs.parts, pairs.capsules)], atol=1e-5)
+    taller = closer.model_copy(update={"height": 1.9})
+    session.set_scene(Scene(humans=[taller]))  # another body: another person model
+    third = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
+    assert third._pairs(policy.people[0])[0] is not shared
+    for x, dx in zip(xs[::5], dxs[::5]):
+        _assert_same(third, _reference(session, policy, "right_arm", q0, x, dx), x, dx)

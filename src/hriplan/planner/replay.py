@@ -11,6 +11,7 @@ the written points (planner/spline.py).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Protocol
 
 import numpy as np
@@ -66,8 +67,11 @@ class SpeedCheck:
     message: str
 
 
-@dataclass
+@dataclass(frozen=True)
 class PlannedWorld:
+    """A motion in its world. Frozen, so what is derived from the motion (its times, positions,
+    the controller's spline and the states it passes) is computed once, and read-only."""
+
     trajectory: Motion
     robot: Robot
     checker: CollisionChecker
@@ -89,23 +93,31 @@ class PlannedWorld:
         return world
 
     # -- time --------------------------------------------------------------------------------
-    @property
+    @cached_property
     def times(self) -> np.ndarray:
-        return np.array([p.time_from_start for p in self.trajectory.points])
+        return _read_only(np.array([p.time_from_start for p in self.trajectory.points]))
 
     @property
     def duration(self) -> float:
         return float(self.times[-1])
 
-    @property
+    @cached_property
     def positions(self) -> np.ndarray:
         """Planned joint values at the trajectory's points (rows), in `joint_names` order."""
-        return np.array([p.positions for p in self.trajectory.points])
+        return _read_only(np.array([p.positions for p in self.trajectory.points]))
 
+    @cached_property
     def spline(self) -> Spline:
         """The path a controller follows through the written points (positions and velocities)."""
         velocities = np.array([p.velocities for p in self.trajectory.points])
-        return Spline(self.times, self.positions, velocities.reshape(self.positions.shape))
+        return Spline(self.times, self.positions, _read_only(velocities.reshape(self.positions.shape)))
+
+    @cached_property
+    def executed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Times, positions and velocities of the states the controller passes (`Spline.
+        executed_states`), which the speed, joint and dense checks all walk."""
+        times, positions, velocities = self.spline.executed_states()
+        return _read_only(times), _read_only(positions), _read_only(velocities)
 
     def positions_at(self, times: np.ndarray) -> np.ndarray:
         """Planned joint values at any times (linear between the timed points, which are dense)."""
@@ -146,7 +158,7 @@ class PlannedWorld:
         """ISO/TS 15066 speed and separation at every written point and spline sample (the states a
         controller passes, with their velocities), for `policy`."""
         monitor = ApproachMonitor(self.robot, self.checker, policy, self.group(), self.planning_q(self.positions[0]))
-        times, positions, velocities = self.spline().executed_states()
+        times, positions, velocities = self.executed
         try:
             scales = monitor.speed_scale(positions, velocities)
         except HriplanError as exc:  # a moving part inside a person's S_0
@@ -175,8 +187,8 @@ class PlannedWorld:
         group = self.group()
         lower, upper = self.robot.limits(group)
         limit = self.robot.velocity_limit(group) * velocity_scale
-        names, spline = self.trajectory.joint_names, self.spline()
-        times, positions, _ = spline.executed_states()
+        names, spline = self.trajectory.joint_names, self.spline
+        times, positions, _ = self.executed
         beyond = np.maximum(lower - positions, positions - upper)
         if beyond.max() > 1e-9:
             k, j = np.unravel_index(np.argmax(beyond), beyond.shape)
@@ -217,6 +229,12 @@ class PlannedWorld:
         validated its path."""
         group = self.group()
         evaluator = ConstraintEvaluator(self.robot, self.constraints, group, self.planning_q(self.positions[0]))
-        _, states, _ = self.spline().executed_states()
+        _, states, _ = self.executed
         with with_keep_out(self.checker, self.constraints):
             return validate_path(evaluator, self.checker, list(states), step)
+
+
+def _read_only(values: np.ndarray) -> np.ndarray:
+    """`values`, which no caller may change in place: a world computes them once for all."""
+    values.setflags(write=False)
+    return values

@@ -233,9 +233,7 @@ def _retimed(
     ]
     if limit is not None:
         (at, sd_max), factor = limit
-        constraints.append(
-            toppra.constraint.JointVelocityConstraintVarying(_varying_limits(path, vmax, at, factor * sd_max))
-        )
+        constraints.append(_PathSpeedLimit(path, vmax, at, factor * sd_max))
     grid = _gridpoints(path, s, vmax, amax)
     for refinement in range(_REFINEMENTS + 1):
         algorithm = toppra.algorithm.TOPPRA(
@@ -258,18 +256,40 @@ def _retimed(
     return trajectory
 
 
-def _varying_limits(path: toppra.SplineInterpolator, vmax: np.ndarray, at: np.ndarray, sd_max: np.ndarray):
+class _PathSpeedLimit(toppra.constraint.JointVelocityConstraintVarying):
     """TOPP-RA's vlim(s): joint j within |q'_j(s)| times the smallest path-speed limit within a
     grid spacing of s (so the limit holds between gridpoints too), and within vmax_j. The 1e-9
-    keeps joints with q'_j ~ 0 feasible; the joint with the largest |q'_j| binds the path speed."""
+    keeps joints with q'_j ~ 0 feasible; the joint with the largest |q'_j| binds the path speed.
 
-    def vlim(x: float) -> np.ndarray:
-        window = (at >= x - _MAX_GRID_SPACING) & (at <= x + _MAX_GRID_SPACING)
-        cap = float(np.min(sd_max[window])) if window.any() else float(np.interp(x, at, sd_max))
-        upper = np.minimum(vmax, np.abs(path(x, 1)) * min(cap, 1e6) + 1e-9)  # 1e6: no limit (inf)
-        return np.stack([-upper, upper], axis=1)
+    Computed for all gridpoints in one numpy pass: TOPP-RA's own class calls vlim once per
+    gridpoint from Python (about a thousand calls per re-plan). The rest is TOPP-RA's
+    `compute_constraint_params`, on its own helper."""
 
-    return vlim
+    def __init__(self, path: toppra.SplineInterpolator, vmax: np.ndarray, at: np.ndarray, sd_max: np.ndarray) -> None:
+        self._path, self._vmax, self._at, self._sd_max = path, vmax, at, sd_max
+        super().__init__(lambda s: self.limits(np.array([s]))[0])
+
+    def limits(self, s: np.ndarray) -> np.ndarray:
+        """vlim at arc lengths `s`: (len(s), dof, 2), lower and upper."""
+        at, sd_max = self._at, self._sd_max  # `at` ascending
+        first = np.searchsorted(at, s - _MAX_GRID_SPACING, side="left")  # the window: at[first:end]
+        end = np.searchsorted(at, s + _MAX_GRID_SPACING, side="right")
+        rows = first[:, None] + np.arange(max(int(np.max(end - first, initial=0)), 1))  # a few samples each
+        cap = np.where(rows < end[:, None], sd_max[np.minimum(rows, len(at) - 1)], np.inf).min(axis=1)
+        cap = np.where(end > first, cap, np.interp(s, at, sd_max))
+        upper = np.minimum(self._vmax, np.abs(self._path(s, 1)) * np.minimum(cap, 1e6)[:, None] + 1e-9)  # 1e6: inf
+        return np.stack([-upper, upper], axis=2)
+
+    def compute_constraint_params(self, path, gridpoints):
+        if path.dof != self.get_dof():
+            raise ValueError(f"wrong dimension: constraint dof {self.get_dof()} != path dof {path.dof}")
+        _, _, bound = toppra._CythonUtils._create_velocity_constraint_varying(
+            path(gridpoints, 1), self.limits(np.asarray(gridpoints))
+        )
+        xbound = np.array(bound)
+        xbound[:, 0] = bound[:, 1]
+        xbound[:, 1] = -bound[:, 0]
+        return None, None, None, None, None, None, xbound
 
 
 def _validated(

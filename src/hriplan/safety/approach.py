@@ -114,7 +114,7 @@ class ApproachMonitor:
         model = self.checker.person_model(person.name)
         cached = self._distances.get(person.name)
         if cached is None or cached[0].person_model is not model:
-            distances = PersonDistances(self.robot.model, model, self._moved)
+            distances = PersonDistances.of(self.robot.model, model, self._moved)
             cached = distances, np.array([person.contact_region(c) is not None for c in distances.capsules], dtype=bool)
             self._distances[person.name] = cached
         return cached

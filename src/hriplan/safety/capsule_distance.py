@@ -60,7 +60,12 @@ def capsule_distances(
     gap = on2 - on1
     length = np.sqrt(_dot(gap, gap))
     apart = length > _CROSSING
-    normal = np.where(apart[..., None], gap / np.where(apart, length, 1.0)[..., None], _across(axis1, axis2))
+    normal = gap / np.where(apart, length, 1.0)[..., None]
+    if not apart.all():  # only crossing axes need a normal of their own (rare: computed for them alone)
+        crossing = ~apart
+        normal[crossing] = _across(
+            np.broadcast_to(axis1, gap.shape)[crossing], np.broadcast_to(axis2, gap.shape)[crossing]
+        )
     radius1, radius2 = np.asarray(radius1, dtype=float), np.asarray(radius2, dtype=float)
     return length - radius1 - radius2, on1 + radius1[..., None] * normal, on2 - radius2[..., None] * normal
 

@@ -32,9 +32,28 @@ class StatePairs:
     robot_velocity: np.ndarray  # (N, k, 3) world: the velocity of robot_point for the state's joint velocity
 
 
+# PersonDistances made lately, by robot model, person model and joints (`PersonDistances.of`).
+_MADE: dict[tuple[int, int, frozenset[int]], PersonDistances] = {}
+_REMEMBERED = 8
+
+
 class PersonDistances:
     """The rows of a person model (`CollisionChecker.person_model`) whose part rides on one of
-    `joints`, in the model's pair order, evaluated in batches of states."""
+    `joints`, in the model's pair order, evaluated in batches of states. It reads the person's
+    placements afresh at every batch, so one serves the model wherever its person moves."""
+
+    @classmethod
+    def of(cls, robot_model: pin.Model, person_model: pin.GeometryModel, joints: Collection[int]) -> PersonDistances:
+        """The one made last for these models and joints, else a new one: a checker keeps a person
+        model across builds and re-poses, and every timing call makes a monitor (~2.5 ms to make)."""
+        key = (id(robot_model), id(person_model), frozenset(joints))
+        made = _MADE.pop(key, None)  # held here, the models' ids are not reused while it is
+        if made is None or made.robot_model is not robot_model or made.person_model is not person_model:
+            made = cls(robot_model, person_model, joints)
+        _MADE[key] = made  # most recent last
+        if len(_MADE) > _REMEMBERED:
+            _MADE.pop(next(iter(_MADE)))
+        return made
 
     def __init__(self, robot_model: pin.Model, person_model: pin.GeometryModel, joints: Collection[int]) -> None:
         self.robot_model, self.robot_data, self.person_model = robot_model, robot_model.createData(), person_model
@@ -79,23 +98,31 @@ class PersonDistances:
         self, qs: np.ndarray, dqs: np.ndarray, out: tuple[np.ndarray, np.ndarray, np.ndarray]
     ) -> tuple[np.ndarray, np.ndarray]:
         """Per state: the carrying joints' placements (N, F, 4, 4) and local twists (N, F, 6)
-        returned, the non-capsule rows measured by coal into `out` (distance, robot, person point)."""
+        returned, the non-capsule rows measured by coal into `out` (distance, robot, person point).
+        Each coal result is read once and all of them turned into arrays at the end: reading
+        results from Python is most of this loop's time."""
         frames, twists = np.empty((len(qs), len(self._frames), 4, 4)), np.empty((len(qs), len(self._frames), 6))
         (others, other_data, copies), model, data = self._others, self.robot_model, self.robot_data
         for original, copy in copies.items():
             others.geometryObjects[copy].placement = self.person_model.geometryObjects[original].placement
-        distance, robot_point, person_point = out
+        placements, velocities, found = data.oMi, data.v, []
         for i, (q, dq) in enumerate(zip(qs, dqs)):
             pin.forwardKinematics(model, data, q, dq)
             for f, j in enumerate(self._frames):
-                frames[i, f], twists[i, f] = data.oMi[j].homogeneous, data.v[j].vector
+                frames[i, f], twists[i, f] = placements[j].homogeneous, velocities[j].vector
             if self._other_rows.size:
                 pin.updateGeometryPlacements(model, data, others, other_data)
                 pin.computeDistances(others, other_data)
-                results = other_data.distanceResults
-                distance[i, self._other_rows] = [r.min_distance for r in results]
-                robot_point[i, self._other_rows] = [r.getNearestPoint1() for r in results]
-                person_point[i, self._other_rows] = [r.getNearestPoint2() for r in results]
+                found += [
+                    (r.min_distance, r.getNearestPoint1(), r.getNearestPoint2()) for r in other_data.distanceResults
+                ]
+        if found:
+            distance, robot_point, person_point = out
+            shape = (len(qs), self._other_rows.size)
+            rows = self._other_rows
+            distance[:, rows] = np.array([d for d, _, _ in found]).reshape(shape)
+            robot_point[:, rows] = np.array([p for _, p, _ in found]).reshape(shape + (3,))
+            person_point[:, rows] = np.array([p for _, _, p in found]).reshape(shape + (3,))
         return frames, twists
 
     def _capsule_pairs(self, rotation: np.ndarray, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
