@@ -123,9 +123,9 @@ def retreat_path(
     of everything in the `free` scene with that hand and the hand `closed` (as the next step has
     it). Or (None, None, why each way failed)."""
     q_release, failures = arrival[-1], []
-    next_start = CollisionChecker(closed, free)
+    next_start = _checker(closed, free, "free")
     for hand in hands:
-        checker, untouched = CollisionChecker(hand, touching), CollisionChecker(hand, free)
+        checker, untouched = _checker(hand, touching, "touching"), _checker(hand, free, "free")
         posture = hand.hand_postures.get(arm, "bare")
         if checker.in_collision(q_release):
             failures.append(f"the hand {posture} at the release collides: {_contacts(checker, q_release)}")
@@ -136,6 +136,29 @@ def retreat_path(
                 return hand, waypoints, ""
             failures.append(f"the hand {posture}, {way}: {why}")
     return None, None, "; ".join(failures)
+
+
+# The checkers retreat_path used last, by robot and scene ("touching": the released object may
+# touch this hand): a re-plan asks again for the same, in a scene whose people moved and whose
+# released object lies elsewhere, and a checker given that scene keeps what does not change (its
+# person and distance models, the people's bodies), where a new one built everything (~20 ms).
+_CHECKERS: dict[tuple[int, str], tuple[Robot, CollisionChecker]] = {}
+_REMEMBERED = 6
+
+
+def _checker(robot: Robot, scene: Scene, kind: str) -> CollisionChecker:
+    """A checker of `robot` in `scene`: the one retreat_path used last for this robot and kind of
+    scene, given `scene`, else a new one."""
+    key = (id(robot), kind)
+    held = _CHECKERS.pop(key, None)  # holding the robot, its id is not reused while it is here
+    if held is None or held[0] is not robot:
+        held = robot, CollisionChecker(robot, scene)
+    else:
+        held[1].set_scene(scene)
+    _CHECKERS[key] = held  # most recent last
+    if len(_CHECKERS) > _REMEMBERED:
+        _CHECKERS.pop(next(iter(_CHECKERS)))
+    return held[1]
 
 
 def _retreat_along(
