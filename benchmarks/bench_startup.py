@@ -12,8 +12,9 @@ derivation cache on disk, by an untimed first run of each command.
 - help: `hriplan --help`.
 Then, per command and checkout, the seconds `python -X importtime` counts for the top-level
 imports and the heavy modules loaded (what lazy imports leave out: not timing, does not depend on
-the load); and where the demo's `plan` process spends its time (PHASES: wall seconds of each
-group of imports, in the order the process needs them, then of the work, in fresh processes).
+the load); and where the demo's `plan` process spends its time (PHASES: CPU seconds of each
+group of imports, in the order the process needs them, then of the work, in fresh processes; CPU,
+not wall, so that other jobs on the machine change them less).
 """
 
 from __future__ import annotations
@@ -53,17 +54,17 @@ PLAN_TARGET = 1.0
 # (`hriplan plan` of the demo task, in process: the caches on disk warm).
 PHASES = """
 import contextlib, io, sys, time
-marks = [time.perf_counter()]
-import numpy; marks.append(time.perf_counter())
-import pydantic, typer, yaml; marks.append(time.perf_counter())
-import pinocchio, coal; marks.append(time.perf_counter())
-import scipy.interpolate; marks.append(time.perf_counter())
-import toppra, hriplan.planner.timing; marks.append(time.perf_counter())
+marks = [time.process_time()]
+import numpy; marks.append(time.process_time())
+import pydantic, typer, yaml; marks.append(time.process_time())
+import pinocchio, coal; marks.append(time.process_time())
+import scipy.interpolate; marks.append(time.process_time())
+import hriplan.planner.timing, toppra; marks.append(time.process_time())
 import hriplan.cli.main, hriplan.cli.tasks, hriplan.cli.summary, hriplan.tasks.pipeline, hriplan.planner.session
-marks.append(time.perf_counter())
+marks.append(time.process_time())
 with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):
     hriplan.cli.main.app(["plan", sys.argv[1], "-q", "-o", sys.argv[2]], prog_name="hriplan")
-marks.append(time.perf_counter())
+marks.append(time.process_time())
 print(" ".join(f"{b - a:.4f}" for a, b in zip(marks, marks[1:])))
 """
 PHASE_NAMES = (
@@ -138,7 +139,7 @@ def main() -> None:
 
 
 def phases(src: Path, out: Path) -> list[float]:
-    """PHASES' wall seconds in one fresh process with `src` first on the path."""
+    """PHASES' CPU seconds in one fresh process with `src` first on the path."""
     env = dict(os.environ, PYTHONPATH=str(src))
     done = subprocess.run(
         [sys.executable, "-c", PHASES, str(EXAMPLE), str(out / "phases.json")],
@@ -157,7 +158,7 @@ def print_phases(sources: list[Path], names: list[str], reps: int, out: Path) ->
     for _ in range(reps):
         for src in sources:
             runs[src].append(phases(src, out))
-    print("\n| the demo's plan process, wall s | " + " | ".join(names) + " |")
+    print("\n| the demo's plan process, CPU s | " + " | ".join(names) + " |")
     print("|---|" + "---|" * len(sources))
     columns = [[statistics.median(r[k] for r in runs[src]) for k in range(len(PHASE_NAMES))] for src in sources]
     for k, name in enumerate(PHASE_NAMES):
