@@ -12,7 +12,9 @@ derivation cache on disk, by an untimed first run of each command.
 - help: `hriplan --help`.
 Then, per command and checkout, the seconds `python -X importtime` counts for the top-level
 imports and the heavy modules loaded (what lazy imports leave out: not timing, does not depend on
-the load).
+the load); and where the demo's `plan` process spends its time (PHASES: CPU seconds of each
+group of imports, in the order the process needs them, then of the work, in fresh processes; CPU,
+not wall, so that other jobs on the machine change them less).
 """
 
 from __future__ import annotations
@@ -48,6 +50,32 @@ HEAVY = (
     "ray",
 )
 PLAN_TARGET = 1.0
+# One fresh process: each group of imports the demo's `plan` needs, timed in turn, then the work
+# (`hriplan plan` of the demo task, in process: the caches on disk warm).
+PHASES = """
+import contextlib, io, sys, time
+marks = [time.process_time()]
+import numpy; marks.append(time.process_time())
+import pydantic, typer, yaml; marks.append(time.process_time())
+import pinocchio, coal; marks.append(time.process_time())
+import scipy.interpolate; marks.append(time.process_time())
+import hriplan.planner.timing, toppra; marks.append(time.process_time())
+import hriplan.cli.main, hriplan.cli.tasks, hriplan.cli.summary, hriplan.tasks.pipeline, hriplan.planner.session
+marks.append(time.process_time())
+with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):
+    hriplan.cli.main.app(["plan", sys.argv[1], "-q", "-o", sys.argv[2]], prog_name="hriplan")
+marks.append(time.process_time())
+print(" ".join(f"{b - a:.4f}" for a, b in zip(marks, marks[1:])))
+"""
+PHASE_NAMES = (
+    "numpy",
+    "pydantic, typer, yaml",
+    "pinocchio, coal",
+    "scipy.interpolate (what TOPP-RA imports of scipy)",
+    "toppra (pyplot stood in), planner/timing.py and the hriplan modules it imports",
+    "hriplan's other modules",
+    "the work (plan, warm)",
+)
 
 
 def run(args: list[str], src: Path) -> tuple[float, float]:
@@ -107,6 +135,35 @@ def main() -> None:
             print(
                 f"- {label}, {name}: imports {seconds:.2f} s (importtime, median of 3); loaded: {', '.join(heavy) or 'none'}"
             )
+    print_phases(sources, names, args.reps, out)
+
+
+def phases(src: Path, out: Path) -> list[float]:
+    """PHASES' CPU seconds in one fresh process with `src` first on the path."""
+    env = dict(os.environ, PYTHONPATH=str(src))
+    done = subprocess.run(
+        [sys.executable, "-c", PHASES, str(EXAMPLE), str(out / "phases.json")],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=600,
+    )
+    return [float(x) for x in done.stdout.split()]
+
+
+def print_phases(sources: list[Path], names: list[str], reps: int, out: Path) -> None:
+    """The demo's `plan` process phase by phase, median of `reps` per checkout (alternating)."""
+    runs: dict[Path, list[list[float]]] = {src: [] for src in sources}
+    for _ in range(reps):
+        for src in sources:
+            runs[src].append(phases(src, out))
+    print("\n| the demo's plan process, CPU s | " + " | ".join(names) + " |")
+    print("|---|" + "---|" * len(sources))
+    columns = [[statistics.median(r[k] for r in runs[src]) for k in range(len(PHASE_NAMES))] for src in sources]
+    for k, name in enumerate(PHASE_NAMES):
+        print(f"| {name} | " + " | ".join(f"{c[k]:.3f}" for c in columns) + " |")
+    print("| sum (interpreter start-up not counted) | " + " | ".join(f"{sum(c):.3f}" for c in columns) + " |")
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ from hriplan.planner.motion import ToolTarget, plan_motion
 from hriplan.planner.options import PLANNERS, RANGED_PLANNERS, PlanOptions
 from hriplan.planner.problem import load_problem
 from hriplan.planner.replay import PlannedWorld
-from hriplan.planner.search.ompl_solver import ompl_seed
+from hriplan.planner.search.seeds import ompl_seed
 from hriplan.planner.session import PlanningSession
 from hriplan.robots.spatial import Pose
 from independent import constraint_violations

@@ -1,5 +1,6 @@
 """Fitted shapes kept on disk (robots/fit_cache.py): the same shapes, fitted once per machine."""
 
+import base64
 import json
 import subprocess
 import sys
@@ -11,7 +12,7 @@ import pinocchio as pin
 import pytest
 
 from hriplan.robots import human
-from hriplan.robots.fit_cache import cached_fit, shape, shape_data
+from hriplan.robots.fit_cache import array, array_data, cached_fit, shape, shape_data
 from hriplan.robots.model import load_robot
 from hriplan.robots.robot_geometry import _fitted_parts, _parts
 
@@ -62,7 +63,18 @@ def test_the_person_read_back_is_the_person_fitted(cache):
     assert model == fresh and model.names[1] == "root_joint"  # the scaled body, free flyer first
     assert frames["right_hand"][0] == data["frames"]["right_hand"][0]
     assert np.array_equal(frames["head"][1].homogeneous, np.array(data["frames"]["head"][1]))
-    assert [(j, h.tolist()) for j, h in hulls] == [(j, h) for j, h in data["hulls"]]
+    assert [j for j, _ in hulls] == [j for j, _ in data["hulls"]]
+    for (_, got), (_, text) in zip(hulls, data["hulls"], strict=True):
+        assert got.dtype == np.float64 and got.shape[1] == 3 and got.shape[0] >= 4
+        assert np.array_equal(got, np.frombuffer(base64.b64decode(text), dtype="<f8").reshape(-1, 3))
+
+
+def test_arrays_are_kept_bit_for_bit(rng):
+    points = rng.normal(size=(50, 3)) * 10.0 ** rng.integers(-300, 300, size=(50, 3))
+    points[0] = (-0.0, 5e-324, np.inf)  # a negative zero, the smallest subnormal, infinity
+    back = array(json.loads(json.dumps(array_data(points))), 3)
+    assert back.tobytes() == points.tobytes()
+    assert array(array_data(points[:0]), 3).shape == (0, 3)
 
 
 @pytest.mark.parametrize(

@@ -238,3 +238,32 @@ def test_an_arm_names_its_ik_solver_and_its_hand_model(monkeypatch):
     monkeypatch.setitem(descriptions.DESCRIPTIONS, "madar_shadow", shadow)
     with pytest.raises(HriplanError, match="hand model 'shadow' is not supported; supported: allegro"):
         load_robot("madar_shadow")
+
+
+def test_robots_with_other_hand_postures_share_the_meshes_not_the_fingers(rng):
+    """A task loads the robot with a hand closed, then opened to release: the full model and its
+    collision meshes are loaded once (about 50 ms), and each robot's planning model still has the
+    fingers at its own posture (checked against pinocchio on the URDF text, fingers set here)."""
+    from hriplan.robots.descriptions.description import hand_model
+
+    closed, opened = load_robot("madar", {"right": "power"}), load_robot("madar", {"right": "open"})
+    assert closed is not opened
+    assert closed.full_model is opened.full_model and closed.full_collision is opened.full_collision
+    assert load_robot("madar", base_pose=Pose(xyz=(1.0, 0, 0))).full_model is not closed.full_model
+    model = pin.buildModelFromXML(description_of("madar").urdf())
+    data = model.createData()
+    arm = description_of("madar").arms["right"]
+    hand = hand_model(arm.hand)
+    q_arm = rng.uniform(-1, 1, 12)
+    tip = "right_hand_link_3.0_tip"
+    poses = {}
+    for posture, robot in (("power", closed), ("open", opened)):
+        q = pin.neutral(model)
+        for joint, value in hand.joint_values(posture).items():
+            q[model.joints[model.getJointId(hand.joint_name(arm.prefix, joint))].idx_q] = value
+        for name, value in zip(robot.group_joints(), q_arm):
+            q[model.joints[model.getJointId(name)].idx_q] = value
+        pin.framesForwardKinematics(model, data, q)
+        poses[posture] = robot.frame_pose(tip, q_arm)
+        assert np.allclose(data.oMf[model.getFrameId(tip)].homogeneous, poses[posture], atol=1e-9), posture
+    assert np.linalg.norm(poses["power"][:3, 3] - poses["open"][:3, 3]) > 0.01  # the postures differ

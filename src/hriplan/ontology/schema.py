@@ -7,29 +7,28 @@ computed relations are read from here before any reasoning, and the in-process r
 from it. Constructs outside that fragment (owl:equivalentClass between classes, existential
 restrictions, unions, ...) are listed in `unsupported`: Pellet handles them, the in-process
 reasoner refuses them.
+
+Reading it from the triples (schema_reader.py) needs rdflib and the parsed ontology, about a
+tenth of a second of a warm `plan` that reasons nothing new (issue 21); so the schema is kept on
+disk beside the reasoning cache (`$XDG_CACHE_HOME/hriplan/schema-HASH.json`), named and checked by
+the ontology version's hash, and read from the triples only when that file is absent or damaged.
 """
 
 from __future__ import annotations
 
 import functools
-from collections.abc import Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
 
-import rdflib
-from rdflib.collection import Collection
-from rdflib.namespace import OWL, RDF, RDFS, XSD
+from pydantic import BaseModel, ConfigDict, ValidationError
 
+from hriplan.files import write_atomically
+from hriplan.ontology.cache import default_cache_dir
 from hriplan.ontology.facts import Facts, Value
-from hriplan.ontology.vocabulary import NAMESPACE, OntologySource
+from hriplan.ontology.vocabulary import OntologySource
 
-DATA_TYPES: dict[str, tuple[type, ...]] = {
-    str(XSD.boolean): (bool,),
-    str(XSD.string): (str,),
-    str(XSD.integer): (int,),
-    str(XSD.decimal): (int, float),
-    str(XSD.double): (int, float),
-    str(XSD.float): (int, float),
-}
+FORMAT_VERSION = 1  # bump when the schema file's meaning changes
 
 
 @dataclass(eq=False)  # compared (and cached on) by identity: one per ontology version
@@ -70,142 +69,77 @@ def load_schema(source: OntologySource) -> Schema:
 
 @functools.lru_cache(maxsize=8)
 def _schema(source: OntologySource) -> Schema:
-    return _Reader(source.graph).schema
-
-
-class _Reader:
-    def __init__(self, graph: rdflib.Graph) -> None:
-        self.graph = graph
-        self.schema = schema = Schema()
-        schema.terms = {_local(s) for s in graph.subjects() if _own(s)}
-        schema.classes = {_local(c) for c in graph.subjects(RDF.type, OWL.Class) if _own(c)}
-        schema.object_properties = {_local(p) for p in graph.subjects(RDF.type, OWL.ObjectProperty) if _own(p)}
-        schema.data_properties = {_local(p) for p in graph.subjects(RDF.type, OWL.DatatypeProperty) if _own(p)}
-        self._classes()
-        self._properties()
-        self._individuals()
-        for group in graph.subjects(RDF.type, OWL.AllDisjointClasses):
-            schema.disjoint.append(sorted(_local(m) for m in self._list(graph.value(group, OWL.members))))
-        for a, b in graph.subject_objects(OWL.disjointWith):
-            schema.disjoint.append(sorted([_local(a), _local(b)]))
-        for cls in graph.subjects(OWL.equivalentClass):
-            if (cls, RDF.type, RDFS.Datatype) not in graph:
-                schema.unsupported.append(f"owl:equivalentClass on {_local(cls)}")
-
-    def _classes(self) -> None:
-        schema, direct = self.schema, {c: set() for c in self.schema.classes}
-        for cls in schema.classes:
-            for sup in self.graph.objects(_iri(cls), RDFS.subClassOf):
-                for named, restriction in self._expression(sup, cls):
-                    if named is not None:
-                        direct[cls].add(named)
-                    else:
-                        schema.implied_values.setdefault(cls, []).append(restriction)  # type: ignore[arg-type]
-        for cls in schema.classes:
-            schema.ancestors[cls] = _closure(cls, direct)
-
-    def _expression(self, node: rdflib.term.Node, cls: str) -> Iterator[tuple[str | None, tuple[str, Value] | None]]:
-        """A superclass expression as named classes and (property, value) pairs; others are unsupported."""
-        if isinstance(node, rdflib.URIRef):
-            if _own(node):
-                yield _local(node), None
-            elif node != OWL.Thing:
-                self.schema.unsupported.append(f"superclass {node} of {cls}")
-            return
-        members = self.graph.value(node, OWL.intersectionOf)
-        on_property, value = self.graph.value(node, OWL.onProperty), self.graph.value(node, OWL.hasValue)
-        if members is not None:
-            for member in self._list(members):
-                yield from self._expression(member, cls)
-        elif on_property is not None and value is not None:
-            yield None, (_local(on_property), _value(value))
-        else:
-            kinds = sorted(_local(p) for p in self.graph.predicates(node) if p != RDF.type)
-            self.schema.unsupported.append(f"a superclass of {cls} using {', '.join(kinds)}")
-
-    def _properties(self) -> None:
-        schema, graph = self.schema, self.graph
-        direct: dict[str, set[str]] = {}
-        for prop in schema.object_properties | schema.data_properties:
-            node = _iri(prop)
-            direct[prop] = {_local(s) for s in graph.objects(node, RDFS.subPropertyOf) if _own(s)}
-            schema.domains[prop] = {_local(d) for d in graph.objects(node, RDFS.domain) if _own(d)}
-            if (node, RDF.type, OWL.FunctionalProperty) in graph:
-                schema.functional.add(prop)
-            for chain in graph.objects(node, OWL.propertyChainAxiom):
-                schema.chains.setdefault(prop, []).append(tuple(_local(p) for p in self._list(chain)))
-            for other in graph.objects(node, OWL.inverseOf):
-                schema.inverse[prop], schema.inverse[_local(other)] = _local(other), prop
-            for kind in (OWL.TransitiveProperty, OWL.SymmetricProperty, OWL.InverseFunctionalProperty):
-                if (node, RDF.type, kind) in graph:
-                    schema.unsupported.append(f"{_local(kind)} {prop}")
-            ranges = list(graph.objects(node, RDFS.range))
-            if prop in schema.object_properties:
-                schema.ranges[prop] = {_local(r) for r in ranges if _own(r)}
-            for r in ranges if prop in schema.data_properties else ():
-                schema.data_ranges[prop] = DATA_TYPES.get(str(r)) or self._one_of(r) or (object,)
-        for prop in direct:
-            schema.super_properties[prop] = _closure(prop, direct)
-
-    def _one_of(self, datatype: rdflib.term.Node) -> frozenset[Value] | None:
-        for equivalent in self.graph.objects(datatype, OWL.equivalentClass):
-            values = self.graph.value(equivalent, OWL.oneOf)
-            if values is not None:
-                return frozenset(_value(v) for v in self._list(values))
-        return None
-
-    def _individuals(self) -> None:
-        schema, graph, facts = self.schema, self.graph, self.schema.individuals
-        for individual in graph.subjects(RDF.type, OWL.NamedIndividual):
-            name = _local(individual)
-            facts.types[name] = sorted({_local(t) for t in graph.objects(individual, RDF.type) if _own(t)})
-            values: dict[str, list[Value]] = {}
-            for prop, value in graph.predicate_objects(individual):
-                if _own(prop) and _local(prop) in schema.object_properties | schema.data_properties:
-                    values.setdefault(_local(prop), []).append(
-                        _local(value) if isinstance(value, rdflib.URIRef) else _value(value)
-                    )
-            facts.values[name] = values
-        for subject, label in graph.subject_objects(RDFS.label):
-            name = _local(subject) if _own(subject) else None
-            if name is not None and (name in schema.classes or name in schema.super_properties or name in facts.types):
-                facts.labels.setdefault(name, str(label))
-
-    def _list(self, node: rdflib.term.Node | None) -> list[rdflib.term.Node]:
-        return list(Collection(self.graph, node)) if node is not None else []
-
-
-def _closure(start: str, direct: dict[str, set[str]]) -> set[str]:
-    seen, todo = {start}, [start]
-    while todo:
-        for parent in direct.get(todo.pop(), ()):
-            if parent not in seen:
-                seen.add(parent)
-                todo.append(parent)
-    return seen
-
-
-def _own(node: object) -> bool:
-    return isinstance(node, rdflib.URIRef) and str(node).startswith(NAMESPACE)
-
-
-def _local(node: rdflib.term.Node) -> str:
-    text = str(node)
-    return text[len(NAMESPACE) :] if text.startswith(NAMESPACE) else text.rsplit("#", 1)[-1]
-
-
-def _iri(name: str) -> rdflib.URIRef:
-    return rdflib.URIRef(NAMESPACE + name)
-
-
-def _value(literal: rdflib.term.Node) -> Value:
-    """A literal as owlready2 gives it: decimals as floats, integers, booleans, strings."""
-    if not isinstance(literal, rdflib.Literal):
-        return _local(literal)
-    python = literal.toPython()
-    if isinstance(python, bool | int | str):
-        return python
+    path = schema_path(source)
     try:
-        return float(python)
-    except (TypeError, ValueError):
-        return str(literal)
+        record = SchemaFile.model_validate_json(path.read_bytes())
+        if record.digest == source.digest:
+            return record.schema()
+    except (OSError, ValidationError):
+        pass  # absent or damaged: read the ontology again
+    from hriplan.ontology.schema_reader import read_schema
+
+    schema = read_schema(source.graph)
+    try:
+        write_atomically(path, SchemaFile.of(schema, source.digest).model_dump_json())
+    except OSError:
+        pass  # a read-only or full disk only costs reading it again next time
+    return schema
+
+
+def schema_path(source: OntologySource) -> Path:
+    return default_cache_dir().parent / f"schema-{source.digest[:16]}.json"
+
+
+TypeName = Literal["bool", "str", "int", "float", "object"]
+_TYPES: dict[str, type] = {"bool": bool, "str": str, "int": int, "float": float, "object": object}
+
+
+class DataRange(BaseModel):
+    """A data property's range on disk: Python types, or the values of an enumeration."""
+
+    model_config = ConfigDict(extra="forbid")
+    types: list[TypeName] = []
+    one_of: list[Value] | None = None
+
+
+class SchemaFile(BaseModel):
+    """The schema as kept on disk (JSON): its fields, the ontology version's hash and the format."""
+
+    model_config = ConfigDict(extra="forbid")
+    format: Literal[1] = FORMAT_VERSION
+    digest: str
+    classes: set[str]
+    ancestors: dict[str, set[str]]
+    implied_values: dict[str, list[tuple[str, Value]]]
+    object_properties: set[str]
+    data_properties: set[str]
+    super_properties: dict[str, set[str]]
+    inverse: dict[str, str]
+    chains: dict[str, list[tuple[str, ...]]]
+    domains: dict[str, set[str]]
+    ranges: dict[str, set[str]]
+    data_ranges: dict[str, DataRange]
+    functional: set[str]
+    disjoint: list[list[str]]
+    individuals: Facts
+    terms: set[str]
+    unsupported: list[str]
+
+    @classmethod
+    def of(cls, schema: Schema, digest: str) -> SchemaFile:
+        ranges = {
+            prop: DataRange(one_of=list(allowed))
+            if isinstance(allowed, frozenset)
+            else DataRange(types=[t.__name__ for t in allowed])
+            for prop, allowed in schema.data_ranges.items()
+        }
+        fields = {name: getattr(schema, name) for name in Schema.__dataclass_fields__}
+        return cls(digest=digest, **(fields | {"data_ranges": ranges}))
+
+    def schema(self) -> Schema:
+        ranges = {
+            prop: frozenset(r.one_of) if r.one_of is not None else tuple(_TYPES[t] for t in r.types)
+            for prop, r in self.data_ranges.items()
+        }
+        fields = {name: getattr(self, name) for name in Schema.__dataclass_fields__}
+        return Schema(**(fields | {"data_ranges": ranges}))

@@ -426,8 +426,9 @@ def _solve(
     problem: _Problem, options: PlanOptions, ends: list[np.ndarray], is_valid, rows, attempt: int
 ) -> SearchResult:
     """One search (re-plan number `attempt`) by the chosen method: hriplan's CBiRRT, OMPL on slack
-    variables, or OMPL. OMPL and the band planner load only when a motion is planned."""
-    from hriplan.planner.search.ompl_solver import ompl_seed, solve_with_ompl
+    variables, or OMPL. The band planner loads only when a motion is planned, OMPL only when it
+    plans one (not for CBiRRT, the default)."""
+    from hriplan.planner.search.seeds import ompl_seed
 
     bounds = problem.robot.limits(problem.group)
     if options.planner == "CBiRRT":
@@ -435,6 +436,8 @@ def _solve(
 
         seed = None if options.seed is None else ompl_seed(options.seed, attempt)
         return plan_in_bands(_band_problem(problem, options), ends[0], ends[1], options.time_limit, seed)
+    from hriplan.planner.search.ompl_solver import solve_with_ompl
+
     if options.formulation == "slack" and options.space != "rejection" and problem.evaluator.constraints:
         slack, n = SlackRows(problem.evaluator), problem.evaluator.n
         run = solve_with_ompl(

@@ -53,7 +53,7 @@ class PlanOptions(BaseModel):
     - planner `CBiRRT` is hriplan's own: it projects onto the dead-zone rows only where a step
       leaves a band, so the whole band is used along the path (space `projected`, formulation
       `deadzone`). See benchmarks/REPORT-planner.md for how the methods compare.
-    - seed: any integer; each one is its own reproducible run (see `search/ompl_solver.ompl_seed`).
+    - seed: any integer; each one is its own reproducible run (see `search/seeds.ompl_seed`).
     - simplify: shortcut and simplify the path until it stops getting shorter.
     """
 

@@ -36,7 +36,7 @@ from hriplan.planner.motion import (
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.replay import MotionSetting
-from hriplan.planner.search.ompl_solver import ompl_seed
+from hriplan.planner.search.seeds import ompl_seed
 from hriplan.planner.timing import TimedPath, at_rest, joined, time_parameterize
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
 from hriplan.planner.validate import PathValidation, densify, validate_path

@@ -9,6 +9,7 @@ the allowed-collision matrices (acm.py); a file that cannot be read is fitted ag
 
 from __future__ import annotations
 
+import base64
 import hashlib
 import json
 import os
@@ -40,6 +41,17 @@ def cached_fit(kind: str, key: object, fit: Callable[[], dict[str, Any]]) -> dic
     result = fit()
     write_atomically(path, json.dumps(result))
     return result
+
+
+def array_data(points: np.ndarray) -> str:
+    """An array of float64 as base64 text of its little-endian bytes: exact, and a person's hull
+    vertices (about 25,000) read back in a millisecond where JSON numbers took some 40 ms."""
+    return base64.b64encode(np.ascontiguousarray(points, dtype="<f8").tobytes()).decode("ascii")
+
+
+def array(text: str, columns: int) -> np.ndarray:
+    """The (n, columns) float64 array of `array_data`'s text."""
+    return np.frombuffer(base64.b64decode(text), dtype="<f8").reshape(-1, columns).astype(float)
 
 
 def se3_data(placement: pin.SE3) -> list[list[float]]:

@@ -20,7 +20,7 @@ from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_val
 from hriplan import HriplanError
 from hriplan.robots.assets import resolve_package_uri
 from hriplan.robots.bounding import fit_box, fit_capsule
-from hriplan.robots.fit_cache import cached_fit, se3, se3_data
+from hriplan.robots.fit_cache import array, array_data, cached_fit, se3, se3_data
 
 Side = Literal["left", "right"]
 SEGMENTS = (
@@ -146,7 +146,7 @@ class HumanCapsule:
 # Change whenever the way a person's capsules and frames are fitted changes: it keys the disk cache.
 FIT_RULES = (
     "a capsule per segment on its visual meshes; hand, head and thorax frames at their box centres; "
-    "each segment's mesh hull vertices (to stand the body on the floor)"
+    "each segment's mesh hull vertices (to stand the body on the floor), kept as base64 float64"
 )
 
 
@@ -163,7 +163,7 @@ def _loaded(
         HumanCapsule(c["name"], c["joint"], c["radius"], c["length"], se3(c["placement"])) for c in data["capsules"]
     )
     frames = {name: (joint, se3(placement)) for name, (joint, placement) in data["frames"].items()}
-    hulls = tuple((int(joint), np.asarray(points, dtype=float)) for joint, points in data["hulls"])
+    hulls = tuple((int(joint), array(points, 3)) for joint, points in data["hulls"])
     return model, capsules, frames, hulls
 
 
@@ -187,7 +187,7 @@ def _fitted(height: float | None) -> dict:
     named: dict[str, tuple[int, pin.SE3]] = {}
     for segment in SEGMENTS:
         cloud = np.vstack(points[segment])
-        hulls.append((joints[segment], cloud[ConvexHull(cloud).vertices].tolist()))
+        hulls.append((joints[segment], array_data(cloud[ConvexHull(cloud).vertices])))
         radius, length, placement = fit_capsule(cloud)
         capsules.append(HumanCapsule(segment, joints[segment], radius, length, placement))
         if segment.endswith("hand") or segment in ("middle_head", "middle_thorax"):

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
@@ -59,6 +59,28 @@ def _add_alias_frames(model: pin.Model, aliases: Mapping[str, str], robot: str) 
         )
 
 
+def _place_base(model: pin.Model, base: pin.SE3) -> None:
+    for j in range(1, model.njoints):
+        if model.parents[j] == 0:
+            model.jointPlacements[j] = base * model.jointPlacements[j]
+    for frame in model.frames:
+        if frame.parentJoint == 0 and frame.name != "universe":
+            frame.placement = base * frame.placement
+
+
+@functools.cache
+def _full_body(spec: RobotSpec) -> tuple[pin.Model, pin.GeometryModel]:
+    """The full URDF model, placed, and its collision meshes: the same whatever the hands' postures
+    (`spec` has none), so the robots of one task (a hand closed, then opened to release) load the
+    meshes once (about 50 ms for MADAR). Shared between those robots: never changed after this."""
+    description = description_of(spec.name)
+    urdf = description.urdf()
+    model = pin.buildModelFromXML(urdf)
+    _place_base(model, spec.base_pose.se3() * _mount(description))
+    _add_alias_frames(model, description.link_aliases, spec.name)
+    return model, pin.buildGeomFromUrdfString(model, urdf, pin.COLLISION)
+
+
 def arms_of(name: str) -> dict[str, tuple[str, str]]:
     """Arm name -> (joint prefix, tool frame) of a robot description."""
     return {arm: (d.prefix, d.tool_frame) for arm, d in description_of(name).arms.items()}
@@ -72,10 +94,7 @@ class Robot:
         self.name = spec.name
         self.description = description_of(spec.name)
         self.urdf = self.description.urdf()
-        self.full_model = pin.buildModelFromXML(self.urdf)
-        self._place_base(self.full_model, spec.base_pose.se3() * _mount(self.description))
-        _add_alias_frames(self.full_model, self.description.link_aliases, spec.name)
-        self.full_collision = pin.buildGeomFromUrdfString(self.full_model, self.urdf, pin.COLLISION)
+        self.full_model, self.full_collision = _full_body(replace(spec, hand_postures=()))
         self.hand_postures = dict(spec.hand_postures)
         self._q_locked = self.full_configuration({})
         arm_joints = {j for arm in self.description.arms.values() for j in arm.joints}
@@ -112,15 +131,6 @@ class Robot:
     @property
     def default_group(self) -> str:
         return self.description.whole_group
-
-    @staticmethod
-    def _place_base(model: pin.Model, base: pin.SE3) -> None:
-        for j in range(1, model.njoints):
-            if model.parents[j] == 0:
-                model.jointPlacements[j] = base * model.jointPlacements[j]
-        for frame in model.frames:
-            if frame.parentJoint == 0 and frame.name != "universe":
-                frame.placement = base * frame.placement
 
     @functools.cached_property
     def finger_values(self) -> tuple[tuple[str, float], ...]:

@@ -18,11 +18,10 @@ from ompl import util as ou
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.outcome import Status
 from hriplan.planner.search.result import Counters, SearchResult
+from hriplan.planner.search.seeds import ompl_seed
 
 ou.setLogLevel(ou.LOG_NONE)  # failures reach us as exceptions or statuses
 Rows = Callable[[np.ndarray], np.ndarray]
-# OMPL seeds are unsigned 32-bit and 0 means "no seed" (ignored): seeds map into 1 .. 2^32 - 1.
-_SEEDS = 2**32 - 1
 # Default range (rad) of tree planners in the plain joint space: OMPL's default, a fifth of the
 # space's extent, is 8.7 rad for two arms, and such steps make paths wander that no shortcut repairs.
 PLAIN_SPACE_RANGE = 1.0
@@ -47,15 +46,6 @@ class RowsConstraint(ob.Constraint):
     def jacobian(self, x, out) -> None:
         self._counters.jacobian += 1
         out[:, :] = self._jacobian(np.asarray(x))
-
-
-def ompl_seed(seed: int, attempt: int = 0) -> int:
-    """OMPL's seed for attempt `attempt` of run `seed`: distinct integers give distinct seeds
-    (every |seed| < 2^31 on the first attempt; later attempts are hashed from both), never 0."""
-    zigzag = 2 * seed if seed >= 0 else -2 * seed - 1  # 0, -1, 1, -2, ... -> 0, 1, 2, 3, ...
-    if attempt == 0:
-        return zigzag % _SEEDS + 1
-    return int(np.random.SeedSequence([zigzag, attempt]).generate_state(1)[0]) % _SEEDS + 1
 
 
 def _space(options: PlanOptions, bounds: tuple[np.ndarray, np.ndarray], constraint: RowsConstraint | None):
