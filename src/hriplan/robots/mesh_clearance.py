@@ -296,12 +296,34 @@ def cells_with_clear_corners(clear: np.ndarray, periodic: tuple[bool, ...]) -> n
 
 
 def clearance_tables(robot: Robot, parts: tuple[RobotPart, ...], acm: dict[str, str]) -> list[ClearanceTable]:
-    """The tables of the robot's mesh pairs that have one, each from the cache or computed (a few
-    seconds a pair, once per machine)."""
+    """The tables of the robot's mesh pairs that have one. Kept on disk per robot description (a
+    read of one file) and per pair's content (shared by arms mounted elsewhere, computed once per
+    machine: a few seconds a pair)."""
+    pairs = sorted(pair for pair, reason in acm.items() if reason == MESH)
+    key = (RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, pairs)
+    tables = cached_fit("clearance-robot", key, lambda: {"tables": _robot_tables(robot, parts, pairs)})["tables"]
+    return [
+        ClearanceTable(
+            tuple(t["parts"]),
+            tuple(t["q_index"]),
+            tuple(t["lower"]),
+            tuple(t["step"]),
+            tuple(t["cells"]),
+            tuple(t["periodic"]),
+            np.unpackbits(np.frombuffer(base64.b64decode(t["free"]), dtype=np.uint8))[: math.prod(t["cells"])].astype(
+                bool
+            ),
+        )
+        for t in tables
+    ]
+
+
+def _robot_tables(robot: Robot, parts: tuple[RobotPart, ...], pairs: list[str]) -> list[dict]:
+    """Each table as JSON, its cells from the cache by the pair's content, or computed."""
     by_name = {part.name: part for part in parts}
     tables = []
-    for pair in sorted(pair for pair, reason in acm.items() if reason == MESH):
-        names = tuple(pair.split("|"))
+    for pair in pairs:
+        names = pair.split("|")
         shapes = [part_collision_shapes(robot, by_name[name]) for name in names]
         if not all(shapes):
             continue
@@ -315,10 +337,10 @@ def clearance_tables(robot: Robot, parts: tuple[RobotPart, ...], acm: dict[str, 
             free = _free_cells(robot.model, joints, *shapes)
             return {"free": None if free is None else base64.b64encode(np.packbits(free).tobytes()).decode()}
 
-        data = cached_fit("clearance", _content_key(robot.model, joints, *shapes), compute)
-        if data["free"] is not None:
+        free = cached_fit("clearance", _content_key(robot.model, joints, *shapes), compute)["free"]
+        if free is not None:
             grid = _grid(robot.model, joints)
-            bits = np.frombuffer(base64.b64decode(data["free"]), dtype=np.uint8)
-            free = np.unpackbits(bits)[: math.prod(grid.cells)].astype(bool)
-            tables.append(ClearanceTable(names, grid.q_index, grid.lower, grid.step, grid.cells, grid.periodic, free))
+            tables.append(
+                {"parts": names, **{f: list(getattr(grid, f)) for f in _Grid.__dataclass_fields__}, "free": free}
+            )
     return tables
