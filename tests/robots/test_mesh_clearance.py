@@ -30,6 +30,15 @@ def ur5():
     return robot, checker, clearance_tables(robot, checker.parts, checker.acm)
 
 
+@pytest.fixture(scope="module")
+def meshes(ur5) -> UrdfMeshes:
+    """The URDF's own meshes of the UR5's tabled pairs."""
+    robot, _, tables = ur5
+    meshes = UrdfMeshes(robot)
+    meshes.watch([f"{a}|{b}" for a, b in (t.parts for t in tables)])
+    return meshes
+
+
 def _cell_states(table: ClearanceTable, cells: np.ndarray, robot, rng, per_cell: int) -> np.ndarray:
     """Random states inside the given flat cells, the other joints random too."""
     index = np.array(np.unravel_index(np.repeat(cells, per_cell), table.cells)).T
@@ -59,10 +68,8 @@ def test_the_ur5_tables_are_its_two_near_mesh_pairs(ur5):
         assert 0.6 < table.free.mean() < 0.97
 
 
-def test_a_certified_cell_is_free_of_contact_everywhere_inside(ur5):
+def test_a_certified_cell_is_free_of_contact_everywhere_inside(ur5, meshes):
     robot, _, tables = ur5
-    meshes = UrdfMeshes(robot)
-    meshes.watch([f"{a}|{b}" for a, b in (t.parts for t in tables)])
     rng = np.random.default_rng(4)
     checked = 0
     for table in tables:
@@ -74,11 +81,9 @@ def test_a_certified_cell_is_free_of_contact_everywhere_inside(ur5):
     assert checked > 3000
 
 
-def test_in_collision_answers_as_the_meshes_do_where_a_table_cannot_certify(ur5):
-    """States in uncertified cells where only the tabled pair's meshes touch: still a collision."""
+def test_in_collision_answers_as_the_meshes_do_where_a_table_cannot_certify(ur5, meshes):
+    """States in uncertified cells where the tabled pair's meshes touch: still a collision."""
     robot, checker, tables = ur5
-    meshes = UrdfMeshes(robot)
-    meshes.watch([f"{a}|{b}" for a, b in (t.parts for t in tables)])
     rng = np.random.default_rng(5)
     touching = 0
     for table in tables:
