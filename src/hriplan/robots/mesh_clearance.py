@@ -302,7 +302,7 @@ def clearance_tables(robot: Robot, parts: tuple[RobotPart, ...], acm: dict[str, 
     pairs = sorted(pair for pair, reason in acm.items() if reason == MESH)
     key = (RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, pairs)
     tables = cached_fit("clearance-robot", key, lambda: {"tables": _robot_tables(robot, parts, pairs)})["tables"]
-    return [
+    made = [
         ClearanceTable(
             tuple(t["parts"]),
             tuple(t["q_index"]),
@@ -310,12 +310,15 @@ def clearance_tables(robot: Robot, parts: tuple[RobotPart, ...], acm: dict[str, 
             tuple(t["step"]),
             tuple(t["cells"]),
             tuple(t["periodic"]),
-            np.unpackbits(np.frombuffer(base64.b64decode(t["free"]), dtype=np.uint8))[: math.prod(t["cells"])].astype(
-                bool
-            ),
+            _bits(t["free"], math.prod(t["cells"])),
         )
         for t in tables
     ]
+    return [table for table in made if table.free.any()]  # one that certifies nothing only costs a look-up
+
+
+def _bits(text: str, count: int) -> np.ndarray:
+    return np.unpackbits(np.frombuffer(base64.b64decode(text), dtype=np.uint8))[:count].astype(bool)
 
 
 def _robot_tables(robot: Robot, parts: tuple[RobotPart, ...], pairs: list[str]) -> list[dict]:
