@@ -94,7 +94,7 @@ _BUILT = (
     "geom_model",
     "geom_data",
     "_broadphase",
-    "_quick_data",
+    "_tabled_pairs",
     "_tabled",
     "_fixed_contacts",
     "_index",
@@ -389,21 +389,22 @@ class CollisionChecker:
                 pairs += [(i, j) for i in before if gm.geometryObjects[i].parentJoint in self.zones.moving_joints]
             else:
                 pairs += [(i, j) for i in before if self._checked(i, j)]
-        for i, j in sorted(pairs):
-            gm.addCollisionPair(pin.CollisionPair(i, j))
+        chosen = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+        chosen[tuple(np.array(pairs, dtype=int).reshape(-1, 2).T)] = True
+        gm.setCollisionPairs(chosen, True)  # in one call, in the order of sorted(pairs)
         self.geom_data = gm.createData()
         self._pairs_of: dict[str, list[int]] = {}  # a geometry's pairs, as `touches` asks them
-        # `in_collision` leaves the mesh pairs with a clearance table to the table first.
-        listed = {(p.first, p.second): k for k, p in enumerate(gm.collisionPairs)}
-        tabled = [(table, [listed[p] for p in pairs]) for table, pairs in self._robot.tables]
-        self._quick_data = gm.createData()
-        for _, pairs in tabled:
-            for k in pairs:
-                self._quick_data.deactivateCollisionPair(k)
+        # The mesh pairs a clearance table stands for are left out of the broad phase: `in_collision`
+        # asks the table first, `contacts` checks them on their own.
+        listed = {pair: k for k, pair in enumerate(sorted(pairs))}
+        tabled = [(table, [listed[p] for p in shape_pairs]) for table, shape_pairs in self._robot.tables]
+        self._tabled_pairs = [k for _, ks in tabled for k in ks]
+        for k in self._tabled_pairs:
+            self.geom_data.deactivateCollisionPair(k)
         # A table free in every cell proves the pair never touches (the crossbar and a shoulder).
-        self._tabled = [(table, pairs) for table, pairs in tabled if not table.free.all()]
+        self._tabled = [(table, ks) for table, ks in tabled if not table.free.all()]
         # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
-        self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self._quick_data)
+        self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self.geom_data)
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
@@ -481,14 +482,16 @@ class CollisionChecker:
         for table, pairs in self._tabled:
             if not table.certified(values):
                 for k in pairs:
-                    if pin.computeCollision(self.geom_model, self._quick_data, k):
+                    if pin.computeCollision(self.geom_model, self.geom_data, k):
                         return True
         return False
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
         """Every colliding pair at `q`, by name (for error messages and reports). A free state
         lists nothing: reading every pair's result back costs more than computing them."""
-        if not pin.computeCollisions(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q, False):
+        hit = pin.computeCollisions(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q, False)
+        tabled = [pin.computeCollision(self.geom_model, self.geom_data, k) for k in self._tabled_pairs]
+        if not hit and not any(tabled):
             return []
         names = self.geom_model.geometryObjects
         return [
