@@ -82,16 +82,20 @@ def test_a_certified_cell_is_free_of_contact_everywhere_inside(ur5, meshes):
 
 
 def test_in_collision_answers_as_the_meshes_do_where_a_table_cannot_certify(ur5, meshes):
-    """States in uncertified cells where the tabled pair's meshes touch: still a collision."""
+    """States in uncertified cells where the tabled pair's meshes touch: still a collision, and
+    `contacts` names the pair."""
     robot, checker, tables = ur5
     rng = np.random.default_rng(5)
     touching = 0
     for table in tables:
+        pair = f"{table.parts[0]}|{table.parts[1]}"
         for q in _cell_states(table, np.flatnonzero(~table.free), robot, rng, per_cell=1)[:1500]:
             assert not table.certified(q)
-            if meshes.touching(q):
+            if pair in meshes.touching(q):
                 touching += 1
                 assert checker.in_collision(q)
+                named = {frozenset((c.a, c.b)) for c in checker.contacts(q)}
+                assert frozenset(f"{part} (mesh)" for part in table.parts) in named
     assert touching > 100
 
 
