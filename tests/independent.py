@@ -536,6 +536,8 @@ class UrdfMeshes:
                         self.geoms.addCollisionPair(pin.CollisionPair(*key))
                     self.pair_names.setdefault(key, set()).add(pair)
         self.geom_data = self.geoms.createData()
+        for request in self.geom_data.collisionRequests:  # without, coal misses some penetrations
+            request.enable_contact = True
 
     def touching(self, q: np.ndarray) -> set[str]:
         """Watched part pairs whose meshes touch at planning configuration `q`."""

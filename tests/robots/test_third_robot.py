@@ -11,14 +11,17 @@ import math
 import time
 from pathlib import Path
 
+import coal
 import example_robot_data
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from hriplan.planner.constraints.spec import OrientationConstraint
 from hriplan.planner.motion import JointTarget, ToolTarget
 from hriplan.planner.options import PlanOptions
 from hriplan.planner.session import PlanningSession
+from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.ik import solve_ik
@@ -256,3 +259,27 @@ def test_the_allowed_collision_matrix_of_baxter(baxter):
     checker = CollisionChecker(baxter, Scene())
     assert not checker.in_collision(baxter.configuration(baxter.description.postures["ready"]))
     assert not checker.in_collision(np.zeros(baxter.model.nq))
+
+
+def test_arm_cylinders_that_overlap_in_an_aligned_pose_collide(baxter):
+    """Baxter's upper shoulder and upper elbow are URDF cylinders checked as themselves (acm.MESH).
+    At this elbow they overlap by 4.5 mm (coal's distance, asked independently), a pose where coal's
+    GJK, asked only whether they collide, said they do not."""
+    q = baxter.configuration({"left_s0": 0.3163, "left_s1": -1.3162, "left_e0": 2.0761, "left_e1": 1.3093})
+    checker = CollisionChecker(baxter)
+    objects = checker.geom_model.geometryObjects
+    shapes = {objects[i].name: i for i in range(len(objects))}
+    a, b = shapes["left_upper_shoulder (mesh)"], shapes["left_upper_elbow (mesh)"]
+    pin.updateGeometryPlacements(baxter.model, baxter.data, checker.geom_model, checker.geom_data, q)
+    placed = [checker.geom_data.oMg[i] for i in (a, b)]
+    depth = coal.distance(
+        objects[a].geometry,
+        coal.Transform3s(placed[0].rotation, placed[0].translation),
+        objects[b].geometry,
+        coal.Transform3s(placed[1].rotation, placed[1].translation),
+        coal.DistanceRequest(),
+        coal.DistanceResult(),
+    )
+    assert depth == pytest.approx(-0.0045, abs=5e-4)
+    assert checker.in_collision(q)
+    assert ("left_upper_shoulder (mesh)", "left_upper_elbow (mesh)") in [(c.a, c.b) for c in checker.contacts(q)]

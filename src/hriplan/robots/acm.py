@@ -35,13 +35,13 @@ import pinocchio as pin
 from hriplan.files import write_atomically
 from hriplan.robots.fit_cache import cache_dir
 from hriplan.robots.model import Robot
-from hriplan.robots.robot_geometry import RobotPart, parent_links, part_collision_shapes
+from hriplan.robots.robot_geometry import RobotPart, ask_contacts, parent_links, part_collision_shapes
 
 DEFAULT_SAMPLES = 10000
 # A pair whose fitted parts collide while its meshes do not in this share of the samples or more
 # is checked on its meshes: its fitted parts alone would forbid that much of the joint space.
 FALSE_SHARE = 0.05
-RULES = f"adjacent past links without parts; never (sampled); always on meshes too; always, two apart or false in >= {FALSE_SHARE} -> mesh; no SRDF pairs"
+RULES = f"adjacent past links without parts; never (sampled, contacts asked); always on meshes too; always, two apart or false in >= {FALSE_SHARE} -> mesh; no SRDF pairs"
 USER = "user"  # the reason of pairs the robot file allows (allowed_collisions)
 ALWAYS = "always"  # the reason of pairs whose meshes touch in every sample
 MESH = "mesh"  # the reason of pairs checked on their meshes rather than their fitted parts
@@ -119,6 +119,7 @@ def compute_acm(
                 candidates.append(f"{a.name}|{b.name}")
                 candidate_parts.append((a, b))
     geom_data = geom_model.createData()
+    ask_contacts(geom_data)
     rng = np.random.default_rng(seed)
     lower, upper = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
     states = rng.uniform(lower, upper, size=(samples, robot.model.nq))
@@ -163,6 +164,7 @@ def _false_collisions(
                 shape_pairs[-1].append(len(meshes.collisionPairs))
                 meshes.addCollisionPair(pin.CollisionPair(i, j))
     mesh_data = meshes.createData()
+    ask_contacts(mesh_data)
     false = np.zeros(len(pairs), dtype=int)
     for q, row in zip(states, hits):
         if not row.any():

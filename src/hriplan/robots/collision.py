@@ -23,7 +23,7 @@ from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
-from hriplan.robots.robot_geometry import part_collision_shapes, robot_parts
+from hriplan.robots.robot_geometry import ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
@@ -393,6 +393,7 @@ class CollisionChecker:
         chosen[tuple(np.array(pairs, dtype=int).reshape(-1, 2).T)] = True
         gm.setCollisionPairs(chosen, True)  # in one call, in the order of sorted(pairs)
         self.geom_data = gm.createData()
+        ask_contacts(self.geom_data)
         self._pairs_of: dict[str, list[int]] = {}  # a geometry's pairs, as `touches` asks them
         # The mesh pairs a clearance table stands for are left out of the broad phase: `in_collision`
         # asks the table first, `contacts` checks them on their own.

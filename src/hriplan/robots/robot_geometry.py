@@ -164,3 +164,12 @@ def parent_links(robot: Robot) -> dict[str, str]:
             joint_frame = frames[frame.parentFrame]
             parents[frame.name] = frames[joint_frame.parentFrame].name
     return parents
+
+
+def ask_contacts(data: pin.GeometryData) -> None:
+    """Have coal compute the contact of a colliding pair, not only say whether it collides.
+    Without (pinocchio's default), coal's GJK misses some penetrations in aligned poses: two of
+    Baxter's arm cylinders 4.5 mm into each other were "free" (and 1 in about 1500 random
+    penetrating box-capsule poses). Free pairs cost the same; a colliding one adds its contact."""
+    for request in data.collisionRequests:
+        request.enable_contact = True
