@@ -24,6 +24,7 @@ from hriplan.files import write_atomically
 from hriplan.ontology.assertions import Assertion
 from hriplan.ontology.facts import Facts
 from hriplan.ontology.ruleset import Rule
+from hriplan.recent import Recent
 
 FORMAT_VERSION = 2  # bump when what is cached changes meaning
 MEMORY_ENTRIES = 256
@@ -59,11 +60,12 @@ class ReasoningCache:
 
     def __init__(self, directory: str | Path | None) -> None:
         self.directory = Path(directory) if directory is not None else None
-        self._memory: dict[str, tuple[Reasoning, bytes | None]] = {}
+        self._memory: Recent[str, tuple[Reasoning, bytes | None]] = Recent(MEMORY_ENTRIES)
 
     def get(self, key: str) -> Reasoning | None:
-        if key in self._memory:
-            return self._memory[key][0]
+        kept = self._memory.get(key)
+        if kept is not None:
+            return kept[0]
         reasoning = self._read(key)
         if reasoning is not None:
             self._remember(key, reasoning, None)
@@ -98,9 +100,7 @@ class ReasoningCache:
             return None
 
     def _remember(self, key: str, reasoning: Reasoning, ntriples: bytes | None) -> None:
-        if len(self._memory) >= MEMORY_ENTRIES:
-            self._memory.pop(next(iter(self._memory)))
-        self._memory[key] = (reasoning, ntriples)
+        self._memory.put(key, (reasoning, ntriples))
 
     def _read(self, key: str) -> Reasoning | None:
         if self.directory is None:

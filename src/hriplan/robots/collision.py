@@ -19,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan import HriplanError
+from hriplan.recent import Recent
 from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
@@ -143,8 +144,9 @@ class CollisionChecker:
         self.acm, self._robot_geometry = self._robot.acm, self._robot.objects
         self.humans: dict[str, Human] = {}
         self.zones: SeparationZones | None = None
-        self._builds: dict[str, dict[str, object]] = {}  # most recent last
-        self._people_models: dict[str, tuple] = {}  # distance and person models by what is carried and the people
+        self._builds: Recent[str, dict[str, object]] = Recent(_REMEMBERED_BUILDS)
+        # Distance and person models, by what is carried and the people.
+        self._people_models: Recent[str, tuple] = Recent(_REMEMBERED_BUILDS)
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
@@ -200,8 +202,9 @@ class CollisionChecker:
             ),
         )
         self._key = repr(key)
-        if self._key in self._builds:
-            vars(self).update(self._builds.pop(self._key))
+        built = self._builds.get(self._key)
+        if built is not None:
+            vars(self).update(built)
             if any([self._place_obstacle(self._index[o.name], o.pose) for o in self.scene.obstacles]):
                 self._pair_up()
             for spec in self.scene.humans:  # the Human objects are shared between builds
@@ -213,10 +216,7 @@ class CollisionChecker:
 
     def _remember(self) -> None:
         """Keep the current build (the most recent last) under its key."""
-        self._builds.pop(self._key, None)
-        self._builds[self._key] = {name: getattr(self, name) for name in _BUILT}
-        if len(self._builds) > _REMEMBERED_BUILDS:
-            self._builds.pop(next(iter(self._builds)))
+        self._builds.put(self._key, {name: getattr(self, name) for name in _BUILT})
 
     def _build_new(self) -> None:
         scene = self.scene
@@ -286,8 +286,9 @@ class CollisionChecker:
         human_ids = [i for i, k in enumerate(self.kind) if k == "human"]
         self._distance_slots = {i: k for k, i in enumerate(robot_ids + human_ids)}
         key = self.scene.model_dump_json(include={"attached": True, "humans": {"__all__": _PERSON_BODY}})
-        if key in self._people_models:
-            self._distance_model, self._distance_data, self._person_models = self._people_models[key]
+        kept = self._people_models.get(key)
+        if kept is not None:
+            self._distance_model, self._distance_data, self._person_models = kept
             for name in self.humans:  # built where the people stood then
                 self._place_person(name)
             return
@@ -299,9 +300,7 @@ class CollisionChecker:
                 dm.addCollisionPair(pin.CollisionPair(a, b))
         self._distance_model, self._distance_data = dm, dm.createData()
         self._build_person_models()
-        self._people_models[key] = (self._distance_model, self._distance_data, self._person_models)
-        if len(self._people_models) > _REMEMBERED_BUILDS:
-            self._people_models.pop(next(iter(self._people_models)))
+        self._people_models.put(key, (self._distance_model, self._distance_data, self._person_models))
 
     def _build_person_models(self) -> None:
         """Per person: robot parts and carried objects against the person's bare capsules (no

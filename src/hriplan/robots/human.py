@@ -18,6 +18,7 @@ from example_robot_data.human import HumanLoader
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
 
 from hriplan import HriplanError
+from hriplan.recent import Recent
 from hriplan.robots.assets import resolve_package_uri
 from hriplan.robots.bounding import fit_box, fit_capsule
 from hriplan.robots.fit_cache import array, array_data, cached_fit, se3, se3_data
@@ -215,8 +216,7 @@ def _fitted(height: float | None) -> dict:
 # against the joint limits): the next seed is tried.
 _GIVE_UP_AFTER, _GIVE_UP_ERROR = 40, 0.05
 # Solved configurations per spec, oldest forgotten first.
-_CONFIGURATIONS: dict[str, np.ndarray] = {}
-_REMEMBERED = 256
+_CONFIGURATIONS: Recent[str, np.ndarray] = Recent(256)
 
 
 class Human:
@@ -238,16 +238,15 @@ class Human:
         if spec.height != self.spec.height:
             raise HriplanError("a person's height is fixed when the Human is created")
         key = spec.model_dump_json()  # the height in it fixes the body model
-        if key not in _CONFIGURATIONS:
+        q = _CONFIGURATIONS.get(key)
+        if q is None:
             posed, self.spec = self.spec, spec
             try:
                 q = self._solved(spec)
             finally:
                 self.spec = posed
-            if len(_CONFIGURATIONS) >= _REMEMBERED:
-                _CONFIGURATIONS.pop(next(iter(_CONFIGURATIONS)))
-            _CONFIGURATIONS[key] = q
-        self.spec, self.q = spec, _CONFIGURATIONS[key].copy()
+            _CONFIGURATIONS.put(key, q)
+        self.spec, self.q = spec, q.copy()
         pin.forwardKinematics(self.model, self.data, self.q)
 
     def _solved(self, spec: HumanSpec) -> np.ndarray:

@@ -17,6 +17,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from hriplan.recent import Recent
 from hriplan.safety.capsule_distance import capsule_distances
 
 
@@ -33,8 +34,7 @@ class StatePairs:
 
 
 # PersonDistances made lately, by robot model, person model and joints (`PersonDistances.of`).
-_MADE: dict[tuple[int, int, frozenset[int]], PersonDistances] = {}
-_REMEMBERED = 8
+_MADE: Recent[tuple[int, int, frozenset[int]], PersonDistances] = Recent(8)
 
 
 class PersonDistances:
@@ -47,12 +47,10 @@ class PersonDistances:
         """The one made last for these models and joints, else a new one: a checker keeps a person
         model across builds and re-poses, and every timing call makes a monitor (~2.5 ms to make)."""
         key = (id(robot_model), id(person_model), frozenset(joints))
-        made = _MADE.pop(key, None)  # held here, the models' ids are not reused while it is
+        made = _MADE.get(key)  # held here, the models' ids are not reused while it is
         if made is None or made.robot_model is not robot_model or made.person_model is not person_model:
             made = cls(robot_model, person_model, joints)
-        _MADE[key] = made  # most recent last
-        if len(_MADE) > _REMEMBERED:
-            _MADE.pop(next(iter(_MADE)))
+            _MADE.put(key, made)
         return made
 
     def __init__(self, robot_model: pin.Model, person_model: pin.GeometryModel, joints: Collection[int]) -> None:

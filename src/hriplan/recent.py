@@ -1,0 +1,40 @@
+"""The last few things made, kept by key, the most recent last.
+
+Planning makes the same things again and again (a scene's collision build, a person's arm IK, a
+derivation, a monitor's pair geometry); each home keeps the last few it made here and finds one
+again while it is among them.
+"""
+
+from __future__ import annotations
+
+from typing import Generic, TypeVar
+
+K = TypeVar("K")
+V = TypeVar("V")
+
+
+class Recent(Generic[K, V]):
+    """At most `size` values by key; a use or a put makes a value the most recent, and a put
+    beyond `size` forgets the least recent."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self._items: dict[K, V] = {}
+
+    def get(self, key: K) -> V | None:
+        value = self._items.pop(key, None)
+        if value is not None:
+            self._items[key] = value
+        return value
+
+    def put(self, key: K, value: V) -> None:
+        self._items.pop(key, None)
+        self._items[key] = value
+        while len(self._items) > self.size:
+            self._items.pop(next(iter(self._items)))
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def clear(self) -> None:
+        self._items.clear()
