@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
 
+from hriplan.formats.ros_trajectory import PlacedTrajectory
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.spline import Spline
-from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryPoint
+from hriplan.planner.trajectory import TrajectoryPoint
 from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.model import load_robot
@@ -18,19 +18,8 @@ from hriplan.robots.scene import Scene
 from hriplan.safety.policy import default_policy
 
 
-@dataclass
-class _Motion:
-    robot: str
-    hands: dict[str, str]
-    joint_names: list[str]
-    start: dict[str, float]
-    scene: Scene
-    points: list[TrajectoryPoint]
-    constraints: list[ResolvedConstraint] = field(default_factory=list)
-
-
 @pytest.fixture(scope="module")
-def motion() -> _Motion:
+def motion() -> PlacedTrajectory:
     """The right arm from the ready posture, its middle point written with a velocity that makes
     the spline bulge (so spline samples are added between the points), a person nearby."""
     robot = load_robot("madar")
@@ -44,7 +33,15 @@ def motion() -> _Motion:
         for t, x, v in zip((0.0, 0.5, 1.0), moves, velocities)
     ]
     person = HumanSpec(name="sam", position=(1.4, 0.6), yaw=math.pi)
-    return _Motion("madar", {}, arm, start, Scene(humans=[person]), points)
+    return PlacedTrajectory(
+        robot="madar",
+        hands={},
+        joint_names=arm,
+        start=start,
+        scene=Scene(humans=[person]),
+        points=points,
+        constraints=[],
+    )
 
 
 def test_the_checks_walk_one_spline_and_its_states_computed_once(motion, monkeypatch):
