@@ -478,6 +478,8 @@ class CollisionChecker:
         checked on its meshes only where its table cannot certify it (the broad phase placed them)."""
         if pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True):
             return True
+        if not self._tabled:
+            return False
         values = q.tolist()
         for table, pairs in self._tabled:
             if not table.certified(values):
