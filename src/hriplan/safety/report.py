@@ -9,7 +9,7 @@ from collections.abc import Sequence
 import numpy as np
 from pydantic import BaseModel, Field
 
-from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.approach import CLOSING, ApproachMonitor
 from hriplan.safety.separation import contact_speed_limit, minimum_separation
 
 
@@ -50,7 +50,7 @@ def separation_report(
     traces = []
     for k, person in enumerate(monitor.people):
         samples = [row[k] for row in rows]
-        approaching = [s for s in samples if s.approach > 0.0 and math.isfinite(s.allowed)]
+        approaching = [s for s in samples if s.approach > CLOSING and math.isfinite(s.allowed)]
         slowest = min(approaching, key=lambda s: s.allowed, default=None)
         contact = min((contact_speed_limit(monitor.policy.robot, person, c) for c in person.contact), default=None)
         traces.append(
