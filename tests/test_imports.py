@@ -41,8 +41,9 @@ def loaded_after(args: list[str], watched: tuple[str, ...], env: dict[str, str] 
 
 
 # Not used by a warm `plan` with the default planner: the ontology's triples (the schema is on disk,
-# every situation's reasoning cached) and OMPL (CBiRRT plans; OMPL's seeds come from search/seeds.py).
-WARM_PLAN_UNUSED = ("rdflib", "hriplan.ontology.schema_reader", "ompl", "hriplan.planner.search.ompl_solver")
+# every situation's reasoning cached), OMPL (CBiRRT plans; OMPL's seeds come from search/seeds.py)
+# and scipy (timing's spline is planner/natural_spline.py; only a leave phase minimises with scipy).
+WARM_PLAN_UNUSED = ("rdflib", "hriplan.ontology.schema_reader", "ompl", "hriplan.planner.search.ompl_solver", "scipy")
 
 
 def test_plan_and_validate_import_no_plotting_viewer_or_service(tmp_path):
@@ -55,19 +56,26 @@ def test_plan_and_validate_import_no_plotting_viewer_or_service(tmp_path):
     assert loaded_after(validate, UNUSED + reasoning) == []
 
 
-def test_toppra_plots_still_load_pyplot_when_used():
-    """TOPP-RA's modules get a stand-in for pyplot while they are imported (planner/timing.py):
-    nothing of matplotlib loads with them, and the stand-in loads the real pyplot when used."""
+def test_toppra_plots_and_splines_still_load_what_they_use():
+    """TOPP-RA's modules get stand-ins for pyplot and scipy while they are imported (planner/
+    timing.py): nothing of matplotlib or scipy loads with them, and toppra's own plots and splines
+    load the real modules when used."""
     probe = (
         "import sys\n"
+        "import numpy as np\n"
         "import hriplan.planner.timing\n"
-        "import toppra.algorithm.algorithm as algorithm, toppra.parametrizer as parametrizer\n"
-        "print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib'))\n"
+        "import toppra, toppra.algorithm.algorithm as algorithm, toppra.parametrizer as parametrizer\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('matplotlib', 'scipy')))\n"
+        "print(type(algorithm.plt.figure()).__name__)\n"
         "import matplotlib.pyplot\n"
         "print(algorithm.plt.plot is matplotlib.pyplot.plot, parametrizer.plt.subplot is matplotlib.pyplot.subplot)\n"
         "print(type(sys.modules['matplotlib.pyplot']).__name__)\n"
+        "path = toppra.SplineInterpolator([0.0, 1.0, 3.0], [[0.0], [1.0], [0.0]], bc_type='natural')\n"
+        "from scipy.interpolate import CubicSpline\n"
+        "print(type(path.cspl) is CubicSpline, float(path(2.0)[0]) == float(CubicSpline([0, 1, 3], [0, 1, 0], bc_type='natural')(2.0)))\n"
+        "print(type(sys.modules['scipy.interpolate']).__name__)\n"
     )
-    assert _probed(probe).splitlines() == ["[]", "True True", "module"]
+    assert _probed(probe).splitlines() == ["[]", "Figure", "True True", "module", "True True", "module"]
 
 
 def test_toppra_imported_after_matplotlib_is_left_alone():

@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 import coal
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import minimize
 
 from hriplan.planner.constraints.binding import BoundConstraint
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
@@ -292,6 +291,8 @@ class _Leaving:
             b.append(np.zeros(len(near)))
         lower, upper = self.robot.limits(self.group)
         rows_a, rows_b = np.vstack(a), np.concatenate(b)
+        from scipy.optimize import minimize  # here: scipy's import is 0.4 s, and most motions never leave
+
         found = minimize(
             lambda d: 0.5 * d @ d,
             np.linalg.lstsq(trouble, np.ones(len(trouble)), rcond=None)[0],

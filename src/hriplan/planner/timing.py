@@ -10,6 +10,7 @@ validated polyline is measured, reported and optionally bounded.
 
 from __future__ import annotations
 
+import importlib
 import logging
 import sys
 import types
@@ -19,45 +20,64 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from hriplan import HriplanError
+from hriplan.planner.natural_spline import NaturalSpline
 from hriplan.safety.separation import SPEED_LIMIT_SLACK
 
 
-class _DeferredPyplot(types.ModuleType):
-    """Stands in for matplotlib.pyplot in TOPP-RA's modules: loads the real one when first used."""
+class _Deferred(types.ModuleType):
+    """Stands in for a module while TOPP-RA is imported: a name read from it is a _Later, or the
+    real module's once that is loaded."""
 
     def __getattr__(self, name: str):
-        import matplotlib.pyplot
+        if name.startswith("__"):  # the import system's questions (__path__, __spec__): no such thing
+            raise AttributeError(name)
+        real = sys.modules.get(self.__name__)
+        return _Later(self.__name__, name) if real is None or real is self else getattr(real, name)
 
-        return getattr(matplotlib.pyplot, name)
+
+class _Later:
+    """A module's name, fetched from the real module when first called or read into."""
+
+    def __init__(self, module: str, name: str) -> None:
+        self._module, self._name = module, name
+
+    def _real(self):
+        return getattr(importlib.import_module(self._module), self._name)
+
+    def __call__(self, *args, **kwargs):
+        return self._real()(*args, **kwargs)
+
+    def __getattr__(self, name: str):
+        return getattr(self._real(), name)
+
+
+# What TOPP-RA imports at module level for what hriplan never calls: plots (matplotlib.pyplot, in
+# toppra.algorithm.algorithm and toppra.parametrizer), scipy's splines (its own path classes) and
+# the ECOS solver's sparse matrices. They cost a `plan` process about 1.1 s CPU
+# (benchmarks/REPORT-startup.md); hriplan's path is planner/natural_spline.py.
+_DEFERRED = ("matplotlib", "matplotlib.pyplot", "scipy", "scipy.interpolate", "scipy.sparse")
 
 
 def _import_toppra() -> types.ModuleType:
-    """TOPP-RA, without the matplotlib.pyplot it imports at module level (toppra.algorithm.algorithm,
-    toppra.parametrizer) for plotting methods hriplan never calls: 0.6 s CPU of the demo's `plan`
-    process (benchmarks/REPORT-startup.md).
-
-    While toppra is imported, and only then, `matplotlib` and `matplotlib.pyplot` in sys.modules are
-    stand-ins; toppra's `plt` is a _DeferredPyplot that imports the real pyplot on first use, so its
-    plots still work. When matplotlib is already loaded nothing is stood in. (Another thread that
-    imported matplotlib during those milliseconds would get the stand-ins: this module is imported
-    with the planning session, before any plot.)
-    """
-    if "matplotlib" in sys.modules:
+    """TOPP-RA, with the modules of _DEFERRED that are not loaded yet deferred: while toppra is
+    imported, and only then, they are _Deferred stand-ins in sys.modules, so toppra's names from
+    them are _Later and load the real module on first use (toppra's plots still work). (Another
+    thread importing one of them during those milliseconds would get a stand-in: this module is
+    imported with the planning session, before any plot or scipy use.)"""
+    stand_ins = {name: _Deferred(name) for name in _DEFERRED if name not in sys.modules}
+    for name, stand_in in stand_ins.items():  # `import matplotlib.pyplot as plt` reads the parent's attribute
+        parent, _, child = name.rpartition(".")
+        if parent in stand_ins:
+            setattr(stand_ins[parent], child, stand_in)
+    sys.modules.update(stand_ins)
+    try:
         import toppra
-    else:
-        pyplot = _DeferredPyplot("matplotlib.pyplot")
-        stand_ins = {"matplotlib": types.ModuleType("matplotlib"), "matplotlib.pyplot": pyplot}
-        stand_ins["matplotlib"].pyplot = pyplot  # type: ignore[attr-defined]
-        sys.modules.update(stand_ins)
-        try:
-            import toppra
-        finally:
-            for name, stand_in in stand_ins.items():
-                if sys.modules.get(name) is stand_in:
-                    del sys.modules[name]
-    import toppra.algorithm
-    import toppra.constraint
-
+        import toppra.algorithm
+        import toppra.constraint
+    finally:
+        for name, stand_in in stand_ins.items():
+            if sys.modules.get(name) is stand_in:
+                del sys.modules[name]
     return toppra
 
 
@@ -143,7 +163,7 @@ def time_parameterize(
     )
     knots = _densified(q)
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))])
-    path = toppra.SplineInterpolator(s, knots, bc_type="natural")
+    path = NaturalSpline(s, knots)
 
     deviation = _deviation(path, s, knots)
     if max_deviation is not None and deviation > max_deviation:
@@ -209,16 +229,14 @@ def joined(parts: Sequence[TimedPath]) -> TimedPath:
     )
 
 
-def _path_speed_limit(
-    path: toppra.SplineInterpolator, s: np.ndarray, speed_scale: SpeedScale
-) -> tuple[np.ndarray, np.ndarray]:
+def _path_speed_limit(path: NaturalSpline, s: np.ndarray, speed_scale: SpeedScale) -> tuple[np.ndarray, np.ndarray]:
     """(arc lengths, path-speed limit there), sampled every _SPEED_LIMIT_SPACING along the path."""
     at = np.linspace(s[0], s[-1], int(np.ceil((s[-1] - s[0]) / _SPEED_LIMIT_SPACING)) + 1)
     return at, np.asarray(speed_scale(path(at), path(at, 1)), dtype=float)
 
 
 def _retimed(
-    path: toppra.SplineInterpolator,
+    path: NaturalSpline,
     s: np.ndarray,
     vmax: np.ndarray,
     amax: np.ndarray,
@@ -265,7 +283,7 @@ class _PathSpeedLimit(toppra.constraint.JointVelocityConstraintVarying):
     gridpoint from Python (about a thousand calls per re-plan). The rest is TOPP-RA's
     `compute_constraint_params`, on its own helper."""
 
-    def __init__(self, path: toppra.SplineInterpolator, vmax: np.ndarray, at: np.ndarray, sd_max: np.ndarray) -> None:
+    def __init__(self, path: NaturalSpline, vmax: np.ndarray, at: np.ndarray, sd_max: np.ndarray) -> None:
         self._path, self._vmax, self._at, self._sd_max = path, vmax, at, sd_max
         super().__init__(lambda s: self.limits(np.array([s]))[0])
 
@@ -342,7 +360,7 @@ def _subdivided(points: np.ndarray, pieces: np.ndarray) -> np.ndarray:
     return np.concatenate([points[segment] + fraction * (points[segment + 1] - points[segment]), points[-1:]])
 
 
-def _deviation(path: toppra.SplineInterpolator, s: np.ndarray, knots: np.ndarray) -> float:
+def _deviation(path: NaturalSpline, s: np.ndarray, knots: np.ndarray) -> float:
     """Max per-joint |spline - polyline| over a fine sampling of every knot interval.
 
     Both are parameterised by the same arc length, so this compares points at equal parameter:
@@ -354,7 +372,7 @@ def _deviation(path: toppra.SplineInterpolator, s: np.ndarray, knots: np.ndarray
     return float(np.max(np.abs(path(at.ravel()).reshape(linear.shape) - linear)))
 
 
-def _gridpoints(path: toppra.SplineInterpolator, s: np.ndarray, vmax: np.ndarray, amax: np.ndarray) -> np.ndarray:
+def _gridpoints(path: NaturalSpline, s: np.ndarray, vmax: np.ndarray, amax: np.ndarray) -> np.ndarray:
     """Initial TOPP-RA gridpoints, placed so that `_overshooting` rarely finds anything to refine.
 
     Between gridpoints TOPP-RA keeps the path acceleration u constant and x = sd^2 linear in s.
@@ -386,7 +404,7 @@ def _gridpoints(path: toppra.SplineInterpolator, s: np.ndarray, vmax: np.ndarray
 
 
 def _overshooting(
-    path: toppra.SplineInterpolator, grid: np.ndarray, sd: np.ndarray, vmax: np.ndarray, amax: np.ndarray
+    path: NaturalSpline, grid: np.ndarray, sd: np.ndarray, vmax: np.ndarray, amax: np.ndarray
 ) -> np.ndarray:
     """Grid intervals where the retimed motion exceeds a limit by more than the grid tolerances.
 

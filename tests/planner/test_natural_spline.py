@@ -1,0 +1,63 @@
+"""The path TOPP-RA retimes (planner/natural_spline.py) against scipy's natural cubic spline, code
+it does not share, and against the properties that define a natural spline."""
+
+import numpy as np
+import pytest
+from scipy.interpolate import CubicSpline
+
+from hriplan.planner.natural_spline import NaturalSpline
+
+
+def _path(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """n knots of a random 6-joint walk, parameterised by arc length (as timing does)."""
+    knots = np.cumsum(np.random.default_rng(seed).normal(size=(n, 6)) * 0.03, axis=0)
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))]), knots
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5, 40, 700])
+def test_it_is_scipys_natural_cubic_spline(n):
+    s, knots = _path(n, seed=n)
+    ours, scipys = NaturalSpline(s, knots), CubicSpline(s, knots, bc_type="natural")
+    at = np.concatenate([np.linspace(s[0] - 0.05, s[-1] + 0.05, 3001), s])  # beyond both ends, and at the knots
+    for order in (0, 1, 2):
+        reference = scipys(at, order)
+        assert np.max(np.abs(ours(at, order) - reference)) <= 1e-12 * max(1.0, np.max(np.abs(reference)))
+    assert ours.dof == 6 and list(ours.path_interval) == [s[0], s[-1]]
+
+
+def test_it_interpolates_with_zero_curvature_at_the_ends_and_is_twice_differentiable():
+    s, knots = _path(30, seed=1)
+    spline = NaturalSpline(s, knots)
+    assert np.max(np.abs(spline(s) - knots)) < 1e-14
+    assert np.max(np.abs(spline(s[[0, -1]], 2))) < 1e-12
+    inner, eps = s[1:-1], 1e-9
+    for order in (0, 1, 2):  # continuous across every inner knot
+        assert np.max(np.abs(spline(inner + eps, order) - spline(inner - eps, order))) < 1e-5  # |q'''| 2 eps
+    mid, h = (s[:-1] + s[1:]) / 2, 1e-6  # and each derivative is the one of the order below
+    for order in (1, 2):
+        numeric = (spline(mid + h, order - 1) - spline(mid - h, order - 1)) / (2 * h)
+        assert np.max(np.abs(numeric - spline(mid, order))) < 1e-6 * max(1.0, np.max(np.abs(numeric)))
+
+
+def test_shapes_follow_the_input():
+    s, knots = _path(5, seed=2)
+    spline = NaturalSpline(s, knots)
+    assert spline(0.1).shape == (6,) and spline(np.array([0.1, 0.2])).shape == (2, 6)
+    assert spline(np.zeros((3, 4)), 1).shape == (3, 4, 6)
+
+
+@pytest.mark.parametrize(
+    ("s", "knots", "message"),
+    [
+        ([0.0], [[0.0]], "n >= 2"),
+        ([0.0, 1.0], [[0.0], [1.0], [2.0]], "n >= 2"),
+        ([0.0, 1.0, 1.0], [[0.0], [1.0], [2.0]], "increase strictly"),
+    ],
+)
+def test_bad_input_is_refused(s, knots, message):
+    with pytest.raises(ValueError, match=message):
+        NaturalSpline(np.array(s), np.array(knots))
+    if message == "n >= 2":
+        return
+    with pytest.raises(ValueError, match="order"):
+        NaturalSpline(np.array([0.0, 1.0]), np.array([[0.0], [1.0]]))(0.5, 3)
