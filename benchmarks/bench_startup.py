@@ -58,7 +58,6 @@ marks = [time.process_time()]
 import numpy; marks.append(time.process_time())
 import pydantic, typer, yaml; marks.append(time.process_time())
 import pinocchio, coal; marks.append(time.process_time())
-import scipy.interpolate; marks.append(time.process_time())
 import hriplan.planner.timing, toppra; marks.append(time.process_time())
 import hriplan.cli.main, hriplan.cli.tasks, hriplan.cli.summary, hriplan.tasks.pipeline, hriplan.planner.session
 marks.append(time.process_time())
@@ -71,8 +70,7 @@ PHASE_NAMES = (
     "numpy",
     "pydantic, typer, yaml",
     "pinocchio, coal",
-    "scipy.interpolate (what TOPP-RA imports of scipy)",
-    "toppra (pyplot stood in), planner/timing.py and the hriplan modules it imports",
+    "toppra (its pyplot and scipy stood in by planner/timing.py), timing.py and the hriplan modules it imports",
     "hriplan's other modules",
     "the work (plan, warm)",
 )
