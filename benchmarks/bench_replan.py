@@ -25,7 +25,6 @@ import pinocchio as pin
 
 from hriplan.api import PlanningSession, load_task, run_task
 from hriplan.planner import session as session_module
-from hriplan.planner import validate as validate_module
 from hriplan.planner.session import PlanningSession as Session
 from hriplan.robots.collision import CollisionChecker
 from hriplan.safety.approach import CLOSING, ApproachMonitor
@@ -45,7 +44,7 @@ STAGES = (
     ("  TOPP-RA with the ISO/TS 15066 limit", session_module, "time_parameterize"),
     ("    ISO/TS 15066 monitor (speed_scale)", ApproachMonitor, "speed_scale"),
     ("  dense validation", session_module, "validate_path"),
-    ("    closest person distance (report)", validate_module, "closest_people"),
+    ("    closest person distance (report)", CollisionChecker, "human_distance"),
     ("    collision checks", CollisionChecker, "in_collision"),
     ("collision builds (anywhere)", CollisionChecker, "_build"),
 )

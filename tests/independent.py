@@ -548,15 +548,3 @@ class UrdfMeshes:
             if r.isCollision():
                 touching |= self.pair_names[(cp.first, cp.second)]
         return touching
-
-
-def closest_by_coal(robot_model: pin.Model, distance_model: pin.GeometryModel, q: np.ndarray) -> tuple[float, str, str]:
-    """(distance, first, second) of the closest pair of `distance_model` at `q`: every pair through
-    coal from fresh data (no warm start), the first pair of the smallest distance."""
-    data, geometry_data = robot_model.createData(), distance_model.createData()
-    pin.computeDistances(robot_model, data, distance_model, geometry_data, q)
-    distances = [r.min_distance for r in geometry_data.distanceResults]
-    k = int(np.argmin(distances))
-    pair = distance_model.collisionPairs[k]
-    objects = distance_model.geometryObjects
-    return float(distances[k]), objects[pair.first].name, objects[pair.second].name

@@ -15,7 +15,6 @@ from hriplan.robots.human import HumanSpec
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Box, Obstacle, Scene
 from hriplan.robots.spatial import Pose
-from hriplan.safety.person_distance import closest_people
 
 
 def _scene(can_at: tuple[float, float, float], person_x: float) -> Scene:
@@ -36,8 +35,7 @@ def states() -> tuple[object, np.ndarray]:
 
 
 def _answers(checker: CollisionChecker, qs: np.ndarray) -> list[tuple]:
-    closest = closest_people(checker, qs)
-    return [(checker.in_collision(q), checker.touches(q, "can"), round(d, 9)) for q, (d, _, _) in zip(qs, closest)]
+    return [(checker.in_collision(q), checker.touches(q, "can"), round(checker.human_distance(q)[0], 9)) for q in qs]
 
 
 def test_a_reused_checker_answers_for_the_scene_it_was_given(states):

@@ -12,7 +12,6 @@ from hriplan.robots.human import HumanSpec
 from hriplan.robots.robot_geometry import robot_parts
 from hriplan.robots.scene import AttachedObject, Box, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
-from hriplan.safety.person_distance import closest_people
 from madar_states import CLEAR
 
 
@@ -81,11 +80,11 @@ def test_obstacle_moved_onto_the_hand_collides_without_rebuilding(madar, checker
 
 def test_human_distance_follows_the_person(madar, checker):
     q = madar.configuration(CLEAR)
-    far, _, _ = closest_people(checker, [q])[0]
+    far, _, _ = checker.human_distance(q)
     robot_model = madar.model
     tool = madar.frame_pose("right_tool", q)[:3, 3]
     checker.pose_human(HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2))
-    near, part, body = closest_people(checker, [q])[0]
+    near, part, body = checker.human_distance(q)
     assert near < far - 0.5 and part and body.startswith("bob/")
     checker.pose_human(
         HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2, reach={"right": tuple(tool)})
@@ -93,7 +92,7 @@ def test_human_distance_follows_the_person(madar, checker):
     assert checker.in_collision(q)  # the person's hand now touches the robot's hand
     assert madar.model is robot_model
     checker.pose_human(HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2))
-    assert closest_people(checker, [q])[0][0] == pytest.approx(far)
+    assert checker.human_distance(q)[0] == pytest.approx(far)
 
 
 def test_carried_object_is_checked_against_the_scene_but_not_its_hand(madar):
@@ -231,7 +230,7 @@ def test_a_build_remembered_where_a_person_stood_measures_where_she_stands_now(m
             fresh.set_world(scene, zones)
             for q in states:
                 assert checker.contacts(q) == fresh.contacts(q)
-                assert closest_people(checker, [q])[0] == pytest.approx(closest_people(fresh, [q])[0], abs=1e-9)
+                assert checker.human_distance(q) == pytest.approx(fresh.human_distance(q), abs=1e-9)
                 mine, theirs = checker.person_pairs(q, "bob"), fresh.person_pairs(q, "bob")
                 assert np.allclose(mine.distance, theirs.distance, atol=1e-9)
     assert any(checker.contacts(q) for q in states)  # near: the person and her zones are touched

@@ -27,12 +27,10 @@ from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Scene
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.safety.capsule_distance import capsule_distances
-from hriplan.safety.person_distance import closest_people
 from hriplan.safety.policy import default_policy
 from hriplan.safety.separation import SafetyMargin, SeparationPolicy, allowed_speed
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
-from independent import closest_by_coal
 from independent import iso_allowed as _allowed
 from independent import iso_minimum_separation as _s0
 from independent import iso_ssm as _ssm
@@ -264,49 +262,6 @@ def test_the_batched_monitor_gives_the_per_point_numbers_on_the_handover(handove
     assert len(bound) > 1
     # The separation report re-reads the timing's samples: the same objects, not a recomputation.
     assert monitor.samples(xs[3], dxs[3]) is monitor.samples(xs[3].copy(), dxs[3].copy())
-
-
-def test_the_monitor_leaves_out_only_non_capsule_pairs_that_cannot_change_a_sample(handover, monkeypatch):
-    """The palm, adapter and can pairs go through coal only where their bounds do not rule them
-    out, and the samples are still the per-point ones (the test above): here, that few are asked."""
-    session, policy, group, q0, xs, dxs = handover
-    asked = []
-    measure = pin.computeDistance
-    monkeypatch.setattr(pin, "computeDistance", lambda *a: asked.append(a[2]) or measure(*a))
-    monitor = ApproachMonitor(session.robot, session.checker, policy, group, q0)
-    monitor.speed_scale(xs, dxs)
-    others = sum(1 for p in session.checker.person_model(policy.people[0].name).collisionPairs) - 160
-    assert 0 < len(asked) < 0.5 * others * len(xs)
-
-
-def _closest_against_coal(session: PlanningSession, qs: np.ndarray) -> list[tuple[float, str, str]]:
-    """`closest_people` at `qs`, checked against coal on every pair from fresh data."""
-    found = closest_people(session.checker, qs)
-    references = [closest_by_coal(session.robot.model, session.checker.distance_model(), q) for q in qs]
-    np.testing.assert_allclose([d for d, _, _ in found], [d for d, _, _ in references], atol=2e-5)
-    assert sum(f[1:] == r[1:] for f, r in zip(found, references)) >= len(qs) - 2  # a near tie may name another pair
-    return found
-
-
-def test_the_closest_person_distance_is_coals_closest_pair(handover):
-    """`closest_people` (the report's figure) against coal on every pair: the handover's path and
-    random states around it (fingers closest), a person against MADAR's column and base (coal's
-    boxes and cylinders closest), and no one."""
-    session, _, group, q0, xs, _ = handover
-    rng = np.random.default_rng(3)
-    states = np.concatenate([xs, xs[-20:] + rng.normal(0.0, 0.05, (20, xs.shape[1]))])
-    _closest_against_coal(session, np.array([session.robot.configuration(x, group, base=q0) for x in states]))
-    close = PlanningSession("madar", Scene(humans=[HumanSpec(name="kim", position=(0.0, 0.42), yaw=-math.pi / 2)]))
-    q0 = close.robot.configuration(posture("madar", "ready"))
-    x0 = close.robot.group_values(q0, "right_arm")
-    qs = np.array(
-        [close.robot.configuration(x0 + rng.normal(0.0, 0.4, x0.size), "right_arm", base=q0) for _ in range(40)]
-    )
-    found = _closest_against_coal(close, qs)
-    shapes = {g.name: type(g.geometry) for g in close.checker.distance_model().geometryObjects}
-    assert any(shapes[part] is not coal.Capsule for _, part, _ in found)
-    empty = PlanningSession("madar", Scene(), hands={"right": "open"})
-    assert closest_people(empty.checker, qs[:2]) == [(math.inf, "", "")] * 2
 
 
 def _right_arm_sweep(session: PlanningSession) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -27,7 +27,6 @@ from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot, load_robot
 from hriplan.robots.scene import Scene
 from hriplan.safety.approach import ApproachMonitor
-from hriplan.safety.person_distance import closest_people
 from hriplan.safety.separation import SPEED_LIMIT_SLACK, SeparationPolicy
 
 
@@ -147,7 +146,7 @@ class PlannedWorld:
 
     def human_distances(self) -> list[tuple[float, str, str]]:
         """(distance, robot part, person part) of the closest robot-person pair at every point."""
-        return closest_people(self.checker, np.array([self.planning_q(row) for row in self.positions]))
+        return [self.checker.human_distance(self.planning_q(row)) for row in self.positions]
 
     def group(self) -> str:
         group = next((g for g in self.robot.groups if self.robot.group_joints(g) == self.trajectory.joint_names), None)

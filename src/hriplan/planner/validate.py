@@ -14,7 +14,6 @@ from pydantic import BaseModel
 
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.robots.collision import CollisionChecker
-from hriplan.safety.person_distance import closest_people
 
 VALIDATION_TOLERANCE = 1e-4
 DISTANCE_SAMPLES = 150
@@ -78,7 +77,7 @@ def validate_path(
         if human_distance
         else []
     )
-    distances = closest_people(checker, np.array([evaluator.full(x) for x in sample])) if len(sample) else []
+    distances = [checker.human_distance(evaluator.full(x)) for x in sample]
     best = min(distances, key=lambda d: d[0]) if distances else (float("inf"), "", "")
     violated = [c.id for c in checks if not c.satisfied]
     problems = ([f"constraint {', '.join(violated)} violated"] if violated else []) + ([collision] if collision else [])

@@ -516,11 +516,15 @@ class CollisionChecker:
         pin.updateGeometryPlacements(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q)
         return any(pin.computeCollision(self.geom_model, self.geom_data, k) for k in pairs)
 
-    def distance_model(self) -> pin.GeometryModel:
-        """Robot parts (no carried objects) against every person's capsules grown by their margin,
-        one pair each, placed where the people stand: what the closest distance to a person is
-        measured on (`hriplan.safety.person_distance.closest_people`, many states at once)."""
-        return self._distance_model
+    def human_distance(self, q: np.ndarray) -> tuple[float, str, str]:
+        """(distance, robot part, human part) of the closest robot-human pair; inf without people."""
+        dm = self._distance_model
+        if not dm.collisionPairs:
+            return float("inf"), "", ""
+        k = pin.computeDistances(self.robot.model, self.robot.data, dm, self._distance_data, q)  # the closest pair
+        pair = dm.collisionPairs[k]
+        distance = self._distance_data.distanceResults[k].min_distance
+        return float(distance), dm.geometryObjects[pair.first].name, dm.geometryObjects[pair.second].name
 
     def person_pairs(self, q: np.ndarray, person: str) -> PersonPairs:
         """Every robot part and carried object against every capsule of `person`, at `q`."""

@@ -21,7 +21,6 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.recent import Recent
-from hriplan.robots.collision import CollisionChecker
 from hriplan.safety.capsule_distance import capsule_distances
 
 
@@ -214,24 +213,6 @@ class PersonDistances:
             self._person_half[self._capsule_rows],
             self._person_radius[self._capsule_rows],
         )
-
-
-def closest_people(checker: CollisionChecker, qs: np.ndarray) -> list[tuple[float, str, str]]:
-    """Per configuration in `qs` (N, nq): (distance, robot part, person/capsule) of the robot part
-    closest to anyone, to their capsules grown by their margin (inf, "", "" without people). A
-    report figure over a whole path: one batch, coal only on the pairs the capsules cannot beat."""
-    model, robot_model = checker.distance_model(), checker.robot.model
-    if not model.collisionPairs:
-        return [(np.inf, "", "")] * len(qs)
-    distances = PersonDistances.of(robot_model, model, range(robot_model.njoints))
-    pairs = distances.at(np.asarray(qs, dtype=float), np.zeros((len(qs), robot_model.nv)), _nearer)
-    closest = pairs.distance.argmin(axis=1)
-    return [(float(pairs.distance[n, k]), pairs.parts[k], pairs.capsules[k]) for n, k in enumerate(closest)]
-
-
-def _nearer(pairs: StatePairs, rows: np.ndarray, floor: np.ndarray, speed: np.ndarray) -> np.ndarray:
-    """The non-capsule rows that could be as close as the closest capsule row (ties measured)."""
-    return floor <= pairs.distance.min(axis=1, initial=np.inf)[:, None]
 
 
 def _bounding_sphere(part: pin.GeometryObject) -> tuple[np.ndarray, float]:
