@@ -516,15 +516,46 @@ class CollisionChecker:
         pin.updateGeometryPlacements(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q)
         return any(pin.computeCollision(self.geom_model, self.geom_data, k) for k in pairs)
 
-    def human_distance(self, q: np.ndarray) -> tuple[float, str, str]:
-        """(distance, robot part, human part) of the closest robot-human pair; inf without people."""
+    def human_distances(self, qs: np.ndarray) -> list[tuple[float, str, str]]:
+        """Per planning configuration of a path `qs` (N, nq): (distance, robot part, human part) of
+        the closest robot-human pair; inf without people. A part no joint moves along the path is
+        as far from everyone at every state, so its pairs are measured once (a path moves one
+        group: most of MADAR stands still), the others at every state, in one C++ call each."""
+        dm, data, model = self._distance_model, self._distance_data, self.robot.model
+        if not dm.collisionPairs or not len(qs):
+            return [(float("inf"), "", "")] * len(qs)
+        qs = np.asarray(qs, dtype=float)
+        varying = np.ptp(qs, axis=0) > 0.0
+        changed = {
+            j for j in range(1, model.njoints) if varying[model.idx_qs[j] : model.idx_qs[j] + model.nqs[j]].any()
+        }
+        moved = {j for j in range(model.njoints) if changed.intersection(model.supports[j])}
+        objects, pairs = dm.geometryObjects, dm.collisionPairs
+        moving = np.array([objects[p.first].parentJoint in moved for p in pairs], dtype=bool)
+        # Per state (distance, pair): the least, and of equal ones the first pair, as one call over all.
+        ranked: list[tuple[float, int]] = [(float("inf"), -1)] * len(qs)
+        try:
+            for part, states in ((~moving, qs[:1]), (moving, qs)):
+                if part.any():
+                    data.setActiveCollisionPairs(dm, self._pair_map(part), False)
+                    found = [self._closest_active(q) for q in states]
+                    ranked = [min(r, f) for r, f in zip(ranked, found * len(qs) if len(states) == 1 else found)]
+        finally:
+            data.setActiveCollisionPairs(dm, self._pair_map(np.ones(len(pairs), dtype=bool)), False)
+        return [(d, objects[pairs[k].first].name, objects[pairs[k].second].name) for d, k in ranked]
+
+    def _closest_active(self, q: np.ndarray) -> tuple[float, int]:
+        """(distance, pair) of the distance model's closest active pair at `q`."""
+        k = pin.computeDistances(self.robot.model, self.robot.data, self._distance_model, self._distance_data, q)
+        return float(self._distance_data.distanceResults[k].min_distance), k
+
+    def _pair_map(self, active: np.ndarray) -> np.ndarray:
+        """The distance model's pairs `active` (a flag a pair) as the map of geometries pinocchio takes."""
         dm = self._distance_model
-        if not dm.collisionPairs:
-            return float("inf"), "", ""
-        k = pin.computeDistances(self.robot.model, self.robot.data, dm, self._distance_data, q)  # the closest pair
-        pair = dm.collisionPairs[k]
-        distance = self._distance_data.distanceResults[k].min_distance
-        return float(distance), dm.geometryObjects[pair.first].name, dm.geometryObjects[pair.second].name
+        chosen = np.zeros((dm.ngeoms, dm.ngeoms), dtype=bool)
+        for pair, on in zip(dm.collisionPairs, active):
+            chosen[pair.first, pair.second] = chosen[pair.second, pair.first] = on
+        return chosen
 
     def person_pairs(self, q: np.ndarray, person: str) -> PersonPairs:
         """Every robot part and carried object against every capsule of `person`, at `q`."""
