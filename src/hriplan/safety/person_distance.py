@@ -115,26 +115,17 @@ class PersonDistances:
         if self._capsule_rows.size:
             rows = self._capsule_rows
             distance[:, rows], robot_point[:, rows], person_point[:, rows] = self._capsule_pairs(rotation, origin)
+        frame = self._frame
+        velocity = _point_velocity(linear[:, frame], angular[:, frame], origin[:, frame], robot_point)
+        pairs = StatePairs(self.parts, self.capsules, distance, robot_point, person_point, velocity)
         if self._other_rows.size:
             measure = np.ones((len(qs), self._other_rows.size), dtype=bool)
             if select is not None:
-                partial = self._pairs(distance, robot_point, person_point, linear, angular, origin)
-                measure = select(partial, self._other_rows, *self._bounds(rotation, origin, linear, angular))
-            self._measure(qs, measure, (distance, robot_point, person_point))
-        return self._pairs(distance, robot_point, person_point, linear, angular, origin)
-
-    def _pairs(
-        self,
-        distance: np.ndarray,
-        robot_point: np.ndarray,
-        person_point: np.ndarray,
-        linear: np.ndarray,
-        angular: np.ndarray,
-        origin: np.ndarray,
-    ) -> StatePairs:
-        """The rows with the velocity of each robot point, from its joint's world twist (N, F, 3)."""
-        velocity = linear[:, self._frame] + np.cross(angular[:, self._frame], robot_point - origin[:, self._frame])
-        return StatePairs(self.parts, self.capsules, distance, robot_point, person_point, velocity)
+                measure = select(pairs, self._other_rows, *self._bounds(rotation, origin, linear, angular))
+            states, rows = self._measure(qs, measure, (distance, robot_point, person_point))
+            at = states, frame[rows]
+            velocity[states, rows] = _point_velocity(linear[at], angular[at], origin[at], robot_point[states, rows])
+        return pairs
 
     def _walk(self, qs: np.ndarray, dqs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Per state: the carrying joints' placements (N, F, 4, 4) and local twists (N, F, 6)."""
@@ -147,9 +138,12 @@ class PersonDistances:
                 frames[i, f], twists[i, f] = placements[j].homogeneous, velocities[j].vector
         return frames, twists
 
-    def _measure(self, qs: np.ndarray, measure: np.ndarray, out: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+    def _measure(
+        self, qs: np.ndarray, measure: np.ndarray, out: tuple[np.ndarray, np.ndarray, np.ndarray]
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The non-capsule rows `measure` (N, m) asks for, by coal, into `out` (distance, robot
-        point, person point). Each result is read once and all of them turned into arrays at the end."""
+        point, person point); returns the (state, row) of each. Each result is read once and all of
+        them turned into arrays at the end."""
         (others, other_data, copies), model, data = self._others, self.robot_model, self.robot_data
         for original, copy in copies.items():
             others.geometryObjects[copy].placement = self.person_model.geometryObjects[original].placement
@@ -159,13 +153,14 @@ class PersonDistances:
             for m in np.flatnonzero(measure[n]).tolist():
                 r = pin.computeDistance(others, other_data, m)
                 found.append((r.min_distance, r.getNearestPoint1(), r.getNearestPoint2()))
+        states, rows = np.nonzero(measure)  # row-major: the order measured
+        rows = self._other_rows[rows]
         if found:
-            states, rows = np.nonzero(measure)  # row-major: the order measured
-            rows = self._other_rows[rows]
             distance, robot_point, person_point = out
             distance[states, rows] = [d for d, _, _ in found]
             robot_point[states, rows] = [p for _, p, _ in found]
             person_point[states, rows] = [p for _, _, p in found]
+        return states, rows
 
     def _bounds(
         self, rotation: np.ndarray, origin: np.ndarray, linear: np.ndarray, angular: np.ndarray
@@ -187,7 +182,7 @@ class PersonDistances:
             self._person_radius[rows],
         )
         spin = angular[:, frame]
-        speed = np.linalg.norm(linear[:, frame] + np.cross(spin, centre - origin[:, frame]), axis=2)
+        speed = np.linalg.norm(_point_velocity(linear[:, frame], spin, origin[:, frame], centre), axis=2)
         speed += np.linalg.norm(spin, axis=2) * self._other_radius
         return gap - _COAL_TOLERANCE, speed * (1.0 + _ROUNDING) + _ROUNDING
 
@@ -213,6 +208,12 @@ class PersonDistances:
             self._person_half[self._capsule_rows],
             self._person_radius[self._capsule_rows],
         )
+
+
+def _point_velocity(linear: np.ndarray, angular: np.ndarray, origin: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """The world velocity of `point` on a body whose `origin` moves at `linear` and turns at
+    `angular` (all (..., 3), world)."""
+    return linear + np.cross(angular, point - origin)
 
 
 def _bounding_sphere(part: pin.GeometryObject) -> tuple[np.ndarray, float]:
