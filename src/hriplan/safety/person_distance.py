@@ -102,9 +102,10 @@ class PersonDistances:
         The non-capsule rows go through coal, one pair per call, only where `select` (default:
         everywhere) asks: it gets the capsule rows measured (the others at distance inf), the
         non-capsule rows' indices, a lower bound on each one's distance and an upper bound on the
-        speed of any point of its part, both (N, m), and returns which to measure, (N, m). A row left out stays at
-        distance inf with both points at its joint's origin: a caller selects every row that could
-        change its answer (reading coal's results from Python is most of the cost)."""
+        speed of any point of its part, both (N, m), and returns which to measure, (N, m). A row
+        left out stays at distance inf with both points at its joint's origin: a caller selects
+        every row that could change its answer (reading coal's results from Python is most of
+        the cost)."""
         frames, twists = self._walk(qs, dqs)
         rotation, origin = frames[..., :3, :3], frames[..., :3, 3]
         # data.v is the joint's spatial velocity in its own frame: rotate it to the world.
