@@ -147,6 +147,8 @@ class CollisionChecker:
         self._builds: Recent[str, dict[str, object]] = Recent(_REMEMBERED_BUILDS)
         # Distance and person models, by what is carried and the people.
         self._people_models: Recent[str, tuple] = Recent(_REMEMBERED_BUILDS)
+        # Per distance model: its pairs as geometry indices and the joint of each pair's robot part.
+        self._distance_pairs: Recent[int, tuple[pin.GeometryModel, np.ndarray, np.ndarray]] = Recent(_REMEMBERED_BUILDS)
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
@@ -530,8 +532,8 @@ class CollisionChecker:
             j for j in range(1, model.njoints) if varying[model.idx_qs[j] : model.idx_qs[j] + model.nqs[j]].any()
         }
         moved = {j for j in range(model.njoints) if changed.intersection(model.supports[j])}
-        objects, pairs = dm.geometryObjects, dm.collisionPairs
-        moving = np.array([objects[p.first].parentJoint in moved for p in pairs], dtype=bool)
+        pairs, joints = self._distance_pair_table()
+        moving = np.isin(joints, sorted(moved))
         # Per state (distance, pair): the least, and of equal ones the first pair, as one call over all.
         ranked: list[tuple[float, int]] = [(float("inf"), -1)] * len(qs)
         try:
@@ -542,19 +544,31 @@ class CollisionChecker:
                     ranked = [min(r, f) for r, f in zip(ranked, found * len(qs) if len(states) == 1 else found)]
         finally:
             data.setActiveCollisionPairs(dm, self._pair_map(np.ones(len(pairs), dtype=bool)), False)
-        return [(d, objects[pairs[k].first].name, objects[pairs[k].second].name) for d, k in ranked]
+        names = [g.name for g in dm.geometryObjects]
+        return [(d, names[pairs[k, 0]], names[pairs[k, 1]]) for d, k in ranked]
 
     def _closest_active(self, q: np.ndarray) -> tuple[float, int]:
         """(distance, pair) of the distance model's closest active pair at `q`."""
         k = pin.computeDistances(self.robot.model, self.robot.data, self._distance_model, self._distance_data, q)
         return float(self._distance_data.distanceResults[k].min_distance), k
 
+    def _distance_pair_table(self) -> tuple[np.ndarray, np.ndarray]:
+        """The distance model's pairs as geometry indices (k, 2) and the joint carrying each
+        pair's robot part (k): read from pinocchio once per distance model, not at every call."""
+        dm = self._distance_model
+        kept = self._distance_pairs.get(id(dm))
+        if kept is None or kept[0] is not dm:  # held here, the model's id is not reused while it is
+            pairs = np.array([(p.first, p.second) for p in dm.collisionPairs], dtype=int).reshape(-1, 2)
+            joints = np.array([dm.geometryObjects[int(a)].parentJoint for a in pairs[:, 0]], dtype=int)
+            kept = (dm, pairs, joints)
+            self._distance_pairs.put(id(dm), kept)
+        return kept[1], kept[2]
+
     def _pair_map(self, active: np.ndarray) -> np.ndarray:
         """The distance model's pairs `active` (a flag a pair) as the map of geometries pinocchio takes."""
-        dm = self._distance_model
-        chosen = np.zeros((dm.ngeoms, dm.ngeoms), dtype=bool)
-        for pair, on in zip(dm.collisionPairs, active):
-            chosen[pair.first, pair.second] = chosen[pair.second, pair.first] = on
+        pairs, _ = self._distance_pair_table()
+        chosen = np.zeros((self._distance_model.ngeoms,) * 2, dtype=bool)
+        chosen[pairs[active, 0], pairs[active, 1]] = chosen[pairs[active, 1], pairs[active, 0]] = True
         return chosen
 
     def person_pairs(self, q: np.ndarray, person: str) -> PersonPairs:
