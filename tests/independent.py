@@ -548,3 +548,21 @@ class UrdfMeshes:
             if r.isCollision():
                 touching |= self.pair_names[(cp.first, cp.second)]
         return touching
+
+
+def closest_robot_person(robot_model: pin.Model, geometry: pin.GeometryModel, kinds: list[str], q: np.ndarray):
+    """(distance, robot part, person capsule) of the closest pair of a robot part (kind "robot")
+    and a person's capsule (kind "human") of a collision checker's full geometry at `q`, every
+    pair through coal.distance on placements from fresh data; the first pair of the least."""
+    data, placed = robot_model.createData(), geometry.createData()
+    pin.updateGeometryPlacements(robot_model, data, geometry, placed, q)
+    objects = geometry.geometryObjects
+    parts = [i for i, kind in enumerate(kinds) if kind == "robot"]
+    people = [i for i, kind in enumerate(kinds) if kind == "human"]
+    found = [
+        (nearest(objects[i].geometry, placed.oMg[i], objects[j].geometry, placed.oMg[j]).min_distance, i, j)
+        for i in parts
+        for j in people
+    ]
+    distance, i, j = min(found, key=lambda f: f[0])
+    return float(distance), objects[i].name, objects[j].name

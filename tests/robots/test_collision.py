@@ -12,6 +12,7 @@ from hriplan.robots.human import HumanSpec
 from hriplan.robots.robot_geometry import robot_parts
 from hriplan.robots.scene import AttachedObject, Box, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
+from independent import closest_robot_person
 from madar_states import CLEAR
 
 
@@ -80,11 +81,11 @@ def test_obstacle_moved_onto_the_hand_collides_without_rebuilding(madar, checker
 
 def test_human_distance_follows_the_person(madar, checker):
     q = madar.configuration(CLEAR)
-    far, _, _ = checker.human_distance(q)
+    far, _, _ = checker.human_distances([q])[0]
     robot_model = madar.model
     tool = madar.frame_pose("right_tool", q)[:3, 3]
     checker.pose_human(HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2))
-    near, part, body = checker.human_distance(q)
+    near, part, body = checker.human_distances([q])[0]
     assert near < far - 0.5 and part and body.startswith("bob/")
     checker.pose_human(
         HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2, reach={"right": tuple(tool)})
@@ -92,7 +93,38 @@ def test_human_distance_follows_the_person(madar, checker):
     assert checker.in_collision(q)  # the person's hand now touches the robot's hand
     assert madar.model is robot_model
     checker.pose_human(HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2))
-    assert checker.human_distance(q)[0] == pytest.approx(far)
+    assert checker.human_distances([q])[0][0] == pytest.approx(far)
+
+
+def test_human_distances_along_a_path_are_coals_closest_pair(madar, rng):
+    """The parts the path does not move are measured once: the closest pair is still coal's over
+    every pair at every state, whether a moving part (the right arm) or a still one (MADAR's column,
+    the left arm) is the closest. A person close in front, with a margin, and a second one."""
+    people = [
+        HumanSpec(name="kim", position=(0.0, 0.45), yaw=-np.pi / 2, margin=0.05),
+        HumanSpec(name="lou", position=(1.3, 0.2), yaw=np.pi),
+    ]
+    checker = CollisionChecker(madar, Scene(humans=people))
+    q0 = madar.configuration(CLEAR)
+    arm = madar.group_indices("right_arm")
+    qs = np.array([q0] * 40)
+    qs[:, arm] += rng.normal(0.0, 0.8, (40, arm.size))
+    # Only the shoulder turns, carrying the rest of the arm past kim: every part it carries moves.
+    swing = np.array([qs[0]] * 12)
+    swing[:, arm[0]] += np.linspace(-0.8, 0.8, 12)
+    for path in (qs, swing):
+        found = checker.human_distances(path)
+        references = [closest_robot_person(madar.model, checker.geom_model, checker.kind, q) for q in path]
+        np.testing.assert_allclose([f[0] for f in found], [r[0] for r in references], atol=1e-5)
+        assert [f[1:] for f in found] == [r[1:] for r in references]
+    found = checker.human_distances(qs)
+    moving = {madar.model.frames[madar.frame_id(madar.tool_frame("right"))].parentJoint}
+    moving |= {j for j in range(madar.model.njoints) if madar.model.idx_qs[j] in arm}
+    part_joint = {g.name: g.parentJoint for g in checker.geom_model.geometryObjects}
+    closest_moves = [bool(moving.intersection(madar.model.supports[part_joint[f[1]]])) for f in found]
+    assert any(closest_moves) and not all(closest_moves)
+    assert checker.human_distances(qs[:0]) == []
+    assert CollisionChecker(madar).human_distances(qs[:2]) == [(np.inf, "", "")] * 2
 
 
 def test_carried_object_is_checked_against_the_scene_but_not_its_hand(madar):
@@ -230,7 +262,7 @@ def test_a_build_remembered_where_a_person_stood_measures_where_she_stands_now(m
             fresh.set_world(scene, zones)
             for q in states:
                 assert checker.contacts(q) == fresh.contacts(q)
-                assert checker.human_distance(q) == pytest.approx(fresh.human_distance(q), abs=1e-9)
+                assert checker.human_distances([q])[0] == pytest.approx(fresh.human_distances([q])[0], abs=1e-9)
                 mine, theirs = checker.person_pairs(q, "bob"), fresh.person_pairs(q, "bob")
                 assert np.allclose(mine.distance, theirs.distance, atol=1e-9)
     assert any(checker.contacts(q) for q in states)  # near: the person and her zones are touched

@@ -27,6 +27,7 @@ from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Scene
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.safety.capsule_distance import capsule_distances
+from hriplan.safety.person_distance import StatePairs
 from hriplan.safety.policy import default_policy
 from hriplan.safety.separation import SafetyMargin, SeparationPolicy, allowed_speed
 from hriplan.tasks.load import load_task
@@ -225,12 +226,14 @@ def _reference(
     return rows
 
 
-def _assert_same(monitor: ApproachMonitor, reference: list[tuple], x: np.ndarray, dx: np.ndarray) -> None:
+def _assert_same(
+    monitor: ApproachMonitor, reference: list[tuple], x: np.ndarray, dx: np.ndarray, rel: float = 1e-9
+) -> None:
     got = monitor.samples(x, dx)
     assert len(got) == len(reference)
     for sample, expected in zip(got, reference):
         for field, value in zip(FIELDS, expected):
-            assert getattr(sample, field) == pytest.approx(value, rel=1e-9, abs=1e-12), field
+            assert getattr(sample, field) == pytest.approx(value, rel=rel, abs=1e-12), field
         assert (sample.part, sample.capsule) == expected[5:]
 
 
@@ -262,6 +265,66 @@ def test_the_batched_monitor_gives_the_per_point_numbers_on_the_handover(handove
     assert len(bound) > 1
     # The separation report re-reads the timing's samples: the same objects, not a recomputation.
     assert monitor.samples(xs[3], dxs[3]) is monitor.samples(xs[3].copy(), dxs[3].copy())
+
+
+def test_the_monitor_leaves_out_only_non_capsule_pairs_that_cannot_change_a_sample(handover, monkeypatch):
+    """The palm, adapter and can pairs go through coal only where their bounds do not rule them
+    out: on the handover's points with random joint velocities (any part may bind, set the scale
+    or close in on S_0), every sample or S_0 message is still the per-point one, with few of those
+    pairs asked."""
+    session, policy, group, q0, xs, _ = handover
+    rng = np.random.default_rng(11)
+    asked = []
+    measure = pin.computeDistance
+    monkeypatch.setattr(pin, "computeDistance", lambda *a: asked.append(a[2]) or measure(*a))
+    monitor = ApproachMonitor(session.robot, session.checker, policy, group, q0)
+    points = xs[::2]
+    velocities = rng.normal(0.0, 0.5, points.shape) * rng.uniform(0.0, 1.0, (len(points), 1))
+    for x, dx in zip(points, velocities):
+        reference = _reference(session, policy, group, q0, x, dx)
+        if isinstance(reference, str):
+            with pytest.raises(HriplanError) as error:
+                monitor.samples(x, dx)
+            assert str(error.value) == reference
+        else:  # coal's GJK here starts from other guesses than the reference's: 1e-6 apart at most
+            _assert_same(monitor, reference, x, dx, rel=1e-6)
+    model = session.checker.person_model(policy.people[0].name)
+    others = [p for p in model.collisionPairs if not isinstance(model.geometryObjects[p.first].geometry, coal.Capsule)]
+    assert 0 < len(asked) < 0.2 * len(others) * len(points)
+    shapes = {g.name: type(g.geometry) for g in model.geometryObjects}
+    bound = [s.part for x, dx in zip(points, velocities) for s in monitor.samples(x, dx)]
+    assert any(shapes[part] is not coal.Capsule for part in bound)  # a coal pair binds somewhere
+
+
+def test_a_pair_that_could_bind_is_measured_though_it_is_neither_closest_nor_slowest(handover):
+    """Per unit of joint velocity a path may approach faster than allowed (scale < 1). A (a
+    capsule pair, the closest) allows 1.0 m/s and approaches at 3.0: margin -2.0, scale 0.33. B
+    (a coal pair, farther) may allow as little as ~1.05 and move at up to 3.1: margin down to
+    -2.05, scale at least 0.34. B may bind without lowering the scale: it is measured."""
+    session, policy, group, q0, _, _ = handover
+    monitor = ApproachMonitor(session.robot, session.checker, policy, group, q0)
+    person = monitor.people[0]
+    body = next(c for c in ("middle_thorax", "pelvis", "head") if person.contact_region(c) is None)
+    separations = np.linspace(0.0, 3.0, 301)
+    factor, padding = policy.margin.speed_factor, policy.margin.padding
+    allowed = [factor * _allowed(policy.robot, person, d - padding, body) for d in separations]
+    a = float(np.interp(1.0, allowed, separations))  # where A is allowed 1.0 m/s (linear past S_0)
+    pairs = StatePairs(
+        ["a", "b"],
+        [body, body],
+        np.array([[a, np.inf]]),
+        np.zeros((1, 2, 3)),
+        np.array([[[a, 0.0, 0.0], [0.0, 0.0, 0.0]]]),
+        np.array([[[3.0, 0.0, 0.0], [0.0, 0.0, 0.0]]]),
+    )
+    select = monitor._deciding(person, np.array([False, False]))
+    floor = a + 0.01
+    lowest = factor * _allowed(policy.robot, person, floor - padding, body)
+    speed = 3.1
+    assert lowest - speed < 1.0 - 3.0 and lowest / speed > 1.0 / 3.0  # could bind, cannot slow
+    assert select(pairs, np.array([1]), np.array([[floor]]), np.array([[speed]])).tolist() == [[True]]
+    # a B that can neither bind nor slow nor be the closest is left out
+    assert select(pairs, np.array([1]), np.array([[floor]]), np.array([[1.0]])).tolist() == [[False]]
 
 
 def _right_arm_sweep(session: PlanningSession) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

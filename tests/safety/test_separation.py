@@ -105,7 +105,7 @@ def test_person_distances_are_to_the_bare_body_and_follow_the_person():
     q = session.robot.configuration(posture("madar", "ready"))
     near = session.checker.person_pairs(q, "kim").distance.min()
     # The collision distance is to the capsules grown by the 0.2 m margin; separation is to the body.
-    assert near == pytest.approx(session.checker.human_distance(q)[0] + 0.2, abs=1e-6)
+    assert near == pytest.approx(session.checker.human_distances([q])[0][0] + 0.2, abs=1e-6)
     session.pose_human(HumanSpec(name="kim", position=(2.2, 0.6), margin=0.2))
     far = session.checker.person_pairs(q, "kim").distance.min()
     assert 0.9 < far - near < 1.0 + 1e-6

@@ -146,7 +146,7 @@ class PlannedWorld:
 
     def human_distances(self) -> list[tuple[float, str, str]]:
         """(distance, robot part, person part) of the closest robot-person pair at every point."""
-        return [self.checker.human_distance(self.planning_q(row)) for row in self.positions]
+        return self.checker.human_distances(np.array([self.planning_q(row) for row in self.positions]))
 
     def group(self) -> str:
         group = next((g for g in self.robot.groups if self.robot.group_joints(g) == self.trajectory.joint_names), None)

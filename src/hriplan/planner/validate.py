@@ -77,7 +77,7 @@ def validate_path(
         if human_distance
         else []
     )
-    distances = [checker.human_distance(evaluator.full(x)) for x in sample]
+    distances = checker.human_distances(np.array([evaluator.full(x) for x in sample]))
     best = min(distances, key=lambda d: d[0]) if distances else (float("inf"), "", "")
     violated = [c.id for c in checks if not c.satisfied]
     problems = ([f"constraint {', '.join(violated)} violated"] if violated else []) + ([collision] if collision else [])

@@ -147,6 +147,8 @@ class CollisionChecker:
         self._builds: Recent[str, dict[str, object]] = Recent(_REMEMBERED_BUILDS)
         # Distance and person models, by what is carried and the people.
         self._people_models: Recent[str, tuple] = Recent(_REMEMBERED_BUILDS)
+        # Per distance model: its pairs as geometry indices and the joint of each pair's robot part.
+        self._distance_pairs: Recent[int, tuple[pin.GeometryModel, np.ndarray, np.ndarray]] = Recent(_REMEMBERED_BUILDS)
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
@@ -516,15 +518,58 @@ class CollisionChecker:
         pin.updateGeometryPlacements(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q)
         return any(pin.computeCollision(self.geom_model, self.geom_data, k) for k in pairs)
 
-    def human_distance(self, q: np.ndarray) -> tuple[float, str, str]:
-        """(distance, robot part, human part) of the closest robot-human pair; inf without people."""
+    def human_distances(self, qs: np.ndarray) -> list[tuple[float, str, str]]:
+        """Per planning configuration of a path `qs` (N, nq): (distance, robot part, human part) of
+        the closest robot-human pair; inf without people. A part no joint moves along the path is
+        as far from everyone at every state, so its pairs are measured once (a path moves one
+        group: most of MADAR stands still), the others at every state, in one C++ call each."""
+        dm, data, model = self._distance_model, self._distance_data, self.robot.model
+        if not dm.collisionPairs or not len(qs):
+            return [(float("inf"), "", "")] * len(qs)
+        qs = np.asarray(qs, dtype=float)
+        varying = np.ptp(qs, axis=0) > 0.0
+        changed = {
+            j for j in range(1, model.njoints) if varying[model.idx_qs[j] : model.idx_qs[j] + model.nqs[j]].any()
+        }
+        moved = {j for j in range(model.njoints) if changed.intersection(model.supports[j])}
+        pairs, joints = self._distance_pair_table()
+        moving = np.isin(joints, sorted(moved))
+        # Per state (distance, pair): the least, and of equal ones the first pair, as one call over all.
+        ranked: list[tuple[float, int]] = [(float("inf"), -1)] * len(qs)
+        try:
+            for part, states in ((~moving, qs[:1]), (moving, qs)):
+                if part.any():
+                    data.setActiveCollisionPairs(dm, self._pair_map(part), False)
+                    found = [self._closest_active(q) for q in states]
+                    ranked = [min(r, f) for r, f in zip(ranked, found * len(qs) if len(states) == 1 else found)]
+        finally:
+            data.setActiveCollisionPairs(dm, self._pair_map(np.ones(len(pairs), dtype=bool)), False)
+        names = [g.name for g in dm.geometryObjects]
+        return [(d, names[pairs[k, 0]], names[pairs[k, 1]]) for d, k in ranked]
+
+    def _closest_active(self, q: np.ndarray) -> tuple[float, int]:
+        """(distance, pair) of the distance model's closest active pair at `q`."""
+        k = pin.computeDistances(self.robot.model, self.robot.data, self._distance_model, self._distance_data, q)
+        return float(self._distance_data.distanceResults[k].min_distance), k
+
+    def _distance_pair_table(self) -> tuple[np.ndarray, np.ndarray]:
+        """The distance model's pairs as geometry indices (k, 2) and the joint carrying each
+        pair's robot part (k): read from pinocchio once per distance model, not at every call."""
         dm = self._distance_model
-        if not dm.collisionPairs:
-            return float("inf"), "", ""
-        k = pin.computeDistances(self.robot.model, self.robot.data, dm, self._distance_data, q)  # the closest pair
-        pair = dm.collisionPairs[k]
-        distance = self._distance_data.distanceResults[k].min_distance
-        return float(distance), dm.geometryObjects[pair.first].name, dm.geometryObjects[pair.second].name
+        kept = self._distance_pairs.get(id(dm))
+        if kept is None or kept[0] is not dm:  # held here, the model's id is not reused while it is
+            pairs = np.array([(p.first, p.second) for p in dm.collisionPairs], dtype=int).reshape(-1, 2)
+            joints = np.array([dm.geometryObjects[int(a)].parentJoint for a in pairs[:, 0]], dtype=int)
+            kept = (dm, pairs, joints)
+            self._distance_pairs.put(id(dm), kept)
+        return kept[1], kept[2]
+
+    def _pair_map(self, active: np.ndarray) -> np.ndarray:
+        """The distance model's pairs `active` (a flag a pair) as the map of geometries pinocchio takes."""
+        pairs, _ = self._distance_pair_table()
+        chosen = np.zeros((self._distance_model.ngeoms,) * 2, dtype=bool)
+        chosen[pairs[active, 0], pairs[active, 1]] = chosen[pairs[active, 1], pairs[active, 0]] = True
+        return chosen
 
     def person_pairs(self, q: np.ndarray, person: str) -> PersonPairs:
         """Every robot part and carried object against every capsule of `person`, at `q`."""

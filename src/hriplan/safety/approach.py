@@ -23,7 +23,7 @@ import numpy as np
 from hriplan import HriplanError
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
-from hriplan.safety.person_distance import PersonDistances
+from hriplan.safety.person_distance import PersonDistances, Select, StatePairs
 from hriplan.safety.separation import (
     PersonSeparation,
     SeparationPolicy,
@@ -119,19 +119,52 @@ class ApproachMonitor:
             self._distances[person.name] = cached
         return cached
 
+    def _speeds(
+        self, person: PersonSeparation, contact: np.ndarray, pairs: StatePairs
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Per row (N, k): the speed allowed towards the person (with the policy's margin) and the
+        robot point's speed towards them (its whole speed at a contact region or touching). A row
+        not measured (distance inf) is allowed inf and approaches at 0 or a finite speed."""
+        distance, v = pairs.distance, pairs.robot_velocity
+        whole = contact | (distance <= _TOUCHING)
+        towards = np.einsum("nkj,nkj->nk", v, pairs.person_point - pairs.robot_point) / np.maximum(distance, _TOUCHING)
+        approach = np.where(whole, np.linalg.norm(v, axis=2), towards)
+        return kept_speeds(self.policy, person, distance, pairs.capsules), approach
+
+    def _deciding(self, person: PersonSeparation, contact: np.ndarray) -> Select:
+        """Which non-capsule rows could change a sample: those whose distance bound does not put
+        them beyond the closest row measured (overall, or outside the contact regions), or whose
+        bounds on allowed speed and approach could make them bind, lower the scale or stop the
+        robot. kept_speeds grows with the separation and the approach is at most the part's speed,
+        so every other row provably changes nothing; ties are measured."""
+
+        def select(pairs: StatePairs, rows: np.ndarray, floor: np.ndarray, speed: np.ndarray) -> np.ndarray:
+            allowed, approach = self._speeds(person, contact, pairs)
+            nearest = pairs.distance.min(axis=1, initial=np.inf)[:, None]
+            body = _body(contact, pairs.distance)[:, None]
+            margin = (allowed - approach).min(axis=1, initial=np.inf)[:, None]
+            scale = _scales(allowed, approach).min(axis=1, initial=np.inf)
+            lowest = kept_speeds(self.policy, person, floor, [pairs.capsules[k] for k in rows])
+            moving = speed > CLOSING
+            return (
+                (floor <= nearest)
+                | (~contact[rows] & (floor <= body))
+                | (lowest - speed <= margin)
+                | (moving & ((lowest <= 0.0) | (lowest <= scale[:, None] * speed)))
+            )
+
+        return select
+
     def _person(
         self, person: PersonSeparation, qs: np.ndarray, dqs: np.ndarray
     ) -> tuple[list[PersonSample], tuple[int, str] | None]:
         """One person's sample at each state, or the first state with a moved part inside S_0 and why."""
         distances, contact = self._pairs(person)
-        pairs = distances.at(qs, dqs)
+        pairs = distances.at(qs, dqs, self._deciding(person, contact))
         if not pairs.parts:
             return [PersonSample(np.inf, np.inf, np.inf, np.inf, 0.0, np.inf, "", "") for _ in qs], None
-        distance, v = pairs.distance, pairs.robot_velocity
-        whole = contact | (distance <= _TOUCHING)
-        towards = np.einsum("nkj,nkj->nk", v, pairs.person_point - pairs.robot_point) / np.maximum(distance, _TOUCHING)
-        approach = np.where(whole, np.linalg.norm(v, axis=2), towards)
-        allowed = kept_speeds(self.policy, person, distance, pairs.capsules)
+        distance = pairs.distance
+        allowed, approach = self._speeds(person, contact, pairs)
         iso = allowed_speeds(self.policy.robot, person, distance, pairs.capsules)
         closing = approach > CLOSING
         stopped = (allowed <= 0.0) & closing
@@ -146,8 +179,7 @@ class ApproachMonitor:
                 f"robot would have to stand still there)",
             )
         binding = np.argmin(allowed - approach, axis=1)
-        scale = np.min(np.where(closing, allowed / np.where(closing, approach, 1.0), np.inf), axis=1)
-        body = np.min(np.where(contact, np.inf, distance), axis=1)
+        scale, body = _scales(allowed, approach).min(axis=1), _body(contact, distance)
         at = np.arange(len(qs))
         samples = [
             PersonSample(float(d), float(b), float(a), float(i), float(r), float(s), pairs.parts[k], pairs.capsules[k])
@@ -162,3 +194,15 @@ class ApproachMonitor:
             )
         ]
         return samples, None
+
+
+def _scales(allowed: np.ndarray, approach: np.ndarray) -> np.ndarray:
+    """Per row: the factor on the joint velocity that brings the approach to the allowed speed
+    (inf where the row does not close in)."""
+    closing = approach > CLOSING
+    return np.where(closing, allowed / np.where(closing, approach, 1.0), np.inf)
+
+
+def _body(contact: np.ndarray, distance: np.ndarray) -> np.ndarray:
+    """Per state: the closest row outside the person's contact regions (what S_0 applies to)."""
+    return np.where(contact, np.inf, distance).min(axis=1, initial=np.inf)
