@@ -24,6 +24,7 @@ from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
+from hriplan.robots.reach import ShapeBounds, out_of_reach, reach_sphere
 from hriplan.robots.robot_geometry import ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
@@ -103,6 +104,9 @@ _BUILT = (
     "_distance_data",
     "_distance_slots",
     "_person_models",
+    "_mover_reach",
+    "_out_of_reach",
+    "_placed",
 )
 _REMEMBERED_BUILDS = 8
 # A person's pose (where they stand and reach) moves their capsules; their body (height) and
@@ -111,6 +115,8 @@ _PERSON_POSE = {"posture", "position", "yaw", "reach"}
 _PERSON_BODY = {"name", "height", "margin"}
 # So are obstacles' poses: a keep-out follows its person, a released object lands elsewhere.
 _BUILD_KEY = {"humans": {"__all__": _PERSON_POSE}, "obstacles": {"__all__": {"pose"}}}
+# What a build was placed for last: the poses its key leaves out.
+_SCENE_SHAPES = ("obstacle", "human", "zone")
 
 
 @dataclass
@@ -123,6 +129,7 @@ class _RobotGeometry:
     acm: dict[str, str]
     objects: list[tuple[pin.GeometryObject, str]]
     tables: list[tuple[ClearanceTable, list[tuple[int, int]]]]  # and the mesh shape pairs each stands for
+    reach: list[tuple[np.ndarray, float]]  # per object: a sphere it never leaves (robots/reach.py)
     internal_pairs: list[tuple[int, int]] | None = None  # made by the first checker's first build
 
 
@@ -139,7 +146,8 @@ class CollisionChecker:
         if key not in _BY_ROBOT:
             self.acm = load_acm(robot, robot_parts(robot))
             objects = self._robot_objects()
-            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects))
+            reach = [reach_sphere(robot.model, shape) for shape, _ in objects]
+            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects), reach)
         self._robot = _BY_ROBOT[key]
         self.acm, self._robot_geometry = self._robot.acm, self._robot.objects
         self.humans: dict[str, Human] = {}
@@ -207,11 +215,12 @@ class CollisionChecker:
         built = self._builds.get(self._key)
         if built is not None:
             vars(self).update(built)
-            if any([self._place_obstacle(self._index[o.name], o.pose) for o in self.scene.obstacles]):
-                self._pair_up()
+            touching = any([self._place_obstacle(self._index[o.name], o.pose) for o in self.scene.obstacles])
             for spec in self.scene.humans:  # the Human objects are shared between builds
                 self.humans[spec.name].pose(spec)
                 self._place_person(spec.name)
+            if touching or self._reach_changed():
+                self._pair_up()
         else:
             self._build_new()
         self._remember()
@@ -260,6 +269,18 @@ class CollisionChecker:
             self._human_slots[spec.name] = slots
         self._zone_slots = self._add_zones(gm)
         self.geom_model = gm
+        movers = [i for i, kind in enumerate(self.kind) if kind == "robot" or kind.startswith("attached:")]
+        reach = [
+            self._robot.reach[i]
+            if i < len(self._robot.reach)
+            else reach_sphere(self.robot.model, gm.geometryObjects[i])
+            for i in movers
+        ]
+        self._mover_reach = (
+            np.array(movers, dtype=int),
+            np.array([c for c, _ in reach]).reshape(-1, 3),
+            np.array([r for _, r in reach], dtype=float),
+        )
         self._pair_up()
         self._index = {g.name: i for i, g in enumerate(gm.geometryObjects)}
         self._build_distance_model()
@@ -379,11 +400,13 @@ class CollisionChecker:
             self._robot.internal_pairs = [
                 (i, j) for i in range(robot) for j in range(i + 1, robot) if self._checked(i, j)
             ]
-        # A scene geometry pairs only with robot parts and carried objects (added before the rest).
-        movers = [i for i, kind in enumerate(self.kind) if kind == "robot" or kind.startswith("attached:")]
+        # A scene geometry pairs only with the robot parts and carried objects (added before the
+        # rest) that can reach it.
+        self._out_of_reach, self._placed = self._far(), self.scene.model_dump_json(include=_BUILD_KEY)
+        movers, far = self._mover_reach[0].tolist(), self._out_of_reach
         pairs = list(self._robot.internal_pairs)
         for j in range(robot, gm.ngeoms):
-            before = [i for i in movers if i < j]
+            before = [i for i in movers if i < j and not far[i, j]]
             if self.kind[j] == "human":  # a person against every part and carried object
                 pairs += [(i, j) for i in before]
             elif self.kind[j] == "zone":  # a separation zone against the moving ones only
@@ -407,6 +430,28 @@ class CollisionChecker:
         self._tabled = [(table, ks) for table, ks in tabled if not table.free.all()]
         # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
         self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self.geom_data)
+
+    def _far(self) -> np.ndarray:
+        """(ngeoms, ngeoms): True where robot part or carried object i can never reach scene
+        shape j where it stands now, whatever the joints do (robots/reach.py): not checked."""
+        gm = self.geom_model
+        far = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
+        movers, centres, radii = self._mover_reach
+        shapes = [j for j, kind in enumerate(self.kind) if kind in _SCENE_SHAPES]
+        if shapes and movers.size:
+            objects = gm.geometryObjects
+            bounds = ShapeBounds.of([objects[j] for j in shapes])
+            far[np.ix_(movers, shapes)] = out_of_reach(centres, radii, bounds, len(shapes))
+        return far
+
+    def _reach_changed(self) -> bool:
+        """Did the scene's shapes move since the build was paired so that a part can reach
+        another set of them (its pairs must change)? Measured only when their poses changed."""
+        placed = self.scene.model_dump_json(include=_BUILD_KEY)
+        if placed == self._placed:
+            return False
+        self._placed = placed
+        return not np.array_equal(self._far(), self._out_of_reach)
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
@@ -433,9 +478,9 @@ class CollisionChecker:
                 ]
             }
         )
-        if self._place_obstacle(i, pose):
+        if self._place_obstacle(i, pose) or self._reach_changed():
             self._pair_up()
-            self._remember()
+        self._remember()
 
     def _place_obstacle(self, i: int, pose: Pose) -> bool:
         """Put obstacle `i` at `pose` in the current build; True if a part on the fixed base
@@ -458,6 +503,9 @@ class CollisionChecker:
             update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]}
         )
         self._place_person(spec.name)
+        if self._reach_changed():
+            self._pair_up()
+        self._remember()
 
     def _place_person(self, name: str) -> None:
         """Set the person's capsules, and the separation zones grown from them, where the Human
