@@ -101,8 +101,7 @@ class _Search:
         self.counters.function += 1
         margins = p.margins(x)
         for _ in range(NEWTON_ITERATIONS):
-            outside = margins > -p.accept
-            if not outside.any():
+            if max(margins.tolist()) <= -p.accept:  # a Python max: numpy's costs ~2 us on a few rows
                 return x
             self.counters.jacobian += 1
             margins, grads = p.gradients(x)
