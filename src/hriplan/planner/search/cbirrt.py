@@ -149,8 +149,9 @@ class _Search:
                 return index, False
             ahead = target - moved
             new_distance = _norm(ahead)
-            # No progress, or projection threw the state far from the step: blocked.
-            if new_distance >= distance - 1e-6 or _norm(moved - x) > 2.0 * delta:
+            # No progress, or projection threw the state far from the step: blocked. (A step
+            # that needed no projection is the step itself, at most delta from x.)
+            if new_distance >= distance - 1e-6 or (moved is not step and _norm(moved - x) > 2.0 * delta):
                 return index, False
             if not self.valid(moved):
                 return index, False
