@@ -112,6 +112,36 @@ def outside_distance(spec, local: np.ndarray) -> np.ndarray:
     raise AssertionError(f"no independent geometry for {kind!r}")
 
 
+def signed_distance(spec, local: np.ndarray) -> np.ndarray:
+    """Per point (rows of `local`, in the constraint frame): the exact Euclidean distance to the
+    closed solid, negative inside by the distance to its boundary. Box and cylinder as a box in
+    (x, y, z) or (rho, z); the cone as the triangle (0, 0), (r, h), (0, h) of the (rho, z)
+    half-plane, whose axis edge is no boundary of the solid."""
+    kind = spec.type
+    if kind == "sphere":
+        return np.linalg.norm(local, axis=1) - spec.radius
+    rho = np.linalg.norm(local[:, :2], axis=1)
+    if kind in ("box", "cylinder"):
+        if kind == "box":
+            centred, half = local, np.array(spec.size) / 2.0
+        else:
+            centred = np.column_stack([rho, local[:, 2] - spec.height / 2.0])
+            half = np.array([spec.radius, spec.height / 2.0])
+        excess = np.abs(centred) - half
+        return np.linalg.norm(np.clip(excess, 0.0, None), axis=1) + np.minimum(excess.max(axis=1), 0.0)
+    assert kind == "cone", f"no independent geometry for {kind!r}"
+    point = np.column_stack([rho, local[:, 2]])
+    apex, rim, top = np.zeros(2), np.array([spec.radius, spec.height]), np.array([0.0, spec.height])
+    to_boundary = np.min([_segment_distance(point, a, b) for a, b in ((apex, rim), (rim, top))], axis=0)
+    to_solid = np.min([to_boundary, _segment_distance(point, top, apex)], axis=0)
+    return np.where(inside(spec, local), -to_boundary, to_solid)
+
+
+def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    t = np.clip((points - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+    return np.linalg.norm(points - (a + t[:, None] * (b - a)), axis=1)
+
+
 def inside(spec, local: np.ndarray) -> np.ndarray:
     """Membership of each point in the closed solid of a volume constraint."""
     return outside_distance(spec, local) <= 0.0

@@ -41,12 +41,19 @@ def _inside(shape: str, p: np.ndarray, a: float, b: float, c: float, tol: float 
 
 
 def _sd(shape: str, a: float, b: float, c: float):
-    return {
+    """The shape's signed distance, its gradient as an array (geometry gives a tuple of floats)."""
+    sd = {
         "box": lambda p: G.box_sd(p, (a, b, c)),
         "sphere": lambda p: G.sphere_sd(p, a),
         "cylinder": lambda p: G.cylinder_sd(p, a, b),
         "cone": lambda p: G.cone_sd(p, a, b),
     }[shape]
+
+    def with_array(p: np.ndarray) -> tuple[float, np.ndarray]:
+        d, grad = sd(p)
+        return d, np.asarray(grad)
+
+    return with_array
 
 
 SHAPES = ["box", "sphere", "cylinder", "cone"]

@@ -13,7 +13,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -26,7 +26,7 @@ from hriplan.robots.model import Robot
 LWA = pin.LOCAL_WORLD_ALIGNED
 
 
-def shape_sd(spec: object) -> Callable[[np.ndarray], tuple[float, np.ndarray]]:
+def shape_sd(spec: object) -> Callable[[Sequence[float]], tuple[float, G.Vec]]:
     """The signed-distance function of a volume constraint's shape."""
     if isinstance(spec, BoxConstraint):
         return functools.partial(G.box_sd, size=spec.size)
@@ -39,42 +39,123 @@ def shape_sd(spec: object) -> Callable[[np.ndarray], tuple[float, np.ndarray]]:
     raise TypeError(type(spec).__name__)
 
 
-@dataclass(slots=True)
-class _Term:
-    """What the hot path needs of one constraint, precomputed (attribute reads stay cheap)."""
+Rows = tuple[Sequence[float], Sequence[float], Sequence[float]]  # a 3x3 matrix as rows of floats
+Gradient6 = tuple[float, float, float, float, float, float]  # d margin / (linear, angular) velocity, world
 
-    bound: BoundConstraint
-    link: int
-    rf: np.ndarray  # constraint frame rotation (world)
-    rf_t: np.ndarray
-    origin: np.ndarray  # constraint frame origin (world)
-    sd: Callable[[np.ndarray], tuple[float, np.ndarray]] | None  # volumes
-    sign: float  # +1 inside, -1 outside
-    free: tuple[int, ...]  # orientation: free axes
-    target: np.ndarray | None
-    restricted: np.ndarray | None  # two free axes: the restricted axis
-    tolerance: float
-    gradient: float
+
+def _times(m: Rows, v: Sequence[float]) -> G.Vec:
+    """m v for a 3x3 matrix given by rows: scalars cost less than a numpy call here."""
+    (a, b, c), (d, e, f), (g, h, i) = m
+    x, y, z = v
+    return a * x + b * y + c * z, d * x + e * y + f * z, g * x + h * y + i * z
+
+
+def _rows(m: np.ndarray) -> Rows:
+    return tuple(tuple(row) for row in m.tolist())
+
+
+class _Pose(NamedTuple):
+    """A link's world placement, read from pinocchio once per state (each read copies)."""
+
+    position: G.Vec
+    rotation: Rows
+    matrix: np.ndarray  # the homogeneous 4x4 (for pinocchio's log3 and quaternions)
 
     @classmethod
-    def of(cls, c: BoundConstraint) -> _Term:
-        orientation = c.is_orientation
-        free = tuple(c.free)
-        restricted = np.eye(3)[({0, 1, 2} - set(free)).pop()] if len(free) == 2 else None
-        return cls(
-            bound=c,
-            link=c.link,
-            rf=c.frame.rotation.copy(),
-            rf_t=c.frame.rotation.T.copy(),
-            origin=c.frame.translation.copy(),
-            sd=None if orientation else shape_sd(c.spec),
-            sign=1.0 if orientation or c.spec.region == "inside" else -1.0,
-            free=free,
-            target=c.target,
-            restricted=restricted,
-            tolerance=c.spec.tolerance if orientation else 0.0,
-            gradient=c.spec.tolerance_gradient if orientation else 0.0,
-        )
+    def of(cls, placement: pin.SE3) -> _Pose:
+        matrix = placement.homogeneous
+        h = matrix.tolist()
+        return cls((h[0][3], h[1][3], h[2][3]), (h[0][:3], h[1][:3], h[2][:3]), matrix)
+
+
+class _Term:
+    """What the hot path needs of one constraint, precomputed: the frame as numpy (equality
+    rows) and as rows of floats (margins)."""
+
+    def __init__(self, c: BoundConstraint) -> None:
+        self.bound, self.link = c, c.link
+        self.rf = c.frame.rotation.copy()  # constraint frame rotation (world)
+        self.rf_t = c.frame.rotation.T.copy()
+        self.origin = c.frame.translation.copy()  # constraint frame origin (world)
+        self.frame, self.frame_t, self.origin_xyz = _rows(self.rf), _rows(self.rf_t), tuple(self.origin.tolist())
+        self.free: tuple[int, ...] = ()
+        self.target: np.ndarray | None = None
+
+    def local(self, position: G.Vec) -> G.Vec:
+        """A world point in the constraint frame."""
+        ox, oy, oz = self.origin_xyz
+        return _times(self.frame_t, (position[0] - ox, position[1] - oy, position[2] - oz))
+
+
+class _Volume(_Term):
+    """A volume: margin(pose, with_grad) is the signed distance, inside or outside, and its
+    gradient w.r.t. the link's world (linear, angular) velocity if asked."""
+
+    def __init__(self, c: BoundConstraint) -> None:
+        super().__init__(c)
+        self.sd = shape_sd(c.spec)
+        self.sign = 1.0 if c.spec.region == "inside" else -1.0  # margin = sign * signed distance
+
+    def margin(self, pose: _Pose, with_grad: bool) -> tuple[float, Gradient6 | None]:
+        value, grad = self.sd(self.local(pose.position))
+        if not with_grad:
+            return self.sign * value, None
+        s = self.sign
+        x, y, z = _times(self.frame, grad)
+        return s * value, (s * x, s * y, s * z, 0.0, 0.0, 0.0)
+
+
+class _Orientation(_Term):
+    """An orientation: margin(pose, with_grad) is the error angle beyond the tolerance (a
+    dynamic tolerance widens with the distance from the goal), with its gradient as a volume's."""
+
+    def __init__(self, c: BoundConstraint) -> None:
+        super().__init__(c)
+        self.free, self.target = tuple(c.free), c.target
+        self.tolerance, self.gradient = c.spec.tolerance, c.spec.tolerance_gradient
+        self.target_t = c.target.T.copy()
+        self.axis_target = tuple(c.target[:, self.free[0]].tolist()) if len(self.free) == 1 else None
+        restricted = ({0, 1, 2} - set(self.free)).pop() if len(self.free) == 2 else None
+        self.restricted = None if restricted is None else tuple(np.eye(3)[restricted].tolist())
+        self.error = (self._rotation, self._tilt, self._twist)[len(self.free)]
+
+    def margin(self, pose: _Pose, with_grad: bool) -> tuple[float, Gradient6 | None]:
+        angle, turn = self.error(pose, with_grad)
+        margin, pull = angle - self.tolerance, (0.0, 0.0, 0.0)
+        p_goal = self.bound.p_goal  # set once the goal is known, after the evaluator is made
+        if self.gradient > 0.0 and p_goal is not None:  # the dynamic tolerance widens away from the goal
+            gx, gy, gz = p_goal.tolist()
+            x, y, z = pose.position
+            ox, oy, oz = x - gx, y - gy, z - gz
+            distance = math.sqrt(ox * ox + oy * oy + oz * oz)
+            margin -= self.gradient * distance
+            if distance > 1e-12:
+                k = -self.gradient / distance
+                pull = (k * ox, k * oy, k * oz)
+        return margin, (pull + turn if with_grad else None)
+
+    def _error_rotation(self, pose: _Pose) -> np.ndarray:
+        """The link's rotation from its target (no or two free axes); target^T rf^T R in this
+        order: log3 near a half turn magnifies a reordering's rounding to ~1e-11."""
+        return self.target_t @ (self.rf_t @ pose.matrix[:3, :3])
+
+    # (error angle, its gradient w.r.t. the world angular velocity of the link, if asked)
+    def _rotation(self, pose: _Pose, with_grad: bool) -> tuple[float, G.Vec | None]:
+        angle, grad = G.rotation_angle(self._error_rotation(pose))
+        return angle, (_times(pose.rotation, grad) if with_grad else None)
+
+    def _tilt(self, pose: _Pose, with_grad: bool) -> tuple[float, G.Vec | None]:
+        a, r = self.free[0], pose.rotation
+        angle, grad = G.axis_angle(_times(self.frame_t, (r[0][a], r[1][a], r[2][a])), self.axis_target)
+        return angle, (_times(self.frame, grad) if with_grad else None)
+
+    def _twist(self, pose: _Pose, with_grad: bool) -> tuple[float, G.Vec | None]:
+        twist, grad = G.twist_angle(self._error_rotation(pose), self.restricted)
+        if not with_grad:
+            return abs(twist), None
+        sign = 1.0 if twist >= 0.0 else -1.0
+        x, y, z = _times(pose.rotation, grad)
+        return abs(twist), (sign * x, sign * y, sign * z)
 
 
 def _volume_box(spec: object) -> tuple[list[float], list[float]]:
@@ -92,6 +173,13 @@ def equality_row_count(c: BoundConstraint) -> int:
     return (3, 2, 1)[len(c.free)] if c.is_orientation else 0
 
 
+def _slot(indices: np.ndarray) -> slice | np.ndarray:
+    """A slice where the indices are consecutive (numpy's fancy indexing costs ~1 us more)."""
+    if len(indices) and np.array_equal(indices, np.arange(indices[0], indices[0] + len(indices))):
+        return slice(int(indices[0]), int(indices[0]) + len(indices))
+    return indices
+
+
 class ConstraintEvaluator:
     """Evaluates bound constraints for ambient vectors `x` (values of the planned group's joints)."""
 
@@ -102,20 +190,30 @@ class ConstraintEvaluator:
         self.constraints = list(constraints)
         self.idx = robot.group_indices(group)
         self.vidx = np.array([robot.model.joints[robot.model.getJointId(j)].idx_v for j in robot.group_joints(group)])
+        self._q_slot, self._v_slot = _slot(np.asarray(self.idx)), _slot(self.vidx)
         self.q = np.array(base_q, dtype=float)
         self.links = sorted({c.link for c in self.constraints})
         self.n = len(self.idx)
         self.n_equality = sum(equality_row_count(c) for c in self.constraints)
-        self._terms = [_Term.of(c) for c in self.constraints]
+        self._terms = [_Orientation(c) if c.is_orientation else _Volume(c) for c in self.constraints]
         self._orientations = [t for t in self._terms if t.target is not None]
+        # per link, its terms' rows (all of them, the usual case, without indexing)
+        self._rows_of_link: list[tuple[int, slice | list[int]]] = [
+            (
+                link,
+                slice(None) if len(self.links) == 1 else [i for i, c in enumerate(self.constraints) if c.link == link],
+            )
+            for link in self.links
+        ]
         self._key: bytes | None = None  # the configuration self.data holds kinematics for
         self._has_jacobians = False
+        self._poses: dict[int, _Pose] = {}
 
     # -- kinematics ------------------------------------------------------------------------
     def full(self, x: Sequence[float]) -> np.ndarray:
         """The full configuration for ambient values `x` (the other joints stay at base_q)."""
         q = self.q.copy()
-        q[self.idx] = x
+        q[self._q_slot] = x
         return q
 
     def _update(self, q: np.ndarray, jacobians: bool) -> None:
@@ -128,69 +226,37 @@ class ConstraintEvaluator:
             pin.computeJointJacobians(self.model, self.data, q)
         else:
             pin.forwardKinematics(self.model, self.data, q)
-        for link in self.links:
-            pin.updateFramePlacement(self.model, self.data, link)
+        self._poses = {link: _Pose.of(pin.updateFramePlacement(self.model, self.data, link)) for link in self.links}
         self._key, self._has_jacobians = key, jacobians
 
     def _jac(self, link: int) -> np.ndarray:
-        return pin.getFrameJacobian(self.model, self.data, link, LWA)[:, self.vidx]
+        return pin.getFrameJacobian(self.model, self.data, link, LWA)[:, self._v_slot]
 
     # -- margins ---------------------------------------------------------------------------
-    def _margin(self, t: _Term, with_grad: bool) -> tuple[float, np.ndarray | None]:
-        placement = self.data.oMf[t.link]
-        jac = self._jac(t.link) if with_grad else None
-        if t.sd is not None:
-            value, grad_p = t.sd(t.rf_t @ (placement.translation - t.origin))
-            return t.sign * value, (t.sign * (t.rf @ grad_p) @ jac[:3] if with_grad else None)
-        angle, grad_w = self._orientation_error(t, placement.rotation)
-        margin = angle - t.tolerance
-        grad = grad_w @ jac[3:] if with_grad else None
-        p_goal = t.bound.p_goal
-        if t.gradient > 0.0 and p_goal is not None:
-            offset = placement.translation - p_goal
-            distance = math.sqrt(float(offset @ offset))
-            margin -= t.gradient * distance
-            if with_grad and distance > 1e-12:
-                grad = grad - t.gradient * (offset / distance) @ jac[:3]
-        return margin, grad
-
-    def _orientation_error(self, t: _Term, r_world: np.ndarray) -> tuple[float, np.ndarray]:
-        """(error angle, its gradient w.r.t. the world angular velocity of the link)."""
-        r_in_frame = t.rf_t @ r_world
-        if not t.free:
-            angle, grad_local = G.rotation_angle(t.target.T @ r_in_frame)
-            return angle, r_world @ grad_local
-        if t.restricted is None:
-            a = t.free[0]
-            angle, grad_frame = G.axis_angle(r_in_frame[:, a], t.target[:, a])
-            return angle, t.rf @ grad_frame
-        twist, grad_local = G.twist_angle(t.target.T @ r_in_frame, t.restricted)
-        sign = 1.0 if twist >= 0.0 else -1.0
-        return abs(twist), sign * (r_world @ grad_local)
-
     def margins(self, q: np.ndarray) -> np.ndarray:
         """Per constraint: > 0 means violated by that much (m or rad), <= 0 satisfied."""
         self._update(q, jacobians=False)
-        return np.array([self._margin(t, False)[0] for t in self._terms])
+        poses = self._poses
+        return np.array([t.margin(poses[t.link], False)[0] for t in self._terms])
 
     def gradients(self, x: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
         """(margins, one gradient row per margin w.r.t. the planned joints), in one pass."""
         self._update(self.full(x), jacobians=True)
-        values, grads = zip(*(self._margin(t, True) for t in self._terms))
-        return np.array(values), np.array(grads)
+        poses = self._poses
+        values, velocities = zip(*(t.margin(poses[t.link], True) for t in self._terms))
+        velocities = np.array(velocities)
+        rows = np.empty((len(self._terms), self.n))
+        for link, which in self._rows_of_link:  # d margin / d x = (d margin / d velocity) J
+            rows[which] = velocities[which] @ self._jac(link)
+        return np.array(values), rows
 
     def deadzone(self, x: Sequence[float], offset: float = 0.0) -> np.ndarray:
         """One row per constraint: max(margin + offset, 0)."""
-        self._update(self.full(x), jacobians=False)
-        return np.array([max(self._margin(t, False)[0] + offset, 0.0) for t in self._terms])
+        return np.maximum(self.margins(self.full(x)) + offset, 0.0)
 
     def deadzone_jacobian(self, x: Sequence[float], offset: float = 0.0) -> np.ndarray:
-        self._update(self.full(x), jacobians=True)
-        rows = np.zeros((len(self.constraints), self.n))
-        for i, t in enumerate(self._terms):
-            margin, grad = self._margin(t, True)
-            if margin + offset > 0.0:
-                rows[i] = grad
+        margins, rows = self.gradients(x)
+        rows[margins + offset <= 0.0] = 0.0
         return rows
 
     # -- equality rows (orientation made exact) ---------------------------------------------
