@@ -16,6 +16,7 @@ from hriplan.robots.model import load_robot
 from hriplan.robots.reach import reach_sphere
 from hriplan.robots.scene import Box, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
+from madar_states import CLEAR
 
 PANDA = Path(__file__).resolve().parents[2] / "examples" / "robots" / "panda.yaml"
 
@@ -86,12 +87,11 @@ def _near_and_far_scene(tool: np.ndarray) -> Scene:
 
 
 def _left_out(checker: CollisionChecker) -> list[tuple[int, int]]:
-    """The robot-scene pairs the checker does not check (every robot part meets every person
-    capsule and obstacle it can reach; fixed-base parts are decided on their meshes instead)."""
-    checked = {(p.first, p.second) for p in checker.geom_model.collisionPairs}
-    moving = [i for i, kind in enumerate(checker.kind) if kind == "robot" and checker.parts[i].joint != 0]
-    scene = [j for j, kind in enumerate(checker.kind) if kind in ("human", "obstacle")]
-    return [(i, j) for i in moving for j in scene if (i, j) not in checked]
+    """The robot-scene pairs the checker has switched off (pinocchio's own flags)."""
+    active = list(checker.geom_data.activeCollisionPairs)
+    scene = {j for j, kind in enumerate(checker.kind) if kind in ("human", "obstacle")}
+    pairs = checker.geom_model.collisionPairs
+    return [(p.first, p.second) for p, on in zip(pairs, active) if not on and p.second in scene]
 
 
 def test_the_pairs_left_out_never_come_closer_than_touching(madar, rng):
@@ -100,7 +100,12 @@ def test_the_pairs_left_out_never_come_closer_than_touching(madar, rng):
     left_out = _left_out(checker)
     kinds = {checker.kind[j] for _, j in left_out}
     assert len(left_out) > 200 and kinds == {"human", "obstacle"}  # bob and far obstacles, at least
-    assert any(checker.kind[j] == "human" for i, j in {(p.first, p.second) for p in checker.geom_model.collisionPairs})
+    on = [
+        (p.first, p.second)
+        for p, a in zip(checker.geom_model.collisionPairs, checker.geom_data.activeCollisionPairs)
+        if a
+    ]
+    assert any(checker.kind[j] == "human" for _, j in on)  # ann stands within reach
     objects, closest = checker.geom_model.geometryObjects, np.inf
     for q in _random_states(madar, rng, 300):
         pin.forwardKinematics(madar.model, madar.data, q)
@@ -146,3 +151,19 @@ def test_a_person_who_steps_into_reach_is_checked_on_every_route_that_moves_her(
     near_box = far_box.model_copy(update={"pose": Pose(xyz=tuple(tool))})
     checker.move_obstacle("crate", near_box.pose)
     assert agrees(checker, Scene(humans=[away], obstacles=[near_box])) > 10
+
+
+def test_a_person_who_steps_out_of_reach_is_not_listed_in_contacts(madar):
+    """A pair switched off keeps its last result in pinocchio: contacts must not report it."""
+    q0 = madar.configuration(CLEAR)
+    tool = tuple(madar.frame_pose("right_tool", q0)[:3, 3])
+    crate = Obstacle(name="crate", shape=Box(size=(0.1, 0.1, 0.1)), pose=Pose(xyz=tool))  # the hand in it
+    near = HumanSpec(name="ann", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2, reach={"right": tool})
+    away = HumanSpec(name="ann", position=(0.0, -3.0), yaw=np.pi / 2)
+    checker = CollisionChecker(madar, Scene(obstacles=[crate], humans=[near]))
+    touched = {c.b for c in checker.contacts(q0)} | {c.a for c in checker.contacts(q0)}
+    assert "crate" in touched and any(name.startswith("ann/") for name in touched)
+    checker.pose_human(away)
+    listed = checker.contacts(q0)
+    assert listed == CollisionChecker(madar, Scene(obstacles=[crate], humans=[away])).contacts(q0)
+    assert listed and not any(c.a.startswith("ann/") or c.b.startswith("ann/") for c in listed)

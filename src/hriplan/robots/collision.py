@@ -105,8 +105,10 @@ _BUILT = (
     "_distance_slots",
     "_person_models",
     "_mover_reach",
+    "_pair_index",
     "_out_of_reach",
     "_placed",
+    "_reported",
 )
 _REMEMBERED_BUILDS = 8
 # A person's pose (where they stand and reach) moves their capsules; their body (height) and
@@ -219,8 +221,10 @@ class CollisionChecker:
             for spec in self.scene.humans:  # the Human objects are shared between builds
                 self.humans[spec.name].pose(spec)
                 self._place_person(spec.name)
-            if touching or self._reach_changed():
+            if touching:
                 self._pair_up()
+            else:
+                self._follow_reach()
         else:
             self._build_new()
         self._remember()
@@ -400,13 +404,11 @@ class CollisionChecker:
             self._robot.internal_pairs = [
                 (i, j) for i in range(robot) for j in range(i + 1, robot) if self._checked(i, j)
             ]
-        # A scene geometry pairs only with the robot parts and carried objects (added before the
-        # rest) that can reach it.
-        self._out_of_reach, self._placed = self._far(), self.scene.model_dump_json(include=_BUILD_KEY)
-        movers, far = self._mover_reach[0].tolist(), self._out_of_reach
+        # A scene geometry pairs only with robot parts and carried objects (added before the rest).
+        movers = self._mover_reach[0].tolist()
         pairs = list(self._robot.internal_pairs)
         for j in range(robot, gm.ngeoms):
-            before = [i for i in movers if i < j and not far[i, j]]
+            before = [i for i in movers if i < j]
             if self.kind[j] == "human":  # a person against every part and carried object
                 pairs += [(i, j) for i in before]
             elif self.kind[j] == "zone":  # a separation zone against the moving ones only
@@ -421,15 +423,29 @@ class CollisionChecker:
         self._pairs_of: dict[str, list[int]] = {}  # a geometry's pairs, as `touches` asks them
         # The mesh pairs a clearance table stands for are left out of the broad phase: `in_collision`
         # asks the table first, `contacts` checks them on their own.
+        self._pair_index = np.array(sorted(pairs), dtype=int).reshape(-1, 2)  # the model's pairs, in its order
         listed = {pair: k for k, pair in enumerate(sorted(pairs))}
         tabled = [(table, [listed[p] for p in shape_pairs]) for table, shape_pairs in self._robot.tables]
         self._tabled_pairs = [k for _, ks in tabled for k in ks]
-        for k in self._tabled_pairs:
-            self.geom_data.deactivateCollisionPair(k)
         # A table free in every cell proves the pair never touches (the crossbar and a shoulder).
         self._tabled = [(table, ks) for table, ks in tabled if not table.free.all()]
+        self._set_active(self._far())
         # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
         self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self.geom_data)
+
+    def _set_active(self, far: np.ndarray) -> None:
+        """The broad phase checks the pairs within reach (`far`: robots/reach.py) but the tabled
+        ones (`in_collision` asks their tables first, `contacts` checks them on their own); the
+        others are switched off, not removed: a person who steps closer switches them on again
+        without a rebuild. `contacts` reports the checked and the tabled pairs."""
+        self._out_of_reach, self._placed = far, self.scene.model_dump_json(include=_BUILD_KEY)
+        within = ~far[self._pair_index[:, 0], self._pair_index[:, 1]]
+        active = within.copy()
+        active[self._tabled_pairs] = False
+        switch = np.zeros(far.shape, dtype=bool)
+        switch[self._pair_index[active, 0], self._pair_index[active, 1]] = True
+        self.geom_data.setActiveCollisionPairs(self.geom_model, switch, True)
+        self._reported = within.tolist()
 
     def _far(self) -> np.ndarray:
         """(ngeoms, ngeoms): True where robot part or carried object i can never reach scene
@@ -444,14 +460,15 @@ class CollisionChecker:
             far[np.ix_(movers, shapes)] = out_of_reach(centres, radii, bounds, len(shapes))
         return far
 
-    def _reach_changed(self) -> bool:
-        """Did the scene's shapes move since the build was paired so that a part can reach
-        another set of them (its pairs must change)? Measured only when their poses changed."""
-        placed = self.scene.model_dump_json(include=_BUILD_KEY)
-        if placed == self._placed:
-            return False
-        self._placed = placed
-        return not np.array_equal(self._far(), self._out_of_reach)
+    def _follow_reach(self) -> None:
+        """Where the scene's shapes moved since the pairs were switched, switch them for where
+        they stand now (measured only when their poses changed)."""
+        if self.scene.model_dump_json(include=_BUILD_KEY) != self._placed:
+            far = self._far()
+            if np.array_equal(far, self._out_of_reach):
+                self._placed = self.scene.model_dump_json(include=_BUILD_KEY)
+            else:
+                self._set_active(far)
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
@@ -478,8 +495,10 @@ class CollisionChecker:
                 ]
             }
         )
-        if self._place_obstacle(i, pose) or self._reach_changed():
+        if self._place_obstacle(i, pose):
             self._pair_up()
+        else:
+            self._follow_reach()
         self._remember()
 
     def _place_obstacle(self, i: int, pose: Pose) -> bool:
@@ -503,8 +522,7 @@ class CollisionChecker:
             update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]}
         )
         self._place_person(spec.name)
-        if self._reach_changed():
-            self._pair_up()
+        self._follow_reach()
         self._remember()
 
     def _place_person(self, name: str) -> None:
@@ -540,7 +558,8 @@ class CollisionChecker:
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
         """Every colliding pair at `q`, by name (for error messages and reports). A free state
-        lists nothing: reading every pair's result back costs more than computing them."""
+        lists nothing: reading every pair's result back costs more than computing them. Pairs out
+        of reach are switched off and keep their last result: they are not read."""
         hit = pin.computeCollisions(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q, False)
         tabled = [pin.computeCollision(self.geom_model, self.geom_data, k) for k in self._tabled_pairs]
         if not hit and not any(tabled):
@@ -548,8 +567,8 @@ class CollisionChecker:
         names = self.geom_model.geometryObjects
         return [
             Contact(names[p.first].name, names[p.second].name)
-            for p, r in zip(self.geom_model.collisionPairs, self.geom_data.collisionResults)
-            if r.isCollision()
+            for p, r, reported in zip(self.geom_model.collisionPairs, self.geom_data.collisionResults, self._reported)
+            if reported and r.isCollision()
         ]
 
     def touches(self, q: np.ndarray, name: str) -> bool:
