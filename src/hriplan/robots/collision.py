@@ -24,7 +24,6 @@ from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
-from hriplan.robots.reach import ShapeBounds, out_of_reach, reach_sphere
 from hriplan.robots.robot_geometry import ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
@@ -104,11 +103,6 @@ _BUILT = (
     "_distance_data",
     "_distance_slots",
     "_person_models",
-    "_mover_reach",
-    "_pair_index",
-    "_out_of_reach",
-    "_placed",
-    "_reported",
 )
 _REMEMBERED_BUILDS = 8
 # A person's pose (where they stand and reach) moves their capsules; their body (height) and
@@ -117,8 +111,6 @@ _PERSON_POSE = {"posture", "position", "yaw", "reach"}
 _PERSON_BODY = {"name", "height", "margin"}
 # So are obstacles' poses: a keep-out follows its person, a released object lands elsewhere.
 _BUILD_KEY = {"humans": {"__all__": _PERSON_POSE}, "obstacles": {"__all__": {"pose"}}}
-# What a build was placed for last: the poses its key leaves out.
-_SCENE_SHAPES = ("obstacle", "human", "zone")
 
 
 @dataclass
@@ -131,7 +123,6 @@ class _RobotGeometry:
     acm: dict[str, str]
     objects: list[tuple[pin.GeometryObject, str]]
     tables: list[tuple[ClearanceTable, list[tuple[int, int]]]]  # and the mesh shape pairs each stands for
-    reach: list[tuple[np.ndarray, float]]  # per object: a sphere it never leaves (robots/reach.py)
     internal_pairs: list[tuple[int, int]] | None = None  # made by the first checker's first build
 
 
@@ -148,8 +139,7 @@ class CollisionChecker:
         if key not in _BY_ROBOT:
             self.acm = load_acm(robot, robot_parts(robot))
             objects = self._robot_objects()
-            reach = [reach_sphere(robot.model, shape) for shape, _ in objects]
-            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects), reach)
+            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects))
         self._robot = _BY_ROBOT[key]
         self.acm, self._robot_geometry = self._robot.acm, self._robot.objects
         self.humans: dict[str, Human] = {}
@@ -217,14 +207,11 @@ class CollisionChecker:
         built = self._builds.get(self._key)
         if built is not None:
             vars(self).update(built)
-            touching = any([self._place_obstacle(self._index[o.name], o.pose) for o in self.scene.obstacles])
+            if any([self._place_obstacle(self._index[o.name], o.pose) for o in self.scene.obstacles]):
+                self._pair_up()
             for spec in self.scene.humans:  # the Human objects are shared between builds
                 self.humans[spec.name].pose(spec)
                 self._place_person(spec.name)
-            if touching:
-                self._pair_up()
-            else:
-                self._follow_reach()
         else:
             self._build_new()
         self._remember()
@@ -273,18 +260,6 @@ class CollisionChecker:
             self._human_slots[spec.name] = slots
         self._zone_slots = self._add_zones(gm)
         self.geom_model = gm
-        movers = [i for i, kind in enumerate(self.kind) if kind == "robot" or kind.startswith("attached:")]
-        reach = [
-            self._robot.reach[i]
-            if i < len(self._robot.reach)
-            else reach_sphere(self.robot.model, gm.geometryObjects[i])
-            for i in movers
-        ]
-        self._mover_reach = (
-            np.array(movers, dtype=int),
-            np.array([c for c, _ in reach]).reshape(-1, 3),
-            np.array([r for _, r in reach], dtype=float),
-        )
         self._pair_up()
         self._index = {g.name: i for i, g in enumerate(gm.geometryObjects)}
         self._build_distance_model()
@@ -405,7 +380,7 @@ class CollisionChecker:
                 (i, j) for i in range(robot) for j in range(i + 1, robot) if self._checked(i, j)
             ]
         # A scene geometry pairs only with robot parts and carried objects (added before the rest).
-        movers = self._mover_reach[0].tolist()
+        movers = [i for i, kind in enumerate(self.kind) if kind == "robot" or kind.startswith("attached:")]
         pairs = list(self._robot.internal_pairs)
         for j in range(robot, gm.ngeoms):
             before = [i for i in movers if i < j]
@@ -423,52 +398,15 @@ class CollisionChecker:
         self._pairs_of: dict[str, list[int]] = {}  # a geometry's pairs, as `touches` asks them
         # The mesh pairs a clearance table stands for are left out of the broad phase: `in_collision`
         # asks the table first, `contacts` checks them on their own.
-        self._pair_index = np.array(sorted(pairs), dtype=int).reshape(-1, 2)  # the model's pairs, in its order
         listed = {pair: k for k, pair in enumerate(sorted(pairs))}
         tabled = [(table, [listed[p] for p in shape_pairs]) for table, shape_pairs in self._robot.tables]
         self._tabled_pairs = [k for _, ks in tabled for k in ks]
+        for k in self._tabled_pairs:
+            self.geom_data.deactivateCollisionPair(k)
         # A table free in every cell proves the pair never touches (the crossbar and a shoulder).
         self._tabled = [(table, ks) for table, ks in tabled if not table.free.all()]
-        self._set_active(self._far())
         # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
         self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self.geom_data)
-
-    def _set_active(self, far: np.ndarray) -> None:
-        """The broad phase checks the pairs within reach (`far`: robots/reach.py) but the tabled
-        ones (`in_collision` asks their tables first, `contacts` checks them on their own); the
-        others are switched off, not removed: a person who steps closer switches them on again
-        without a rebuild. `contacts` reports the checked and the tabled pairs."""
-        self._out_of_reach, self._placed = far, self.scene.model_dump_json(include=_BUILD_KEY)
-        within = ~far[self._pair_index[:, 0], self._pair_index[:, 1]]
-        active = within.copy()
-        active[self._tabled_pairs] = False
-        switch = np.zeros(far.shape, dtype=bool)
-        switch[self._pair_index[active, 0], self._pair_index[active, 1]] = True
-        self.geom_data.setActiveCollisionPairs(self.geom_model, switch, True)
-        self._reported = within.tolist()
-
-    def _far(self) -> np.ndarray:
-        """(ngeoms, ngeoms): True where robot part or carried object i can never reach scene
-        shape j where it stands now, whatever the joints do (robots/reach.py): not checked."""
-        gm = self.geom_model
-        far = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
-        movers, centres, radii = self._mover_reach
-        shapes = [j for j, kind in enumerate(self.kind) if kind in _SCENE_SHAPES]
-        if shapes and movers.size:
-            objects = gm.geometryObjects
-            bounds = ShapeBounds.of([objects[j] for j in shapes])
-            far[np.ix_(movers, shapes)] = out_of_reach(centres, radii, bounds, len(shapes))
-        return far
-
-    def _follow_reach(self) -> None:
-        """Where the scene's shapes moved since the pairs were switched, switch them for where
-        they stand now (measured only when their poses changed)."""
-        if self.scene.model_dump_json(include=_BUILD_KEY) != self._placed:
-            far = self._far()
-            if np.array_equal(far, self._out_of_reach):
-                self._placed = self.scene.model_dump_json(include=_BUILD_KEY)
-            else:
-                self._set_active(far)
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
@@ -497,9 +435,7 @@ class CollisionChecker:
         )
         if self._place_obstacle(i, pose):
             self._pair_up()
-        else:
-            self._follow_reach()
-        self._remember()
+            self._remember()
 
     def _place_obstacle(self, i: int, pose: Pose) -> bool:
         """Put obstacle `i` at `pose` in the current build; True if a part on the fixed base
@@ -522,8 +458,6 @@ class CollisionChecker:
             update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]}
         )
         self._place_person(spec.name)
-        self._follow_reach()
-        self._remember()
 
     def _place_person(self, name: str) -> None:
         """Set the person's capsules, and the separation zones grown from them, where the Human
@@ -558,8 +492,7 @@ class CollisionChecker:
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
         """Every colliding pair at `q`, by name (for error messages and reports). A free state
-        lists nothing: reading every pair's result back costs more than computing them. Pairs out
-        of reach are switched off and keep their last result: they are not read."""
+        lists nothing: reading every pair's result back costs more than computing them."""
         hit = pin.computeCollisions(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q, False)
         tabled = [pin.computeCollision(self.geom_model, self.geom_data, k) for k in self._tabled_pairs]
         if not hit and not any(tabled):
@@ -567,8 +500,8 @@ class CollisionChecker:
         names = self.geom_model.geometryObjects
         return [
             Contact(names[p.first].name, names[p.second].name)
-            for p, r, reported in zip(self.geom_model.collisionPairs, self.geom_data.collisionResults, self._reported)
-            if reported and r.isCollision()
+            for p, r in zip(self.geom_model.collisionPairs, self.geom_data.collisionResults)
+            if r.isCollision()
         ]
 
     def touches(self, q: np.ndarray, name: str) -> bool:

@@ -21,7 +21,6 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.recent import Recent
-from hriplan.robots.reach import bounding_sphere
 from hriplan.safety.capsule_distance import capsule_distances
 
 
@@ -93,7 +92,7 @@ class PersonDistances:
         self._robot_radius = np.array([objects[pairs[k][0]].geometry.radius for k in self._capsule_rows])
         self._others = _coal_model(person_model, [pairs[k] for k in self._other_rows])
         # Each non-capsule part's bounding sphere: centre in its joint's frame (m, 3, 1), radius (m).
-        spheres = [bounding_sphere(objects[pairs[k][0]]) for k in self._other_rows]
+        spheres = [_bounding_sphere(objects[pairs[k][0]]) for k in self._other_rows]
         self._other_centre = np.array([c for c, _ in spheres]).reshape(-1, 3, 1)
         self._other_radius = np.array([r for _, r in spheres])
 
@@ -216,6 +215,14 @@ def _point_velocity(linear: np.ndarray, angular: np.ndarray, origin: np.ndarray,
     """The world velocity of `point` on a body whose `origin` moves at `linear` and turns at
     `angular` (all (..., 3), world)."""
     return linear + np.cross(angular, point - origin)
+
+
+def _bounding_sphere(part: pin.GeometryObject) -> tuple[np.ndarray, float]:
+    """A sphere holding the part's shape (about its local bounding box): centre in the part's
+    joint frame, radius."""
+    shape = part.geometry.clone()  # computing the box on the model's own shape would change it
+    shape.computeLocalAABB()
+    return part.placement.act(np.asarray(shape.aabb_center, dtype=float)), float(shape.aabb_radius)
 
 
 def _coal_model(
