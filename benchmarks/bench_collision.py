@@ -10,15 +10,11 @@ that the machine's load falls on both alike) and the table gives their ratio.
 
 from __future__ import annotations
 
-import argparse
-import json
-import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from trees import runs_by_tree
 
 SCENARIOS = Path(__file__).parent / "scenarios"
 PLANS = {"a_ur5_upright_box": 12, "a_ur5_unconstrained": 12, "b_madar_handover": 12, "c_madar_peg_in_hole": 4}
@@ -71,32 +67,15 @@ def measure() -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--src", type=Path, help="another tree's src, measured in the same run")
-    parser.add_argument("--rounds", type=int, default=2)
-    parser.add_argument("--measure", action="store_true", help=argparse.SUPPRESS)
-    args = parser.parse_args()
-    if args.measure:
-        print(json.dumps(measure()))
-        return
-    here = Path(__file__).parents[1] / "src"
-    trees = {"this checkout": here, **({"other": args.src} if args.src else {})}
-    runs: dict[str, list[dict]] = {label: [] for label in trees}
-    for _ in range(args.rounds):
-        for label, src in trees.items():
-            env = {**os.environ, "PYTHONPATH": str(src), "OPENBLAS_NUM_THREADS": "1"}
-            done = subprocess.run(
-                [sys.executable, __file__, "--measure"], env=env, capture_output=True, text=True, check=True
-            )
-            runs[label].append(json.loads(done.stdout.strip().splitlines()[-1]))
+    runs, compared = runs_by_tree(__doc__.splitlines()[0], __file__, measure)
     keys = list(runs["this checkout"][0])
-    header = "| measure | this checkout |" + (" other | ratio |" if args.src else "")
+    header = "| measure | this checkout |" + (" other | ratio |" if compared else "")
     print(header)
-    print("|---|---|" + ("---|---|" if args.src else ""))
+    print("|---|---|" + ("---|---|" if compared else ""))
     for key in keys:
         mine = float(np.median([r[key] for r in runs["this checkout"]]))
         row = f"| {key} | {mine:.4g} |"
-        if args.src:
+        if compared:
             theirs = float(np.median([r.get(key, np.nan) for r in runs["other"]]))
             row += f" {theirs:.4g} | {mine / theirs:.2f} |"
         print(row)

@@ -13,15 +13,11 @@ MADAR states, and the planned paths of each seed.
 
 from __future__ import annotations
 
-import argparse
-import json
-import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from trees import runs_by_tree
 
 SCENARIOS = Path(__file__).parent / "scenarios"
 PLANS = {"a_ur5_upright_box": 12, "b_madar_handover": 12, "c_madar_peg_in_hole": 4}
@@ -121,7 +117,9 @@ def measure() -> dict:
 
 def _largest_difference(a, b) -> float:
     a, b = np.array(a, dtype=float), np.array(b, dtype=float)
-    return float(np.abs(a - b).max()) if a.shape == b.shape else np.inf
+    if a.shape != b.shape:
+        return np.inf
+    return float(np.abs(a - b).max(initial=0.0))  # two unsolved plans: no path either
 
 
 def _same(a, b) -> bool:
@@ -129,38 +127,21 @@ def _same(a, b) -> bool:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--src", type=Path, help="another tree's src, measured in the same run")
-    parser.add_argument("--rounds", type=int, default=2)
-    parser.add_argument("--measure", action="store_true", help=argparse.SUPPRESS)
-    args = parser.parse_args()
-    if args.measure:
-        print(json.dumps(measure()))
-        return
-    here = Path(__file__).parents[1] / "src"
-    trees = {"this checkout": here, **({"other": args.src} if args.src else {})}
-    runs: dict[str, list[dict]] = {label: [] for label in trees}
-    for _ in range(args.rounds):
-        for label, src in trees.items():
-            env = {**os.environ, "PYTHONPATH": str(src), "OPENBLAS_NUM_THREADS": "1"}
-            done = subprocess.run(
-                [sys.executable, __file__, "--measure"], env=env, capture_output=True, text=True, check=True
-            )
-            runs[label].append(json.loads(done.stdout.strip().splitlines()[-1]))
+    runs, compared = runs_by_tree(__doc__.splitlines()[0], __file__, measure)
     mine = runs["this checkout"]
     keys = [k for k in mine[0] if k not in ("numbers", "paths")]
-    print("| measure | this checkout |" + (" other | ratio |" if args.src else ""))
-    print("|---|---|" + ("---|---|" if args.src else ""))
+    print("| measure | this checkout |" + (" other | ratio |" if compared else ""))
+    print("|---|---|" + ("---|---|" if compared else ""))
     for key in keys:
         # per state: the best round (the load of a shared machine only adds); plans: the median
         pick = np.min if key.endswith("(us)") else np.median
         value = float(pick([r[key] for r in mine]))
         row = f"| {key} | {value:.4g} |"
-        if args.src:
+        if compared:
             theirs = float(pick([r[key] for r in runs["other"]]))
             row += f" {theirs:.4g} | {value / theirs:.2f} |"
         print(row)
-    if args.src:
+    if compared:
         other = runs["other"][0]
         for key, numbers in mine[0]["numbers"].items():
             print(f"{key}: largest difference {_largest_difference(numbers, other['numbers'][key]):.3g}")
