@@ -1,8 +1,8 @@
 """The path TOPP-RA retimes: a natural cubic spline through the knots, parameterised by arc length.
 
 scipy's `CubicSpline(bc_type="natural")` (what `toppra.SplineInterpolator` wraps) computes the same
-curve; importing scipy.interpolate costs a `plan` process about 0.5 s, a third of the demo's, for
-a tridiagonal solve and a piecewise cubic. Tests check this spline against scipy's.
+curve; importing scipy.interpolate cost the demo's `plan` process about 0.5 s of CPU (a quarter of
+it) for a tridiagonal solve and a piecewise cubic. Tests check this spline against scipy's.
 
 It offers what TOPP-RA asks of a geometric path: positions and their first and second
 derivatives at path positions (`path(s, order)`), `dof` and `path_interval`. Beyond the ends each

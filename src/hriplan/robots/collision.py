@@ -541,7 +541,9 @@ class CollisionChecker:
                 if part.any():
                     data.setActiveCollisionPairs(dm, self._pair_map(part), False)
                     found = [self._closest_active(q) for q in states]
-                    ranked = [min(r, f) for r, f in zip(ranked, found * len(qs) if len(states) == 1 else found)]
+                    if len(found) == 1:  # the still parts: the same at every state
+                        found *= len(qs)
+                    ranked = [min(r, f) for r, f in zip(ranked, found)]
         finally:
             data.setActiveCollisionPairs(dm, self._pair_map(np.ones(len(pairs), dtype=bool)), False)
         names = [g.name for g in dm.geometryObjects]
