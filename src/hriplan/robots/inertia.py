@@ -21,6 +21,8 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pinocchio as pin
 
+from hriplan.robots.model import urdf_geometry
+
 # kg/m^3: water's, a stand-in for links whose makers state no mass. Solid shapes of hollow links:
 # the UR5's collision meshes at this density weigh 10.9 kg against its data sheet's 18.4 kg.
 DENSITY = 1000.0
@@ -100,9 +102,9 @@ def with_inertias(urdf: str) -> str:
     if not missing:
         return urdf
     model = pin.buildModelFromXML(urdf)
-    inertias = _link_inertias(model, pin.buildGeomFromUrdfString(model, urdf, pin.COLLISION))
+    inertias = _link_inertias(model, urdf_geometry(model, urdf, pin.COLLISION))
     if any(link.get("name") not in inertias and link.find("visual") is not None for link in missing):
-        visual = _link_inertias(model, pin.buildGeomFromUrdfString(model, urdf, pin.VISUAL))
+        visual = _link_inertias(model, urdf_geometry(model, urdf, pin.VISUAL))
         inertias = visual | inertias
     for link in missing:
         found = inertias.get(link.get("name"), pin.Inertia.FromSphere(FRAME_MASS, FRAME_RADIUS))
