@@ -78,7 +78,7 @@ PHASE_NAMES = (
 
 def run(args: list[str], src: Path) -> tuple[float, float]:
     """Wall and CPU seconds of one fresh `python -m hriplan.cli ARGS` with `src` first on the path."""
-    env = dict(os.environ, PYTHONPATH=str(src))
+    env = bench_cli.process_env(src)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     subprocess.run([sys.executable, "-m", "hriplan.cli", *args], env=env, capture_output=True, check=True, timeout=600)
@@ -138,7 +138,7 @@ def main() -> None:
 
 def phases(src: Path, out: Path) -> list[float]:
     """PHASES' CPU seconds in one fresh process with `src` first on the path."""
-    env = dict(os.environ, PYTHONPATH=str(src))
+    env = bench_cli.process_env(src)
     done = subprocess.run(
         [sys.executable, "-c", PHASES, str(EXAMPLE), str(out / "phases.json")],
         env=env,

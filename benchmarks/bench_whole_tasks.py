@@ -23,6 +23,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench_cli import process_env
+
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = sorted((ROOT / "tests" / "data" / "whole_tasks").glob("*.yaml")) + sorted((ROOT / "examples").glob("*.yaml"))
 
@@ -33,7 +35,7 @@ def plan(task: Path, src: Path) -> dict:
         started = time.perf_counter()
         done = subprocess.run(
             [sys.executable, "-m", "hriplan.cli", "plan", str(task), "--json", "-q", "-o", f"{out}/{task.stem}.json"],
-            env=dict(os.environ, PYTHONPATH=str(src)),
+            env=process_env(src),
             cwd=task.parent,
             capture_output=True,
             text=True,
