@@ -1,8 +1,9 @@
 """Fast collision geometry for a loaded robot: one capsule per arm link and per finger.
 
 Capsules are fitted to the union of a part's collision and visual shapes (meshes and box
-corners) so that they contain everything the display shows; structure primitives (torso
-cylinder and boxes, wheels, hand adapter) are kept as they are. The hand's palm is a box.
+corners) so that they contain everything the display shows. A link drawn and collided with
+primitives only (MADAR's torso cylinder and boxes, wheels, hand adapters) keeps them as they are:
+the URDF says so, not the link's name. The hand's palm is a box.
 """
 
 from __future__ import annotations
@@ -21,7 +22,6 @@ from hriplan.robots.bounding import fit_box, fit_capsule
 from hriplan.robots.fit_cache import cached_fit, se3, se3_data, shape, shape_data
 from hriplan.robots.model import Robot, RobotSpec
 
-_STRUCTURE = re.compile(r"^(madar_\w+|\w*hand_adapter)$")
 _FINGER = re.compile(r"^(?P<prefix>\w*?)hand_link_(?P<n>\d+)\.0(_tip)?$")
 
 
@@ -32,6 +32,7 @@ class RobotPart:
     joint: int
     geometry: coal.CollisionGeometry
     placement: pin.SE3
+    kept: bool = False  # a URDF primitive kept as it is (not fitted): its own collision shape
 
 
 def _points(geom: pin.GeometryObject) -> np.ndarray:
@@ -71,7 +72,7 @@ _CACHE: dict[tuple[RobotSpec, float], tuple[RobotPart, ...]] = {}
 
 
 # Change whenever the way parts are fitted changes: it keys the fits kept on disk.
-FIT_RULES = "capsules on collision + hand visual meshes per link group; palm box; structure primitives kept"
+FIT_RULES = "capsules on collision + hand visual meshes per link group; palm box; primitive-only links kept"
 
 
 def _parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:
@@ -81,7 +82,8 @@ def _parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:
         f"parts-{robot.name}", key, lambda: {"parts": [_part_data(p) for p in _fitted_parts(robot, padding)]}
     )
     return tuple(
-        RobotPart(p["name"], p["link"], p["joint"], shape(p["shape"]), se3(p["placement"])) for p in fitted["parts"]
+        RobotPart(p["name"], p["link"], p["joint"], shape(p["shape"]), se3(p["placement"]), p["kept"])
+        for p in fitted["parts"]
     )
 
 
@@ -92,6 +94,7 @@ def _part_data(part: RobotPart) -> dict:
         "joint": part.joint,
         "shape": shape_data(part.geometry),
         "placement": se3_data(part.placement),
+        "kept": part.kept,
     }
 
 
@@ -101,18 +104,26 @@ def _collision_names(urdf: str) -> dict[str, list[str | None]]:
     return {el.get("name"): [c.get("name") for c in el.findall("collision")] for el in ET.fromstring(urdf).iter("link")}
 
 
+def _primitive_links(robot: Robot) -> set[str]:
+    """The links with collision shapes, none of whose collision or visual shapes is a mesh."""
+    collision, visual = robot.collision_meshes.geometryObjects, robot.visual.geometryObjects
+    meshed = {_link(robot.model, g) for g in [*collision, *visual] if isinstance(g.geometry, coal.BVHModelBase)}
+    return {_link(robot.model, g) for g in collision} - meshed
+
+
 def _fitted_parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:
     model = robot.model
     clouds: dict[str, list[np.ndarray]] = {}
     owners: dict[str, tuple[str, int]] = {}
     parts: list[RobotPart] = []
     names = _collision_names(robot.urdf)
+    kept = _primitive_links(robot)
     for geom in robot.collision_meshes.geometryObjects:
         link = _link(model, geom)
-        if _STRUCTURE.match(link):
+        if link in kept:
             # A primitive is named as the URDF names it (MADAR's torso: madar_base_cylinder, ...).
             name = names[link][int(geom.name.rsplit("_", 1)[1])] or link
-            parts.append(RobotPart(name, link, geom.parentJoint, geom.geometry, geom.placement))
+            parts.append(RobotPart(name, link, geom.parentJoint, geom.geometry, geom.placement, kept=True))
             continue
         group = _group(link)
         clouds.setdefault(group, []).append(_points(geom))
@@ -144,9 +155,9 @@ def robot_parts(robot: Robot, padding: float = 0.0) -> tuple[RobotPart, ...]:
 
 
 def part_collision_shapes(robot: Robot, part: RobotPart) -> list[pin.GeometryObject]:
-    """The URDF collision shapes a part stands for (a structure primitive is its own shape):
+    """The URDF collision shapes a part stands for (a kept primitive is its own shape):
     for pairs whose fitted parts cannot tell contact apart (acm.MESH)."""
-    if _STRUCTURE.match(part.link):
+    if part.kept:
         return [pin.GeometryObject(f"{part.name} (mesh)", part.joint, part.placement, part.geometry)]
     shapes = []
     for geom in robot.collision_meshes.geometryObjects:
