@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from hriplan import HriplanError
-from hriplan.robots.human import Human, HumanSpec
+from hriplan.robots.human import Human, HumanSpec, person_frame
 
 
 @pytest.fixture(scope="module")
@@ -94,3 +94,25 @@ def test_seated_person_is_lower(human):
     assert human.frame("head").translation[2] - seated > 0.3
     with pytest.raises(HriplanError, match="no frame 'knee'"):
         human.frame("knee")
+
+
+def test_person_frame_is_a_fresh_humans_frame_whatever_was_asked_before():
+    """`person_frame` poses one kept Human per height: each answer must be a newly made Human's,
+    also after other people, another height, and a spec whose reach fails."""
+    specs = [
+        HumanSpec(position=(1.5, 0.3), yaw=np.pi, reach={"right": (1.0, 0.2, 1.1)}),
+        HumanSpec(position=(-0.4, 1.2), yaw=-1.0, posture="seated"),
+        HumanSpec(position=(0.2, 1.4), yaw=-np.pi / 2, height=1.6, reach={"left": (0.25, 0.9, 1.0)}),
+        HumanSpec(position=(1.5, 0.3), yaw=np.pi, reach={"right": (-2.0, 0.0, 1.0)}),  # out of reach
+        HumanSpec(position=(0.9, -0.6), yaw=0.4),
+        HumanSpec(position=(1.5, 0.3), yaw=np.pi, reach={"right": (1.0, 0.2, 1.1)}),
+    ]
+    for spec in specs:
+        for name in Human.FRAMES:
+            try:
+                expected = Human(spec).frame(name).homogeneous
+            except HriplanError:
+                with pytest.raises(HriplanError, match="cannot reach"):
+                    person_frame(spec, name)
+                continue
+            assert np.allclose(person_frame(spec, name).homogeneous, expected, atol=1e-12), (spec, name)

@@ -8,6 +8,7 @@ capsules: nothing on the robot side is rebuilt.
 from __future__ import annotations
 
 import functools
+import threading
 from dataclasses import dataclass
 from typing import Annotated, Literal, TypeVar
 
@@ -352,3 +353,20 @@ def display_meshes(human: Human) -> list[tuple[pin.GeometryObject, pin.SE3]]:
     pin.forwardKinematics(human.model, data, human.q)
     pin.updateGeometryPlacements(human.model, data, model, geometry_data)
     return [(geometry, pin.SE3(placement)) for geometry, placement in zip(model.geometryObjects, geometry_data.oMg)]
+
+
+_POSED: dict[float | None, Human] = {}  # one Human per body height, posed for `person_frame`
+_POSED_LOCK = threading.Lock()
+
+
+def person_frame(spec: HumanSpec, name: str) -> pin.SE3:
+    """`Human.frame(name)` of a person posed as `spec`, on one Human kept per body height: making a
+    Human costs about a millisecond (its pinocchio data), posing it for a spec seen before some
+    microseconds, and every derivation asks where a person's hand is."""
+    with _POSED_LOCK:
+        human = _POSED.get(spec.height)
+        if human is None:
+            human = _POSED[spec.height] = Human(spec)
+        else:
+            human.pose(spec)
+        return human.frame(name)

@@ -29,7 +29,7 @@ from hriplan.planner.constraints.spec import (
     OrientationConstraint,
     SphereConstraint,
 )
-from hriplan.robots.human import HELD_OBJECT_OFFSET, Human, HumanSpec
+from hriplan.robots.human import HELD_OBJECT_OFFSET, HumanSpec, person_frame
 from hriplan.robots.spatial import Pose
 from hriplan.rules.geometry import angle_between, bearing, box_between, rotation_pose, rotation_with_axis
 
@@ -173,7 +173,7 @@ def _approach_cone(ctx: Context, kind: str, anchor: str, arm: Arm, cid: str) -> 
     apex, axis = np.zeros(3), np.array([math.cos(b), math.sin(b), 0.0])
     start = ctx.situation.tool_poses.get(arm.name)
     if start is not None:
-        palm = Human(HumanSpec(**human.model_dump(include=set(HumanSpec.model_fields)))).frame(hand.split("/", 1)[1])
+        palm = person_frame(HumanSpec(**human.model_dump(include=set(HumanSpec.model_fields))), hand.split("/", 1)[1])
         meeting = np.array([HELD_OBJECT_OFFSET, 0.0, 0.0])
         towards = palm.rotation.T @ (np.array(start.xyz) - palm.translation) - meeting
         distance = float(np.linalg.norm(towards))

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from hriplan.robots.human import HELD_OBJECT_OFFSET, Human, HumanSpec
+from hriplan.robots.human import HELD_OBJECT_OFFSET, HumanSpec, person_frame
 from hriplan.robots.scene import AttachedObject, Box, Cone, Cylinder, Obstacle, Scene, Shape, Sphere, table
 from hriplan.robots.spatial import Pose, Transform
 from hriplan.tasks.grasps import Grasp, object_length
@@ -27,7 +27,7 @@ def human_spec(person: TaskHuman) -> HumanSpec:
 
 def in_hand_pose(person: TaskHuman) -> Pose:
     """Upright object held in front of the person's active hand (person frames face forward)."""
-    frame = Human(human_spec(person)).frame(f"{person.hand}_hand")
+    frame = person_frame(human_spec(person), f"{person.hand}_hand")
     centre = frame.translation + frame.rotation[:, 0] * HELD_OBJECT_OFFSET
     return Pose(xyz=tuple(float(v) for v in centre))
 
@@ -36,7 +36,7 @@ def handover_point(person: TaskHuman, shape: Shape | None, rotation: np.ndarray)
     """Where an object turned by `rotation` is handed to a person: in front of their active hand,
     its face nearest them as far from the palm as an upright can's (a long knife lying along the
     way they face goes further out, so it does not reach into their hand)."""
-    frame = Human(human_spec(person)).frame(f"{person.hand}_hand")
+    frame = person_frame(human_spec(person), f"{person.hand}_hand")
     forward = frame.rotation[:, 0]
     offset = max(HELD_OBJECT_OFFSET, NEAR_FACE_CLEARANCE + extent_along(shape, rotation, forward))
     return Transform(rotation, frame.translation + forward * offset)
