@@ -20,6 +20,7 @@ from PIL import Image
 
 from hriplan import HriplanError
 from hriplan.cli.summary import separation_phrase
+from hriplan.ontology.vocabulary import ontology_source
 from hriplan.planner.motion import JointTarget
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
@@ -96,6 +97,64 @@ def test_parameters_come_from_the_ontology_per_role():
     hand = next(c for c in ann.contact if c.region == "HandFingerRegion")
     assert (hand.spring_constant, hand.effective_mass, hand.transient_force) == (75_000.0, 0.6, 280.0)
     assert (ben.role, ben.approach_speed, ben.contact) == ("Bystander", 1.6, [])
+
+
+def test_every_roles_parameters_are_the_ontology_triples():
+    """`default_policy` reads the ontology's told facts from its schema (cached on disk); here the
+    same numbers straight from the Turtle by SPARQL, for every role with SeparationParameters and
+    both built-in robots, each person handing with their left hand."""
+    import rdflib
+
+    source = ontology_source()
+    graph = rdflib.Graph()
+    graph.parse(source.path, format="turtle")
+    graph.parse(data=source.robots, format="turtle")
+    prefix = "PREFIX hp: <https://hriplan.org/ontology#>\n"
+    roles = graph.query(
+        prefix + "SELECT ?p ?role ?v ?d ?u WHERE { ?p a hp:SeparationParameters ; hp:appliesToRole ?role ;"
+        " hp:hasApproachSpeed ?v ; hp:hasIntrusionDistance ?d ; hp:hasSensorUncertainty ?u }"
+    )
+    roles = {str(r.role).rsplit("#", 1)[-1]: r for r in roles}
+    assert {"Bystander", "Giver", "Receiver", "Supervisor"} <= set(roles)
+    for robot in ("madar", "ur5"):
+        [stopping] = graph.query(
+            prefix + "SELECT ?tr ?ts ?z ?m WHERE { ?r hp:hasUrdfName ?name ; hp:hasReactionTime ?tr ;"
+            " hp:hasStoppingTime ?ts ; hp:hasPositionUncertainty ?z ; hp:hasMovingMass ?m }",
+            initBindings={"name": rdflib.Literal(robot)},
+        )
+        people = [HumanSpec(name=role.lower(), reach={"left": (0.2, 0.9, 1.0)}) for role in roles]
+        policy = default_policy(robot, people, {p.name: role for p, role in zip(people, roles)})
+        robot_values = (policy.robot.reaction_time, policy.robot.stopping_time)
+        assert robot_values + (policy.robot.position_uncertainty, policy.robot.moving_mass) == tuple(
+            float(v.toPython()) for v in stopping
+        )
+        for role, row in roles.items():
+            person = policy.person(role.lower())
+            assert (person.approach_speed, person.intrusion, person.sensor_uncertainty) == (
+                float(row.v.toPython()),
+                float(row.d.toPython()),
+                float(row.u.toPython()),
+            )
+            regions = graph.query(
+                prefix + "SELECT ?r ?seg ?k ?m ?f ?t WHERE { ?p hp:offersContactWith ?r . ?r hp:coversSegment ?seg ;"
+                " hp:hasSpringConstant ?k ; hp:hasEffectiveMass ?m ; hp:hasQuasiStaticForce ?f ;"
+                " hp:hasTransientFactor ?t }",
+                initBindings={"p": row.p},
+            )
+            expected = sorted(
+                (
+                    str(r.r).rsplit("#", 1)[-1],
+                    f"left_{str(r.seg).rsplit('#', 1)[-1]}",
+                    float(r.k.toPython()),
+                    float(r.m.toPython()),
+                    float(r.f.toPython()) * float(r.t.toPython()),
+                )
+                for r in regions
+            )
+            got = [
+                (c.region, *c.capsules, c.spring_constant, c.effective_mass, c.transient_force) for c in person.contact
+            ]
+            assert got == expected, role  # sorted by region: the same policy whatever order the triples come in
 
 
 def test_person_distances_are_to_the_bare_body_and_follow_the_person():

@@ -9,15 +9,14 @@ reasoning, with the roles the problem names (a person without one is a bystander
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Iterable, Mapping
-from decimal import Decimal
 from pathlib import Path
 
 from hriplan import HriplanError
 from hriplan.ontology.facts import Facts
+from hriplan.ontology.schema import load_schema
 from hriplan.ontology.situation import Situation
-from hriplan.ontology.vocabulary import NAMESPACE, OntologySource, ontology_source
+from hriplan.ontology.vocabulary import ontology_source
 from hriplan.robots.human import HumanSpec, handing_hand
 from hriplan.safety.separation import ContactRegion, PersonSeparation, RobotStopping, SeparationPolicy
 
@@ -39,7 +38,8 @@ def separation_policy(facts: Facts, robot: str, people: Iterable[tuple[str, str,
         if role not in by_role:
             raise HriplanError(f"the ontology has no SeparationParameters for role {role!r} (person {name})")
         individual = by_role[role]
-        contact = [_region(facts, str(r), side) for r in facts.get(individual, "offersContactWith")]
+        # Sorted: a set of regions, which the reasoner and the triples list in any order.
+        contact = [_region(facts, r, side) for r in sorted(map(str, facts.get(individual, "offersContactWith")))]
         persons.append(
             PersonSeparation(
                 name=name,
@@ -90,28 +90,6 @@ def default_policy(
     unknown = sorted(set(roles) - {p.name for p in people})
     if unknown:
         raise HriplanError(f"roles name {', '.join(unknown)}, who is not in the scene")
-    source = ontology_source(ontology)
     handing = [(p.name, roles.get(p.name, DEFAULT_ROLE), handing_hand(p)) for p in people]
-    facts = _asserted_facts(source)
+    facts = load_schema(ontology_source(ontology)).individuals  # told facts: no reasoning, no rdflib when cached
     return separation_policy(facts, _robot_individual(facts, robot), handing)
-
-
-@functools.lru_cache(maxsize=4)
-def _asserted_facts(source: OntologySource) -> Facts:
-    """The ontology's own statements as Facts (direct types only): enough for parameter data."""
-    import rdflib
-
-    graph = source.graph
-    facts = Facts()
-    for subject, predicate, value in graph:
-        if not (isinstance(subject, rdflib.URIRef) and str(subject).startswith(NAMESPACE)):
-            continue
-        name = str(subject)[len(NAMESPACE) :]
-        if predicate == rdflib.RDF.type:
-            facts.types.setdefault(name, []).append(str(value).rsplit("#", 1)[-1])
-        elif str(predicate).startswith(NAMESPACE):
-            local = value.toPython() if isinstance(value, rdflib.Literal) else str(value).rsplit("#", 1)[-1]
-            facts.values.setdefault(name, {}).setdefault(str(predicate)[len(NAMESPACE) :], []).append(
-                float(local) if isinstance(local, Decimal) else local
-            )
-    return facts
