@@ -44,6 +44,7 @@ STEPS = {
     "soup_bowl_held_top": ["put_down_prepare", "put_down", "put_down_release"],
     "soup_bowl_held_searched": ["put_down_prepare", "put_down", "put_down_release"],
     "bystander_at_the_waiting_hand": ["home_leave", "home"],
+    "mug_from_seated_giver": ["take_mug_prepare", "take_mug", "set_down", "set_down_release"],
 }
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from hriplan.planner.constraints.binding import bind
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
-from hriplan.planner.constraints.spec import ConeConstraint, ConstraintSpec, OrientationConstraint
+from hriplan.planner.constraints.spec import ConeConstraint, ConstraintSpec, OrientationConstraint, _Volume
 from hriplan.planner.motion import ToolTarget
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
@@ -62,6 +62,20 @@ def preparatory_goal(
             what.append(f"brings the tool into {spec.id}")
     if any(isinstance(spec, ConeConstraint) for _, spec, _ in violated):
         free_axes = []  # a position and the orientation it has, or the one turned onto
+    # A volume the tool must be inside for the step (the shared workspace) but starts outside of
+    # is entered on the way, not kept from the start (no path could keep it); the step's own
+    # motion then starts inside it, or says that its start is not.
+    for other, spec in constraints:
+        if (
+            other == arm
+            and isinstance(spec, _Volume)
+            and spec.region == "inside"
+            and not isinstance(spec, ConeConstraint)
+        ):
+            (bound,) = bind([spec], robot, checker)
+            if ConstraintEvaluator(robot, [bound], robot.arm_group(arm), q).margins(q).max() > VIOLATION:
+                violated.append((arm, spec, bound))
+                what.append(f"enters {spec.id}")
     return Preparation(
         ToolTarget(arm=arm, pose=Pose.from_matrix(target), free_axes=free_axes),
         [spec.id for _, spec, _ in violated],
