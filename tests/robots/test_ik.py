@@ -105,6 +105,17 @@ def test_free_z_axis_keeps_the_approach_direction(robots):
     assert np.abs(pose[:3, 0] - target[:3, 0]).max() > 0.1
 
 
+def test_every_solution_about_a_free_axis_keeps_that_axis_whichever_was_asked_before(robots):
+    robot = robots["madar"]
+    target = tool_pose(robot, "right", np.array([0.3, -1.2, 1.4, -0.9, 1.1, 0.4]))
+    for axis, column in (("z", 2), ("x", 0), ("y", 1), ("z", 2)):  # the turns about each are made once
+        poses = [tool_pose(robot, "right", q) for q in ik_solutions(robot, "right", target, (axis,))]
+        assert len(poses) > 8  # spun: more than the 8 branches of one pose
+        assert max(np.abs(p[:3, 3] - target[:3, 3]).max() for p in poses) < 1e-6
+        assert max(np.abs(p[:3, column] - target[:3, column]).max() for p in poses) < 1e-6
+        assert max(np.abs(p[:3, (column + 1) % 3] - target[:3, (column + 1) % 3]).max() for p in poses) > 0.5
+
+
 def test_unreachable_target_fails_with_the_distance(robots):
     target = np.eye(4)
     target[:3, 3] = (5.0, 0.0, 1.3)

@@ -154,16 +154,21 @@ def _spin(axis: int, angle: float) -> np.ndarray:
     return spin
 
 
+@functools.cache
+def _spins(axis: int, samples: int) -> tuple[np.ndarray, ...]:
+    """The turns about a free tool axis `_branches` spins a target by: `samples` evenly spaced."""
+    return tuple(_spin(axis, angle) for angle in np.arange(samples) * TWO_PI / samples)
+
+
 def _branches(arm: _Arm, target: np.ndarray, axis: int | None, samples: int) -> tuple[np.ndarray, np.ndarray]:
     """Every analytic solution (rows, angles in (-pi, pi]) and the exact tool pose each reaches;
     with a free axis, the target spun about it at `samples` evenly spaced angles."""
     if samples < 1:
         raise HriplanError(f"samples_per_free_axis must be at least 1, got {samples}")
-    angles = [0.0] if axis is None else np.arange(samples) * TWO_PI / samples
+    to_solver, from_tool = np.linalg.inv(arm.base @ arm.solver_base), np.linalg.inv(arm.flange_to_tool)
     solutions, poses = [], []
-    for angle in angles:
-        pose = target if axis is None else target @ _spin(axis, angle)
-        flange = np.linalg.inv(arm.base @ arm.solver_base) @ pose @ np.linalg.inv(arm.flange_to_tool)
+    for pose in [target] if axis is None else [target @ spin for spin in _spins(axis, samples)]:
+        flange = to_solver @ pose @ from_tool
         for q in arm.solver.inverse_kinematics(np.ascontiguousarray(flange)):
             solutions.append(q)
             poses.append(pose)
