@@ -154,12 +154,20 @@ def test_other_joints_come_from_base_q(robots):
     assert np.allclose(seen[0][left], 0.7)
 
 
+def test_a_last_row_within_rounding_of_0_0_0_1_is_accepted(robots):
+    target = np.eye(4)
+    target[3] = (5e-9, 0.0, -5e-9, 1.0 + 9e-6)  # within 1e-8 of each 0 and 1e-5 (relative) of the 1
+    assert solve_ik(robots["madar"], "right", target).message.startswith("target is out of reach")  # not refused
+
+
 @pytest.mark.parametrize(
     "target, kwargs, match",
     [
         (np.eye(3), {}, "4x4"),
         (np.full((4, 4), np.nan), {}, "NaN"),
         (np.diag([1.0, 1.0, 2.0, 1.0]), {}, "orthonormal"),
+        (np.diag([1.0, 1.0, 1.0, 1.0 + 2e-5]), {}, "last row must be"),
+        (np.vstack([np.eye(4)[:3], [2e-8, 0.0, 0.0, 1.0]]), {}, "last row must be"),
         (np.diag([1.0, 1.0, -1.0, 1.0]), {}, "orthonormal"),
         (np.eye(4), {"arm": "middle"}, "no arm 'middle'"),
         (np.eye(4), {"free_axes": ("w",)}, "unknown free axis 'w'"),
