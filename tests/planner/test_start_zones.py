@@ -9,14 +9,13 @@ from hriplan.planner.start_zones import start_zones
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import HumanSpec
-from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Scene
 from hriplan.safety.policy import default_policy
 from hriplan.safety.zones import separation_zones
 
 
-def test_zones_are_made_again_when_what_they_depend_on_changes():
-    robot = load_robot("madar")
+def test_zones_are_made_again_when_what_they_depend_on_changes(madar):
+    robot = madar  # the session's MADAR: its collision model is built once for every test
     q = robot.configuration(posture("madar", "ready"))
     dana = HumanSpec(name="dana", position=(-1.28, 0.37), yaw=0.0)  # beside the left arm: zones cut
     checker = CollisionChecker(robot, Scene(humans=[dana]))
