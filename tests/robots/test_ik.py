@@ -105,6 +105,17 @@ def test_free_z_axis_keeps_the_approach_direction(robots):
     assert np.abs(pose[:3, 0] - target[:3, 0]).max() > 0.1
 
 
+def test_every_solution_about_a_free_axis_keeps_that_axis_whichever_was_asked_before(robots):
+    robot = robots["madar"]
+    target = tool_pose(robot, "right", np.array([0.3, -1.2, 1.4, -0.9, 1.1, 0.4]))
+    for axis, column in (("z", 2), ("x", 0), ("y", 1), ("z", 2)):  # the turns about each are made once
+        poses = [tool_pose(robot, "right", q) for q in ik_solutions(robot, "right", target, (axis,))]
+        assert len(poses) > 8  # spun: more than the 8 branches of one pose
+        assert max(np.abs(p[:3, 3] - target[:3, 3]).max() for p in poses) < 1e-6
+        assert max(np.abs(p[:3, column] - target[:3, column]).max() for p in poses) < 1e-6
+        assert max(np.abs(p[:3, (column + 1) % 3] - target[:3, (column + 1) % 3]).max() for p in poses) > 0.5
+
+
 def test_unreachable_target_fails_with_the_distance(robots):
     target = np.eye(4)
     target[:3, 3] = (5.0, 0.0, 1.3)
@@ -143,12 +154,20 @@ def test_other_joints_come_from_base_q(robots):
     assert np.allclose(seen[0][left], 0.7)
 
 
+def test_a_last_row_within_rounding_of_0_0_0_1_is_accepted(robots):
+    target = np.eye(4)
+    target[3] = (5e-9, 0.0, -5e-9, 1.0 + 9e-6)  # within 1e-8 of each 0 and 1e-5 (relative) of the 1
+    assert solve_ik(robots["madar"], "right", target).message.startswith("target is out of reach")  # not refused
+
+
 @pytest.mark.parametrize(
     "target, kwargs, match",
     [
         (np.eye(3), {}, "4x4"),
         (np.full((4, 4), np.nan), {}, "NaN"),
         (np.diag([1.0, 1.0, 2.0, 1.0]), {}, "orthonormal"),
+        (np.diag([1.0, 1.0, 1.0, 1.0 + 2e-5]), {}, "last row must be"),
+        (np.vstack([np.eye(4)[:3], [2e-8, 0.0, 0.0, 1.0]]), {}, "last row must be"),
         (np.diag([1.0, 1.0, -1.0, 1.0]), {}, "orthonormal"),
         (np.eye(4), {"arm": "middle"}, "no arm 'middle'"),
         (np.eye(4), {"free_axes": ("w",)}, "unknown free axis 'w'"),

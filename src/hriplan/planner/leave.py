@@ -37,6 +37,7 @@ from hriplan.planner.constraints.binding import BoundConstraint
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.keep_out import KEEP_OUT_PREFIX, keep_out_obstacles
 from hriplan.planner.motion import PLANNING_MARGIN, with_keep_out
+from hriplan.planner.start_zones import start_zones
 from hriplan.planner.validate import VALIDATION_TOLERANCE
 from hriplan.robots.collision import ZONE_NAMING, CollisionChecker
 from hriplan.robots.model import Robot
@@ -321,7 +322,7 @@ def leave_path(
 ) -> Leave | None:
     """The leave phase of `group` from `q_start` (checker: the scene without keep-outs or zones),
     or None when the start lies in no keep-out volume and no person's S_0: nothing to leave."""
-    zones = None if safety is None or not checker.humans else separation_zones(checker, robot, safety, group, q_start)
+    zones = start_zones(checker, robot, safety, group, q_start)
     with with_keep_out(checker, bound, zones):  # the contacts only of a start that collides: plans re-check every start
         contacts = checker.contacts(q_start) if checker.in_collision(q_start) else []
     blocking = [c for c in contacts if _blocking(c.a) or _blocking(c.b)]

@@ -52,35 +52,72 @@ def straight_tool_path(
     `checker`; at every state of the joint lines between them (10 mrad apart) the tool advances
     along `move` and is at most SIDEWAYS off the line. Or None and why (`what` names the target
     in the message)."""
+    waypoints, why = tool_line(robot, checker, arm, q_start, move, what, {})
+    if waypoints is None:
+        return None, why
+    why = off_line(robot, arm, q_start, move, densify(waypoints, STEP), what)
+    return (None, why) if why else (waypoints, "")
+
+
+# IK solutions along one straight line, by the tool's offsets from the start so far (nm): each is
+# solved nearest the one before, so lines from one start in one direction that share their first
+# offsets share those solutions (a retreat of 12 cm begins as one of 6 cm).
+Solved = dict[tuple[int, ...], tuple[np.ndarray | None, str]]
+
+
+def tool_line(
+    robot: Robot,
+    checker: CollisionChecker,
+    arm: str,
+    q_start: np.ndarray,
+    move: np.ndarray,
+    what: str,
+    solved: Solved,
+) -> tuple[list[np.ndarray] | None, str]:
+    """The arm's waypoints (the start first) for the tool moved by `move` from `q_start`: an IK
+    solution every WAYPOINT m, each nearest the one before and valid on `checker`, taken from
+    `solved` where a line from this start along this direction on this checker found it (and
+    added to it); or None and why."""
     group = robot.arm_group(arm)
     tool = robot.frame_pose(robot.tool_frame(arm), q_start)
     length = float(np.linalg.norm(move))
-    waypoints = [robot.group_values(q_start, group)]
+    waypoints, offsets = [robot.group_values(q_start, group)], ()
     for fraction in np.linspace(0.0, 1.0, max(2, int(np.ceil(length / WAYPOINT)) + 1))[1:]:
-        target = tool.copy()
-        target[:3, 3] += fraction * move
-        base = robot.configuration(waypoints[-1], group, base=q_start)
-        ik = solve_ik(
-            robot,
-            arm,
-            target,
-            base_q=base,
-            reference=waypoints[-1],
-            is_valid=lambda q: not checker.in_collision(q),
-            why_invalid=lambda q: [f"collides: {c.a} - {c.b}" for c in checker.contacts(q)],
-        )
-        if not ik.success:
-            return None, f"no valid IK solution {what}: {ik.message}"
-        waypoints.append(np.asarray(ik.q, dtype=float))
-    direction = move / length
+        offsets = (*offsets, round(fraction * length * 1e9))
+        if offsets not in solved:
+            target = tool.copy()
+            target[:3, 3] += fraction * move
+            ik = solve_ik(
+                robot,
+                arm,
+                target,
+                base_q=robot.configuration(waypoints[-1], group, base=q_start),
+                reference=waypoints[-1],
+                is_valid=lambda q: not checker.in_collision(q),
+                why_invalid=lambda q: [f"collides: {c.a} - {c.b}" for c in checker.contacts(q)],
+            )
+            solved[offsets] = (np.asarray(ik.q, dtype=float), "") if ik.success else (None, ik.message)
+        q, why = solved[offsets]
+        if q is None:
+            return None, f"no valid IK solution {what}: {why}"
+        waypoints.append(q)
+    return waypoints, ""
+
+
+def off_line(robot: Robot, arm: str, q_start: np.ndarray, move: np.ndarray, dense: np.ndarray, what: str) -> str:
+    """Why the arm's `dense` states (from `q_start`'s) do not move the tool straight along `move`
+    (it must advance at every state and stay within SIDEWAYS of the line), or ""."""
+    group, frame = robot.arm_group(arm), robot.tool_frame(arm)
+    tool = robot.frame_pose(frame, q_start)[:3, 3]
+    direction = move / np.linalg.norm(move)
     along, drift = [], 0.0
-    for x in densify(waypoints, STEP):
-        at = robot.frame_pose(robot.tool_frame(arm), robot.configuration(x, group, base=q_start))[:3, 3] - tool[:3, 3]
+    for x in dense:
+        at = robot.frame_pose(frame, robot.configuration(x, group, base=q_start))[:3, 3] - tool
         along.append(float(at @ direction))
         drift = max(drift, float(np.linalg.norm(at - along[-1] * direction)))
     if np.diff(along).min(initial=0.0) < ADVANCE or drift > SIDEWAYS:
-        return None, f"the straight line {what} is not straight (drifts {drift:.3f} m sideways)"
-    return waypoints, ""
+        return f"the straight line {what} is not straight (drifts {drift:.3f} m sideways)"
+    return ""
 
 
 def lift_path(
@@ -95,12 +132,13 @@ def retreat_directions(robot: Robot, arm: str, arrival: list[np.ndarray]) -> lis
     """The ways a hand may back away from where the configurations `arrival` (the released step's
     motion, the last at the release) bring it, in order: away from the palm (the tool's -z), back
     the way it came (from the last tool position at least WAYPOINT away), straight up."""
-    tool = [robot.frame_pose(robot.tool_frame(arm), q) for q in arrival]
-    ways = [("away from the palm", -tool[-1][:3, 2])]
-    came = next(
-        (t[:3, 3] - tool[-1][:3, 3] for t in reversed(tool) if np.linalg.norm(t[:3, 3] - tool[-1][:3, 3]) >= WAYPOINT),
-        None,
-    )
+    frame = robot.tool_frame(arm)
+    release = robot.frame_pose(frame, arrival[-1])
+    ways = [("away from the palm", -release[:3, 2])]
+    back = (
+        robot.frame_pose(frame, q)[:3, 3] - release[:3, 3] for q in reversed(arrival)
+    )  # from the release back: most of the motion is never asked
+    came = next((v for v in back if np.linalg.norm(v) >= WAYPOINT), None)
     if came is not None:
         ways.append(("back the way it came", came / np.linalg.norm(came)))
     return [*ways, ("straight up", np.array([0.0, 0.0, 1.0]))]
@@ -170,27 +208,43 @@ def _retreat_along(
     next_start: CollisionChecker,
 ) -> tuple[list[np.ndarray] | None, str]:
     """The first of RETREATS along `direction` that retreat_path accepts, or None and why (the
-    farthest that had a straight path, else the first)."""
-    group, told = opened.arm_group(arm), ""
+    farthest whose IK line was solved, else the first). Each is asked first what is cheapest to
+    ask and most often fails: where its line ends (the shorter retreats end with the hand still
+    around the object); a failure's contacts are listed only if every distance fails."""
+    group, solved = opened.arm_group(arm), {}
+    told: tuple[str, CollisionChecker | None, np.ndarray] | None = None  # why, and whose contacts at what q
     for distance in RETREATS:
-        waypoints, why = straight_tool_path(opened, checker, arm, q_release, direction * distance, f"{distance} m away")
-        told = why if not told else told
+        move, what = direction * distance, f"{distance} m away"
+        waypoints, why = tool_line(opened, checker, arm, q_release, move, what, solved)
         if waypoints is None:
+            told = told or (why, None, q_release)
             continue
-        states = [opened.configuration(x, group, base=q_release) for x in densify(waypoints, STEP)]
+        end = opened.configuration(waypoints[-1], group, base=q_release)
+        if untouched.touches(end, released):
+            told = (f"{what} the hand still touches {released}", None, end)
+            continue
+        if next_start.in_collision(end):
+            told = (f"{what} the next step would start in collision: ", next_start, end)
+            continue
+        dense = densify(waypoints, STEP)
+        why = off_line(opened, arm, q_release, move, dense, what)
+        if why:
+            told = told or (why, None, end)
+            continue
+        states = [opened.configuration(x, group, base=q_release) for x in dense]
         hit = next((q for q in states if checker.in_collision(q)), None)
         if hit is not None:
-            told = f"{distance} m away it collides: {_contacts(checker, hit)}"
+            told = (f"{what} it collides: ", checker, hit)
             continue
         touches = [untouched.touches(q, released) for q in states]
         if touches[-1] or (False in touches and True in touches[touches.index(False) :]):
-            told = f"{distance} m away the hand {'still' if touches[-1] else 'again'} touches {released}"
-            continue
-        if next_start.in_collision(states[-1]):
-            told = f"{distance} m away the next step would start in collision: {_contacts(next_start, states[-1])}"
+            told = (f"{what} the hand {'still' if touches[-1] else 'again'} touches {released}", None, end)
             continue
         return waypoints, ""
-    return None, told
+    if told is None:
+        return None, ""
+    why, contacts, q = told
+    return None, why + (_contacts(contacts, q) if contacts is not None else "")
 
 
 def _contacts(checker: CollisionChecker, q: np.ndarray) -> str:

@@ -27,13 +27,13 @@ from hriplan.planner.constraints.spec import Axis, ConstraintSpec
 from hriplan.planner.options import PlanOptions, check_options
 from hriplan.planner.outcome import Status
 from hriplan.planner.search.arm_shortcut import arm_subgroups, straighten_arms
+from hriplan.planner.start_zones import start_zones
 from hriplan.planner.validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
 from hriplan.robots.collision import ZONE_NAMING, CollisionChecker, SeparationZones, listed_contacts
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import JointValues, Robot
 from hriplan.robots.spatial import Pose
 from hriplan.safety.separation import SeparationPolicy
-from hriplan.safety.zones import separation_zones
 
 if TYPE_CHECKING:
     from hriplan.planner.search.cbirrt import BandProblem
@@ -187,9 +187,7 @@ def plan_motion(
     def result(status: Status, message: str) -> MotionResult:
         return MotionResult(status=status, message=message, group=group, joint_names=joint_names, start=full_start)
 
-    separation = (
-        None if safety is None or not checker.humans else separation_zones(checker, robot, safety, group, q_start)
-    )
+    separation = start_zones(checker, robot, safety, group, q_start)
     with with_keep_out(checker, bound, separation):
         problem = _Problem(robot, checker, bound, group, q_start)
         x_start = robot.group_values(q_start, group)

@@ -30,6 +30,8 @@ from hriplan.robots.model import Robot
 
 AXES = {"x": 0, "y": 1, "z": 2}
 ORTHONORMAL_TOLERANCE = 1e-6
+LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+LAST_ROW_TOLERANCE = 1e-8 + 1e-5 * LAST_ROW  # np.allclose's atol + rtol * |expected|
 POLISH_ITERATIONS = 10
 POLISH_DAMPING = 1e-6
 TWO_PI = 2.0 * math.pi
@@ -129,7 +131,7 @@ def _check_target(target: np.ndarray) -> np.ndarray:
     if not np.all(np.isfinite(t)):
         raise HriplanError("IK target contains NaN or infinite values")
     rot = t[:3, :3]
-    if not np.allclose(t[3], (0.0, 0.0, 0.0, 1.0)):
+    if not (np.abs(t[3] - LAST_ROW) <= LAST_ROW_TOLERANCE).all():  # np.allclose's test, without its overhead
         raise HriplanError(f"IK target's last row must be [0, 0, 0, 1], got {t[3].tolist()}")
     if np.abs(rot.T @ rot - np.eye(3)).max() > ORTHONORMAL_TOLERANCE or np.linalg.det(rot) < 0:
         raise HriplanError("IK target's rotation part is not a proper orthonormal rotation matrix")
@@ -154,16 +156,21 @@ def _spin(axis: int, angle: float) -> np.ndarray:
     return spin
 
 
+@functools.cache
+def _spins(axis: int, samples: int) -> tuple[np.ndarray, ...]:
+    """The turns about a free tool axis `_branches` spins a target by: `samples` evenly spaced."""
+    return tuple(_spin(axis, angle) for angle in np.arange(samples) * TWO_PI / samples)
+
+
 def _branches(arm: _Arm, target: np.ndarray, axis: int | None, samples: int) -> tuple[np.ndarray, np.ndarray]:
     """Every analytic solution (rows, angles in (-pi, pi]) and the exact tool pose each reaches;
     with a free axis, the target spun about it at `samples` evenly spaced angles."""
     if samples < 1:
         raise HriplanError(f"samples_per_free_axis must be at least 1, got {samples}")
-    angles = [0.0] if axis is None else np.arange(samples) * TWO_PI / samples
+    to_solver, from_tool = np.linalg.inv(arm.base @ arm.solver_base), np.linalg.inv(arm.flange_to_tool)
     solutions, poses = [], []
-    for angle in angles:
-        pose = target if axis is None else target @ _spin(axis, angle)
-        flange = np.linalg.inv(arm.base @ arm.solver_base) @ pose @ np.linalg.inv(arm.flange_to_tool)
+    for pose in [target] if axis is None else [target @ spin for spin in _spins(axis, samples)]:
+        flange = to_solver @ pose @ from_tool
         for q in arm.solver.inverse_kinematics(np.ascontiguousarray(flange)):
             solutions.append(q)
             poses.append(pose)
@@ -191,17 +198,21 @@ def _errors(pose: np.ndarray, target: np.ndarray, axis: int | None) -> tuple[flo
     return position, float(math.atan2(np.linalg.norm(np.cross(a, b)), float(a @ b)))
 
 
-def _polish(robot: Robot, arm: _Arm, q: np.ndarray, target: np.ndarray, tolerance: float) -> np.ndarray:
-    """Damped Gauss-Newton steps on the tool pose, to absorb the analytic solver's round-off."""
+def _polish(
+    robot: Robot, arm: _Arm, q: np.ndarray, target: np.ndarray, tolerance: float
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Damped Gauss-Newton steps on the tool pose, to absorb the analytic solver's round-off: the
+    configuration, and the tool pose it reaches if that is within `tolerance` of `target` (else None)."""
     for _ in range(POLISH_ITERATIONS):
         pose = robot.frame_pose(arm.tool, q)
         if max(_errors(pose, target, None)) < tolerance:
-            break
+            return q, pose
         error = np.concatenate([target[:3, 3] - pose[:3, 3], pin.log3(target[:3, :3] @ pose[:3, :3].T)])
         jac = robot.frame_jacobian(arm.tool, q, arm.group)
         step = jac.T @ np.linalg.solve(jac @ jac.T + POLISH_DAMPING * np.eye(6), error)
         q = robot.configuration(robot.group_values(q, arm.group) + step, arm.group, base=q)
-    return q
+    pose = robot.frame_pose(arm.tool, q)
+    return q, pose if max(_errors(pose, target, None)) < tolerance else None
 
 
 def _reached(robot: Robot, arm: _Arm, values: np.ndarray) -> np.ndarray:
@@ -317,14 +328,14 @@ def solve_ik(
     n_tried, n_accurate, reasons = 0, 0, Counter()
     for values, pose in candidates:
         n_tried += 1
-        q = _polish(robot, info, robot.configuration(values, info.group, base=info.base_q), pose, tolerance)
+        q, reached = _polish(robot, info, robot.configuration(values, info.group, base=info.base_q), pose, tolerance)
         polished = robot.group_values(q, info.group)
         inside = np.all(polished >= lower) and np.all(polished <= upper)
-        if not inside or max(_errors(robot.frame_pose(info.tool, q), pose, None)) >= tolerance:
+        if not inside or reached is None:
             continue
         n_accurate += 1
         if is_valid is None or is_valid(q):
-            position, orientation = _errors(robot.frame_pose(info.tool, q), target, axis)
+            position, orientation = _errors(reached, target, axis)
             return IKResult(
                 success=True,
                 q=polished.tolist(),
