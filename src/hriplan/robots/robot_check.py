@@ -5,6 +5,7 @@ starting robot file written from a URDF and, where there is one, its SRDF."""
 from __future__ import annotations
 
 import collections
+import math
 import os
 import re
 import time
@@ -18,6 +19,7 @@ import yaml
 from hriplan import HriplanError
 from hriplan.files import read_text, write_atomically
 from hriplan.robots.acm import MESH, load_acm
+from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.description import hand_model
 from hriplan.robots.descriptions.registry import DESCRIPTIONS, load_robot_file
 from hriplan.robots.ik import ANALYTIC_IK, fit_analytic, solve_ik
@@ -25,6 +27,7 @@ from hriplan.robots.info import describe
 from hriplan.robots.model import Robot, load_robot
 from hriplan.robots.robot_file import package_search_path, resolve_file
 from hriplan.robots.robot_geometry import robot_parts
+from hriplan.robots.scene import Scene
 from hriplan.robots.srdf import Srdf, read_srdf
 from hriplan.robots.urdf_tree import MOVABLE, UrdfTree
 
@@ -95,9 +98,22 @@ def check_report(path: str | Path) -> str:
             f"arm {arm}: IK {a.ik}: {solved} of {CHECK_POSES} random reachable poses solved, median {median:.2f} ms"
         )
     lines.append("postures: " + (", ".join(description.postures) or "none"))
+    lines += _colliding_postures(robot, description.postures)
     if srdf is not None:
         lines.append(_srdf_pairs(robot, srdf))
     return "\n".join(lines)
+
+
+def _colliding_postures(robot: Robot, postures: dict[str, dict[str, float]]) -> list[str]:
+    """A line per posture in which the robot collides with itself: a task cannot start there."""
+    checker = CollisionChecker(robot, Scene())
+    lines = []
+    for name, values in postures.items():
+        contacts = checker.contacts(robot.configuration(values))
+        if contacts:
+            pairs = ", ".join(f"{c.a} - {c.b}" for c in contacts[:3]) + (", ..." if len(contacts) > 3 else "")
+            lines.append(f"posture {name}: in self-collision ({pairs}): a task cannot start there")
+    return lines
 
 
 def _identifier(name: str) -> str:
@@ -178,6 +194,17 @@ def _reference(path: Path, output: Path) -> str:
     return os.path.relpath(path, output.resolve().parent)
 
 
+# The range a continuous arm joint is planned in when `robot init` writes the file: two turns
+# about zero, which a user narrows to what the cables allow.
+TWO_TURNS = round(2 * math.pi, 4)
+
+
+def _ready_value(lower: float, upper: float) -> float:
+    """A joint's value in the written `ready` posture: zero where its range allows, else the middle
+    of its range (the end nearest zero folded Kinova's arm into itself)."""
+    return 0.0 if lower <= 0.0 <= upper else (lower + upper) / 2
+
+
 def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> str:
     """Write a robot file for a URDF (and SRDF), paths or package:// URIs, to `output`, check it
     loads, and say what it holds."""
@@ -197,6 +224,7 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
         if el.find("limit") is not None
     }
     ready: dict[str, float] = {}
+    turning: list[str] = []  # continuous arm joints: planned within TWO_TURNS (the file says so)
     for arm in arms.values():
         joints = (
             tree.movable(semantic.groups[arm["group"]])
@@ -204,10 +232,11 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
             else tree.movable(tree.chain(arm["base"], arm["tip"], "arm"))
         )
         joints = [j for j in joints if tree.joints[j].mimic is None]
+        turning += [j for j in joints if tree.joints[j].type == "continuous"]
         tool = arm.get("tool", arm.get("tip"))
         arm["hand"] = _hand(tree, limits, tool, set(joints))
         arm["ik"] = _ik_kind(text, tree.joints[joints[0]].parent, tool, joints)
-        ready |= {j: float(np.clip(0.0, *limits.get(j, (0.0, 0.0)))) for j in joints}
+        ready |= {j: _ready_value(*limits.get(j, (0.0, 0.0))) for j in joints}
     name = _identifier(root.get("name", ""))
     data = {
         "name": f"{name}_robot" if name in DESCRIPTIONS else name,
@@ -217,6 +246,8 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
     }
     if not any(name == "ready" for name, _, _ in semantic.states):
         data["postures"] = {"ready": ready}
+    if turning:
+        data["limits"] = {j: {"lower": -TWO_TURNS, "upper": TWO_TURNS} for j in turning}
     header = f"# A robot file written by `hriplan robot init` from {urdf.name}: check it with `hriplan robot check`.\n"
     write_atomically(output, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
     description = load_robot_file(output)

@@ -23,7 +23,8 @@ frame_aliases: {flange: panda_link8}         # other names of links (constraints
 postures: {ready: {panda_joint4: -2.0}}      # with the SRDF's group states
                                              # (the SRDF group of exactly the arms' joints, if any, is
                                              # the whole-robot group: MADAR's both_arms; else all_arms)
-limits: {panda_joint1: {velocity: 1.0, acceleration: 3.75}}
+limits: {panda_joint1: {velocity: 1.0, acceleration: 3.75}, panda_joint7: {lower: -1.5, upper: 1.5}}
+                                             # (lower/upper narrow a range, or give a continuous joint one)
 base_pose: {xyz: [0, 0, 0.8]}
 allowed_collisions: [[panda_link5, panda_link7]]  # link pairs never checked (the user's word, as MoveIt's "User")
 stopping: {reaction_time: 0.1, stopping_time: 0.2, position_uncertainty: 0.02, moving_mass: 6.0}  # ISO/TS 15066
@@ -36,6 +37,7 @@ frame) is one line naming the file and what is wrong. The built-in robots are ro
 from __future__ import annotations
 
 import functools
+import math
 import os
 import re
 import xml.etree.ElementTree as ET
@@ -48,6 +50,7 @@ from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
+    FiniteFloat,
     NonNegativeFloat,
     PositiveFloat,
     StringConstraints,
@@ -126,8 +129,20 @@ class ArmSpec(_Strict):
 
 
 class JointLimits(_Strict):
+    """Overrides of a joint's URDF limits. `lower`/`upper` (rad or m) narrow a revolute or
+    prismatic joint's range, or give a continuous joint the range it is planned in (it is then
+    planned as a revolute joint: a Kinova's or a PR2's wrist)."""
+
+    lower: FiniteFloat | None = None
+    upper: FiniteFloat | None = None
     velocity: PositiveFloat | None = None
     acceleration: PositiveFloat | None = None
+
+    @model_validator(mode="after")
+    def _ordered(self) -> JointLimits:
+        if self.lower is not None and self.upper is not None and not self.lower < self.upper:
+            raise ValueError(f"lower ({self.lower}) must be below upper ({self.upper})")
+        return self
 
 
 class Stopping(_Strict):
@@ -217,6 +232,7 @@ class _Builder:
         self.root = _urdf_root(urdf)
         for el in self.root.iter("mesh"):
             el.set("filename", str(resolve_file(el.get("filename", ""), packages, urdf.parent, "mesh")))
+        self._set_ranges()
         self.tree = UrdfTree(self.root)
         self.frame_aliases = {}
         for alias, link in spec.frame_aliases.items():
@@ -229,6 +245,43 @@ class _Builder:
             self.srdf = read_srdf(
                 read_text(resolve_file(spec.srdf, packages, folder, "SRDF file"), "SRDF file"), self.tree
             )
+
+    def _set_ranges(self) -> None:
+        """Write the file's joint ranges (`limits.J.lower/upper`) into the URDF: within the URDF's
+        own range for a revolute or prismatic joint (a range only narrows), both ends for a
+        continuous joint, which becomes revolute."""
+        joints = {el.get("name"): el for el in self.root.findall("joint")}
+        for name, limits in self.spec.limits.items():
+            if limits.lower is None and limits.upper is None:
+                continue
+            what = f"limits.{name}"
+            if name not in joints:
+                raise HriplanError(f"{what}: the URDF has no joint {name!r}")
+            element, kind = joints[name], joints[name].get("type")
+            limit = element.find("limit")
+            if kind == "continuous":
+                if limits.lower is None or limits.upper is None:
+                    raise HriplanError(f"{what}: a continuous joint needs both lower and upper")
+                element.set("type", "revolute")
+                if limit is None:
+                    if limits.velocity is None:
+                        raise HriplanError(f"{what}: the URDF gives joint {name!r} no <limit>: give its velocity too")
+                    limit = ET.SubElement(element, "limit", effort="0", velocity=repr(limits.velocity))
+            elif kind in ("revolute", "prismatic") and limit is not None:
+                own = float(limit.get("lower", "0")), float(limit.get("upper", "0"))
+                lower, upper = limits.lower, limits.upper
+                if (lower is not None and lower < own[0]) or (upper is not None and upper > own[1]):
+                    raise HriplanError(
+                        f"{what}: [{lower}, {upper}] is not within the URDF's range [{own[0]:.6g}, {own[1]:.6g}]"
+                        " (a range only narrows)"
+                    )
+            else:
+                raise HriplanError(f"{what}: joint {name!r} is {kind} and has no range to set")
+            for end, value in (("lower", limits.lower), ("upper", limits.upper)):
+                if value is not None:
+                    limit.set(end, repr(value))
+            if not float(limit.get("lower", "0")) < float(limit.get("upper", "0")):
+                raise HriplanError(f"{what}: the range [{limit.get('lower')}, {limit.get('upper')}] is empty")
 
     def arm_joints(self, arm: str, a: ArmSpec) -> list[str]:
         what = f"arms.{arm}"
@@ -244,7 +297,10 @@ class _Builder:
             raise HriplanError(f"{what}: group {a.group or arm!r} has no joints that move")
         for j in movable:
             if self.tree.joints[j].type == "continuous":
-                raise HriplanError(f"{what}: joint {j!r} is continuous; give it limits (a revolute joint)")
+                raise HriplanError(
+                    f"{what}: joint {j!r} is continuous; give the range to plan it in, e.g. "
+                    f"limits: {{{j}: {{lower: -6.2832, upper: 6.2832}}}}"
+                )
         for before, after in zip(movable, movable[1:]):
             if self.tree.moving_between(before, self.tree.joints[after].parent) != []:
                 raise HriplanError(f"{what}: not a serial chain: joint {after!r} does not follow joint {before!r}")
@@ -364,10 +420,15 @@ class _Builder:
                 if j not in planning:
                     raise HriplanError(f"postures.{name}: {j!r} is not an arm joint; arm joints: {', '.join(planning)}")
                 lower, upper = limits.get(j, (-float("inf"), float("inf")))
-                if not lower <= v <= upper:
+                if lower <= v <= upper:
+                    continue
+                turned = _by_whole_turns(v, lower, upper) if self.tree.joints[j].type == "revolute" else None
+                if turned is None:
                     raise HriplanError(
                         f"postures.{name}: {j} = {v:.4g} is beyond its limits [{lower:.4g}, {upper:.4g}]"
+                        " (a robot file's postures override its SRDF's)"
                     )
+                values[j] = turned  # the same placement of the joint's link (Kinova's SRDF: -pi/2 for 3 pi/2)
         return postures
 
     def limits(self) -> dict[str, float]:
@@ -444,6 +505,12 @@ class _Builder:
             ),
             stopping={} if spec.stopping is None else {ONTOLOGY_STOPPING[k]: v for k, v in spec.stopping},
         )
+
+
+def _by_whole_turns(value: float, lower: float, upper: float) -> float | None:
+    """`value` moved by the fewest whole turns into [lower, upper], or None if no turn fits."""
+    turns = [k for k in range(-3, 4) if lower <= value + 2 * math.pi * k <= upper]
+    return value + 2 * math.pi * min(turns, key=abs) if turns else None
 
 
 def _xyz_rpy(pose: Pose) -> tuple[tuple[float, float, float], tuple[float, float, float]]:

@@ -1,0 +1,152 @@
+"""A robot with continuous joints, as a new user brings one: example-robot-data's Kinova Jaco (its
+joints 1, 4 and 6 turn without end). `hriplan robot init` gives them two turns each and a ready
+posture that does not fold the arm into itself; the planned model has the URDF's kinematics
+(pinocchio built here from the URDF file itself, the continuous joints as cos/sin); an SRDF state
+beyond a revolute joint's range by a whole turn is that turn's placement; a range only narrows;
+`robot check` names a posture in self-collision; and a plan turns joint 1 past half a turn."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import example_robot_data
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from hriplan import HriplanError
+from hriplan.planner.motion import JointTarget
+from hriplan.planner.options import PlanOptions
+from hriplan.planner.session import PlanningSession
+from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import load_robot_file, posture
+from hriplan.robots.model import load_robot
+from hriplan.robots.robot_check import check_report, write_starting_file
+from hriplan.robots.scene import Scene
+
+SHARE = Path(example_robot_data.getModelPath("kinova_description/robots/kinova.urdf")).resolve()
+URDF = SHARE / "kinova_description" / "robots" / "kinova.urdf"
+SRDF = SHARE / "kinova_description" / "srdf" / "kinova.srdf"
+TURNING = ["j2s6s200_joint_1", "j2s6s200_joint_4", "j2s6s200_joint_6"]
+
+pytestmark = pytest.mark.usefixtures("module_robot_registry")
+
+
+@pytest.fixture(scope="module")
+def kinova_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("kinova") / "kinova.yaml"
+    write_starting_file(str(URDF), str(SRDF), path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def kinova(kinova_file):
+    return load_robot(load_robot_file(kinova_file).name)
+
+
+def test_init_gives_each_continuous_joint_two_turns_and_a_ready_posture_free_of_itself(kinova_file, kinova):
+    text = kinova_file.read_text()
+    for joint in TURNING:
+        assert f"{joint}: {{lower: -6.2832, upper: 6.2832}}" in text
+    lower, upper = kinova.limits(kinova.default_group)
+    turning = [kinova.joint_names.index(j) for j in TURNING]
+    assert np.allclose(lower[turning], -6.2832) and np.allclose(upper[turning], 6.2832)
+    checker = CollisionChecker(kinova, Scene())
+    assert checker.contacts(kinova.configuration(posture(kinova.name, "ready"))) == []
+    # The ends of the ranges nearest zero (what init wrote before) fold the arm into itself.
+    nearest_zero = dict(zip(kinova.joint_names, np.clip(0.0, lower, upper)))
+    assert checker.contacts(kinova.configuration(nearest_zero)) != []
+
+
+def test_the_planned_model_has_the_urdf_files_kinematics(kinova):
+    """pinocchio from the URDF file itself: the continuous joints take (cos, sin)."""
+    model = pin.buildModelFromUrdf(str(URDF))
+    data = model.createData()
+    tool = kinova.tool_frame("end_effector")
+    rng = np.random.default_rng(7)
+    lower, upper = kinova.limits(kinova.default_group)
+    for _ in range(20):
+        x = rng.uniform(lower, upper)
+        q = pin.neutral(model)
+        for name, value in zip(kinova.joint_names, x):
+            joint = model.joints[model.getJointId(name)]
+            q[joint.idx_q : joint.idx_q + joint.nq] = [math.cos(value), math.sin(value)] if joint.nq == 2 else [value]
+        pin.framesForwardKinematics(model, data, q)
+        expected = data.oMf[model.getFrameId(tool)].homogeneous
+        assert np.allclose(kinova.frame_pose(tool, x, kinova.default_group), expected, atol=1e-9)
+
+
+def test_an_srdf_state_beyond_the_range_by_a_whole_turn_is_moved_by_that_turn(kinova):
+    state = next(s for s in ET.parse(SRDF).getroot().iter("group_state") if s.get("name") == "arm_up")
+    written = {j.get("name"): float(j.get("value")) for j in state.iter("joint")}
+    assert written["j2s6s200_joint_3"] < 0.0  # below the URDF's range [0.33, 5.95]
+    values = posture(kinova.name, "arm_up")
+    assert values["j2s6s200_joint_3"] == pytest.approx(written["j2s6s200_joint_3"] + 2 * math.pi, abs=1e-12)
+    assert values["j2s6s200_joint_2"] == pytest.approx(written["j2s6s200_joint_2"], abs=1e-12)  # within: kept
+
+
+@pytest.mark.parametrize(
+    ("limits", "message"),
+    [
+        ("", "joint 'j2s6s200_joint_1' is continuous; give the range to plan it in"),
+        ("j2s6s200_joint_1: {lower: -3.0}", "limits.j2s6s200_joint_1: a continuous joint needs both lower and upper"),
+        ("j2s6s200_joint_2: {lower: 0.1, upper: 5.0}", "limits.j2s6s200_joint_2: [0.1, 5.0] is not within the URDF's"),
+        ("j2s6s200_joint_2: {lower: 5.0, upper: 1.0}", "lower (5.0) must be below upper (1.0)"),
+        ("j2s6s200_joint_2: {upper: 0.5}", "limits.j2s6s200_joint_2: the range [0.820304748437, 0.5] is empty"),
+        ("j2s6s200_joint_end_effector: {lower: 0, upper: 1}", "is fixed and has no range to set"),
+        ("elbow: {lower: 0, upper: 1}", "limits.elbow: the URDF has no joint 'elbow'"),
+    ],
+)
+def test_a_bad_range_is_one_line(tmp_path, limits, message):
+    text = (
+        f"name: jaco\nurdf: {URDF}\nsrdf: {SRDF}\n"
+        "arms: {arm: {group: end_effector, tool: j2s6s200_end_effector, ik: numeric}}\n"
+        f"limits: {{{limits}}}\n"
+    )
+    if "joint_1:" not in limits:
+        text = text.replace("limits: {", "limits: {j2s6s200_joint_1: {lower: -3, upper: 3}, ", 1)
+    if not limits:
+        text = text.replace("j2s6s200_joint_1: {lower: -3, upper: 3}, ", "")
+    (tmp_path / "jaco.yaml").write_text(text)
+    with pytest.raises(HriplanError) as error:
+        load_robot_file(tmp_path / "jaco.yaml")
+    assert message in str(error.value) and "\n" not in str(error.value)
+
+
+def test_a_narrowed_range_is_planned_in(tmp_path, robot_registry):
+    text = (
+        f"name: jaco_narrow\nurdf: {URDF}\nsrdf: {SRDF}\n"
+        "arms: {arm: {group: end_effector, tool: j2s6s200_end_effector, ik: numeric}}\n"
+        "limits: {j2s6s200_joint_1: {lower: -1.0, upper: 2.0}, j2s6s200_joint_4: {lower: -6, upper: 6},"
+        " j2s6s200_joint_6: {lower: -6, upper: 6}, j2s6s200_joint_2: {lower: 1.0, upper: 5.0}}\n"
+    )
+    (tmp_path / "narrow.yaml").write_text(text)
+    robot = load_robot(load_robot_file(tmp_path / "narrow.yaml").name)
+    lower, upper = robot.limits(robot.default_group)
+    assert (lower[0], upper[0], lower[1], upper[1]) == (-1.0, 2.0, 1.0, 5.0)
+
+
+def test_robot_check_names_a_posture_in_self_collision(tmp_path, kinova_file):
+    folded = "\npostures: {folded: {j2s6s200_joint_2: 0.8204, j2s6s200_joint_3: 0.3317, j2s6s200_joint_5: 0.5236}}\n"
+    text = kinova_file.read_text().replace("name: kinova", "name: kinova_folded")
+    (tmp_path / "folded.yaml").write_text(text.split("postures:")[0] + folded + "limits:" + text.split("limits:")[1])
+    lines = check_report(tmp_path / "folded.yaml").splitlines()
+    [line] = [line for line in lines if line.startswith("posture ")]
+    assert line.startswith("posture folded: in self-collision (j2s6s200_link_")
+    assert "posture ready" not in "\n".join(lines)
+
+
+def test_a_plan_turns_a_continuous_joint_past_half_a_turn(kinova):
+    session = PlanningSession(kinova.name)
+    start = posture(kinova.name, "ready") | {"j2s6s200_joint_1": -2.5}
+    x0 = kinova.group_values(kinova.configuration(start))
+    goal = x0.copy()
+    goal[kinova.joint_names.index("j2s6s200_joint_1")] = 3.5  # -2.5 to 3.5: through pi, no wrap-around
+    result = session.plan(start, JointTarget(values=goal.tolist()), PlanOptions(seed=1))
+    assert result.solved, result.message
+    positions = np.array([p.positions for p in result.trajectory.points])
+    column = result.trajectory.joint_names.index("j2s6s200_joint_1")
+    assert positions[0, column] == pytest.approx(-2.5) and positions[-1, column] == pytest.approx(3.5)
+    assert np.all(np.abs(np.diff(positions[:, column])) < 0.2)  # continuous: no jump of a turn
