@@ -25,7 +25,8 @@ from hriplan.planner.validate import densify
 from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Scene
-from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety import person_distance
+from hriplan.safety.approach import ApproachMonitor, _Rows
 from hriplan.safety.capsule_distance import capsule_distances
 from hriplan.safety.person_distance import StatePairs
 from hriplan.safety.policy import default_policy
@@ -267,16 +268,17 @@ def test_the_batched_monitor_gives_the_per_point_numbers_on_the_handover(handove
     assert monitor.samples(xs[3], dxs[3]) is monitor.samples(xs[3].copy(), dxs[3].copy())
 
 
-def test_the_monitor_leaves_out_only_non_capsule_pairs_that_cannot_change_a_sample(handover, monkeypatch):
-    """The palm, adapter and can pairs go through coal only where their bounds do not rule them
-    out: on the handover's points with random joint velocities (any part may bind, set the scale
-    or close in on S_0), every sample or S_0 message is still the per-point one, with few of those
-    pairs asked."""
+def test_the_monitor_leaves_out_only_pairs_that_cannot_change_a_sample(handover, monkeypatch):
+    """Every pair, capsule (numpy) or not (coal: palm, adapter, can), is measured only where its
+    bounds do not rule it out: on the handover's points with random joint velocities (any part
+    may bind, set the scale or close in on S_0), every sample or S_0 message is still the
+    per-point one, with few of the pairs measured."""
     session, policy, group, q0, xs, _ = handover
     rng = np.random.default_rng(11)
-    asked = []
-    measure = pin.computeDistance
+    asked, computed = [], []
+    measure, capsules = pin.computeDistance, person_distance.capsule_distances
     monkeypatch.setattr(pin, "computeDistance", lambda *a: asked.append(a[2]) or measure(*a))
+    monkeypatch.setattr(person_distance, "capsule_distances", lambda *a: computed.append(len(a[0])) or capsules(*a))
     monitor = ApproachMonitor(session.robot, session.checker, policy, group, q0)
     points = xs[::2]
     velocities = rng.normal(0.0, 0.5, points.shape) * rng.uniform(0.0, 1.0, (len(points), 1))
@@ -291,6 +293,8 @@ def test_the_monitor_leaves_out_only_non_capsule_pairs_that_cannot_change_a_samp
     model = session.checker.person_model(policy.people[0].name)
     others = [p for p in model.collisionPairs if not isinstance(model.geometryObjects[p.first].geometry, coal.Capsule)]
     assert 0 < len(asked) < 0.2 * len(others) * len(points)
+    rows = monitor._pairs(policy.people[0])[0]._capsule_rows.size  # the moved parts' capsule pairs
+    assert 0 < sum(computed) < 0.25 * rows * len(points)
     shapes = {g.name: type(g.geometry) for g in model.geometryObjects}
     bound = [s.part for x, dx in zip(points, velocities) for s in monitor.samples(x, dx)]
     assert any(shapes[part] is not coal.Capsule for part in bound)  # a coal pair binds somewhere
@@ -317,14 +321,16 @@ def test_a_pair_that_could_bind_is_measured_though_it_is_neither_closest_nor_slo
         np.array([[[a, 0.0, 0.0], [0.0, 0.0, 0.0]]]),
         np.array([[[3.0, 0.0, 0.0], [0.0, 0.0, 0.0]]]),
     )
-    select = monitor._deciding(person, np.array([False, False]))
+    kind = _Rows(np.array([False, False]), np.zeros(2))
+    select = monitor._deciding(person, kind)
     floor = a + 0.01
     lowest = factor * _allowed(policy.robot, person, floor - padding, body)
     speed = 3.1
     assert lowest - speed < 1.0 - 3.0 and lowest / speed > 1.0 / 3.0  # could bind, cannot slow
-    assert select(pairs, np.array([1]), np.array([[floor]]), np.array([[speed]])).tolist() == [[True]]
+    floors = np.array([[a - 0.01, floor]])
+    assert select.needed(pairs, floors, np.array([[3.0, speed]])).tolist() == [[True, True]]
     # a B that can neither bind nor slow nor be the closest is left out
-    assert select(pairs, np.array([1]), np.array([[floor]]), np.array([[1.0]])).tolist() == [[False]]
+    assert select.needed(pairs, floors, np.array([[3.0, 1.0]])).tolist() == [[True, False]]
 
 
 def _right_arm_sweep(session: PlanningSession) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
