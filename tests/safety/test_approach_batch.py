@@ -26,7 +26,7 @@ from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Scene
 from hriplan.safety import person_distance
-from hriplan.safety.approach import ApproachMonitor, _Rows
+from hriplan.safety.approach import ApproachMonitor, _Rows, _Speeds
 from hriplan.safety.capsule_distance import capsule_distances
 from hriplan.safety.person_distance import StatePairs
 from hriplan.safety.policy import default_policy
@@ -322,7 +322,7 @@ def test_a_pair_that_could_bind_is_measured_though_it_is_neither_closest_nor_slo
         np.array([[[3.0, 0.0, 0.0], [0.0, 0.0, 0.0]]]),
     )
     kind = _Rows(np.array([False, False]), np.zeros(2))
-    select = monitor._deciding(person, kind)
+    select = monitor._deciding(person, kind, _Speeds(policy, person, kind, (1, 2)))
     floor = a + 0.01
     lowest = factor * _allowed(policy.robot, person, floor - padding, body)
     speed = 3.1

@@ -39,6 +39,9 @@ class _Joint:
     idx_q: int
     nq: int  # 2: a continuous joint given as (cos, sin)
     idx_v: int
+    along: np.ndarray  # (3, 3) a a^T, a the axis: what a rotation about it keeps
+    across: np.ndarray  # (3, 3) I - a a^T
+    cross: np.ndarray  # (3, 3) [a]x
 
 
 class BatchKinematics:
@@ -72,7 +75,7 @@ class BatchKinematics:
             dq = dqs[:, joint.idx_v, None]
             if joint.turns:
                 cos, sin = _angle(qs, joint)
-                rotation[:, k] = place @ _rotation(joint.axis, cos, sin)
+                rotation[:, k] = place @ _rotation(joint, cos, sin)
                 origin[:, k] = offset
                 angular[:, k] = spin + axis * dq
                 linear[:, k] = moving + np.cross(spin, offset - at)
@@ -113,15 +116,21 @@ def _joint(model: pin.Model, j: int, parent: int) -> _Joint | None:
         return None  # a screw (both parts) or none: not walked here
     placement = model.jointPlacements[j]
     axis = motion[3:] if turns else motion[:3]
+    a = axis / np.linalg.norm(axis)
+    along = np.outer(a, a)
+    cross = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
     return _Joint(
         parent,
         placement.rotation.copy(),
         placement.translation.copy(),
-        axis / np.linalg.norm(axis),
+        a,
         turns,
         joint.idx_q,
         joint.nq,
         joint.idx_v,
+        along,
+        np.eye(3) - along,
+        cross,
     )
 
 
@@ -133,8 +142,7 @@ def _angle(qs: np.ndarray, joint: _Joint) -> tuple[np.ndarray, np.ndarray]:
     return np.cos(angle), np.sin(angle)
 
 
-def _rotation(axis: np.ndarray, cos: np.ndarray, sin: np.ndarray) -> np.ndarray:
-    """Rotations about the unit `axis` (3,) by angles given as cos and sin (N,): (N, 3, 3)."""
-    cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    outer = np.outer(axis, axis)
-    return cos[:, None, None] * np.eye(3) + sin[:, None, None] * cross + (1.0 - cos)[:, None, None] * outer
+def _rotation(joint: _Joint, cos: np.ndarray, sin: np.ndarray) -> np.ndarray:
+    """Rotations about the joint's unit axis by angles given as cos and sin (N,): (N, 3, 3), as
+    Rodrigues' a a^T + cos (I - a a^T) + sin [a]x."""
+    return joint.along + cos[:, None, None] * joint.across + sin[:, None, None] * joint.cross

@@ -131,22 +131,7 @@ class ApproachMonitor:
             self._distances[person.name] = cached
         return cached
 
-    def _speeds(self, person: PersonSeparation, kind: _Rows, pairs: StatePairs) -> tuple[np.ndarray, np.ndarray]:
-        """Per row (N, k): the speed allowed towards the person (with the policy's margin) and the
-        robot point's speed towards them (its whole speed at a contact region or touching). A row
-        not measured (distance inf) is allowed inf and approaches at 0; only the measured rows
-        (a few in a batch) are computed."""
-        states, rows = np.nonzero(np.isfinite(pairs.distance))
-        distance, v = pairs.distance[states, rows], pairs.robot_velocity[states, rows]
-        whole = kind.contact[rows] | (distance <= _TOUCHING)
-        gap = pairs.person_point[states, rows] - pairs.robot_point[states, rows]
-        towards = np.einsum("ij,ij->i", v, gap) / np.maximum(distance, _TOUCHING)
-        allowed, approach = np.full(pairs.distance.shape, np.inf), np.zeros(pairs.distance.shape)
-        allowed[states, rows] = kept_capped_speeds(self.policy, person, distance, kind.caps[rows])
-        approach[states, rows] = np.where(whole, np.sqrt(np.einsum("ij,ij->i", v, v)), towards)
-        return allowed, approach
-
-    def _deciding(self, person: PersonSeparation, kind: _Rows) -> Select:
+    def _deciding(self, person: PersonSeparation, kind: _Rows, speeds: _Speeds) -> Select:
         """Which rows could change a sample: those whose distance bound does not put them beyond
         the closest row measured (overall, or outside the contact regions), or whose bounds on
         allowed speed and approach could make them bind, lower the scale or stop the robot.
@@ -166,7 +151,7 @@ class ApproachMonitor:
             return chosen
 
         def needed(pairs: StatePairs, floor: np.ndarray, speed: np.ndarray) -> np.ndarray:
-            allowed, approach = self._speeds(person, kind, pairs)
+            allowed, approach = speeds.of(pairs)
             nearest = pairs.distance.min(axis=1, initial=np.inf)[:, None]
             body = _body(kind.contact, pairs.distance)[:, None]
             margin = (allowed - approach).min(axis=1, initial=np.inf)[:, None]
@@ -187,11 +172,12 @@ class ApproachMonitor:
     ) -> tuple[list[PersonSample], tuple[int, str] | None]:
         """One person's sample at each state, or the first state with a moved part inside S_0 and why."""
         distances, kind = self._pairs(person)
-        pairs = distances.at(qs, dqs, self._deciding(person, kind))
+        speeds = _Speeds(self.policy, person, kind, (len(qs), len(distances.parts)))
+        pairs = distances.at(qs, dqs, self._deciding(person, kind, speeds))
         if not pairs.parts:
             return [PersonSample(np.inf, np.inf, np.inf, np.inf, 0.0, np.inf, "", "") for _ in qs], None
         distance = pairs.distance
-        allowed, approach = self._speeds(person, kind, pairs)
+        allowed, approach = speeds.of(pairs)
         closing = approach > CLOSING
         stopped = (allowed <= 0.0) & closing
         if stopped.any():
@@ -221,6 +207,30 @@ class ApproachMonitor:
             )
         ]
         return samples, None
+
+
+class _Speeds:
+    """One batch's rows (N, k): the speed allowed towards the person (with the policy's margin)
+    and the robot point's speed towards them (its whole speed at a contact region or touching).
+    A row not measured (distance inf) is allowed inf and approaches at 0. Rows are computed once,
+    when first seen measured: a batch is asked after each round of measuring."""
+
+    def __init__(self, policy: SeparationPolicy, person: PersonSeparation, kind: _Rows, shape: tuple[int, int]):
+        self.policy, self.person, self.kind = policy, person, kind
+        self.allowed, self.approach = np.full(shape, np.inf), np.zeros(shape)
+        self._seen = np.zeros(shape, dtype=bool)
+
+    def of(self, pairs: StatePairs) -> tuple[np.ndarray, np.ndarray]:
+        """(allowed, approach) with every row `pairs` has measured so far."""
+        states, rows = np.nonzero(np.isfinite(pairs.distance) & ~self._seen)
+        self._seen[states, rows] = True
+        distance, v = pairs.distance[states, rows], pairs.robot_velocity[states, rows]
+        whole = self.kind.contact[rows] | (distance <= _TOUCHING)
+        gap = pairs.person_point[states, rows] - pairs.robot_point[states, rows]
+        towards = np.einsum("ij,ij->i", v, gap) / np.maximum(distance, _TOUCHING)
+        self.allowed[states, rows] = kept_capped_speeds(self.policy, self.person, distance, self.kind.caps[rows])
+        self.approach[states, rows] = np.where(whole, np.sqrt(np.einsum("ij,ij->i", v, v)), towards)
+        return self.allowed, self.approach
 
 
 def _scales(allowed: np.ndarray, approach: np.ndarray) -> np.ndarray:
