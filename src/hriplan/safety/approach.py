@@ -126,7 +126,8 @@ class ApproachMonitor:
         cached = self._distances.get(person.name)
         if cached is None or cached[0].person_model is not model:
             distances = PersonDistances.of(self.robot.model, model, self._moved)
-            contact = np.array([person.contact_region(c) is not None for c in distances.capsules], dtype=bool)
+            regions = {c: person.contact_region(c) is not None for c in set(distances.capsules)}
+            contact = np.array([regions[c] for c in distances.capsules], dtype=bool)
             cached = distances, _Rows(contact, contact_caps(self.policy.robot, person, distances.capsules))
             self._distances[person.name] = cached
         return cached
