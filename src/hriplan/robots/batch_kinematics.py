@@ -50,7 +50,8 @@ class BatchKinematics:
     def __init__(self, model: pin.Model, joints: Collection[int]) -> None:
         self.model, self.joints = model, list(joints)
         chain = sorted({j for joint in self.joints for j in model.supports[joint] if j > 0})
-        walk = [_joint(model, j, chain.index(model.parents[j]) if model.parents[j] > 0 else -1) for j in chain]
+        neutral = pin.neutral(model)
+        walk = [_joint(model, j, chain.index(model.parents[j]) if model.parents[j] > 0 else -1, neutral) for j in chain]
         self._walk = None if any(joint is None for joint in walk) else walk
         self._asked = [chain.index(j) for j in self.joints]
         self._data = model.createData()
@@ -103,13 +104,13 @@ class BatchKinematics:
         return Frames(rotation, frames[..., :3, 3], linear, angular)
 
 
-def _joint(model: pin.Model, j: int, parent: int) -> _Joint | None:
+def _joint(model: pin.Model, j: int, parent: int, neutral: np.ndarray) -> _Joint | None:
     """Joint `j` for the walk, or None if it is not a one-axis revolute or prismatic joint."""
     joint = model.joints[j]
     if joint.nv != 1 or joint.nq not in (1, 2):
         return None
     data = joint.createData()
-    joint.calc(data, pin.neutral(model))
+    joint.calc(data, neutral)
     motion = np.array(data.S).reshape(6)  # (linear, angular) of its one degree of freedom
     turns = bool(np.linalg.norm(motion[3:]) > 0.0)
     if turns == bool(np.linalg.norm(motion[:3]) > 0.0) or (joint.nq == 2 and not turns):
