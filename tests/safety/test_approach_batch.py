@@ -28,7 +28,7 @@ from hriplan.robots.scene import Scene
 from hriplan.safety import person_distance
 from hriplan.safety.approach import ApproachMonitor, _Rows, _Speeds
 from hriplan.safety.capsule_distance import capsule_distances
-from hriplan.safety.person_distance import StatePairs
+from hriplan.safety.person_distance import Select, StatePairs
 from hriplan.safety.policy import default_policy
 from hriplan.safety.separation import SafetyMargin, SeparationPolicy, allowed_speed
 from hriplan.tasks.load import load_task
@@ -442,3 +442,46 @@ def test_monitors_share_a_persons_pair_geometry_which_follows_the_person():
     assert third._pairs(policy.people[0])[0] is not shared
     for x, dx in zip(xs[::5], dxs[::5]):
         _assert_same(third, _reference(session, policy, "right_arm", q0, x, dx), x, dx)
+
+
+def test_every_pairs_bounds_hold_at_random_states(handover):
+    """The bounds the monitor prunes with, on random states of the arm with random joint
+    velocities: each pair's distance bound is at most coal's distance (`person_pairs`), its speed
+    bound at least the speed of the part's closest point (pinocchio's Jacobian)."""
+    session, policy, group, q0, _, _ = handover
+    robot, checker = session.robot, session.checker
+    monitor = ApproachMonitor(robot, checker, policy, group, q0)
+    person = monitor.people[0]
+    distances = monitor._pairs(person)[0]
+    rng = np.random.default_rng(4)
+    low, high = robot.limits(group)
+    xs, dxs = rng.uniform(low, high, (40, len(low))), rng.normal(0.0, 1.0, (40, len(low)))
+    model, data = robot.model, robot.model.createData()
+    iv = [model.joints[model.getJointId(j)].idx_v for j in robot.group_joints(group)]
+    qs, dqs = np.array([monitor.full(x) for x in xs]), np.zeros((len(xs), model.nv))
+    dqs[:, iv] = dxs
+    bounds = {}
+
+    def likely(floor: np.ndarray, speed: np.ndarray) -> np.ndarray:
+        bounds.update(floor=floor, speed=speed)
+        return np.zeros(floor.shape, dtype=bool)
+
+    distances.at(qs, dqs, Select(likely, lambda pairs, floor, speed: np.zeros(floor.shape, dtype=bool)))
+    rows = {(p, c): k for k, (p, c) in enumerate(zip(distances.parts, distances.capsules))}
+    checked = 0
+    for n, (q, dq) in enumerate(zip(qs, dqs)):
+        pairs = checker.person_pairs(q, person.name)
+        pin.computeJointJacobians(model, data, q)
+        for j, part, capsule, d, point in zip(
+            pairs.joints, pairs.parts, pairs.capsules, pairs.distance, pairs.robot_point
+        ):
+            k = rows.get((part, capsule))
+            if k is None:  # a part the arm does not move
+                continue
+            twist = pin.getJointJacobian(model, data, int(j), pin.LOCAL_WORLD_ALIGNED) @ dq
+            speed = np.linalg.norm(twist[:3] + np.cross(twist[3:], point - data.oMi[int(j)].translation))
+            assert bounds["floor"][n, k] <= d, (part, capsule)
+            assert bounds["speed"][n, k] >= speed * (1.0 - 1e-12), (part, capsule)
+            checked += 1
+    assert checked == len(qs) * len(distances.parts)
+    assert (bounds["floor"] > 0.0).mean() > 0.5  # not trivially low

@@ -85,6 +85,7 @@ class PersonDistances:
         self._kinematics = BatchKinematics(robot_model, self._frames)
         self._frame = np.array([self._frames.index(objects[a].parentJoint) for a, _ in pairs], dtype=int)
         self._slot = np.array([self._slots.index(b) for _, b in pairs], dtype=int)
+        self._slot_half = np.array([objects[b].geometry.halfLength for b in self._slots])
         self._person_half = np.array([objects[b].geometry.halfLength for _, b in pairs])
         self._person_radius = np.array([objects[b].geometry.radius for _, b in pairs])
         capsule = np.array([isinstance(objects[a].geometry, coal.Capsule) for a, _ in pairs], dtype=bool)
@@ -114,19 +115,17 @@ class PersonDistances:
         """Every row at configurations `qs` (N, nq) moving with joint velocities `dqs` (N, nv).
 
         Without `select` every row is measured. With it, the rows `select.likely` names, then those
-        `select.needed` asks for given them; a row left out stays at distance inf with both points
-        at its joint's origin: a caller selects every row that could change its answer (rows that
-        cannot, computed, and coal's results read from Python, were most of the cost)."""
+        `select.needed` asks for given them; a row left out stays at distance inf, its points and
+        velocity NaN: a caller selects every row that could change its answer (rows that cannot,
+        computed, and coal's results read from Python, were most of the cost)."""
         frames = self._kinematics(qs, dqs)
         rotation, origin, linear, angular = frames.rotation, frames.origin, frames.linear, frames.angular
         frame = self._frame
         distance = np.full((len(qs), len(self.parts)), np.inf)
-        robot_point = origin[:, frame]
-        person_point, velocity = robot_point.copy(), linear[:, frame]
+        robot_point, person_point, velocity = (np.full((*distance.shape, 3), np.nan) for _ in range(3))
         pairs = StatePairs(self.parts, self.capsules, distance, robot_point, person_point, velocity)
         measured = np.zeros(distance.shape, dtype=bool)
-        person_centre, person_axis = self._person_capsules(self._slot)
-        world = _Placed(rotation, origin, linear, angular, person_centre, person_axis)
+        world = _Placed(rotation, origin, linear, angular, *self._person_capsules())
 
         def measure(mask: np.ndarray) -> None:
             states, rows = np.nonzero(mask & ~measured)
@@ -162,8 +161,8 @@ class PersonDistances:
             axis,
             self._robot_half[k],
             self._robot_radius[k],
-            world.person_centre[rows],
-            world.person_axis[rows],
+            world.person_centre[self._slot[rows]],
+            world.person_axis[self._slot[rows]],
             self._person_half[rows],
             self._person_radius[rows],
         )
@@ -192,30 +191,36 @@ class PersonDistances:
     def _bounds(self, world: _Placed) -> tuple[np.ndarray, np.ndarray]:
         """Per state and row (N, k): a lower bound on its distance (its part's bounding sphere
         against the capsule's axis, less coal's tolerance) and an upper bound on the speed of any
-        point of the part (the sphere centre's speed plus spin times radius)."""
+        point of the part (the sphere centre's speed plus spin times radius). Every sphere meets
+        every capsule axis in products of (N, parts, 3) by (3, capsules), not per row: the
+        squared gaps lose ~1e-15 m^2 to rounding, ~3e-8 m at contact, well inside the tolerance."""
         frame = self._sphere_frame
         centre = (world.rotation[:, frame] @ self._sphere_centre)[..., 0] + world.origin[:, frame]
         spin = world.angular[:, frame]
         speed = np.linalg.norm(_point_velocity(world.linear[:, frame], spin, world.origin[:, frame], centre), axis=2)
         speed += np.linalg.norm(spin, axis=2) * self._sphere_radius
-        # The sphere's centre against each row's capsule axis: the nearest point of the segment.
-        offset = centre[:, self._part] - world.person_centre
-        along = np.clip(np.einsum("nkj,kj->nk", offset, world.person_axis), -self._person_half, self._person_half)
-        gap = np.linalg.norm(offset - along[..., None] * world.person_axis, axis=2)
+        # Sphere centre c against each capsule axis (centre p, unit axis a, half length h): with
+        # o = c - p and t = clip(o.a, -h, h), the squared gap is |o|^2 - t (2 o.a - t).
+        p, a = world.person_centre, world.person_axis
+        along = centre @ a.T - np.einsum("sj,sj->s", p, a)
+        t = np.clip(along, -self._slot_half, self._slot_half)
+        squared = np.einsum("npj,npj->np", centre, centre)[..., None] + np.einsum("sj,sj->s", p, p)
+        squared -= 2.0 * (centre @ p.T) + t * (2.0 * along - t)
+        gap = np.sqrt(np.maximum(squared, 0.0))[:, self._part, self._slot]
         floor = gap - self._sphere_radius[self._part] - self._person_radius - _COAL_TOLERANCE
         return floor, speed[:, self._part] * (1.0 + _ROUNDING) + _ROUNDING
 
-    def _person_capsules(self, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World centres and axes of the person's capsules `slots` (indices into the person's
-        capsules), read afresh from the model: the person may have been re-posed."""
+    def _person_capsules(self) -> tuple[np.ndarray, np.ndarray]:
+        """World centres and axes of the person's capsules (S, 3), read afresh from the model:
+        the person may have been re-posed."""
         person = [self.person_model.geometryObjects[b].placement for b in self._slots]
-        return np.array([m.translation for m in person])[slots], np.array([m.rotation[:, 2] for m in person])[slots]
+        return np.array([m.translation for m in person]), np.array([m.rotation[:, 2] for m in person])
 
 
 @dataclass(frozen=True)
 class _Placed:
     """One batch's world placements: the carrying joints' rotations (N, F, 3, 3), origins,
-    linear and angular velocities (N, F, 3), and the person's capsules per row (k, 3)."""
+    linear and angular velocities (N, F, 3), and the person's capsules' centres and axes (S, 3)."""
 
     rotation: np.ndarray
     origin: np.ndarray
