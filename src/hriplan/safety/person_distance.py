@@ -3,12 +3,13 @@
 Why: speed and separation monitoring asks, at every point of a path, how far each moved part is
 from each capsule of a person and how fast its closest point moves. `CollisionChecker.
 person_pairs` answers one configuration through coal, and reading ~500 results from Python per
-point dominated the timing. Here forward kinematics runs per state in pinocchio, the capsule
-pairs (nearly all of them) go through one vectorised pass of `capsule_distances`, and only the
-other shapes (palm boxes, adapters, carried objects) through coal, on a model holding just them,
-and only the rows the caller cannot rule out from cheap bounds: the part's bounding sphere gives
-a lower bound on its distance and its joint's twist an upper bound on its speed. Reading coal's
-results from Python cost more than the rest of a timing call's monitor.
+point dominated the timing. Here the joints are placed for all states at once
+(`robots/batch_kinematics.py`) and every row gets two cheap bounds, its part's bounding sphere
+against the capsule's axis (a lower bound on its distance) and its joint's twist (an upper bound
+on its speed); only the rows the caller cannot rule out from them are measured: capsule pairs
+(nearly all rows) in one vectorised pass of `capsule_distances`, the other shapes (palm boxes,
+adapters, carried objects) through coal, on a model holding just them. Computing rows that
+cannot change the answer, and reading coal's results from Python, were most of the cost.
 """
 
 from __future__ import annotations
@@ -86,8 +87,8 @@ class PersonDistances:
         self._frame = np.array([self._frames.index(objects[a].parentJoint) for a, _ in pairs], dtype=int)
         self._slot = np.array([self._slots.index(b) for _, b in pairs], dtype=int)
         self._slot_half = np.array([objects[b].geometry.halfLength for b in self._slots])
-        self._person_half = np.array([objects[b].geometry.halfLength for _, b in pairs])
-        self._person_radius = np.array([objects[b].geometry.radius for _, b in pairs])
+        self._person_half = self._slot_half[self._slot]
+        self._person_radius = np.array([objects[b].geometry.radius for b in self._slots])[self._slot]
         capsule = np.array([isinstance(objects[a].geometry, coal.Capsule) for a, _ in pairs], dtype=bool)
         self._capsule_rows, self._other_rows = np.flatnonzero(capsule), np.flatnonzero(~capsule)
         # A robot capsule meets every capsule of the person: place each once, then spread it over its rows.
