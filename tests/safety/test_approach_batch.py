@@ -28,7 +28,7 @@ from hriplan.robots.scene import Scene
 from hriplan.safety import person_distance
 from hriplan.safety.approach import ApproachMonitor, _Rows, _Speeds
 from hriplan.safety.capsule_distance import capsule_distances
-from hriplan.safety.person_distance import Select, StatePairs
+from hriplan.safety.person_distance import PersonDistances, Select, StatePairs
 from hriplan.safety.policy import default_policy
 from hriplan.safety.separation import SafetyMargin, SeparationPolicy, allowed_speed
 from hriplan.tasks.load import load_task
@@ -485,3 +485,14 @@ def test_every_pairs_bounds_hold_at_random_states(handover):
             checked += 1
     assert checked == len(qs) * len(distances.parts)
     assert (bounds["floor"] > 0.0).mean() > 0.5  # not trivially low
+
+
+def test_a_person_no_moved_part_faces_gets_an_empty_batch():
+    """No row (the joints carry no part): nothing to bound or select, no error."""
+    sam = HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi)
+    session = PlanningSession("madar", Scene(humans=[sam]), hands={"right": "open"})
+    distances = PersonDistances(session.robot.model, session.checker.person_model("sam"), [])
+    model = session.robot.model
+    nothing = Select(lambda floor, speed: np.ones(floor.shape, dtype=bool), lambda *a: np.ones(a[1].shape, dtype=bool))
+    pairs = distances.at(np.zeros((3, model.nq)), np.zeros((3, model.nv)), nothing)
+    assert pairs.distance.shape == (3, 0) and pairs.robot_velocity.shape == (3, 0, 3)

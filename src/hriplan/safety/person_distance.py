@@ -137,7 +137,7 @@ class PersonDistances:
             at = states, frame[rows]
             velocity[states, rows] = _point_velocity(linear[at], angular[at], origin[at], robot_point[states, rows])
 
-        if select is None:
+        if select is None or not self.parts:
             measure(np.ones(distance.shape, dtype=bool))
             return pairs
         floor, speed = self._bounds(world)
