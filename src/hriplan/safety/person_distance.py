@@ -126,7 +126,11 @@ class PersonDistances:
         robot_point, person_point, velocity = (np.full((*distance.shape, 3), np.nan) for _ in range(3))
         pairs = StatePairs(self.parts, self.capsules, distance, robot_point, person_point, velocity)
         measured = np.zeros(distance.shape, dtype=bool)
-        world = _Placed(rotation, origin, linear, angular, *self._person_capsules())
+        # Every robot capsule placed at every state at once (a few per state), then gathered.
+        placed = rotation[:, self._capsule_frame]
+        capsule_centre = (placed @ self._local_centre)[..., 0] + origin[:, self._capsule_frame]
+        capsule_axis = (placed @ self._local_axis)[..., 0]
+        world = _Placed(rotation, origin, linear, angular, capsule_centre, capsule_axis, *self._person_capsules())
 
         def measure(mask: np.ndarray) -> None:
             states, rows = np.nonzero(mask & ~measured)
@@ -153,13 +157,9 @@ class PersonDistances:
             return
         k = self._capsule_of[rows]
         robot = self._robot_capsule[k]
-        at = states, self._capsule_frame[robot]
-        placed = world.rotation[at]
-        centre = (placed @ self._local_centre[robot])[..., 0] + world.origin[at]
-        axis = (placed @ self._local_axis[robot])[..., 0]
         found = capsule_distances(
-            centre,
-            axis,
+            world.capsule_centre[states, robot],
+            world.capsule_axis[states, robot],
             self._robot_half[k],
             self._robot_radius[k],
             world.person_centre[self._slot[rows]],
@@ -221,12 +221,15 @@ class PersonDistances:
 @dataclass(frozen=True)
 class _Placed:
     """One batch's world placements: the carrying joints' rotations (N, F, 3, 3), origins,
-    linear and angular velocities (N, F, 3), and the person's capsules' centres and axes (S, 3)."""
+    linear and angular velocities (N, F, 3), the robot's capsules' centres and axes (N, C, 3) and
+    the person's capsules' (S, 3)."""
 
     rotation: np.ndarray
     origin: np.ndarray
     linear: np.ndarray
     angular: np.ndarray
+    capsule_centre: np.ndarray
+    capsule_axis: np.ndarray
     person_centre: np.ndarray
     person_axis: np.ndarray
 
