@@ -25,9 +25,10 @@ from hriplan.planner.validate import densify
 from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.scene import Scene
-from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety import person_distance
+from hriplan.safety.approach import ApproachMonitor, _Rows, _Speeds
 from hriplan.safety.capsule_distance import capsule_distances
-from hriplan.safety.person_distance import StatePairs
+from hriplan.safety.person_distance import PersonDistances, Select, StatePairs
 from hriplan.safety.policy import default_policy
 from hriplan.safety.separation import SafetyMargin, SeparationPolicy, allowed_speed
 from hriplan.tasks.load import load_task
@@ -267,16 +268,17 @@ def test_the_batched_monitor_gives_the_per_point_numbers_on_the_handover(handove
     assert monitor.samples(xs[3], dxs[3]) is monitor.samples(xs[3].copy(), dxs[3].copy())
 
 
-def test_the_monitor_leaves_out_only_non_capsule_pairs_that_cannot_change_a_sample(handover, monkeypatch):
-    """The palm, adapter and can pairs go through coal only where their bounds do not rule them
-    out: on the handover's points with random joint velocities (any part may bind, set the scale
-    or close in on S_0), every sample or S_0 message is still the per-point one, with few of those
-    pairs asked."""
+def test_the_monitor_leaves_out_only_pairs_that_cannot_change_a_sample(handover, monkeypatch):
+    """Every pair, capsule (numpy) or not (coal: palm, adapter, can), is measured only where its
+    bounds do not rule it out: on the handover's points with random joint velocities (any part
+    may bind, set the scale or close in on S_0), every sample or S_0 message is still the
+    per-point one, with few of the pairs measured."""
     session, policy, group, q0, xs, _ = handover
     rng = np.random.default_rng(11)
-    asked = []
-    measure = pin.computeDistance
+    asked, computed = [], []
+    measure, capsules = pin.computeDistance, person_distance.capsule_distances
     monkeypatch.setattr(pin, "computeDistance", lambda *a: asked.append(a[2]) or measure(*a))
+    monkeypatch.setattr(person_distance, "capsule_distances", lambda *a: computed.append(len(a[0])) or capsules(*a))
     monitor = ApproachMonitor(session.robot, session.checker, policy, group, q0)
     points = xs[::2]
     velocities = rng.normal(0.0, 0.5, points.shape) * rng.uniform(0.0, 1.0, (len(points), 1))
@@ -291,6 +293,8 @@ def test_the_monitor_leaves_out_only_non_capsule_pairs_that_cannot_change_a_samp
     model = session.checker.person_model(policy.people[0].name)
     others = [p for p in model.collisionPairs if not isinstance(model.geometryObjects[p.first].geometry, coal.Capsule)]
     assert 0 < len(asked) < 0.2 * len(others) * len(points)
+    rows = monitor._pairs(policy.people[0])[0]._capsule_rows.size  # the moved parts' capsule pairs
+    assert 0 < sum(computed) < 0.25 * rows * len(points)
     shapes = {g.name: type(g.geometry) for g in model.geometryObjects}
     bound = [s.part for x, dx in zip(points, velocities) for s in monitor.samples(x, dx)]
     assert any(shapes[part] is not coal.Capsule for part in bound)  # a coal pair binds somewhere
@@ -317,14 +321,16 @@ def test_a_pair_that_could_bind_is_measured_though_it_is_neither_closest_nor_slo
         np.array([[[a, 0.0, 0.0], [0.0, 0.0, 0.0]]]),
         np.array([[[3.0, 0.0, 0.0], [0.0, 0.0, 0.0]]]),
     )
-    select = monitor._deciding(person, np.array([False, False]))
+    kind = _Rows(np.array([False, False]), np.zeros(2))
+    select = monitor._deciding(person, kind, _Speeds(policy, person, kind, (1, 2)))
     floor = a + 0.01
     lowest = factor * _allowed(policy.robot, person, floor - padding, body)
     speed = 3.1
     assert lowest - speed < 1.0 - 3.0 and lowest / speed > 1.0 / 3.0  # could bind, cannot slow
-    assert select(pairs, np.array([1]), np.array([[floor]]), np.array([[speed]])).tolist() == [[True]]
+    floors = np.array([[a - 0.01, floor]])
+    assert select.needed(pairs, floors, np.array([[3.0, speed]])).tolist() == [[True, True]]
     # a B that can neither bind nor slow nor be the closest is left out
-    assert select(pairs, np.array([1]), np.array([[floor]]), np.array([[1.0]])).tolist() == [[False]]
+    assert select.needed(pairs, floors, np.array([[3.0, 1.0]])).tolist() == [[True, False]]
 
 
 def _right_arm_sweep(session: PlanningSession) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -436,3 +442,57 @@ def test_monitors_share_a_persons_pair_geometry_which_follows_the_person():
     assert third._pairs(policy.people[0])[0] is not shared
     for x, dx in zip(xs[::5], dxs[::5]):
         _assert_same(third, _reference(session, policy, "right_arm", q0, x, dx), x, dx)
+
+
+def test_every_pairs_bounds_hold_at_random_states(handover):
+    """The bounds the monitor prunes with, on random states of the arm with random joint
+    velocities: each pair's distance bound is at most coal's distance (`person_pairs`), its speed
+    bound at least the speed of the part's closest point (pinocchio's Jacobian)."""
+    session, policy, group, q0, _, _ = handover
+    robot, checker = session.robot, session.checker
+    monitor = ApproachMonitor(robot, checker, policy, group, q0)
+    person = monitor.people[0]
+    distances = monitor._pairs(person)[0]
+    rng = np.random.default_rng(4)
+    low, high = robot.limits(group)
+    xs, dxs = rng.uniform(low, high, (40, len(low))), rng.normal(0.0, 1.0, (40, len(low)))
+    model, data = robot.model, robot.model.createData()
+    iv = [model.joints[model.getJointId(j)].idx_v for j in robot.group_joints(group)]
+    qs, dqs = np.array([monitor.full(x) for x in xs]), np.zeros((len(xs), model.nv))
+    dqs[:, iv] = dxs
+    bounds = {}
+
+    def likely(floor: np.ndarray, speed: np.ndarray) -> np.ndarray:
+        bounds.update(floor=floor, speed=speed)
+        return np.zeros(floor.shape, dtype=bool)
+
+    distances.at(qs, dqs, Select(likely, lambda pairs, floor, speed: np.zeros(floor.shape, dtype=bool)))
+    rows = {(p, c): k for k, (p, c) in enumerate(zip(distances.parts, distances.capsules))}
+    checked = 0
+    for n, (q, dq) in enumerate(zip(qs, dqs)):
+        pairs = checker.person_pairs(q, person.name)
+        pin.computeJointJacobians(model, data, q)
+        for j, part, capsule, d, point in zip(
+            pairs.joints, pairs.parts, pairs.capsules, pairs.distance, pairs.robot_point
+        ):
+            k = rows.get((part, capsule))
+            if k is None:  # a part the arm does not move
+                continue
+            twist = pin.getJointJacobian(model, data, int(j), pin.LOCAL_WORLD_ALIGNED) @ dq
+            speed = np.linalg.norm(twist[:3] + np.cross(twist[3:], point - data.oMi[int(j)].translation))
+            assert bounds["floor"][n, k] <= d, (part, capsule)
+            assert bounds["speed"][n, k] >= speed * (1.0 - 1e-12), (part, capsule)
+            checked += 1
+    assert checked == len(qs) * len(distances.parts)
+    assert (bounds["floor"] > 0.0).mean() > 0.5  # not trivially low
+
+
+def test_a_person_no_moved_part_faces_gets_an_empty_batch():
+    """No row (the joints carry no part): nothing to bound or select, no error."""
+    sam = HumanSpec(name="sam", position=(1.38, 0.65), yaw=math.pi)
+    session = PlanningSession("madar", Scene(humans=[sam]), hands={"right": "open"})
+    distances = PersonDistances(session.robot.model, session.checker.person_model("sam"), [])
+    model = session.robot.model
+    nothing = Select(lambda floor, speed: np.ones(floor.shape, dtype=bool), lambda *a: np.ones(a[1].shape, dtype=bool))
+    pairs = distances.at(np.zeros((3, model.nq)), np.zeros((3, model.nv)), nothing)
+    assert pairs.distance.shape == (3, 0) and pairs.robot_velocity.shape == (3, 0, 3)

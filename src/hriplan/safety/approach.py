@@ -27,9 +27,10 @@ from hriplan.safety.person_distance import PersonDistances, Select, StatePairs
 from hriplan.safety.separation import (
     PersonSeparation,
     SeparationPolicy,
-    allowed_speeds,
+    capped_speeds,
+    contact_caps,
+    kept_capped_speeds,
     kept_separation,
-    kept_speeds,
     minimum_separation,
 )
 
@@ -54,6 +55,15 @@ class PersonSample:
     capsule: str
 
 
+@dataclass(frozen=True)
+class _Rows:
+    """Per row of a person's pair geometry: does its capsule meet a contact region, and the
+    speed cap there (0: SSM alone; `separation.contact_caps`)."""
+
+    contact: np.ndarray
+    caps: np.ndarray
+
+
 class ApproachMonitor:
     """A robot group's approach to the people of a policy, at configurations of that group.
 
@@ -74,7 +84,7 @@ class ApproachMonitor:
         self._iv = np.array([model.joints[model.getJointId(j)].idx_v for j in robot.group_joints(group)])
         self._moved = robot.moved_joints(group)
         self._memo: dict[bytes, list[PersonSample]] = {}
-        self._distances: dict[str, tuple[PersonDistances, np.ndarray]] = {}
+        self._distances: dict[str, tuple[PersonDistances, _Rows]] = {}
 
     def full(self, x: np.ndarray) -> np.ndarray:
         q = self.base.copy()
@@ -109,63 +119,66 @@ class ApproachMonitor:
             self._memo.update({keys[i]: [samples[n] for samples, _ in per_person] for n, i in enumerate(new)})
         return [self._memo[k] for k in keys]
 
-    def _pairs(self, person: PersonSeparation) -> tuple[PersonDistances, np.ndarray]:
-        """The person's pair geometry and which rows meet a contact region (once per person model)."""
+    def _pairs(self, person: PersonSeparation) -> tuple[PersonDistances, _Rows]:
+        """The person's pair geometry and which rows meet a contact region and at what speed cap
+        (once per person model)."""
         model = self.checker.person_model(person.name)
         cached = self._distances.get(person.name)
         if cached is None or cached[0].person_model is not model:
             distances = PersonDistances.of(self.robot.model, model, self._moved)
-            cached = distances, np.array([person.contact_region(c) is not None for c in distances.capsules], dtype=bool)
+            regions = {c: person.contact_region(c) is not None for c in set(distances.capsules)}
+            contact = np.array([regions[c] for c in distances.capsules], dtype=bool)
+            cached = distances, _Rows(contact, contact_caps(self.policy.robot, person, distances.capsules))
             self._distances[person.name] = cached
         return cached
 
-    def _speeds(
-        self, person: PersonSeparation, contact: np.ndarray, pairs: StatePairs
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Per row (N, k): the speed allowed towards the person (with the policy's margin) and the
-        robot point's speed towards them (its whole speed at a contact region or touching). A row
-        not measured (distance inf) is allowed inf and approaches at 0 or a finite speed."""
-        distance, v = pairs.distance, pairs.robot_velocity
-        whole = contact | (distance <= _TOUCHING)
-        towards = np.einsum("nkj,nkj->nk", v, pairs.person_point - pairs.robot_point) / np.maximum(distance, _TOUCHING)
-        approach = np.where(whole, np.linalg.norm(v, axis=2), towards)
-        return kept_speeds(self.policy, person, distance, pairs.capsules), approach
+    def _deciding(self, person: PersonSeparation, kind: _Rows, speeds: _Speeds) -> Select:
+        """Which rows could change a sample: those whose distance bound does not put them beyond
+        the closest row measured (overall, or outside the contact regions), or whose bounds on
+        allowed speed and approach could make them bind, lower the scale or stop the robot.
+        kept_speeds grows with the separation and the approach is at most the part's speed, so
+        every other row provably changes nothing; ties are measured. Measured first, at each
+        state, the rows whose bounds make them likeliest to be the closest (overall and outside
+        the contact regions), to bind and to set the scale: they make the second answer small."""
 
-    def _deciding(self, person: PersonSeparation, contact: np.ndarray) -> Select:
-        """Which non-capsule rows could change a sample: those whose distance bound does not put
-        them beyond the closest row measured (overall, or outside the contact regions), or whose
-        bounds on allowed speed and approach could make them bind, lower the scale or stop the
-        robot. kept_speeds grows with the separation and the approach is at most the part's speed,
-        so every other row provably changes nothing; ties are measured."""
+        def likely(floor: np.ndarray, speed: np.ndarray) -> np.ndarray:
+            lowest = kept_capped_speeds(self.policy, person, floor, kind.caps)
+            closing = speed > CLOSING
+            ratio = np.where(closing, lowest / np.where(closing, speed, 1.0), np.inf)
+            chosen = np.zeros(floor.shape, dtype=bool)
+            at = np.arange(len(floor))
+            for rank in (floor, np.where(kind.contact, np.inf, floor), lowest - speed, ratio):
+                chosen[at, rank.argmin(axis=1)] = True
+            return chosen
 
-        def select(pairs: StatePairs, rows: np.ndarray, floor: np.ndarray, speed: np.ndarray) -> np.ndarray:
-            allowed, approach = self._speeds(person, contact, pairs)
+        def needed(pairs: StatePairs, floor: np.ndarray, speed: np.ndarray) -> np.ndarray:
+            allowed, approach = speeds.of(pairs)
             nearest = pairs.distance.min(axis=1, initial=np.inf)[:, None]
-            body = _body(contact, pairs.distance)[:, None]
+            body = _body(kind.contact, pairs.distance)[:, None]
             margin = (allowed - approach).min(axis=1, initial=np.inf)[:, None]
             scale = _scales(allowed, approach).min(axis=1, initial=np.inf)
-            lowest = kept_speeds(self.policy, person, floor, [pairs.capsules[k] for k in rows])
+            lowest = kept_capped_speeds(self.policy, person, floor, kind.caps)
             moving = speed > CLOSING
             return (
                 (floor <= nearest)
-                | (~contact[rows] & (floor <= body))
+                | (~kind.contact & (floor <= body))
                 | (lowest - speed <= margin)
                 | (moving & ((lowest <= 0.0) | (lowest <= scale[:, None] * speed)))
             )
 
-        return select
+        return Select(likely, needed)
 
     def _person(
         self, person: PersonSeparation, qs: np.ndarray, dqs: np.ndarray
     ) -> tuple[list[PersonSample], tuple[int, str] | None]:
         """One person's sample at each state, or the first state with a moved part inside S_0 and why."""
-        distances, contact = self._pairs(person)
-        pairs = distances.at(qs, dqs, self._deciding(person, contact))
+        distances, kind = self._pairs(person)
+        speeds = _Speeds(self.policy, person, kind, (len(qs), len(distances.parts)))
+        pairs = distances.at(qs, dqs, self._deciding(person, kind, speeds))
         if not pairs.parts:
             return [PersonSample(np.inf, np.inf, np.inf, np.inf, 0.0, np.inf, "", "") for _ in qs], None
         distance = pairs.distance
-        allowed, approach = self._speeds(person, contact, pairs)
-        iso = allowed_speeds(self.policy.robot, person, distance, pairs.capsules)
+        allowed, approach = speeds.of(pairs)
         closing = approach > CLOSING
         stopped = (allowed <= 0.0) & closing
         if stopped.any():
@@ -179,21 +192,46 @@ class ApproachMonitor:
                 f"robot would have to stand still there)",
             )
         binding = np.argmin(allowed - approach, axis=1)
-        scale, body = _scales(allowed, approach).min(axis=1), _body(contact, distance)
+        scale, body = _scales(allowed, approach).min(axis=1), _body(kind.contact, distance)
         at = np.arange(len(qs))
+        iso = capped_speeds(self.policy.robot, person, distance[at, binding], kind.caps[binding])
         samples = [
             PersonSample(float(d), float(b), float(a), float(i), float(r), float(s), pairs.parts[k], pairs.capsules[k])
             for d, b, a, i, r, s, k in zip(
                 distance.min(axis=1),
                 body,
                 allowed[at, binding],
-                iso[at, binding],
+                iso,
                 approach[at, binding],
                 scale,
                 binding,
             )
         ]
         return samples, None
+
+
+class _Speeds:
+    """One batch's rows (N, k): the speed allowed towards the person (with the policy's margin)
+    and the robot point's speed towards them (its whole speed at a contact region or touching).
+    A row not measured (distance inf) is allowed inf and approaches at 0. Rows are computed once,
+    when first seen measured: a batch is asked after each round of measuring."""
+
+    def __init__(self, policy: SeparationPolicy, person: PersonSeparation, kind: _Rows, shape: tuple[int, int]):
+        self.policy, self.person, self.kind = policy, person, kind
+        self.allowed, self.approach = np.full(shape, np.inf), np.zeros(shape)
+        self._seen = np.zeros(shape, dtype=bool)
+
+    def of(self, pairs: StatePairs) -> tuple[np.ndarray, np.ndarray]:
+        """(allowed, approach) with every row `pairs` has measured so far."""
+        states, rows = np.nonzero(np.isfinite(pairs.distance) & ~self._seen)
+        self._seen[states, rows] = True
+        distance, v = pairs.distance[states, rows], pairs.robot_velocity[states, rows]
+        whole = self.kind.contact[rows] | (distance <= _TOUCHING)
+        gap = pairs.person_point[states, rows] - pairs.robot_point[states, rows]
+        towards = np.einsum("ij,ij->i", v, gap) / np.maximum(distance, _TOUCHING)
+        self.allowed[states, rows] = kept_capped_speeds(self.policy, self.person, distance, self.kind.caps[rows])
+        self.approach[states, rows] = np.where(whole, np.sqrt(np.einsum("ij,ij->i", v, v)), towards)
+        return self.allowed, self.approach
 
 
 def _scales(allowed: np.ndarray, approach: np.ndarray) -> np.ndarray:

@@ -3,12 +3,13 @@
 Why: speed and separation monitoring asks, at every point of a path, how far each moved part is
 from each capsule of a person and how fast its closest point moves. `CollisionChecker.
 person_pairs` answers one configuration through coal, and reading ~500 results from Python per
-point dominated the timing. Here forward kinematics runs per state in pinocchio, the capsule
-pairs (nearly all of them) go through one vectorised pass of `capsule_distances`, and only the
-other shapes (palm boxes, adapters, carried objects) through coal, on a model holding just them,
-and only the rows the caller cannot rule out from cheap bounds: the part's bounding sphere gives
-a lower bound on its distance and its joint's twist an upper bound on its speed. Reading coal's
-results from Python cost more than the rest of a timing call's monitor.
+point dominated the timing. Here the joints are placed for all states at once
+(`robots/batch_kinematics.py`) and every row gets two cheap bounds, its part's bounding sphere
+against the capsule's axis (a lower bound on its distance) and its joint's twist (an upper bound
+on its speed); only the rows the caller cannot rule out from them are measured: capsule pairs
+(nearly all rows) in one vectorised pass of `capsule_distances`, the other shapes (palm boxes,
+adapters, carried objects) through coal, on a model holding just them. Computing rows that
+cannot change the answer, and reading coal's results from Python, were most of the cost.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.recent import Recent
+from hriplan.robots.batch_kinematics import BatchKinematics
 from hriplan.safety.capsule_distance import capsule_distances
 
 
@@ -36,17 +38,22 @@ class StatePairs:
     robot_velocity: np.ndarray  # (N, k, 3) world: the velocity of robot_point for the state's joint velocity
 
 
-# What `PersonDistances.at` asks a caller: given the capsule rows measured, the non-capsule rows'
-# indices (m), a lower bound on each one's distance and an upper bound on its part's speed (N, m),
-# which of them to measure (N, m).
-Select = Callable[[StatePairs, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
-# A lower bound is lowered by this (m) to stay below coal's answer: its GJK stops when the squared
+@dataclass(frozen=True)
+class Select:
+    """What `PersonDistances.at` asks a caller, given a lower bound on every row's distance and an
+    upper bound on the speed of any point of its part, both (N, k): first which rows are likely
+    to decide each state (measured first: a few a state), then, given the rows measured so far
+    (the others at distance inf), which could still change the answer. Both answer (N, k) flags."""
+
+    likely: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    needed: Callable[[StatePairs, np.ndarray, np.ndarray], np.ndarray]
+
+
+# A lower bound is lowered by this (m) to stay below coal's (and rounding's) answer: its GJK stops when the squared
 # distance is within 1e-6, ~1e-5 m at 2 cm (the same pair differs by 9e-6 m from another start).
 _COAL_TOLERANCE = 1e-4
 # An upper bound on a speed is raised by this, relatively and absolutely (m/s): float rounding.
 _ROUNDING = 1e-9
-# A sphere's axis (any unit vector: its half length is 0).
-_ANY_AXIS = np.array([0.0, 0.0, 1.0])
 
 # PersonDistances made lately, by robot model, person model and joints (`PersonDistances.of`).
 _MADE: Recent[tuple[int, int, frozenset[int]], PersonDistances] = Recent(8)
@@ -76,10 +83,12 @@ class PersonDistances:
         self.capsules = [objects[b].name for _, b in pairs]
         self._slots = sorted({b for _, b in pairs})  # the person's capsules
         self._frames = sorted({objects[a].parentJoint for a, _ in pairs})
+        self._kinematics = BatchKinematics(robot_model, self._frames)
         self._frame = np.array([self._frames.index(objects[a].parentJoint) for a, _ in pairs], dtype=int)
         self._slot = np.array([self._slots.index(b) for _, b in pairs], dtype=int)
-        self._person_half = np.array([objects[b].geometry.halfLength for _, b in pairs])
-        self._person_radius = np.array([objects[b].geometry.radius for _, b in pairs])
+        self._slot_half = np.array([objects[b].geometry.halfLength for b in self._slots])
+        self._person_half = self._slot_half[self._slot]
+        self._person_radius = np.array([objects[b].geometry.radius for b in self._slots])[self._slot]
         capsule = np.array([isinstance(objects[a].geometry, coal.Capsule) for a, _ in pairs], dtype=bool)
         self._capsule_rows, self._other_rows = np.flatnonzero(capsule), np.flatnonzero(~capsule)
         # A robot capsule meets every capsule of the person: place each once, then spread it over its rows.
@@ -90,125 +99,139 @@ class PersonDistances:
         self._local_centre = np.array([objects[a].placement.translation for a in robot_capsules]).reshape(-1, 3, 1)
         self._robot_half = np.array([objects[pairs[k][0]].geometry.halfLength for k in self._capsule_rows])
         self._robot_radius = np.array([objects[pairs[k][0]].geometry.radius for k in self._capsule_rows])
+        self._capsule_of = np.full(len(pairs), -1, dtype=int)  # row -> its index among the capsule rows
+        self._capsule_of[self._capsule_rows] = np.arange(self._capsule_rows.size)
         self._others = _coal_model(person_model, [pairs[k] for k in self._other_rows])
-        # Each non-capsule part's bounding sphere: centre in its joint's frame (m, 3, 1), radius (m).
-        spheres = [_bounding_sphere(objects[pairs[k][0]]) for k in self._other_rows]
-        self._other_centre = np.array([c for c, _ in spheres]).reshape(-1, 3, 1)
-        self._other_radius = np.array([r for _, r in spheres])
+        self._copy_of = np.full(len(pairs), -1, dtype=int)  # row -> its pair in the coal model
+        self._copy_of[self._other_rows] = np.arange(self._other_rows.size)
+        # Each moved part's bounding sphere: centre in its joint's frame (P, 3, 1), radius (P,).
+        parts = sorted({a for a, _ in pairs})
+        self._part = np.array([parts.index(a) for a, _ in pairs], dtype=int)
+        self._sphere_frame = np.array([self._frames.index(objects[a].parentJoint) for a in parts], dtype=int)
+        spheres = [_bounding_sphere(objects[a]) for a in parts]
+        self._sphere_centre = np.array([c for c, _ in spheres]).reshape(-1, 3, 1)
+        self._sphere_radius = np.array([r for _, r in spheres])
 
     def at(self, qs: np.ndarray, dqs: np.ndarray, select: Select | None = None) -> StatePairs:
         """Every row at configurations `qs` (N, nq) moving with joint velocities `dqs` (N, nv).
 
-        The non-capsule rows go through coal, one pair per call, only where `select` (default:
-        everywhere) asks: it gets the capsule rows measured (the others at distance inf), the
-        non-capsule rows' indices, a lower bound on each one's distance and an upper bound on the
-        speed of any point of its part, both (N, m), and returns which to measure, (N, m). A row
-        left out stays at distance inf with both points at its joint's origin: a caller selects
-        every row that could change its answer (reading coal's results from Python is most of
-        the cost)."""
-        frames, twists = self._walk(qs, dqs)
-        rotation, origin = frames[..., :3, :3], frames[..., :3, 3]
-        # data.v is the joint's spatial velocity in its own frame: rotate it to the world.
-        linear, angular = (rotation @ twists[..., :3, None])[..., 0], (rotation @ twists[..., 3:, None])[..., 0]
-        distance = np.full((len(qs), len(self.parts)), np.inf)
-        robot_point = origin[:, self._frame].copy()
-        person_point = robot_point.copy()
-        if self._capsule_rows.size:
-            rows = self._capsule_rows
-            distance[:, rows], robot_point[:, rows], person_point[:, rows] = self._capsule_pairs(rotation, origin)
+        Without `select` every row is measured. With it, the rows `select.likely` names, then those
+        `select.needed` asks for given them; a row left out stays at distance inf, its points and
+        velocity NaN: a caller selects every row that could change its answer (rows that cannot,
+        computed, and coal's results read from Python, were most of the cost)."""
+        frames = self._kinematics(qs, dqs)
+        rotation, origin, linear, angular = frames.rotation, frames.origin, frames.linear, frames.angular
         frame = self._frame
-        velocity = _point_velocity(linear[:, frame], angular[:, frame], origin[:, frame], robot_point)
+        distance = np.full((len(qs), len(self.parts)), np.inf)
+        robot_point, person_point, velocity = (np.full((*distance.shape, 3), np.nan) for _ in range(3))
         pairs = StatePairs(self.parts, self.capsules, distance, robot_point, person_point, velocity)
-        if self._other_rows.size:
-            measure = np.ones((len(qs), self._other_rows.size), dtype=bool)
-            if select is not None:
-                measure = select(pairs, self._other_rows, *self._bounds(rotation, origin, linear, angular))
-            states, rows = self._measure(qs, measure, (distance, robot_point, person_point))
+        measured = np.zeros(distance.shape, dtype=bool)
+        # Every robot capsule placed at every state at once (a few per state), then gathered.
+        placed = rotation[:, self._capsule_frame]
+        capsule_centre = (placed @ self._local_centre)[..., 0] + origin[:, self._capsule_frame]
+        capsule_axis = (placed @ self._local_axis)[..., 0]
+        world = _Placed(rotation, origin, linear, angular, capsule_centre, capsule_axis, *self._person_capsules())
+
+        def measure(mask: np.ndarray) -> None:
+            states, rows = np.nonzero(mask & ~measured)
+            measured[states, rows] = True
+            capsule = self._capsule_of[rows] >= 0
+            self._measure_capsules(world, states[capsule], rows[capsule], pairs)
+            self._measure_others(qs, states[~capsule], rows[~capsule], pairs)
             at = states, frame[rows]
             velocity[states, rows] = _point_velocity(linear[at], angular[at], origin[at], robot_point[states, rows])
+
+        if select is None or not self.parts:
+            measure(np.ones(distance.shape, dtype=bool))
+            return pairs
+        floor, speed = self._bounds(world)
+        measure(select.likely(floor, speed))
+        # The capsule rows first (numpy, cheap): what they measure narrows what coal must answer.
+        measure(select.needed(pairs, floor, speed) & (self._capsule_of >= 0))
+        measure(select.needed(pairs, floor, speed))
         return pairs
 
-    def _walk(self, qs: np.ndarray, dqs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per state: the carrying joints' placements (N, F, 4, 4) and local twists (N, F, 6)."""
-        frames, twists = np.empty((len(qs), len(self._frames), 4, 4)), np.empty((len(qs), len(self._frames), 6))
-        model, data = self.robot_model, self.robot_data
-        placements, velocities = data.oMi, data.v
-        for i, (q, dq) in enumerate(zip(qs, dqs)):
-            pin.forwardKinematics(model, data, q, dq)
-            for f, j in enumerate(self._frames):
-                frames[i, f], twists[i, f] = placements[j].homogeneous, velocities[j].vector
-        return frames, twists
-
-    def _measure(
-        self, qs: np.ndarray, measure: np.ndarray, out: tuple[np.ndarray, np.ndarray, np.ndarray]
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The non-capsule rows `measure` (N, m) asks for, by coal, into `out` (distance, robot
-        point, person point); returns the (state, row) of each. Each result is read once and all of
-        them turned into arrays at the end."""
-        (others, other_data, copies), model, data = self._others, self.robot_model, self.robot_data
-        for original, copy in copies.items():
-            others.geometryObjects[copy].placement = self.person_model.geometryObjects[original].placement
-        found = []
-        for n in np.flatnonzero(measure.any(axis=1)):
-            pin.updateGeometryPlacements(model, data, others, other_data, qs[n])
-            for m in np.flatnonzero(measure[n]).tolist():
-                r = pin.computeDistance(others, other_data, m)
-                found.append((r.min_distance, r.getNearestPoint1(), r.getNearestPoint2()))
-        states, rows = np.nonzero(measure)  # row-major: the order measured
-        rows = self._other_rows[rows]
-        if found:
-            distance, robot_point, person_point = out
-            distance[states, rows] = [d for d, _, _ in found]
-            robot_point[states, rows] = [p for _, p, _ in found]
-            person_point[states, rows] = [p for _, _, p in found]
-        return states, rows
-
-    def _bounds(
-        self, rotation: np.ndarray, origin: np.ndarray, linear: np.ndarray, angular: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Per state and non-capsule row (N, m): a lower bound on its distance (its part's
-        bounding sphere against the capsule, less coal's tolerance) and an upper bound on the
-        speed of any point of the part (the sphere centre's speed plus spin times radius)."""
-        frame, rows = self._frame[self._other_rows], self._other_rows
-        centre = (rotation[:, frame] @ self._other_centre)[..., 0] + origin[:, frame]
-        person_centre, person_axis = self._person_capsules(self._slot[rows])
-        gap, _, _ = capsule_distances(
-            centre,
-            _ANY_AXIS,
-            0.0,
-            self._other_radius,
-            person_centre,
-            person_axis,
+    def _measure_capsules(self, world: _Placed, states: np.ndarray, rows: np.ndarray, pairs: StatePairs) -> None:
+        """The capsule rows `rows` at `states` (flat, paired), in one numpy pass, into `pairs`."""
+        if not rows.size:
+            return
+        k = self._capsule_of[rows]
+        robot = self._robot_capsule[k]
+        found = capsule_distances(
+            world.capsule_centre[states, robot],
+            world.capsule_axis[states, robot],
+            self._robot_half[k],
+            self._robot_radius[k],
+            world.person_centre[self._slot[rows]],
+            world.person_axis[self._slot[rows]],
             self._person_half[rows],
             self._person_radius[rows],
         )
-        spin = angular[:, frame]
-        speed = np.linalg.norm(_point_velocity(linear[:, frame], spin, origin[:, frame], centre), axis=2)
-        speed += np.linalg.norm(spin, axis=2) * self._other_radius
-        return gap - _COAL_TOLERANCE, speed * (1.0 + _ROUNDING) + _ROUNDING
+        pairs.distance[states, rows], pairs.robot_point[states, rows], pairs.person_point[states, rows] = found
 
-    def _person_capsules(self, slots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World centres and axes of the person's capsules `slots` (indices into the person's
-        capsules), read afresh from the model: the person may have been re-posed."""
+    def _measure_others(self, qs: np.ndarray, states: np.ndarray, rows: np.ndarray, pairs: StatePairs) -> None:
+        """The non-capsule rows `rows` at `states` (flat, paired, by state), by coal, into `pairs`.
+        Each result is read once and all of them turned into arrays at the end."""
+        if not rows.size:
+            return
+        (others, other_data, copies), model, data = self._others, self.robot_model, self.robot_data
+        for original, copy in copies.items():
+            others.geometryObjects[copy].placement = self.person_model.geometryObjects[original].placement
+        found, copy_of = [], self._copy_of[rows].tolist()
+        last = -1
+        for n, m in zip(states.tolist(), copy_of):
+            if n != last:
+                pin.updateGeometryPlacements(model, data, others, other_data, qs[n])
+                last = n
+            r = pin.computeDistance(others, other_data, m)
+            found.append((r.min_distance, r.getNearestPoint1(), r.getNearestPoint2()))
+        pairs.distance[states, rows] = [d for d, _, _ in found]
+        pairs.robot_point[states, rows] = [p for _, p, _ in found]
+        pairs.person_point[states, rows] = [p for _, _, p in found]
+
+    def _bounds(self, world: _Placed) -> tuple[np.ndarray, np.ndarray]:
+        """Per state and row (N, k): a lower bound on its distance (its part's bounding sphere
+        against the capsule's axis, less coal's tolerance) and an upper bound on the speed of any
+        point of the part (the sphere centre's speed plus spin times radius). Every sphere meets
+        every capsule axis in products of (N, parts, 3) by (3, capsules), not per row: the
+        squared gaps lose ~1e-15 m^2 to rounding, ~3e-8 m at contact, well inside the tolerance."""
+        frame = self._sphere_frame
+        centre = (world.rotation[:, frame] @ self._sphere_centre)[..., 0] + world.origin[:, frame]
+        spin = world.angular[:, frame]
+        speed = np.linalg.norm(_point_velocity(world.linear[:, frame], spin, world.origin[:, frame], centre), axis=2)
+        speed += np.linalg.norm(spin, axis=2) * self._sphere_radius
+        # Sphere centre c against each capsule axis (centre p, unit axis a, half length h): with
+        # o = c - p and t = clip(o.a, -h, h), the squared gap is |o|^2 - t (2 o.a - t).
+        p, a = world.person_centre, world.person_axis
+        along = centre @ a.T - np.einsum("sj,sj->s", p, a)
+        t = np.clip(along, -self._slot_half, self._slot_half)
+        squared = np.einsum("npj,npj->np", centre, centre)[..., None] + np.einsum("sj,sj->s", p, p)
+        squared -= 2.0 * (centre @ p.T) + t * (2.0 * along - t)
+        gap = np.sqrt(np.maximum(squared, 0.0))[:, self._part, self._slot]
+        floor = gap - self._sphere_radius[self._part] - self._person_radius - _COAL_TOLERANCE
+        return floor, speed[:, self._part] * (1.0 + _ROUNDING) + _ROUNDING
+
+    def _person_capsules(self) -> tuple[np.ndarray, np.ndarray]:
+        """World centres and axes of the person's capsules (S, 3), read afresh from the model:
+        the person may have been re-posed."""
         person = [self.person_model.geometryObjects[b].placement for b in self._slots]
-        return np.array([m.translation for m in person])[slots], np.array([m.rotation[:, 2] for m in person])[slots]
+        return np.array([m.translation for m in person]), np.array([m.rotation[:, 2] for m in person])
 
-    def _capsule_pairs(self, rotation: np.ndarray, origin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The capsule rows from the carrying joints' world rotations and origins, in one pass."""
-        placed = rotation[:, self._capsule_frame]
-        centre = (placed @ self._local_centre)[..., 0] + origin[:, self._capsule_frame]
-        axis = (placed @ self._local_axis)[..., 0]
-        person_centre, person_axis = self._person_capsules(self._slot[self._capsule_rows])
-        return capsule_distances(
-            centre[:, self._robot_capsule],
-            axis[:, self._robot_capsule],
-            self._robot_half,
-            self._robot_radius,
-            person_centre,
-            person_axis,
-            self._person_half[self._capsule_rows],
-            self._person_radius[self._capsule_rows],
-        )
+
+@dataclass(frozen=True)
+class _Placed:
+    """One batch's world placements: the carrying joints' rotations (N, F, 3, 3), origins,
+    linear and angular velocities (N, F, 3), the robot's capsules' centres and axes (N, C, 3) and
+    the person's capsules' (S, 3)."""
+
+    rotation: np.ndarray
+    origin: np.ndarray
+    linear: np.ndarray
+    angular: np.ndarray
+    capsule_centre: np.ndarray
+    capsule_axis: np.ndarray
+    person_centre: np.ndarray
+    person_axis: np.ndarray
 
 
 def _point_velocity(linear: np.ndarray, angular: np.ndarray, origin: np.ndarray, point: np.ndarray) -> np.ndarray:
@@ -220,6 +243,8 @@ def _point_velocity(linear: np.ndarray, angular: np.ndarray, origin: np.ndarray,
 def _bounding_sphere(part: pin.GeometryObject) -> tuple[np.ndarray, float]:
     """A sphere holding the part's shape (about its local bounding box): centre in the part's
     joint frame, radius."""
+    if isinstance(part.geometry, coal.Capsule):  # its own sphere is tighter than its box's
+        return part.placement.translation.copy(), float(part.geometry.halfLength + part.geometry.radius)
     shape = part.geometry.clone()  # computing the box on the model's own shape would change it
     shape.computeLocalAABB()
     return part.placement.act(np.asarray(shape.aabb_center, dtype=float)), float(shape.aabb_radius)

@@ -163,13 +163,25 @@ def allowed_speeds(
     robot: RobotStopping, person: PersonSeparation, separations: np.ndarray, capsules: Sequence[str]
 ) -> np.ndarray:
     """`allowed_speed` for many part-capsule pairs at once (timing evaluates thousands)."""
+    return capped_speeds(robot, person, separations, contact_caps(robot, person, capsules))
+
+
+def contact_caps(robot: RobotStopping, person: PersonSeparation, capsules: Sequence[str]) -> np.ndarray:
+    """Per capsule: its contact region's speed cap, 0 where no contact is intended (SSM alone);
+    looked up once for callers that evaluate the same capsules many times."""
     caps = {
         c: contact_speed_limit(robot, person, person.contact_region(c))
         for c in set(capsules)
         if person.contact_region(c)
     }
-    floor = np.array([caps.get(c, 0.0) for c in capsules])  # 0: SSM alone
-    return np.maximum(_ssm(robot, person, np.asarray(separations, dtype=float)), floor)
+    return np.array([caps.get(c, 0.0) for c in capsules], dtype=float)
+
+
+def capped_speeds(
+    robot: RobotStopping, person: PersonSeparation, separations: np.ndarray, caps: np.ndarray
+) -> np.ndarray:
+    """`allowed_speeds` with each pair's `contact_caps` given (broadcast against `separations`)."""
+    return np.maximum(_ssm(robot, person, np.asarray(separations, dtype=float)), caps)
 
 
 def kept_separation(policy: SeparationPolicy, person: PersonSeparation) -> float:
@@ -182,5 +194,12 @@ def kept_speeds(
 ) -> np.ndarray:
     """The speeds hriplan allows: `allowed_speeds` at the separations less the padding, times the
     speed factor (what timing keeps and `hriplan validate` checks)."""
+    return kept_capped_speeds(policy, person, separations, contact_caps(policy.robot, person, capsules))
+
+
+def kept_capped_speeds(
+    policy: SeparationPolicy, person: PersonSeparation, separations: np.ndarray, caps: np.ndarray
+) -> np.ndarray:
+    """`kept_speeds` with each pair's `contact_caps` given (broadcast against `separations`)."""
     closer = np.asarray(separations, dtype=float) - policy.margin.padding
-    return policy.margin.speed_factor * allowed_speeds(policy.robot, person, closer, capsules)
+    return policy.margin.speed_factor * capped_speeds(policy.robot, person, closer, caps)
