@@ -150,3 +150,22 @@ def test_a_plan_turns_a_continuous_joint_past_half_a_turn(kinova):
     column = result.trajectory.joint_names.index("j2s6s200_joint_1")
     assert positions[0, column] == pytest.approx(-2.5) and positions[-1, column] == pytest.approx(3.5)
     assert np.all(np.abs(np.diff(positions[:, column])) < 0.2)  # continuous: no jump of a turn
+
+
+def test_init_writes_a_guessed_velocity_where_the_urdf_gives_a_continuous_joint_none(tmp_path, robot_registry):
+    """Reach Robotics' Bravo 7: joints 1, 4 and 6 are continuous with no <limit> at all."""
+    share = SHARE / "bravo7_description"
+    path = tmp_path / "bravo.yaml"
+    with pytest.raises(HriplanError):  # its SRDF arm group holds the fingers: not a serial chain
+        write_starting_file(str(share / "urdf/bravo7_gripper.urdf"), str(share / "srdf/bravo7_gripper.srdf"), path)
+    text = path.read_text()
+    assert "# The URDF gives joint1, joint4, joint6 no velocity limit: 1.0 rad/s is a guess to check." in text
+    for joint in ("joint1", "joint4", "joint6"):
+        assert f"{joint}: {{lower: -6.2832, upper: 6.2832, velocity: 1.0}}" in text
+
+
+def test_a_joint_named_like_a_link_is_one_line(tmp_path, robot_registry):
+    """so_arm100's URDF names a joint and a link `gripper`: pinocchio cannot reduce the model."""
+    share = SHARE / "so_arm_description"
+    with pytest.raises(HriplanError, match=r"names a joint and a link alike \(gripper\)"):
+        write_starting_file(str(share / "urdf/so100.urdf"), None, tmp_path / "so.yaml")

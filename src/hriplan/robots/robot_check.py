@@ -197,6 +197,8 @@ def _reference(path: Path, output: Path) -> str:
 # The range a continuous arm joint is planned in when `robot init` writes the file: two turns
 # about zero, which a user narrows to what the cables allow.
 TWO_TURNS = round(2 * math.pi, 4)
+# The velocity written for a continuous joint whose URDF has no <limit> (rad/s), said to be a guess.
+GUESSED_VELOCITY = 1.0
 
 
 def _ready_value(lower: float, upper: float) -> float:
@@ -246,9 +248,14 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
     }
     if not any(name == "ready" for name, _, _ in semantic.states):
         data["postures"] = {"ready": ready}
+    header = f"# A robot file written by `hriplan robot init` from {urdf.name}: check it with `hriplan robot check`.\n"
     if turning:
         data["limits"] = {j: {"lower": -TWO_TURNS, "upper": TWO_TURNS} for j in turning}
-    header = f"# A robot file written by `hriplan robot init` from {urdf.name}: check it with `hriplan robot check`.\n"
+        unlimited = [j for j in turning if j not in limits]
+        for j in unlimited:
+            data["limits"][j]["velocity"] = GUESSED_VELOCITY
+        if unlimited:
+            header += f"# The URDF gives {', '.join(unlimited)} no velocity limit: {GUESSED_VELOCITY} rad/s is a guess to check.\n"
     write_atomically(output, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
     description = load_robot_file(output)
     return f"wrote {output}: robot {description.name}, arms " + ", ".join(

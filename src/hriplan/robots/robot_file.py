@@ -446,6 +446,16 @@ class _Builder:
                 acceleration[j] = limits.acceleration
         return acceleration
 
+    def shared_names(self) -> None:
+        """pinocchio cannot reduce a model in which a joint has the name of a link (its frames are
+        ambiguous: so_arm100's `gripper`): say so in one line, not with its traceback."""
+        shared = sorted(set(self.tree.joints) & set(self.tree.links))
+        if shared:
+            raise HriplanError(
+                f"the URDF names a joint and a link alike ({', '.join(shared)}), which pinocchio cannot"
+                " reduce to the arms: rename one of each pair"
+            )
+
     def whole_group(self, arms: dict[str, ArmDescription], planning: list[str]) -> str:
         """The group of every arm joint: a one-armed robot's arm group, else the SRDF group of
         exactly the arms' joints (MADAR's both_arms), else `all_arms`."""
@@ -482,6 +492,7 @@ class _Builder:
         planning = [j for a in arms.values() for j in a.joints]
         if len(set(planning)) != len(planning):
             raise HriplanError("arms: two arms share a joint")
+        self.shared_names()
         whole = self.whole_group(arms, planning)
         acceleration = self.limits()
         text = ET.tostring(self.root, encoding="unicode")
