@@ -25,6 +25,7 @@ from hriplan.robots.descriptions.registry import load_robot_file, posture
 from hriplan.robots.model import load_robot
 from hriplan.robots.robot_check import check_report, write_starting_file
 from hriplan.robots.scene import Scene
+from independent import UrdfMeshes
 
 SHARE = Path(example_robot_data.getModelPath("kinova_description/robots/kinova.urdf")).resolve()
 URDF = SHARE / "kinova_description" / "robots" / "kinova.urdf"
@@ -152,16 +153,28 @@ def test_a_plan_turns_a_continuous_joint_past_half_a_turn(kinova):
     assert np.all(np.abs(np.diff(positions[:, column])) < 0.2)  # continuous: no jump of a turn
 
 
-def test_init_writes_a_guessed_velocity_where_the_urdf_gives_a_continuous_joint_none(tmp_path, robot_registry):
-    """Reach Robotics' Bravo 7: joints 1, 4 and 6 are continuous with no <limit> at all."""
+def test_init_of_a_bravo_7_guesses_velocities_and_takes_its_arm_off_the_fingers(tmp_path, robot_registry):
+    """Reach Robotics' Bravo 7: joints 1, 4 and 6 are continuous with no <limit> at all, and its
+    SRDF `arm` group holds the gripper's fingers too (not a serial chain): the arm is the chain
+    from the group's first link to the end effector's link, the fingers its gripper. At zero its
+    links touch on the URDF meshes (tests/independent.py), so `ready` is its SRDF's state."""
     share = SHARE / "bravo7_description"
     path = tmp_path / "bravo.yaml"
-    with pytest.raises(HriplanError):  # its SRDF arm group holds the fingers: not a serial chain
-        write_starting_file(str(share / "urdf/bravo7_gripper.urdf"), str(share / "srdf/bravo7_gripper.srdf"), path)
+    said = write_starting_file(str(share / "urdf/bravo7_gripper.urdf"), str(share / "srdf/bravo7_gripper.srdf"), path)
     text = path.read_text()
     assert "# The URDF gives joint1, joint4, joint6 no velocity limit: 1.0 rad/s is a guess to check." in text
     for joint in ("joint1", "joint4", "joint6"):
         assert f"{joint}: {{lower: -6.2832, upper: 6.2832, velocity: 1.0}}" in text
+    robot = load_robot(load_robot_file(path).name)
+    assert robot.joint_names == [f"joint{k}" for k in range(1, 7)]
+    assert robot.description.arms["arm"].tool_frame == "link7"
+    assert robot.hand_postures  # the fingers are a gripper, not arm joints
+    assert len(said.splitlines()) == 1  # nothing in self-collision
+    assert posture(robot.name, "ready") == posture(robot.name, "standing")
+    meshes = UrdfMeshes(robot)
+    meshes.watch(["link1|link5"])
+    assert meshes.touching(robot.configuration({j: 0.0 for j in robot.joint_names})) == {"link1|link5"}
+    assert meshes.touching(robot.configuration(posture(robot.name, "ready"))) == set()
 
 
 def test_a_joint_named_like_a_link_is_one_line(tmp_path, robot_registry):

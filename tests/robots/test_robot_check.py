@@ -42,9 +42,21 @@ def test_init_from_the_panda_urdf_and_srdf_writes_a_file_that_checks(tmp_path):
         "hand": {"gripper": ["panda_finger_joint1", "panda_finger_joint2"], "open": 0.04, "closed": 0.0},
         "ik": "numeric",
     }
+    # At zero (the ends of its ranges nearest zero) the Panda's hand folds onto its forearm: its
+    # `ready` is the SRDF's `default` state, the first posture it does not touch itself in.
+    assert data["postures"]["ready"] == {
+        "panda_joint1": 0.0,
+        "panda_joint2": -0.785398,
+        "panda_joint3": 0.0,
+        "panda_joint4": -2.35619,
+        "panda_joint5": 0.0,
+        "panda_joint6": 1.5707,
+        "panda_joint7": 0.785398,
+    }
     check = invoke("robot", "check", out)
     assert check.exit_code == 0, check.output
     lines = check.stdout.splitlines()
+    assert not any(line.startswith("posture ") for line in lines)
     assert "SRDF groups: arm (7 joints), hand (1 joints), arm_and_hand (8 joints)" in lines
     rate = next(line for line in lines if line.startswith("arm arm: IK numeric: "))
     assert int(rate.split()[4]) >= 99  # of 100 random reachable poses

@@ -127,7 +127,14 @@ def _arms_from_srdf(tree: UrdfTree, srdf: Srdf) -> dict[str, dict]:
     arms = {}
     for end in srdf.end_effectors:
         group = end.parent_group or end.group
-        arms[group] = {"group": group, "tool": end.parent_link}
+        joints = [j for j in tree.movable(srdf.groups.get(group, [])) if tree.joints[j].mimic is None]
+        to_tool = {j.name for j in tree.ancestors(end.parent_link)}
+        if joints and not set(joints) <= to_tool:
+            # The group holds joints off the tool's chain (Bravo 7's fingers in its `arm` group):
+            # the arm is the chain from the group's first link to the tool.
+            arms[group] = {"base": tree.joints[joints[0]].parent, "tip": end.parent_link}
+        else:
+            arms[group] = {"group": group, "tool": end.parent_link}
     return arms
 
 
@@ -201,10 +208,9 @@ TWO_TURNS = round(2 * math.pi, 4)
 GUESSED_VELOCITY = 1.0
 
 
-def _ready_value(lower: float, upper: float) -> float:
-    """A joint's value in the written `ready` posture: zero where its range allows, else the middle
-    of its range (the end nearest zero folded Kinova's arm into itself)."""
-    return 0.0 if lower <= 0.0 <= upper else (lower + upper) / 2
+def _touches_itself(robot: str, values: dict[str, float]) -> bool:
+    loaded = load_robot(robot)
+    return CollisionChecker(loaded, Scene()).in_collision(loaded.configuration(values))
 
 
 def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> str:
@@ -225,7 +231,8 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
         for el in root.findall("joint")
         if el.find("limit") is not None
     }
-    ready: dict[str, float] = {}
+    nearest_zero: dict[str, float] = {}  # the written ready posture, or else ...
+    mid_range: dict[str, float] = {}  # ... this one, where that one touches itself
     turning: list[str] = []  # continuous arm joints: planned within TWO_TURNS (the file says so)
     for arm in arms.values():
         joints = (
@@ -238,7 +245,9 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
         tool = arm.get("tool", arm.get("tip"))
         arm["hand"] = _hand(tree, limits, tool, set(joints))
         arm["ik"] = _ik_kind(text, tree.joints[joints[0]].parent, tool, joints)
-        ready |= {j: _ready_value(*limits.get(j, (0.0, 0.0))) for j in joints}
+        ranges = {j: limits.get(j, (0.0, 0.0)) for j in joints}
+        nearest_zero |= {j: float(np.clip(0.0, *ranges[j])) for j in joints}
+        mid_range |= {j: 0.0 if lower <= 0.0 <= upper else (lower + upper) / 2 for j, (lower, upper) in ranges.items()}
     name = _identifier(root.get("name", ""))
     data = {
         "name": f"{name}_robot" if name in DESCRIPTIONS else name,
@@ -247,7 +256,7 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
         "arms": arms,
     }
     if not any(name == "ready" for name, _, _ in semantic.states):
-        data["postures"] = {"ready": ready}
+        data["postures"] = {"ready": nearest_zero}
     header = f"# A robot file written by `hriplan robot init` from {urdf.name}: check it with `hriplan robot check`.\n"
     if turning:
         data["limits"] = {j: {"lower": -TWO_TURNS, "upper": TWO_TURNS} for j in turning}
@@ -258,6 +267,17 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
             header += f"# The URDF gives {', '.join(unlimited)} no velocity limit: {GUESSED_VELOCITY} rad/s is a guess to check.\n"
     write_atomically(output, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
     description = load_robot_file(output)
-    return f"wrote {output}: robot {description.name}, arms " + ", ".join(
+    # `ready`: the first of these the robot does not touch itself in (the Panda's ranges' ends
+    # nearest zero fold its hand onto its forearm, the Kinova's its forearm onto its upper arm).
+    states = [values for name, values in description.postures.items() if name != "ready"]  # the SRDF's, in range
+    candidates = [nearest_zero, *(nearest_zero | v for v in states), mid_range]
+    free = next((c for c in candidates if not _touches_itself(description.name, c)), nearest_zero)
+    if "postures" in data and free != nearest_zero:
+        data["postures"] = {"ready": free}
+        write_atomically(output, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
+        del DESCRIPTIONS[description.name]
+        description = load_robot_file(output)
+    wrote = f"wrote {output}: robot {description.name}, arms " + ", ".join(
         f"{arm} ({len(a.joints)} joints, tool {a.tool_frame}, IK {a.ik})" for arm, a in description.arms.items()
     )
+    return "\n".join([wrote, *_colliding_postures(load_robot(description.name), description.postures)])
