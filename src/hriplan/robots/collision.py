@@ -123,6 +123,9 @@ class _RobotGeometry:
     acm: dict[str, str]
     objects: list[tuple[pin.GeometryObject, str]]
     tables: list[tuple[ClearanceTable, list[tuple[int, int]]]]  # and the mesh shape pairs each stands for
+    # Per part on the fixed base: its URDF collision shapes where they stand (finding them walks
+    # every mesh of the robot, ~0.2 ms for a MADAR arm's base: a re-plan asked ~90 times).
+    fixed_shapes: dict[int, list[tuple[coal.CollisionGeometry, coal.Transform3s]]]
     internal_pairs: list[tuple[int, int]] | None = None  # made by the first checker's first build
 
 
@@ -139,7 +142,7 @@ class CollisionChecker:
         if key not in _BY_ROBOT:
             self.acm = load_acm(robot, robot_parts(robot))
             objects = self._robot_objects()
-            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects))
+            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects), self._fixed_shapes())
         self._robot = _BY_ROBOT[key]
         self.acm, self._robot_geometry = self._robot.acm, self._robot.objects
         self.humans: dict[str, Human] = {}
@@ -177,6 +180,16 @@ class CollisionChecker:
             (table, [tuple(sorted((i, j))) for i in slots[table.parts[0]] for j in slots[table.parts[1]]])
             for table in clearance_tables(self.robot, self.parts, self.acm)
         ]
+
+    def _fixed_shapes(self) -> dict[int, list[tuple[coal.CollisionGeometry, coal.Transform3s]]]:
+        return {
+            p: [
+                (shape.geometry, coal.Transform3s(shape.placement.rotation, shape.placement.translation))
+                for shape in part_collision_shapes(self.robot, part)
+            ]
+            for p, part in enumerate(self.parts)
+            if part.joint == 0
+        }
 
     def set_scene(self, scene: Scene) -> None:
         """Replace the scene's contents (pairs are recomputed; the robot model is kept). The same
@@ -412,11 +425,8 @@ class CollisionChecker:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
         other = self.geom_model.geometryObjects[obstacle]
         where = coal.Transform3s(other.placement.rotation, other.placement.translation)
-        for shape in part_collision_shapes(self.robot, self.parts[part]):
-            placement = coal.Transform3s(shape.placement.rotation, shape.placement.translation)
-            if coal.collide(
-                shape.geometry, placement, other.geometry, where, coal.CollisionRequest(), coal.CollisionResult()
-            ):
+        for shape, placement in self._robot.fixed_shapes[part]:
+            if coal.collide(shape, placement, other.geometry, where, coal.CollisionRequest(), coal.CollisionResult()):
                 self._fixed_contacts.add((part, obstacle))
                 return True
         return False
@@ -444,7 +454,7 @@ class CollisionChecker:
         if np.array_equal(self.geom_model.geometryObjects[i].placement.homogeneous, placement.homogeneous):
             return False
         self.geom_model.geometryObjects[i].placement = placement
-        fixed = [p for p, part in enumerate(self.parts) if part.joint == 0]
+        fixed = self._robot.fixed_shapes
         before = {p for p, o in self._fixed_contacts if o == i}
         self._fixed_contacts -= {(p, i) for p in before}
         return {p for p in fixed if self._fixed_part_touches(p, i)} != before
