@@ -85,24 +85,19 @@ class PersonPairs:
 
 # What a build of the scene sets, remembered for the last few builds.
 _BUILT = (
-    "kind",
+    "_kind",
     "_pairs_of",
     "_touched_by",
     "_resting",
     "_human_slots",
-    "humans",
     "_zone_slots",
-    "geom_model",
-    "geom_data",
+    "_geom_model",
+    "_geom_data",
     "_broadphase",
     "_tabled_pairs",
     "_tabled",
     "_fixed_contacts",
     "_index",
-    "_distance_model",
-    "_distance_data",
-    "_distance_slots",
-    "_person_models",
 )
 _REMEMBERED_BUILDS = 8
 # A person's pose (where they stand and reach) moves their capsules; their body (height) and
@@ -146,6 +141,7 @@ class CollisionChecker:
         self._robot = _BY_ROBOT[key]
         self.acm, self._robot_geometry = self._robot.acm, self._robot.objects
         self.humans: dict[str, Human] = {}
+        self._people: dict[tuple[str, float | None], Human] = {}  # every person seen, by name and height
         self.zones: SeparationZones | None = None
         self._builds: Recent[str, dict[str, object]] = Recent(_REMEMBERED_BUILDS)
         # Distance and person models, by what is carried and the people.
@@ -197,16 +193,32 @@ class CollisionChecker:
         self.set_world(scene, self.zones)
 
     def set_world(self, scene: Scene, zones: SeparationZones | None) -> None:
-        """The scene and the people's separation zones (None: none) in one build."""
+        """The scene and the people's separation zones (None: none) in one build, made when first
+        asked: planning sets scenes it never checks in (a session's empty first scene, the scene
+        a keep-out is added to and removed from around a call), and one asked only about people
+        needs no collision model."""
         if scene == self.scene and zones == self.zones:
             return
+        missing = sorted(set(zones.distances) - {h.name for h in scene.humans}) if zones else []
+        if missing:
+            raise HriplanError(f"the scene has no person {missing[0]!r} to keep a separation from")
         self.scene = scene.model_copy(deep=True)  # the caller may change theirs in place later
         self.zones = zones
-        self._build()
+        self.humans = {spec.name: self._posed(spec) for spec in self.scene.humans}
+        self._key = self._build_key()
+        self._stale = self._people_stale = True
 
-    def _build(self) -> None:
-        """The geometry and pairs of the scene and zones, or the remembered ones of an earlier build
-        (planning adds and removes keep-out and separation zones around every call)."""
+    def _posed(self, spec: HumanSpec) -> Human:
+        """The checker's Human of this person and body, posed as `spec` (made once: ~2 ms)."""
+        human = self._people.get((spec.name, spec.height))
+        if human is None:
+            human = self._people[(spec.name, spec.height)] = Human(spec)
+        else:
+            human.pose(spec)
+        return human
+
+    def _build_key(self) -> str:
+        """What makes a build: the scene's contents and the zones (not where things stand)."""
         key = (
             self.scene.model_dump_json(exclude=_BUILD_KEY),
             None
@@ -216,18 +228,43 @@ class CollisionChecker:
                 sorted((p, sorted(d.items())) for p, d in self.zones.distances.items()),
             ),
         )
-        self._key = repr(key)
+        return repr(key)
+
+    def _ready(self) -> None:
+        """The build of the current scene and zones, or the remembered one of an earlier build
+        (planning adds and removes keep-out and separation zones around every call), placed where
+        everything stands now."""
         built = self._builds.get(self._key)
         if built is not None:
             vars(self).update(built)
             if any([self._place_obstacle(self._index[o.name], o.pose) for o in self.scene.obstacles]):
                 self._pair_up()
-            for spec in self.scene.humans:  # the Human objects are shared between builds
-                self.humans[spec.name].pose(spec)
-                self._place_person(spec.name)
+            for name in self.humans:
+                self._place_person(name)
         else:
             self._build_new()
         self._remember()
+        self._stale = False
+
+    @property
+    def geom_model(self) -> pin.GeometryModel:
+        """The collision model of the current scene and zones (built if it was not)."""
+        if self._stale:
+            self._ready()
+        return self._geom_model
+
+    @property
+    def geom_data(self) -> pin.GeometryData:
+        if self._stale:
+            self._ready()
+        return self._geom_data
+
+    @property
+    def kind(self) -> list[str]:
+        """Per geometry of `geom_model`: robot, mesh:<part>, attached:<arm>, obstacle, human, zone."""
+        if self._stale:
+            self._ready()
+        return self._kind
 
     def _remember(self) -> None:
         """Keep the current build (the most recent last) under its key."""
@@ -236,98 +273,103 @@ class CollisionChecker:
     def _build_new(self) -> None:
         scene = self.scene
         gm = pin.GeometryModel()
-        self.kind: list[str] = []  # per geometry: robot, mesh:<part>, attached:<arm>, obstacle, human, zone
+        self._kind: list[str] = []
         for geometry, kind in self._robot_geometry:
             gm.addGeometryObject(pin.GeometryObject(geometry))
-            self.kind.append(kind)
-        for obj in scene.attached:
-            tool = self.robot.frame_id(self.robot.tool_frame(obj.arm))
-            frame = self.robot.model.frames[tool]
-            gm.addGeometryObject(
-                pin.GeometryObject(obj.name, frame.parentJoint, frame.placement * obj.grasp.se3(), obj.shape.geometry())
-            )
-            self.kind.append(f"attached:{obj.arm}")
+            self._kind.append(kind)
+        for obj, geometry in zip(scene.attached, self._attached_objects()):
+            gm.addGeometryObject(geometry)
+            self._kind.append(f"attached:{obj.arm}")
         self._touched_by = {o.name: o.touched_by for o in scene.obstacles if o.touched_by is not None}
         self._resting = {(a.name, support) for a in scene.attached for support in a.resting_on}
         for obstacle in scene.obstacles:
             gm.addGeometryObject(pin.GeometryObject(obstacle.name, 0, obstacle.pose.se3(), obstacle.shape.geometry()))
-            self.kind.append("obstacle")
+            self._kind.append("obstacle")
         self._human_slots: dict[str, list[int]] = {}
-        kept = {
-            h.name: self.humans[h.name]
-            for h in scene.humans
-            if h.name in self.humans and self.humans[h.name].spec.height == h.height
-        }
-        self.humans = {}
         for spec in scene.humans:
-            human = kept.get(spec.name) or Human(spec)
-            human.pose(spec)
-            self.humans[spec.name] = human
-            slots = []
-            for capsule, placement in zip(human.capsules, human.capsule_placements()):
-                geometry = coal.Capsule(capsule.radius + spec.margin, capsule.length)
-                slots.append(
-                    gm.addGeometryObject(pin.GeometryObject(f"{spec.name}/{capsule.name}", 0, placement, geometry))
-                )
-                self.kind.append("human")
-            self._human_slots[spec.name] = slots
+            self._human_slots[spec.name] = [gm.addGeometryObject(g) for g in self._capsule_objects(spec)]
+            self._kind += ["human"] * len(self._human_slots[spec.name])
         self._zone_slots = self._add_zones(gm)
-        self.geom_model = gm
+        self._geom_model = gm
         self._pair_up()
         self._index = {g.name: i for i, g in enumerate(gm.geometryObjects)}
-        self._build_distance_model()
+
+    def _attached_objects(self) -> list[pin.GeometryObject]:
+        """The carried objects of the scene, on their hands' tool frames."""
+        objects = []
+        for obj in self.scene.attached:
+            frame = self.robot.model.frames[self.robot.frame_id(self.robot.tool_frame(obj.arm))]
+            placement = frame.placement * obj.grasp.se3()
+            objects.append(pin.GeometryObject(obj.name, frame.parentJoint, placement, obj.shape.geometry()))
+        return objects
+
+    def _capsule_objects(self, spec: HumanSpec) -> list[pin.GeometryObject]:
+        """A person's capsules grown by their margin, where they stand now."""
+        human = self.humans[spec.name]
+        return [
+            pin.GeometryObject(
+                f"{spec.name}/{capsule.name}", 0, placement, coal.Capsule(capsule.radius + spec.margin, capsule.length)
+            )
+            for capsule, placement in zip(human.capsules, human.capsule_placements())
+        ]
 
     def _add_zones(self, gm: pin.GeometryModel) -> dict[str, list[tuple[int, int]]]:
         """The separation zones' grown capsules; per person: (geometry slot, capsule index)."""
         slots: dict[str, list[tuple[int, int]]] = {}
         for name, distances in (self.zones.distances if self.zones else {}).items():
-            human = self.humans.get(name)
-            if human is None:
-                raise HriplanError(f"the scene has no person {name!r} to keep a separation from")
+            human = self.humans[name]
             slots[name] = []
             for k, (capsule, placement) in enumerate(zip(human.capsules, human.capsule_placements())):
                 if capsule.name in distances:
                     grown = coal.Capsule(capsule.radius + distances[capsule.name], capsule.length)
                     label = f"{name}/{capsule.name} ({ZONE_NAMING} {distances[capsule.name]:.3f} m)"
                     slots[name].append((gm.addGeometryObject(pin.GeometryObject(label, 0, placement, grown)), k))
-                    self.kind.append("zone")
+                    self._kind.append("zone")
         return slots
 
-    def _build_distance_model(self) -> None:
-        """Robot parts and people only, with robot-person pairs: distances in one C++ call. It and
-        the person models depend on what is carried and on the people only, so builds that
-        differ in obstacles and zones (planning's keep-outs) share them."""
-        robot_ids = [i for i, k in enumerate(self.kind) if k == "robot"]
-        human_ids = [i for i, k in enumerate(self.kind) if k == "human"]
-        self._distance_slots = {i: k for k, i in enumerate(robot_ids + human_ids)}
+    def _people_ready(self) -> None:
+        """The distance model (robot parts and people only, with robot-person pairs: distances in
+        one C++ call) and the person models, placed where the people stand now. They depend on
+        what is carried and on the people's bodies only, so builds that differ in obstacles and
+        zones (planning's keep-outs) share them; they are made apart from the collision model."""
         key = self.scene.model_dump_json(include={"attached": True, "humans": {"__all__": _PERSON_BODY}})
         kept = self._people_models.get(key)
-        if kept is not None:
-            self._distance_model, self._distance_data, self._person_models = kept
-            for name in self.humans:  # built where the people stood then
-                self._place_person(name)
-            return
-        dm = pin.GeometryModel()
-        for i in robot_ids + human_ids:
-            dm.addGeometryObject(pin.GeometryObject(self.geom_model.geometryObjects[i]))
-        for a in range(len(robot_ids)):
-            for b in range(len(robot_ids), len(robot_ids) + len(human_ids)):
-                dm.addCollisionPair(pin.CollisionPair(a, b))
-        self._distance_model, self._distance_data = dm, dm.createData()
-        self._build_person_models()
-        self._people_models.put(key, (self._distance_model, self._distance_data, self._person_models))
+        if kept is None:
+            kept = (*self._new_distance_model(), self._new_person_models())
+            self._people_models.put(key, kept)
+        self._distance_model, self._distance_data, self._distance_slots, self._person_models = kept
+        for name in self.humans:  # built where the people stood then
+            self._place_person_models(name)
+        self._people_stale = False
 
-    def _build_person_models(self) -> None:
+    def _new_distance_model(self) -> tuple[pin.GeometryModel, pin.GeometryData, dict[str, int]]:
+        """The distance model, its data and each person's first capsule in it."""
+        dm = pin.GeometryModel()
+        for geometry, kind in self._robot_geometry:
+            if kind == "robot":
+                dm.addGeometryObject(pin.GeometryObject(geometry))
+        robot, first = dm.ngeoms, {}
+        for spec in self.scene.humans:
+            first[spec.name] = dm.ngeoms
+            for capsule in self._capsule_objects(spec):
+                dm.addGeometryObject(capsule)
+        for a in range(robot):
+            for b in range(robot, dm.ngeoms):
+                dm.addCollisionPair(pin.CollisionPair(a, b))
+        return dm, dm.createData(), first
+
+    def _new_person_models(
+        self,
+    ) -> dict[str, tuple[pin.GeometryModel, pin.GeometryData, list[str], np.ndarray, list[str]]]:
         """Per person: robot parts and carried objects against the person's bare capsules (no
         margin: separation is measured to the body), for speed and separation monitoring."""
-        movers = [i for i, k in enumerate(self.kind) if k == "robot" or k.startswith("attached:")]
-        self._person_models: dict[
-            str, tuple[pin.GeometryModel, pin.GeometryData, list[str], np.ndarray, list[str]]
-        ] = {}
+        movers = [pin.GeometryObject(g) for g, kind in self._robot_geometry if kind == "robot"]
+        movers += self._attached_objects()
+        models = {}
         for name, human in self.humans.items():
             pm = pin.GeometryModel()
-            for i in movers:
-                pm.addGeometryObject(pin.GeometryObject(self.geom_model.geometryObjects[i]))
+            for mover in movers:
+                pm.addGeometryObject(pin.GeometryObject(mover))
             for capsule, placement in zip(human.capsules, human.capsule_placements()):
                 k = pm.addGeometryObject(
                     pin.GeometryObject(capsule.name, 0, placement, coal.Capsule(capsule.radius, capsule.length))
@@ -335,17 +377,18 @@ class CollisionChecker:
                 for a in range(len(movers)):
                     pm.addCollisionPair(pin.CollisionPair(a, k))
             objects, pairs = pm.geometryObjects, pm.collisionPairs
-            self._person_models[name] = (
+            models[name] = (
                 pm,
                 pm.createData(),
                 [objects[p.first].name for p in pairs],
                 np.array([objects[p.first].parentJoint for p in pairs]),
                 [objects[p.second].name for p in pairs],
             )
+        return models
 
     def _checked(self, i: int, j: int) -> bool:
-        ki, kj = self.kind[i], self.kind[j]
-        names = (self.geom_model.geometryObjects[i].name, self.geom_model.geometryObjects[j].name)
+        ki, kj = self._kind[i], self._kind[j]
+        names = (self._geom_model.geometryObjects[i].name, self._geom_model.geometryObjects[j].name)
         static = ("obstacle", "human", "zone")
         if ki in static and kj in static:
             return False
@@ -363,28 +406,28 @@ class CollisionChecker:
             if k == "robot" and other == "obstacle" and self.parts[a].joint == 0:
                 return self._fixed_part_touches(a, b)
         for k, this, other in ((ki, i, j), (kj, j, i)):
-            if self.kind[other] != "robot":
+            if self._kind[other] != "robot":
                 continue
             # A carried object touches its own hand and wrist by design, and so does an object
             # the hand is closing on.
             arm = (
                 k.split(":", 1)[1]
                 if k.startswith("attached:")
-                else self._touched_by.get(self.geom_model.geometryObjects[this].name)
+                else self._touched_by.get(self._geom_model.geometryObjects[this].name)
             )
             if arm is not None:
                 return not self._on_hand(other, arm)
         return True
 
     def _on_hand(self, part_index: int, arm: str) -> bool:
-        part = self.geom_model.geometryObjects[part_index]
+        part = self._geom_model.geometryObjects[part_index]
         return part.parentJoint == self._tool_joint(arm) and part.name.startswith(self.robot.arms[arm][0])
 
     def _tool_joint(self, arm: str) -> int:
         return self.robot.model.frames[self.robot.frame_id(self.robot.tool_frame(arm))].parentJoint
 
     def _pair_up(self) -> None:
-        gm = self.geom_model
+        gm = self._geom_model
         gm.removeAllCollisionPairs()
         self._fixed_contacts: set[tuple[int, int]] = set()
         robot = len(self._robot_geometry)
@@ -393,21 +436,21 @@ class CollisionChecker:
                 (i, j) for i in range(robot) for j in range(i + 1, robot) if self._checked(i, j)
             ]
         # A scene geometry pairs only with robot parts and carried objects (added before the rest).
-        movers = [i for i, kind in enumerate(self.kind) if kind == "robot" or kind.startswith("attached:")]
+        movers = [i for i, kind in enumerate(self._kind) if kind == "robot" or kind.startswith("attached:")]
         pairs = list(self._robot.internal_pairs)
         for j in range(robot, gm.ngeoms):
             before = [i for i in movers if i < j]
-            if self.kind[j] == "human":  # a person against every part and carried object
+            if self._kind[j] == "human":  # a person against every part and carried object
                 pairs += [(i, j) for i in before]
-            elif self.kind[j] == "zone":  # a separation zone against the moving ones only
+            elif self._kind[j] == "zone":  # a separation zone against the moving ones only
                 pairs += [(i, j) for i in before if gm.geometryObjects[i].parentJoint in self.zones.moving_joints]
             else:
                 pairs += [(i, j) for i in before if self._checked(i, j)]
         chosen = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
         chosen[tuple(np.array(pairs, dtype=int).reshape(-1, 2).T)] = True
         gm.setCollisionPairs(chosen, True)  # in one call, in the order of sorted(pairs)
-        self.geom_data = gm.createData()
-        ask_contacts(self.geom_data)
+        self._geom_data = gm.createData()
+        ask_contacts(self._geom_data)
         self._pairs_of: dict[str, list[int]] = {}  # a geometry's pairs, as `touches` asks them
         # The mesh pairs a clearance table stands for are left out of the broad phase: `in_collision`
         # asks the table first, `contacts` checks them on their own.
@@ -415,15 +458,15 @@ class CollisionChecker:
         tabled = [(table, [listed[p] for p in shape_pairs]) for table, shape_pairs in self._robot.tables]
         self._tabled_pairs = [k for _, ks in tabled for k in ks]
         for k in self._tabled_pairs:
-            self.geom_data.deactivateCollisionPair(k)
+            self._geom_data.deactivateCollisionPair(k)
         # A table free in every cell proves the pair never touches (the crossbar and a shoulder).
         self._tabled = [(table, ks) for table, ks in tabled if not table.free.all()]
         # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
-        self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self.geom_data)
+        self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self._geom_data)
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
-        other = self.geom_model.geometryObjects[obstacle]
+        other = self._geom_model.geometryObjects[obstacle]
         where = coal.Transform3s(other.placement.rotation, other.placement.translation)
         for shape, placement in self._robot.fixed_shapes[part]:
             if coal.collide(shape, placement, other.geometry, where, coal.CollisionRequest(), coal.CollisionResult()):
@@ -433,8 +476,7 @@ class CollisionChecker:
 
     # -- updates (no rebuild of the robot) -------------------------------------------------------------
     def move_obstacle(self, name: str, pose: Pose) -> None:
-        i = self._index.get(name)
-        if i is None or self.kind[i] != "obstacle":
+        if name not in {o.name for o in self.scene.obstacles}:
             raise HriplanError(f"the scene has no obstacle {name!r}")
         self.scene = self.scene.model_copy(
             update={
@@ -443,7 +485,7 @@ class CollisionChecker:
                 ]
             }
         )
-        if self._place_obstacle(i, pose):
+        if not self._stale and self._place_obstacle(self._index[name], pose):
             self._pair_up()
             self._remember()
 
@@ -451,9 +493,9 @@ class CollisionChecker:
         """Put obstacle `i` at `pose` in the current build; True if a part on the fixed base
         touches it now and did not before, or the other way round (its pairs must change)."""
         placement = pose.se3()
-        if np.array_equal(self.geom_model.geometryObjects[i].placement.homogeneous, placement.homogeneous):
+        if np.array_equal(self._geom_model.geometryObjects[i].placement.homogeneous, placement.homogeneous):
             return False
-        self.geom_model.geometryObjects[i].placement = placement
+        self._geom_model.geometryObjects[i].placement = placement
         fixed = self._robot.fixed_shapes
         before = {p for p, o in self._fixed_contacts if o == i}
         self._fixed_contacts -= {(p, i) for p in before}
@@ -467,18 +509,27 @@ class CollisionChecker:
         self.scene = self.scene.model_copy(
             update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]}
         )
-        self._place_person(spec.name)
+        if not self._stale:
+            self._place_person(spec.name)
+        if not self._people_stale:
+            self._place_person_models(spec.name)
 
     def _place_person(self, name: str) -> None:
         """Set the person's capsules, and the separation zones grown from them, where the Human
-        stands now, in the build and in the distance and person models. Builds are remembered
-        without the people's poses (a person who moved changes no pair), so using one places them."""
+        stands now, in the build. Builds are remembered without the people's poses (a person who
+        moved changes no pair), so using one places them."""
         placements = self.humans[name].capsule_placements()
         for slot, placement in zip(self._human_slots[name], placements):
-            self.geom_model.geometryObjects[slot].placement = placement
-            self._distance_model.geometryObjects[self._distance_slots[slot]].placement = placement
+            self._geom_model.geometryObjects[slot].placement = placement
         for slot, k in self._zone_slots.get(name, []):
-            self.geom_model.geometryObjects[slot].placement = placements[k]
+            self._geom_model.geometryObjects[slot].placement = placements[k]
+
+    def _place_person_models(self, name: str) -> None:
+        """The same in the distance model and the person's model."""
+        placements = self.humans[name].capsule_placements()
+        first = self._distance_slots[name]
+        for k, placement in enumerate(placements):
+            self._distance_model.geometryObjects[first + k].placement = placement
         person_model = self._person_models[name][0]
         first = person_model.ngeoms - len(placements)
         for k, placement in enumerate(placements):
@@ -488,6 +539,8 @@ class CollisionChecker:
     def in_collision(self, q: np.ndarray) -> bool:
         """True if any checked pair collides at planning configuration `q`. A tabled mesh pair is
         checked on its meshes only where its table cannot certify it (the broad phase placed them)."""
+        if self._stale:
+            self._ready()
         if pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True):
             return True
         if not self._tabled:
@@ -496,43 +549,49 @@ class CollisionChecker:
         for table, pairs in self._tabled:
             if not table.certified(values):
                 for k in pairs:
-                    if pin.computeCollision(self.geom_model, self.geom_data, k):
+                    if pin.computeCollision(self._geom_model, self._geom_data, k):
                         return True
         return False
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
         """Every colliding pair at `q`, by name (for error messages and reports). A free state
         lists nothing: reading every pair's result back costs more than computing them."""
-        hit = pin.computeCollisions(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q, False)
-        tabled = [pin.computeCollision(self.geom_model, self.geom_data, k) for k in self._tabled_pairs]
+        if self._stale:
+            self._ready()
+        hit = pin.computeCollisions(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q, False)
+        tabled = [pin.computeCollision(self._geom_model, self._geom_data, k) for k in self._tabled_pairs]
         if not hit and not any(tabled):
             return []
-        names = self.geom_model.geometryObjects
+        names = self._geom_model.geometryObjects
         return [
             Contact(names[p.first].name, names[p.second].name)
-            for p, r in zip(self.geom_model.collisionPairs, self.geom_data.collisionResults)
+            for p, r in zip(self._geom_model.collisionPairs, self._geom_data.collisionResults)
             if r.isCollision()
         ]
 
     def touches(self, q: np.ndarray, name: str) -> bool:
         """Does the geometry `name` touch anything it is checked against at `q`? Only its own
         pairs are computed (a retreat asks this at every dense state: `contacts` computes all)."""
+        if self._stale:
+            self._ready()
         pairs = self._pairs_of.get(name)
         if pairs is None:
             i = self._index.get(name)
-            listed = self.geom_model.collisionPairs
+            listed = self._geom_model.collisionPairs
             pairs = [k for k, p in enumerate(listed) if i in (p.first, p.second)] if i is not None else []
             self._pairs_of[name] = pairs
         if not pairs:
             return False
-        pin.updateGeometryPlacements(self.robot.model, self.robot.data, self.geom_model, self.geom_data, q)
-        return any(pin.computeCollision(self.geom_model, self.geom_data, k) for k in pairs)
+        pin.updateGeometryPlacements(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q)
+        return any(pin.computeCollision(self._geom_model, self._geom_data, k) for k in pairs)
 
     def human_distances(self, qs: np.ndarray) -> list[tuple[float, str, str]]:
         """Per planning configuration of a path `qs` (N, nq): (distance, robot part, human part) of
         the closest robot-human pair; inf without people. A part no joint moves along the path is
         as far from everyone at every state, so its pairs are measured once (a path moves one
         group: most of MADAR stands still), the others at every state, in one C++ call each."""
+        if self._people_stale:
+            self._people_ready()
         dm, data, model = self._distance_model, self._distance_data, self.robot.model
         if not dm.collisionPairs or not len(qs):
             return [(float("inf"), "", "")] * len(qs)
@@ -585,6 +644,8 @@ class CollisionChecker:
 
     def person_pairs(self, q: np.ndarray, person: str) -> PersonPairs:
         """Every robot part and carried object against every capsule of `person`, at `q`."""
+        if self._people_stale:
+            self._people_ready()
         if person not in self._person_models:
             raise HriplanError(f"the scene has no person {person!r}")
         model, data, parts, joints, capsules = self._person_models[person]
@@ -602,6 +663,8 @@ class CollisionChecker:
     def person_model(self, person: str) -> pin.GeometryModel:
         """The model `person_pairs` measures: robot parts and carried objects against `person`'s
         bare capsules, one pair per part and capsule (for callers that batch many states)."""
+        if self._people_stale:
+            self._people_ready()
         if person not in self._person_models:
             raise HriplanError(f"the scene has no person {person!r}")
         return self._person_models[person][0]
