@@ -98,6 +98,8 @@ _BUILT = (
     "_tabled",
     "_fixed_contacts",
     "_index",
+    "_names",
+    "_joints",
 )
 _REMEMBERED_BUILDS = 8
 # A person's pose (where they stand and reach) moves their capsules; their body (height) and
@@ -388,7 +390,7 @@ class CollisionChecker:
 
     def _checked(self, i: int, j: int) -> bool:
         ki, kj = self._kind[i], self._kind[j]
-        names = (self._geom_model.geometryObjects[i].name, self._geom_model.geometryObjects[j].name)
+        names = (self._names[i], self._names[j])
         static = ("obstacle", "human", "zone")
         if ki in static and kj in static:
             return False
@@ -410,18 +412,14 @@ class CollisionChecker:
                 continue
             # A carried object touches its own hand and wrist by design, and so does an object
             # the hand is closing on.
-            arm = (
-                k.split(":", 1)[1]
-                if k.startswith("attached:")
-                else self._touched_by.get(self._geom_model.geometryObjects[this].name)
-            )
+            arm = k.split(":", 1)[1] if k.startswith("attached:") else self._touched_by.get(self._names[this])
             if arm is not None:
                 return not self._on_hand(other, arm)
         return True
 
     def _on_hand(self, part_index: int, arm: str) -> bool:
-        part = self._geom_model.geometryObjects[part_index]
-        return part.parentJoint == self._tool_joint(arm) and part.name.startswith(self.robot.arms[arm][0])
+        on_tool = self._joints[part_index] == self._tool_joint(arm)
+        return on_tool and self._names[part_index].startswith(self.robot.arms[arm][0])
 
     def _tool_joint(self, arm: str) -> int:
         return self.robot.model.frames[self.robot.frame_id(self.robot.tool_frame(arm))].parentJoint
@@ -430,6 +428,8 @@ class CollisionChecker:
         gm = self._geom_model
         gm.removeAllCollisionPairs()
         self._fixed_contacts: set[tuple[int, int]] = set()
+        # Read once: a pinocchio object's field costs about a microsecond from Python.
+        self._names, self._joints = zip(*[(g.name, g.parentJoint) for g in gm.geometryObjects])
         robot = len(self._robot_geometry)
         if self._robot.internal_pairs is None:  # the robot's own pairs are the same in every scene
             self._robot.internal_pairs = [
@@ -437,13 +437,14 @@ class CollisionChecker:
             ]
         # A scene geometry pairs only with robot parts and carried objects (added before the rest).
         movers = [i for i, kind in enumerate(self._kind) if kind == "robot" or kind.startswith("attached:")]
+        zoned = {i for i in movers if self._joints[i] in self.zones.moving_joints} if self.zones else set()
         pairs = list(self._robot.internal_pairs)
         for j in range(robot, gm.ngeoms):
             before = [i for i in movers if i < j]
             if self._kind[j] == "human":  # a person against every part and carried object
                 pairs += [(i, j) for i in before]
             elif self._kind[j] == "zone":  # a separation zone against the moving ones only
-                pairs += [(i, j) for i in before if gm.geometryObjects[i].parentJoint in self.zones.moving_joints]
+                pairs += [(i, j) for i in before if i in zoned]
             else:
                 pairs += [(i, j) for i in before if self._checked(i, j)]
         chosen = np.zeros((gm.ngeoms, gm.ngeoms), dtype=bool)
