@@ -102,6 +102,7 @@ _BUILT = (
     "_joints",
 )
 _REMEMBERED_BUILDS = 8
+_PEOPLE_KEPT = 16  # the people a checker keeps a Human of (a service's session sees many)
 # A person's pose (where they stand and reach) moves their capsules; their body (height) and
 # margin make them. Builds are remembered by the body, and placed anew for the pose.
 _PERSON_POSE = {"posture", "position", "yaw", "reach"}
@@ -143,7 +144,7 @@ class CollisionChecker:
         self._robot = _BY_ROBOT[key]
         self.acm, self._robot_geometry = self._robot.acm, self._robot.objects
         self.humans: dict[str, Human] = {}
-        self._people: dict[tuple[str, float | None], Human] = {}  # every person seen, by name and height
+        self._people: Recent[tuple[str, float | None], Human] = Recent(_PEOPLE_KEPT)  # by name and height
         self.zones: SeparationZones | None = None
         self._builds: Recent[str, dict[str, object]] = Recent(_REMEMBERED_BUILDS)
         # Distance and person models, by what is carried and the people.
@@ -214,7 +215,8 @@ class CollisionChecker:
         """The checker's Human of this person and body, posed as `spec` (made once: ~2 ms)."""
         human = self._people.get((spec.name, spec.height))
         if human is None:
-            human = self._people[(spec.name, spec.height)] = Human(spec)
+            human = Human(spec)
+            self._people.put((spec.name, spec.height), human)
         else:
             human.pose(spec)
         return human
