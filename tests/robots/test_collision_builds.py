@@ -6,6 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from hriplan import HriplanError
 from hriplan.robots.collision import CollisionChecker, SeparationZones
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.robot_geometry import robot_parts
@@ -146,3 +147,29 @@ def test_pairs_and_answers_do_not_depend_on_when_or_how_often_a_build_is_made(ma
             assert set(mine.parts) == movers and set(mine.capsules) == {c.split("/")[1] for c in capsules}
             assert np.allclose(mine.distance, fresh.person_pairs(q, "bob").distance, atol=1e-5)
     assert any(_coal_contacts(fresh, q) for q in states[1:])
+
+
+def test_a_scene_the_checker_cannot_build_is_refused_when_set(madar):
+    """Building later does not move the errors: a separation zone around a person not in the
+    scene, an object carried by an arm the robot lacks and a reach out of range are refused by
+    set_world, and the checker keeps the scene it had, its people where that scene has them
+    (one person moved before another's reach failed included)."""
+    checker = CollisionChecker(madar, Scene(humans=[BOB]))
+    zones = SeparationZones(distances={"eve": {"right_hand": 0.2}}, moving_joints=madar.moved_joints("right_arm"))
+    with pytest.raises(HriplanError, match="no person 'eve'"):
+        checker.set_world(Scene(humans=[BOB]), zones)
+    with pytest.raises(HriplanError, match="has no arm 'middle'"):
+        checker.set_scene(Scene(attached=[CAN.model_copy(update={"arm": "middle"})]))
+    q = madar.configuration(CLEAR)
+    assert checker.person_pairs(q, "bob").distance.min() > 0.1  # built with bob where he stands
+    with pytest.raises(HriplanError, match="cannot reach"):
+        checker.set_scene(Scene(humans=[BOB.model_copy(update={"reach": {"right": (5.0, 5.0, 1.0)}})]))
+    moved = BOB.model_copy(update={"position": (0.0, 0.9)})  # posed before al's reach fails
+    al = BOB.model_copy(update={"name": "al", "reach": {"left": (5.0, 5.0, 1.0)}})
+    with pytest.raises(HriplanError, match="cannot reach"):
+        checker.set_scene(Scene(humans=[moved, al], obstacles=[TABLE]))
+    assert checker.scene == Scene(humans=[BOB]) and checker.zones is None
+    fresh = CollisionChecker(madar, Scene(humans=[BOB]))
+    assert not checker.in_collision(q) and list(checker.humans) == ["bob"]
+    assert np.allclose(checker.person_pairs(q, "bob").distance, fresh.person_pairs(q, "bob").distance, atol=1e-5)
+    assert checker.humans["bob"].frame("right_hand") == fresh.humans["bob"].frame("right_hand")

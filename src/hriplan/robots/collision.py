@@ -205,9 +205,16 @@ class CollisionChecker:
         missing = sorted(set(zones.distances) - {h.name for h in scene.humans}) if zones else []
         if missing:
             raise HriplanError(f"the scene has no person {missing[0]!r} to keep a separation from")
-        self.scene = scene.model_copy(deep=True)  # the caller may change theirs in place later
-        self.zones = zones
-        self.humans = {spec.name: self._posed(spec) for spec in self.scene.humans}
+        for obj in scene.attached:  # refused here, as when the scene was built at once
+            self.robot.tool_frame(obj.arm)
+        copy = scene.model_copy(deep=True)  # the caller may change theirs in place later
+        try:
+            humans = {spec.name: self._posed(spec) for spec in copy.humans}
+        except HriplanError:  # a reach out of range: the people stay where the scene has them
+            for spec in self.scene.humans if self.scene else []:
+                self._posed(spec)
+            raise
+        self.scene, self.zones, self.humans = copy, zones, humans
         self._key = self._build_key()
         self._stale = self._people_stale = True
 
