@@ -2,7 +2,8 @@
 
 One pinocchio GeometryModel holds the robot's parts, the carried objects, the obstacles and the
 people's capsules; the pairs to check are fixed when the scene's *contents* change. Moving an
-obstacle or re-posing a person only rewrites placements, so the robot is never rebuilt.
+obstacle or re-posing a person only rewrites placements, so the robot is never rebuilt. A scene
+is built when it is first asked about (planning sets scenes it never checks in).
 
 A robot part that never moves (the base) against an obstacle gives the same answer in every
 state, so that pair is decided once, exactly, on the part's URDF collision shapes: a UR5 base
