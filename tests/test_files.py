@@ -98,6 +98,18 @@ def test_a_collection_as_a_key_is_one_line(tmp_path: Path):
     assert _error(read_data, tmp_path / "u.yaml").endswith("line 1: a key must be a single value, not a dict")
 
 
+@pytest.mark.parametrize(("key", "read"), [("on", "True"), ("no", "False"), ("1", "1"), ("null", "None")])
+def test_a_key_yaml_reads_as_no_name_is_one_line_saying_to_quote_it(tmp_path: Path, key: str, read: str):
+    """YAML 1.1 reads `on`, `no` and numbers as values: `on: table` became the key True, which the
+    models refused as "objects.0.1: Keys should be strings"."""
+    (tmp_path / "t.yaml").write_text(f"objects:\n  - name: cup\n    {key}: table\n")
+    assert _error(read_data, tmp_path / "t.yaml") == (
+        f"{tmp_path / 't.yaml'}: line 3: key '{key}' is read as {read}, not a name: quote it ('{key}')"
+    )
+    (tmp_path / "u.yaml").write_text(f"objects:\n  - name: cup\n    '{key}': table\n")
+    assert read_data(tmp_path / "u.yaml") == {"objects": [{"name": "cup", key: "table"}]}
+
+
 @pytest.mark.parametrize("constant", ["NaN", "Infinity", "-Infinity"])
 def test_json_constants_that_json_does_not_allow_are_refused(tmp_path: Path, constant: str):
     (tmp_path / "t.json").write_text(f'{{"a": {constant}}}')

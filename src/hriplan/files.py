@@ -57,6 +57,10 @@ class _UniqueKeyLoader(yaml.SafeLoader):
             line = key_node.start_mark.line + 1
             if isinstance(key, list | dict):
                 raise HriplanError(f"line {line}: a key must be a single value, not a {type(key).__name__}")
+            if not isinstance(key, str):  # YAML 1.1 reads `on`, `no`, `yes`, `off` as booleans, `1` as a number
+                raise HriplanError(
+                    f"line {line}: key {key_node.value!r} is read as {key!r}, not a name: quote it ('{key_node.value}')"
+                )
             if key in seen:
                 raise HriplanError(f"line {line}: key {key!r} is given twice (first at line {seen[key]})")
             seen[key] = line
