@@ -19,6 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from cpu_spent import outermost_cpu
 from trees import runs_by_tree
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "handover_full_can.yaml"
@@ -43,8 +44,12 @@ def measure() -> dict:
             setattr(CollisionChecker, name, _counting(getattr(CollisionChecker, name), label, found))
     pin.GeometryModel.createData = _counting(pin.GeometryModel.createData, "GeometryData made", found)
     depth = [0]
+
+    def add_build(seconds: float) -> None:
+        found["build CPU ms"] += 1e3 * seconds
+
     for name in (n for n in TIMED if hasattr(CollisionChecker, n)):
-        setattr(CollisionChecker, name, _timing(getattr(CollisionChecker, name), depth, found))
+        setattr(CollisionChecker, name, outermost_cpu(getattr(CollisionChecker, name), depth, add_build))
     with tempfile.TemporaryDirectory() as out:
         sys.argv = ["hriplan", "plan", str(EXAMPLE), "-o", f"{out}/plan.json"]
         started = time.process_time()
@@ -61,20 +66,6 @@ def _counting(original, label: str, found: dict):
         return original(*a, **k)
 
     return counted
-
-
-def _timing(original, depth: list[int], found: dict):
-    def timed(*a, **k):
-        depth[0] += 1
-        started = time.process_time()
-        try:
-            return original(*a, **k)
-        finally:
-            depth[0] -= 1
-            if not depth[0]:
-                found["build CPU ms"] += 1e3 * (time.process_time() - started)
-
-    return timed
 
 
 def main() -> None:

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from cpu_spent import outermost_cpu
 
 from hriplan.api import PlanningSession, load_task, run_task
 from hriplan.planner import session as session_module
@@ -123,20 +124,12 @@ def _spent_in_stages() -> dict[str, float]:
     spent: dict[str, float] = {}
     for label, owner, names in STAGES:
         depth = [0]
+
+        def add(seconds: float, _label: str = label) -> None:
+            spent[_label] = spent.get(_label, 0.0) + seconds
+
         for name in (n for n in names if hasattr(owner, n)):
-            original = getattr(owner, name)
-
-            def wrapper(*a, _original=original, _label=label, _depth=depth, **k):
-                _depth[0] += 1
-                started = time.process_time()
-                try:
-                    return _original(*a, **k)
-                finally:
-                    _depth[0] -= 1
-                    if not _depth[0]:
-                        spent[_label] = spent.get(_label, 0.0) + time.process_time() - started
-
-            setattr(owner, name, wrapper)
+            setattr(owner, name, outermost_cpu(getattr(owner, name), depth, add))
     return spent
 
 
