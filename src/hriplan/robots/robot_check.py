@@ -98,15 +98,16 @@ def check_report(path: str | Path) -> str:
             f"arm {arm}: IK {a.ik}: {solved} of {CHECK_POSES} random reachable poses solved, median {median:.2f} ms"
         )
     lines.append("postures: " + (", ".join(description.postures) or "none"))
-    lines += _colliding_postures(robot, description.postures)
+    lines += _colliding_postures(CollisionChecker(robot, Scene()), description.postures)
     if srdf is not None:
         lines.append(_srdf_pairs(robot, srdf))
     return "\n".join(lines)
 
 
-def _colliding_postures(robot: Robot, postures: dict[str, dict[str, float]]) -> list[str]:
-    """A line per posture in which the robot collides with itself: a task cannot start there."""
-    checker = CollisionChecker(robot, Scene())
+def _colliding_postures(checker: CollisionChecker, postures: dict[str, dict[str, float]]) -> list[str]:
+    """A line per posture in which the robot collides with itself (`checker`: the robot alone):
+    a task cannot start there."""
+    robot = checker.robot
     lines = []
     for name, values in postures.items():
         contacts = checker.contacts(robot.configuration(values))
@@ -208,11 +209,6 @@ TWO_TURNS = round(2 * math.pi, 4)
 GUESSED_VELOCITY = 1.0
 
 
-def _touches_itself(robot: str, values: dict[str, float]) -> bool:
-    loaded = load_robot(robot)
-    return CollisionChecker(loaded, Scene()).in_collision(loaded.configuration(values))
-
-
 def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> str:
     """Write a robot file for a URDF (and SRDF), paths or package:// URIs, to `output`, check it
     loads, and say what it holds."""
@@ -265,19 +261,26 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
             data["limits"][j]["velocity"] = GUESSED_VELOCITY
         if unlimited:
             header += f"# The URDF gives {', '.join(unlimited)} no velocity limit: {GUESSED_VELOCITY} rad/s is a guess to check.\n"
-    write_atomically(output, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
-    description = load_robot_file(output)
-    # `ready`: the first of these the robot does not touch itself in (the Panda's ranges' ends
-    # nearest zero fold its hand onto its forearm, the Kinova's its forearm onto its upper arm).
-    states = [values for name, values in description.postures.items() if name != "ready"]  # the SRDF's, in range
-    candidates = [nearest_zero, *(nearest_zero | v for v in states), mid_range]
-    free = next((c for c in candidates if not _touches_itself(description.name, c)), nearest_zero)
-    if "postures" in data and free != nearest_zero:
-        data["postures"] = {"ready": free}
+
+    def write() -> None:
         write_atomically(output, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
-        del DESCRIPTIONS[description.name]
-        description = load_robot_file(output)
+
+    write()
+    description = load_robot_file(output)
+    robot = load_robot(description.name)  # the same model whichever ready is written
+    checker = CollisionChecker(robot, Scene())
+    if "postures" in data:
+        # `ready`: the first of these the robot does not touch itself in (the Panda's ranges' ends
+        # nearest zero fold its hand onto its forearm, the Kinova's its forearm onto its upper arm).
+        states = [values for name, values in description.postures.items() if name != "ready"]  # the SRDF's, in range
+        candidates = [nearest_zero, *(nearest_zero | v for v in states), mid_range]
+        free = next((c for c in candidates if not checker.in_collision(robot.configuration(c))), nearest_zero)
+        if free != nearest_zero:
+            data["postures"] = {"ready": free}
+            write()
+            del DESCRIPTIONS[description.name]
+            description = load_robot_file(output)
     wrote = f"wrote {output}: robot {description.name}, arms " + ", ".join(
         f"{arm} ({len(a.joints)} joints, tool {a.tool_frame}, IK {a.ik})" for arm, a in description.arms.items()
     )
-    return "\n".join([wrote, *_colliding_postures(load_robot(description.name), description.postures)])
+    return "\n".join([wrote, *_colliding_postures(checker, description.postures)])
