@@ -121,3 +121,45 @@ def test_a_hand_posture_whose_finger_values_change_is_fitted_again(cache, monkey
     assert before.finger_values != after.finger_values
     assert max(np.linalg.norm(a - b) for a, b in zip(thumb, fingers(after))) > 0.01
     model._cached_robot.cache_clear()
+
+
+def test_parts_are_fitted_again_for_a_robot_placed_elsewhere(cache):
+    """The cached parts hold placements on the planning model: a part on the world (the UR5's
+    base) moves with the base pose. Keyed by URDF and hands alone, a UR5 placed at x = 1 m was
+    served the base part of one at the origin."""
+    from hriplan.robots.spatial import Pose
+
+    here, there = load_robot("ur5"), load_robot("ur5", base_pose=Pose(xyz=(1.0, 0.0, 0.5)))
+    base_here = next(p for p in _parts(here, 0.0) if p.link == "base_link")
+    base_there = next(p for p in _parts(there, 0.0) if p.link == "base_link")
+    assert base_here.joint == base_there.joint == 0
+    assert np.allclose(base_there.placement.translation - base_here.placement.translation, (1.0, 0.0, 0.5))
+    assert len(list(cache.glob("parts-ur5-*.json"))) == 2
+
+
+def test_parts_are_fitted_again_when_a_robot_file_changes_its_arm(cache, tmp_path, robot_registry):
+    """A robot file rewritten with a shorter arm (the same name and URDF) plans fewer joints: the
+    links it no longer moves are fixed to the last joint it does. The old key served the parts
+    of the longer arm, on joints the new model does not have (found with TIAGo's `robot init`)."""
+    from hriplan.robots.descriptions.registry import DESCRIPTIONS, load_robot_file
+
+    urdf = "package://example-robot-data/robots/ur_description/urdf/ur5_robot.urdf"
+    stopping = "stopping: {reaction_time: 0.1, stopping_time: 0.2, position_uncertainty: 0.02, moving_mass: 6.0}\n"
+    joints_of = {}
+    for tip in ("wrist_3_link", "forearm_link"):
+        path = tmp_path / f"arm_to_{tip}.yaml"  # another file: a process keeps the robot a file loaded
+        path.write_text(f"name: cached_arm\nurdf: {urdf}\narms:\n  arm: {{base: base_link, tip: {tip}}}\n{stopping}")
+        DESCRIPTIONS.pop("cached_arm", None)
+        robot = load_robot(load_robot_file(path).name)
+        parts = {p.link: p for p in _parts(robot, 0.0)}
+        joints_of[tip] = robot.model.njoints
+        wrist = parts["wrist_3_link"]
+        assert wrist.joint < robot.model.njoints
+        # Where the part is, by the planning model, is where the URDF's link is (all joints at 0).
+        data = robot.model.createData()
+        pin.framesForwardKinematics(robot.model, data, pin.neutral(robot.model))
+        link = data.oMf[robot.model.getFrameId("wrist_3_link")]
+        part_at = data.oMi[wrist.joint] * wrist.placement
+        assert np.linalg.norm(link.translation - part_at.translation) < 0.1  # the capsule's centre near its link
+    assert joints_of == {"wrist_3_link": 7, "forearm_link": 4}
+    assert len(list(cache.glob("parts-cached_arm-*.json"))) == 2

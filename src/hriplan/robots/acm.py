@@ -59,6 +59,8 @@ def _key(robot: Robot, parts: tuple[RobotPart, ...], samples: int) -> str:
             robot.urdf,
             robot.spec.hand_postures,
             robot.finger_values,
+            robot.model_key,
+            robot.description.postures,  # pairs false only in a posture are checked on meshes
             shapes,
             samples,
         )

@@ -300,7 +300,7 @@ def clearance_tables(robot: Robot, parts: tuple[RobotPart, ...], acm: dict[str, 
     read of one file) and per pair's content (shared by arms mounted elsewhere, computed once per
     machine: a few seconds a pair)."""
     pairs = sorted(pair for pair, reason in acm.items() if reason == MESH)
-    key = (RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, pairs)
+    key = (RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, robot.model_key, pairs)
     tables = cached_fit("clearance-robot", key, lambda: {"tables": _robot_tables(robot, parts, pairs)})["tables"]
     made = [
         ClearanceTable(

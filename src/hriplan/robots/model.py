@@ -8,6 +8,7 @@ forward kinematics and Jacobians cost only the 12 arm joints.
 from __future__ import annotations
 
 import functools
+import hashlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -138,6 +139,24 @@ class Robot:
     @property
     def default_group(self) -> str:
         return self.description.whole_group
+
+    @functools.cached_property
+    def model_key(self) -> str:
+        """A digest of the planning model as built: its joints, their placements (the base pose
+        in them) and limits, and every frame's joint and placement (where locked joints and the
+        base put the fixed links). Caches of what is computed on this model (fitted parts,
+        collision matrix, clearance tables) are keyed by it: keyed by the URDF and hand postures
+        alone, a robot file whose arms or base changed was served parts fitted for the old model
+        (TIAGo's little finger parts on joints that no longer moved; a UR5's base part at the
+        origin on a UR5 placed at x = 1 m)."""
+        model = self.model
+        digest = hashlib.sha256(repr([model.names[j] for j in range(model.njoints)]).encode())
+        for placement in [*model.jointPlacements, *(f.placement for f in model.frames)]:
+            digest.update(np.ascontiguousarray(placement.homogeneous).tobytes())
+        digest.update(np.array([f.parentJoint for f in model.frames]).tobytes())
+        for limit in (model.lowerPositionLimit, model.upperPositionLimit):
+            digest.update(np.ascontiguousarray(limit).tobytes())
+        return digest.hexdigest()[:16]
 
     @functools.cached_property
     def finger_values(self) -> tuple[tuple[str, float], ...]:

@@ -77,7 +77,7 @@ FIT_RULES = "capsules on collision + hand visual meshes per link group; palm box
 
 def _parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:
     """The fitted parts, from the disk cache (fit_cache.py) when this robot was fitted before."""
-    key = (FIT_RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, padding)
+    key = (FIT_RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, padding, robot.model_key)
     fitted = cached_fit(
         f"parts-{robot.name}", key, lambda: {"parts": [_part_data(p) for p in _fitted_parts(robot, padding)]}
     )
