@@ -11,6 +11,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
+from tests.independent import nearest
 from typer.testing import CliRunner
 
 from hriplan.cli.main import app
@@ -148,3 +149,79 @@ def test_init_picks_the_analytic_solver_that_fits_each_ur_arm(tmp_path, urdf, na
     )
     assert result.exit_code == 0, result.output
     assert result.stdout.strip() == f"wrote {out}: robot {name}, arms arm (6 joints, tool tool0, IK {kind})"
+
+
+def _mesh_gap(urdf: Path, values: dict[str, float], links: set[str], others: set[str]) -> float:
+    """The least distance between the URDF collision shapes of `links` and of `others` at the
+    joint `values` (others at 0), straight from the URDF with pinocchio and coal."""
+    model = pin.buildModelFromUrdf(str(urdf))
+    geometry = pin.buildGeomFromUrdf(model, str(urdf), pin.COLLISION, package_dirs=[str(ROBOTS.parents[1])])
+    q = pin.neutral(model)
+    for name, value in values.items():
+        q[model.joints[model.getJointId(name)].idx_q] = value
+    data, gdata = model.createData(), geometry.createData()
+    pin.updateGeometryPlacements(model, data, geometry, gdata, q)
+
+    def link(g):
+        return model.frames[g.parentFrame].name
+
+    objects = list(zip(geometry.geometryObjects, gdata.oMg))
+    return min(
+        nearest(a.geometry, at_a, b.geometry, at_b).min_distance
+        for a, at_a in objects
+        if link(a) in links
+        for b, at_b in objects
+        if link(b) in others
+    )
+
+
+def test_init_from_a_urdf_alone_ends_the_arm_at_its_hand_and_starts_it_free(tmp_path):
+    """TIAGo's URDF alone: the longest chain runs into the little finger of its five-finger hand.
+    The arm ends where the fingers branch (the palm), its tool the URDF's grasp frame, the torso
+    lift its first joint (the head branching off the torso does not cut the arm). At zero its arm
+    lies in its torso column (on the meshes), as at mid-range: `ready` is the nearest posture
+    it does not touch itself in."""
+    urdf = ROBOTS / "tiago_description" / "robots" / "tiago.urdf"
+    out = tmp_path / "tiago.yaml"
+    result = invoke("robot", "init", "--urdf", urdf, "-o", out)
+    assert result.exit_code == 0, result.output
+    assert (
+        result.stdout.strip() == f"wrote {out}: robot tiago, arms arm (8 joints, tool hand_grasping_frame, IK numeric)"
+    )
+    data = yaml.safe_load(out.read_text())
+    assert data["arms"] == {
+        "arm": {
+            "base": "torso_fixed_link",
+            "tip": "hand_palm_link",
+            "tool": "hand_grasping_frame",
+            "hand": "none",
+            "ik": "numeric",
+        }
+    }
+    ready = data["postures"]["ready"]
+    assert sorted(ready) == sorted(["torso_lift_joint", *(f"arm_{k}_joint" for k in range(1, 8))])
+    arm = {f"arm_{k}_link" for k in range(3, 8)} | {"hand_palm_link"}
+    column = {"torso_fixed_column_link", "torso_fixed_link", "base_link"}
+    assert _mesh_gap(urdf, dict.fromkeys(ready, 0.0), arm | {"arm_1_link", "arm_2_link"}, column) < 0.0
+    assert _mesh_gap(urdf, ready, arm, column) > 0.0
+    check = invoke("robot", "check", out)
+    assert check.exit_code == 0, check.output
+    assert not any(line.startswith("posture ") for line in check.stdout.splitlines())
+
+
+def test_init_from_the_panda_urdf_alone_takes_its_fingers_as_the_gripper(tmp_path):
+    """Without its SRDF the Panda's longest chain ended in a finger joint; now the arm ends at the
+    hand the fingers branch from, the tool the URDF's panda_hand_tcp, the fingers its gripper."""
+    out = tmp_path / "panda.yaml"
+    result = invoke("robot", "init", "--urdf", PANDA / "urdf" / "panda.urdf", "-o", out)
+    assert result.exit_code == 0, result.output
+    assert yaml.safe_load(out.read_text())["arms"] == {
+        "arm": {
+            "base": "panda_link0",
+            "tip": "panda_hand",
+            "tool": "panda_hand_tcp",
+            "hand": {"gripper": ["panda_finger_joint1", "panda_finger_joint2"], "open": 0.04, "closed": 0.0},
+            "ik": "numeric",
+        }
+    }
+    assert not any(line.startswith("posture ready: in self-collision") for line in result.stdout.splitlines())

@@ -117,6 +117,33 @@ def _colliding_postures(checker: CollisionChecker, postures: dict[str, dict[str,
     return lines
 
 
+# Random postures `robot init` tries when none of its named candidates is free of self-collision.
+FREE_SEARCH_SAMPLES = 2000
+
+
+def _nearest_free(
+    checker: CollisionChecker, centre: dict[str, float], ranges: dict[str, tuple[float, float]]
+) -> dict[str, float] | None:
+    """The posture nearest `centre` (each joint's offset as a share of its range) the robot does
+    not touch itself in, of FREE_SEARCH_SAMPLES random ones (seeded: init writes the same file
+    every time); None if all touch. TIAGo's arm at zero and mid-range lies on its torso column,
+    a Panda's without its SRDF folds its hand onto its forearm: a start a task can use beats one
+    said to be in self-collision."""
+    names = list(ranges)
+    lower, upper = (np.array([ranges[j][k] for j in names]) for k in (0, 1))
+    span = np.maximum(upper - lower, 1e-9)
+    # Rounded as a file is written, then kept within range (a limit may have more decimals).
+    samples = np.clip(
+        np.round(np.random.default_rng(0).uniform(lower, upper, (FREE_SEARCH_SAMPLES, len(names))), 4), lower, upper
+    )
+    offsets = np.abs((samples - np.array([centre[j] for j in names])) / span).max(axis=1)
+    for k in np.argsort(offsets, kind="stable"):
+        posture = dict(zip(names, samples[k].tolist()))
+        if not checker.in_collision(checker.robot.configuration(posture)):
+            return posture
+    return None
+
+
 def _identifier(name: str) -> str:
     name = re.sub(r"\W", "_", name or "robot")
     return name if re.match(r"[A-Za-z]", name) else f"robot_{name}"
@@ -139,17 +166,66 @@ def _arms_from_srdf(tree: UrdfTree, srdf: Srdf) -> dict[str, dict]:
     return arms
 
 
-def _arm_from_urdf(tree: UrdfTree) -> dict[str, dict]:
-    """The longest chain of moving joints from the root, by its base and tip links."""
+def _arm_from_urdf(tree: UrdfTree, shapeless: set[str]) -> dict[str, dict]:
+    """The longest chain of moving joints from the root, by its base and tip links; where it ends
+    in a hand (fingers branching off one link), the arm ends at that link (`_hand_root`), its tool
+    the hand's own frame if the URDF has one (`_tool_frame`; `shapeless`: links without shapes)."""
     best: list[str] = []
     tip = tree.root
     for link in tree.links:
-        moving = [j.name for j in tree.ancestors(link) if j.type in MOVABLE and j.mimic is None]
+        moving = _driven(tree.ancestors(link))
         if len(moving) >= len(best):  # the last such link in the file: a flange or tool frame
             best, tip = moving, link
     if not best:
         raise HriplanError("the URDF has no moving joints")
-    return {"arm": {"base": tree.joints[best[-1]].parent, "tip": tip}}
+    hand = _hand_root(tree, tip)
+    tip = hand or tip
+    arm = {"base": tree.joints[_driven(tree.ancestors(tip))[-1]].parent, "tip": tip}
+    frame = _tool_frame(tree, shapeless, hand) if hand else None
+    return {"arm": arm | ({"tool": frame} if frame else {})}
+
+
+def _tool_frame(tree: UrdfTree, shapeless: set[str], hand: str) -> str | None:
+    """The one link fixed to `hand` with no shape and nothing below it: the frame a URDF marks
+    its grasp point with (TIAGo's hand_grasping_frame 13 cm out of the palm, a Panda's
+    panda_hand_tcp between the fingertips). A held object sits at the tool frame: at the hand's
+    root it was inside the wrist. None if there is no such link or more than one."""
+    parents = {j.parent for j in tree.joints.values()}
+    frames = [
+        j.child
+        for j in tree.joints.values()
+        if j.parent == hand and j.type == "fixed" and j.child in shapeless and j.child not in parents
+    ]
+    return frames[0] if len(frames) == 1 else None
+
+
+def _driven(joints: list) -> list[str]:
+    """The moving joints among `joints` that no other joint drives (mimic joints follow one)."""
+    return [j.name for j in joints if j.type in MOVABLE and j.mimic is None]
+
+
+def _hand_root(tree: UrdfTree, tip: str) -> str | None:
+    """The link the chain to `tip` enters a hand at: the one nearest the tip from which two or
+    more branches move (fingers, mimic ones too), with at least as many driven joints above it as
+    below it on the chain. Without this, a URDF alone made the longest chain run into a finger:
+    TIAGo's "arm" was 15 joints ending at its little finger's tip, a Panda's ended in a finger.
+    The balance rule keeps an arm whole where the branching is a torso with a head on it."""
+    chain = tree.ancestors(tip)  # nearest the tip first
+    for k, joint in enumerate(chain):
+        below, above = _driven(chain[: k + 1]), _driven(chain[k + 1 :])
+        moving_branches = sum(
+            1 for child in tree.joints.values() if child.parent == joint.parent and _moves(tree, child)
+        )
+        if moving_branches >= 2 and above and len(above) >= len(below):
+            return joint.parent
+    return None
+
+
+def _moves(tree: UrdfTree, joint) -> bool:
+    """Whether `joint` or any joint below it moves."""
+    if joint.type in MOVABLE:
+        return True
+    return any(_moves(tree, child) for child in tree.joints.values() if child.parent == joint.child)
 
 
 def _hand(tree: UrdfTree, limits: dict[str, tuple[float, float]], tool: str, arm_joints: set[str]) -> dict | str:
@@ -221,7 +297,10 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
         raise HriplanError(f"{urdf}: not valid URDF XML ({exc})") from None
     tree = UrdfTree(root)
     semantic = read_srdf(read_text(srdf, "SRDF file"), tree) if srdf else Srdf()
-    arms = _arms_from_srdf(tree, semantic) or _arm_from_urdf(tree)
+    shapeless = {
+        el.get("name") for el in root.findall("link") if el.find("visual") is None and el.find("collision") is None
+    }
+    arms = _arms_from_srdf(tree, semantic) or _arm_from_urdf(tree, shapeless)
     limits = {
         el.get("name"): (float(el.find("limit").get("lower", 0.0)), float(el.find("limit").get("upper", 0.0)))
         for el in root.findall("joint")
@@ -229,6 +308,7 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
     }
     nearest_zero: dict[str, float] = {}  # the written ready posture, or else ...
     mid_range: dict[str, float] = {}  # ... this one, where that one touches itself
+    ranges: dict[str, tuple[float, float]] = {}  # the arms' joints' ranges (continuous: two turns)
     turning: list[str] = []  # continuous arm joints: planned within TWO_TURNS (the file says so)
     for arm in arms.values():
         joints = (
@@ -241,9 +321,12 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
         tool = arm.get("tool", arm.get("tip"))
         arm["hand"] = _hand(tree, limits, tool, set(joints))
         arm["ik"] = _ik_kind(text, tree.joints[joints[0]].parent, tool, joints)
-        ranges = {j: limits.get(j, (0.0, 0.0)) for j in joints}
-        nearest_zero |= {j: float(np.clip(0.0, *ranges[j])) for j in joints}
-        mid_range |= {j: 0.0 if lower <= 0.0 <= upper else (lower + upper) / 2 for j, (lower, upper) in ranges.items()}
+        arm_ranges = {j: (-TWO_TURNS, TWO_TURNS) if j in turning else limits.get(j, (0.0, 0.0)) for j in joints}
+        ranges |= arm_ranges
+        nearest_zero |= {j: float(np.clip(0.0, *arm_ranges[j])) for j in joints}
+        mid_range |= {
+            j: 0.0 if lower <= 0.0 <= upper else (lower + upper) / 2 for j, (lower, upper) in arm_ranges.items()
+        }
     name = _identifier(root.get("name", ""))
     data = {
         "name": f"{name}_robot" if name in DESCRIPTIONS else name,
@@ -274,7 +357,8 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
         # nearest zero fold its hand onto its forearm, the Kinova's its forearm onto its upper arm).
         states = [values for name, values in description.postures.items() if name != "ready"]  # the SRDF's, in range
         candidates = [nearest_zero, *(nearest_zero | v for v in states), mid_range]
-        free = next((c for c in candidates if not checker.in_collision(robot.configuration(c))), nearest_zero)
+        free = next((c for c in candidates if not checker.in_collision(robot.configuration(c))), None)
+        free = free or _nearest_free(checker, nearest_zero, ranges) or nearest_zero
         if free != nearest_zero:
             data["postures"] = {"ready": free}
             write()
