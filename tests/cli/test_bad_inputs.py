@@ -260,6 +260,27 @@ CASES: list[Case] = [
         t__yaml=task(robot="pr2"),
     ),
     C(
+        # `robot init` writes no stopping data (a deployment measures its own): planning near a
+        # person needs it, and says where it goes.
+        "task_robot_file_without_stopping",
+        "plan {d}/t.yaml -o {d}/out.json",
+        "robot arm_without_stopping has no ISO/TS 15066 stopping data: give its robot file 'stopping:",
+        absent=("out.json",),
+        arm__yaml="name: arm_without_stopping\n"
+        "urdf: package://example-robot-data/robots/ur_description/urdf/ur5_robot.urdf\n"
+        "arms:\n  arm: {base: base_link, tip: tool0}\npostures:\n  ready: {shoulder_lift_joint: -1.57}\n",
+        t__yaml=task(robot="arm.yaml", objects=[]),
+    ),
+    C(
+        "task_robot_file_without_postures",
+        "constraints {d}/t.yaml",
+        "start.posture: robot 'arm_without_postures' has no posture 'ready'; postures: none (a robot file's `postures`",
+        arm__yaml="name: arm_without_postures\n"
+        "urdf: package://example-robot-data/robots/ur_description/urdf/ur5_robot.urdf\n"
+        "arms:\n  arm: {base: base_link, tip: tool0}\n",
+        t__yaml=task(robot="arm.yaml", objects=[]),
+    ),
+    C(
         "task_bad_hand_posture",
         "constraints {d}/t.yaml",
         "t.yaml: hands.right: unknown hand posture 'fist'; choose one of open, power, pinch, release",

@@ -26,6 +26,11 @@ DEFAULT_ROLE = "Bystander"  # a person without a role does not expect the robot
 
 def separation_policy(facts: Facts, robot: str, people: Iterable[tuple[str, str, str]]) -> SeparationPolicy:
     """The policy for `robot` and `people` given as (name, role, handing side: left/right)."""
+    if not facts.get(robot, "hasReactionTime"):  # a robot file without `stopping` (robot init writes none)
+        raise HriplanError(
+            f"robot {robot} has no ISO/TS 15066 stopping data: give its robot file 'stopping: {{reaction_time: s, "
+            "stopping_time: s, position_uncertainty: m, moving_mass: kg}', as measured for the deployment"
+        )
     stopping = RobotStopping(
         reaction_time=facts.number(robot, "hasReactionTime"),
         stopping_time=facts.number(robot, "hasStoppingTime"),

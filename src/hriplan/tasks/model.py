@@ -18,7 +18,13 @@ from hriplan.ontology.situation import FillLevel, Name, Role
 from hriplan.planner.constraints.spec import Axis
 from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
 from hriplan.robots.descriptions.description import HAND_MODELS, hand_model
-from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, DESCRIPTIONS, description_of, registered_robot_file
+from hriplan.robots.descriptions.registry import (
+    DEFAULT_ROBOT,
+    DESCRIPTIONS,
+    description_of,
+    registered_robot_file,
+    unknown_posture,
+)
 from hriplan.robots.human import HAND, HumanSpec, Side, hand_they_reach_out
 from hriplan.robots.scene import Obstacle, Shape
 from hriplan.robots.spatial import Pose
@@ -312,10 +318,7 @@ class TaskFile(_Strict):
     def _references(self) -> TaskFile:
         description = description_of(self.robot)
         if self.start.posture not in description.postures:
-            raise ValueError(
-                f"start.posture: robot {self.robot!r} has no posture {self.start.posture!r}; "
-                f"postures: {', '.join(description.postures)}"
-            )
+            raise ValueError(f"start.posture: {unknown_posture(self.robot, self.start.posture)}")
         for side, posture in self.hands.items():
             if side not in description.hands:
                 raise ValueError(
@@ -347,10 +350,7 @@ class TaskFile(_Strict):
         for k, step in enumerate(self.steps):
             for goal in [step.goal, *step.goals]:
                 if isinstance(goal, PostureGoal) and goal.posture not in description.postures:
-                    raise ValueError(
-                        f"steps.{k}: robot {self.robot!r} has no posture {goal.posture!r}; "
-                        f"postures: {', '.join(description.postures)}"
-                    )
+                    raise ValueError(f"steps.{k}: {unknown_posture(self.robot, goal.posture)}")
                 for field in ("grasp", "hand_over", "take", "place", "insert", "into"):
                     value = getattr(goal, field, None)
                     if value is not None and value not in objects:

@@ -40,8 +40,15 @@ def posture(robot: str, name: str) -> dict[str, float]:
     """Joint values of one of a robot's named postures (joints not listed are 0)."""
     postures = description_of(robot).postures
     if name not in postures:
-        raise HriplanError(f"robot {robot!r} has no posture {name!r}; postures: {', '.join(postures)}")
+        raise HriplanError(unknown_posture(robot, name))
     return dict(postures[name])
+
+
+def unknown_posture(robot: str, name: str) -> str:
+    """What to say of a posture `robot` does not have: the ones it has, or where they come from."""
+    postures = description_of(robot).postures
+    known = ", ".join(postures) or "none (a robot file's `postures`, or its SRDF's group states, name them)"
+    return f"robot {robot!r} has no posture {name!r}; postures: {known}"
 
 
 ROBOT_FILE_SUFFIXES = (".yaml", ".yml", ".json")
