@@ -243,6 +243,8 @@ def test_every_bad_robot_file_is_one_line(fork, arm, message):
         (("meshes/d.stl", "meshes/gone.stl"), "missing mesh {tmp}/meshes/gone.stl (from meshes/gone.stl)"),
         (("meshes/d.stl", "package://nopkg/d.stl"), "mesh package://nopkg/d.stl: no package 'nopkg'"),
         (('<link name="c"/>', ""), "URDF joint 'jc' names an unknown link 'c'"),
+        # urdfdom refuses these with "not a valid URDF model" alone (and pinocchio with a traceback)
+        (('<link name="c"/>', '<link name="c"/><link name="c"/>'), "the URDF names two links 'c'"),
     ],
 )
 def test_a_bad_urdf_is_one_line(fork, change, message):
@@ -252,6 +254,23 @@ def test_a_bad_urdf_is_one_line(fork, change, message):
     with pytest.raises(HriplanError) as error:
         load_robot_file(path)
     assert message.format(tmp=fork.resolve()) in str(error.value) and "\n" not in str(error.value)
+
+
+def test_an_offset_tool_frame_takes_a_joint_name_the_urdf_does_not_use(fork):
+    """The offset tool frame `ARM_tool` hangs on a fixed joint hriplan names: `ARM_tool_joint`,
+    unless the URDF has one (TIAGo's `arm_tool_joint`), when two joints of one name made
+    pinocchio refuse the URDF with a traceback."""
+    urdf = (FORK / "fork.urdf").read_text()
+    (fork / "fork.urdf").write_text(urdf.replace('name="jc"', 'name="arm_tool_joint"'))
+    path = fork / "fork.yaml"
+    path.write_text(
+        "name: fork_offset\nurdf: fork.urdf\narms:\n  arm: {base: base, tip: c, tool_offset: {xyz: [0, 0, 0.1]}}\n"
+    )
+    robot = load_robot(load_robot_file(path).name)
+    assert robot.model.existFrame("arm_tool")
+    tool, tip = (robot.model.frames[robot.model.getFrameId(f)] for f in ("arm_tool", "c"))
+    assert np.allclose((tip.placement.inverse() * tool.placement).translation, (0.0, 0.0, 0.1))
+    assert "arm_tool_joint1" in robot.description.urdf()
 
 
 def test_a_package_folder_named_in_the_file_resolves_meshes(tmp_path):

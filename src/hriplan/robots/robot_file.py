@@ -344,7 +344,13 @@ class _Builder:
             raise HriplanError(f"{what}: the URDF already has a link {name!r} for the offset tool frame")
         xyz, rpy = _xyz_rpy(a.tool_offset)
         X.link(self.root, name)
-        X.joint(self.root, f"{name}_joint", "fixed", link, name, xyz, rpy)
+        # Its joint's name is ours to choose: one the URDF does not use (TIAGo has an arm_tool_joint).
+        joint = next(
+            f"{name}_joint{k or ''}"
+            for k in range(len(self.tree.joints) + 1)
+            if f"{name}_joint{k or ''}" not in self.tree.joints
+        )
+        X.joint(self.root, joint, "fixed", link, name, xyz, rpy)
         return name
 
     def hand(self, arm: str, a: ArmSpec, prefix: str, joints: list[str]) -> str | None:

@@ -25,6 +25,11 @@ class UrdfTree:
 
     def __init__(self, root: ET.Element) -> None:
         self.links = [el.get("name") for el in root.findall("link")]
+        for kind in ("link", "joint"):  # urdfdom refuses such a file with only "not a valid URDF model"
+            names = [el.get("name") for el in root.findall(kind)]
+            twice = sorted({n for n in names if names.count(n) > 1})
+            if twice:
+                raise HriplanError(f"the URDF names two {kind}s {twice[0]!r}")
         joints = {}
         for el in root.findall("joint"):
             parent, child = el.find("parent"), el.find("child")
