@@ -198,6 +198,7 @@ def test_init_from_a_urdf_alone_ends_the_arm_at_its_hand_and_starts_it_free(tmp_
             "ik": "numeric",
         }
     }
+    assert "\n# stopping: {reaction_time: S, stopping_time: S" in out.read_text()  # to fill in, no guess
     ready = data["postures"]["ready"]
     assert sorted(ready) == sorted(["torso_lift_joint", *(f"arm_{k}_joint" for k in range(1, 8))])
     arm = {f"arm_{k}_link" for k in range(3, 8)} | {"hand_palm_link"}

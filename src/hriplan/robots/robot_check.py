@@ -117,6 +117,12 @@ def _colliding_postures(checker: CollisionChecker, postures: dict[str, dict[str,
     return lines
 
 
+# The end of every file `robot init` writes: planning near people needs the robot's ISO/TS 15066
+# stopping data, which only a measurement of the deployed robot gives.
+STOPPING_TODO = (
+    "# Planning near people needs ISO/TS 15066 stopping data, measured on the deployed robot:\n"
+    "# stopping: {reaction_time: S, stopping_time: S, position_uncertainty: M, moving_mass: KG}\n"
+)
 # Random postures `robot init` tries when none of its named candidates is free of self-collision.
 FREE_SEARCH_SAMPLES = 2000
 
@@ -346,7 +352,9 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
             header += f"# The URDF gives {', '.join(unlimited)} no velocity limit: {GUESSED_VELOCITY} rad/s is a guess to check.\n"
 
     def write() -> None:
-        write_atomically(output, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None))
+        write_atomically(
+            output, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None) + STOPPING_TODO
+        )
 
     write()
     description = load_robot_file(output)
