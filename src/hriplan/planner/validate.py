@@ -59,29 +59,25 @@ def validate_path(
     """Check the path (ambient vectors of the evaluator's group) densely; `human_distance` adds
     the closest approach to a person (a report figure, costly: only the timed path's report asks)."""
     dense = densify(states, step)
-    worst = np.full(len(evaluator.constraints), -np.inf)
-    collision, failed = None, None
-    for k, x in enumerate(dense):
-        q = evaluator.full(x)
-        margins = evaluator.margins(q) if evaluator.constraints else np.zeros(0)
-        worst = np.maximum(worst, margins)
-        if collision is None and checker.in_collision(q):
-            contacts = checker.contacts(q)
-            pair = f"{contacts[0].a} - {contacts[0].b}" if contacts else "collision"
-            collision = f"{pair} at dense state {k} of {len(dense)}"
-        if failed is None and (collision is not None or margins.max(initial=-np.inf) > VALIDATION_TOLERANCE):
-            failed = x
+    qs = evaluator.full_many(dense)
+    margins = np.array([evaluator.margins(q) for q in qs]) if evaluator.constraints else np.zeros((len(dense), 0))
+    worst = margins.max(axis=0, initial=-np.inf)
+    violated_at = np.flatnonzero(margins.max(axis=1, initial=-np.inf) > VALIDATION_TOLERANCE)
+    # The first colliding state, the states checked in order (those after it are not asked).
+    hit = next((k for k, q in enumerate(qs) if checker.in_collision(q)), None)
+    collision = None
+    if hit is not None:
+        contacts = checker.contacts(qs[hit])
+        pair = f"{contacts[0].a} - {contacts[0].b}" if contacts else "collision"
+        collision = f"{pair} at dense state {hit} of {len(dense)}"
+    firsts = [k for k in (hit, violated_at[0] if violated_at.size else None) if k is not None]
+    failed = dense[min(firsts)] if firsts else None
     checks = [
         ConstraintCheck(id=c.id, max_violation=float(w), satisfied=bool(w <= VALIDATION_TOLERANCE))
         for c, w in zip(evaluator.constraints, worst)
     ]
-    sample = (
-        dense[np.unique(np.linspace(0, len(dense) - 1, min(len(dense), DISTANCE_SAMPLES)).astype(int))]
-        if human_distance
-        else []
-    )
-    distances = checker.human_distances(np.array([evaluator.full(x) for x in sample]))
-    best = min(distances, key=lambda d: d[0]) if distances else (float("inf"), "", "")
+    sample = dense[np.unique(np.linspace(0, len(dense) - 1, min(len(dense), DISTANCE_SAMPLES)).astype(int))]
+    best = checker.closest_human(evaluator.full_many(sample)) if human_distance else (float("inf"), "", "")
     violated = [c.id for c in checks if not c.satisfied]
     problems = ([f"constraint {', '.join(violated)} violated"] if violated else []) + ([collision] if collision else [])
     return PathValidation(

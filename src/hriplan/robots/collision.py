@@ -12,7 +12,8 @@ standing on a table must not collide through its capsule, which reaches 8 cm bel
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import coal
@@ -28,6 +29,7 @@ from hriplan.robots.model import Robot
 from hriplan.robots.robot_geometry import ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
+from hriplan.safety.person_distance import PartSpheres
 
 # How a separation zone is named in contacts and messages: "bob/left_upperleg (minimum separation 0.225 m)".
 ZONE_NAMING = "minimum separation"
@@ -603,34 +605,97 @@ class CollisionChecker:
         group: most of MADAR stands still), the others at every state, in one C++ call each."""
         if self._people_stale:
             self._people_ready()
-        dm, data, model = self._distance_model, self._distance_data, self.robot.model
+        dm = self._distance_model
         if not dm.collisionPairs or not len(qs):
             return [(float("inf"), "", "")] * len(qs)
         qs = np.asarray(qs, dtype=float)
+        pairs, _ = self._distance_pair_table()
+        moving = self._moving_pairs(qs)
+        # Per state (distance, pair): the least, and of equal ones the first pair, as one call over all.
+        ranked: list[tuple[float, int]] = [(float("inf"), -1)] * len(qs)
+        for part, states in ((~moving, qs[:1]), (moving, qs)):
+            if part.any():
+                with self._only_pairs(part):
+                    found = [self._closest_at(q) for q in states]
+                if len(found) == 1:  # the still parts: the same at every state
+                    found *= len(qs)
+                ranked = [min(r, f) for r, f in zip(ranked, found)]
+        names = [g.name for g in dm.geometryObjects]
+        return [(d, names[pairs[k, 0]], names[pairs[k, 1]]) for d, k in ranked]
+
+    def closest_human(self, qs: np.ndarray) -> tuple[float, str, str]:
+        """The closest robot-person pair over the states `qs` (N, nq): the least of
+        `human_distances(qs)` and its pair (of equal ones, the first state's); (inf, "", "")
+        without people or states. A path report keeps only this one number, so not every state
+        is measured: the still parts once (as there), then the states in the order of a lower
+        bound on their moving parts' distances (bounding spheres against the grown capsules'
+        axes, `PartSpheres`), each through coal as there, until the bound passes the closest
+        found: a state whose bound is above it cannot hold a closer pair, nor an equal one."""
+        if not len(qs):
+            return (float("inf"), "", "")
+        if self._people_stale:
+            self._people_ready()
+        dm = self._distance_model
+        if not dm.collisionPairs:
+            return (float("inf"), "", "")
+        qs = np.asarray(qs, dtype=float)
+        pairs, _ = self._distance_pair_table()
+        moving = self._moving_pairs(qs)
+        best = (float("inf"), 0, -1)  # (distance, state, pair): the least, then the first state, then pair
+        if (~moving).any():
+            with self._only_pairs(~moving):
+                distance, pair = self._closest_at(qs[0])
+            best = (distance, 0, pair)
+        if moving.any():
+            floor = self._moving_floor(qs, moving)
+            with self._only_pairs(moving):
+                for state in np.argsort(floor, kind="stable").tolist():
+                    if floor[state] > best[0]:
+                        break
+                    distance, pair = self._closest_at(qs[state])
+                    best = min(best, (distance, state, pair))
+        objects = dm.geometryObjects
+        return best[0], objects[int(pairs[best[2], 0])].name, objects[int(pairs[best[2], 1])].name
+
+    def _moving_floor(self, qs: np.ndarray, moving: np.ndarray) -> np.ndarray:
+        """Per state, a lower bound on the distance of the distance model's `moving` pairs."""
+        pairs, _ = self._distance_pair_table()
+        objects = self._distance_model.geometryObjects
+        capsules = sorted(set(pairs[moving, 1].tolist()))
+        placements = [objects[b].placement for b in capsules]
+        spheres = PartSpheres.of(self.robot.model, self._distance_model, sorted(set(pairs[moving, 0].tolist())))
+        return spheres.floor(
+            qs,
+            np.array([m.translation for m in placements]),
+            np.array([m.rotation[:, 2] for m in placements]),
+            np.array([objects[b].geometry.halfLength for b in capsules]),
+            np.array([objects[b].geometry.radius for b in capsules]),
+        )
+
+    def _moving_pairs(self, qs: np.ndarray) -> np.ndarray:
+        """Which distance-model pairs have their robot part on a joint that a joint varying
+        along `qs` moves."""
+        model = self.robot.model
         varying = np.ptp(qs, axis=0) > 0.0
         changed = {
             j for j in range(1, model.njoints) if varying[model.idx_qs[j] : model.idx_qs[j] + model.nqs[j]].any()
         }
         moved = {j for j in range(model.njoints) if changed.intersection(model.supports[j])}
-        pairs, joints = self._distance_pair_table()
-        moving = np.isin(joints, sorted(moved))
-        # Per state (distance, pair): the least, and of equal ones the first pair, as one call over all.
-        ranked: list[tuple[float, int]] = [(float("inf"), -1)] * len(qs)
-        try:
-            for part, states in ((~moving, qs[:1]), (moving, qs)):
-                if part.any():
-                    data.setActiveCollisionPairs(dm, self._pair_map(part), False)
-                    found = [self._closest_active(q) for q in states]
-                    if len(found) == 1:  # the still parts: the same at every state
-                        found *= len(qs)
-                    ranked = [min(r, f) for r, f in zip(ranked, found)]
-        finally:
-            data.setActiveCollisionPairs(dm, self._pair_map(np.ones(len(pairs), dtype=bool)), False)
-        names = [g.name for g in dm.geometryObjects]
-        return [(d, names[pairs[k, 0]], names[pairs[k, 1]]) for d, k in ranked]
+        _, joints = self._distance_pair_table()
+        return np.isin(joints, sorted(moved))
 
-    def _closest_active(self, q: np.ndarray) -> tuple[float, int]:
-        """(distance, pair) of the distance model's closest active pair at `q`."""
+    @contextmanager
+    def _only_pairs(self, active: np.ndarray) -> Iterator[None]:
+        """The distance model's pairs `active` (a flag a pair) alone active, within the block."""
+        dm, data = self._distance_model, self._distance_data
+        data.setActiveCollisionPairs(dm, self._pair_map(active), False)
+        try:
+            yield
+        finally:
+            data.setActiveCollisionPairs(dm, self._pair_map(np.ones(len(active), dtype=bool)), False)
+
+    def _closest_at(self, q: np.ndarray) -> tuple[float, int]:
+        """(distance, pair) of the distance model's closest active pair at `q`, in one C++ call."""
         k = pin.computeDistances(self.robot.model, self.robot.data, self._distance_model, self._distance_data, q)
         return float(self._distance_data.distanceResults[k].min_distance), k
 
