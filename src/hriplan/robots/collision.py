@@ -626,11 +626,15 @@ class CollisionChecker:
     def closest_human(self, qs: np.ndarray) -> tuple[float, str, str]:
         """The closest robot-person pair over the states `qs` (N, nq): the least of
         `human_distances(qs)` and its pair (of equal ones, the first state's); (inf, "", "")
-        without people or states. A path report keeps only this one number, so not every state
-        is measured: the still parts once (as there), then the states in the order of a lower
-        bound on their moving parts' distances (bounding spheres against the grown capsules'
-        axes, `PartSpheres`), each through coal as there, until the bound passes the closest
-        found: a state whose bound is above it cannot hold a closer pair, nor an equal one."""
+        without people or states. A path report keeps only this one number, so not every pair
+        is measured at every state. The still parts are measured once (as there). Every moving
+        pair gets a lower bound per state (`PartSpheres`: its part's bounding sphere against the
+        grown capsule's axis); the state of the least bound is measured on every moving pair,
+        then only the pairs whose bound comes within the closest found at some state, at the
+        states in the order of their bound until it passes the closest found, each state through
+        coal as there. A pair or state whose bound is above the closest found cannot hold a
+        closer distance, nor an equal one (the bound is 1e-4 m below coal's), so the least, its
+        first state and that state's first pair of the least are those of `human_distances`."""
         if not len(qs):
             return (float("inf"), "", "")
         if self._people_stale:
@@ -647,30 +651,43 @@ class CollisionChecker:
                 distance, pair = self._closest_at(qs[0])
             best = (distance, 0, pair)
         if moving.any():
-            floor = self._moving_floor(qs, moving)
-            with self._only_pairs(moving):
-                for state in np.argsort(floor, kind="stable").tolist():
-                    if floor[state] > best[0]:
+            floor, rows = self._moving_floors(qs, moving)
+            first = int(np.argmin(floor.min(axis=1)))
+            if floor[first].min() <= best[0]:
+                with self._only_pairs(moving):
+                    distance, pair = self._closest_at(qs[first])
+                best = min(best, (distance, first, pair))
+            near = floor.min(axis=0) <= best[0]
+            active = np.zeros(len(pairs), dtype=bool)
+            active[rows[near]] = True
+            bound = floor[:, near].min(axis=1, initial=np.inf)
+            with self._only_pairs(active):
+                for state in np.argsort(bound, kind="stable").tolist():
+                    if bound[state] > best[0]:
                         break
-                    distance, pair = self._closest_at(qs[state])
-                    best = min(best, (distance, state, pair))
+                    if state != first:
+                        distance, pair = self._closest_at(qs[state])
+                        best = min(best, (distance, state, pair))
         objects = dm.geometryObjects
         return best[0], objects[int(pairs[best[2], 0])].name, objects[int(pairs[best[2], 1])].name
 
-    def _moving_floor(self, qs: np.ndarray, moving: np.ndarray) -> np.ndarray:
-        """Per state, a lower bound on the distance of the distance model's `moving` pairs."""
+    def _moving_floors(self, qs: np.ndarray, moving: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A lower bound on the distance of each of the distance model's `moving` pairs at each
+        state (N, R), and those pairs' indices (R,)."""
         pairs, _ = self._distance_pair_table()
         objects = self._distance_model.geometryObjects
-        capsules = sorted(set(pairs[moving, 1].tolist()))
+        parts, capsules = sorted(set(pairs[moving, 0].tolist())), sorted(set(pairs[moving, 1].tolist()))
         placements = [objects[b].placement for b in capsules]
-        spheres = PartSpheres.of(self.robot.model, self._distance_model, sorted(set(pairs[moving, 0].tolist())))
-        return spheres.floor(
+        floors = PartSpheres.of(self.robot.model, self._distance_model, parts).floors(
             qs,
             np.array([m.translation for m in placements]),
             np.array([m.rotation[:, 2] for m in placements]),
             np.array([objects[b].geometry.halfLength for b in capsules]),
             np.array([objects[b].geometry.radius for b in capsules]),
         )
+        index = np.full((self._distance_model.ngeoms,) * 2, -1, dtype=int)
+        index[pairs[:, 0], pairs[:, 1]] = np.arange(len(pairs))
+        return floors.reshape(len(qs), -1), index[np.ix_(parts, capsules)].reshape(-1)
 
     def _moving_pairs(self, qs: np.ndarray) -> np.ndarray:
         """Which distance-model pairs have their robot part on a joint that a joint varying

@@ -236,18 +236,17 @@ class PartSpheres:
         self._centre = np.array([c for c, _ in spheres]).reshape(-1, 3, 1)
         self._radius = np.array([r for _, r in spheres])
 
-    def floor(
+    def floors(
         self, qs: np.ndarray, centre: np.ndarray, axis: np.ndarray, half: np.ndarray, radius: np.ndarray
     ) -> np.ndarray:
-        """Per configuration of `qs` (N, nq): a lower bound on the signed distance from any of the
-        parts to any capsule given by centre and unit axis (S, 3), half length and radius (S,),
-        less coal's tolerance (so below coal's answer too). A part lies inside its sphere, so
-        no point of it is nearer a capsule than the sphere's centre's gap to the capsule's axis
-        less both radii; this holds inside a capsule as well (a negative bound)."""
+        """Per configuration of `qs` (N, nq), part and capsule (N, P, S): a lower bound on their
+        signed distance, the capsules given by centre and unit axis (S, 3), half length and
+        radius (S,); less coal's tolerance, so below coal's answer too. A part lies inside its
+        sphere, so none of its points is nearer a capsule than the sphere's centre's gap to the
+        capsule's axis less both radii; inside a capsule as well (a negative bound)."""
         frames = self._kinematics(qs, np.zeros((len(qs), self.robot_model.nv)))
         placed = (frames.rotation[:, self._frame] @ self._centre)[..., 0] + frames.origin[:, self._frame]
-        gap = axis_gaps(placed, centre, axis, half) - self._radius[:, None] - radius
-        return gap.min(axis=(1, 2), initial=np.inf) - _COAL_TOLERANCE
+        return axis_gaps(placed, centre, axis, half) - self._radius[:, None] - radius - _COAL_TOLERANCE
 
 
 _SPHERES: Recent[tuple[int, int, tuple[int, ...]], PartSpheres] = Recent(8)
