@@ -63,8 +63,7 @@ def validate_path(
     margins = np.array([evaluator.margins(q) for q in qs]) if evaluator.constraints else np.zeros((len(dense), 0))
     worst = margins.max(axis=0, initial=-np.inf)
     violated_at = np.flatnonzero(margins.max(axis=1, initial=-np.inf) > VALIDATION_TOLERANCE)
-    # The first colliding state, the states checked in order (those after it are not asked).
-    hit = next((k for k, q in enumerate(qs) if checker.in_collision(q)), None)
+    hit = checker.first_collision(qs)
     collision = None
     if hit is not None:
         contacts = checker.contacts(qs[hit])

@@ -559,12 +559,27 @@ class CollisionChecker:
         if not self._tabled:
             return False
         values = q.tolist()
-        for table, pairs in self._tabled:
-            if not table.certified(values):
-                for k in pairs:
-                    if pin.computeCollision(self._geom_model, self._geom_data, k):
-                        return True
-        return False
+        return any(not table.certified(values) and self._meshes_touch(pairs) for table, pairs in self._tabled)
+
+    def first_collision(self, qs: np.ndarray) -> int | None:
+        """The index of the first of the states `qs` (N, nq) in collision, None if none: each
+        state checked as `in_collision` does, in order, until one collides; the clearance
+        tables asked about every state at once (a path's dense validation)."""
+        if self._stale:
+            self._ready()
+        model, data, broadphase = self.robot.model, self.robot.data, self._broadphase
+        certified = np.array([table.certified_many(qs) for table, _ in self._tabled], dtype=bool)
+        certified = certified.reshape(len(self._tabled), len(qs)).T
+        for k, q in enumerate(qs):
+            if pin.computeCollisions(model, data, broadphase, q, True):
+                return k
+            if any(not free and self._meshes_touch(pairs) for (_, pairs), free in zip(self._tabled, certified[k])):
+                return k
+        return None
+
+    def _meshes_touch(self, pairs: list[int]) -> bool:
+        """Does any of a table's mesh pairs collide, where the broad phase placed them?"""
+        return any(pin.computeCollision(self._geom_model, self._geom_data, k) for k in pairs)
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
         """Every colliding pair at `q`, by name (for error messages and reports). A free state
