@@ -47,7 +47,7 @@ STAGES = (
     ("    ISO/TS 15066 monitor (speed_scale)", ApproachMonitor, ("speed_scale",)),
     ("  dense validation", session_module, ("validate_path",)),
     ("    closest person distance (report)", CollisionChecker, ("human_distances", "closest_human")),
-    ("    collision checks", CollisionChecker, ("in_collision",)),
+    ("    collision checks", CollisionChecker, ("in_collision", "first_collision")),
     ("collision builds (anywhere)", CollisionChecker, ("set_world", "_ready", "_people_ready")),
 )
 
