@@ -9,8 +9,8 @@ import pytest
 
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.human import HumanSpec
+from hriplan.robots.part_spheres import PartSpheres
 from hriplan.robots.scene import AttachedObject, Cylinder, Scene
-from hriplan.safety.person_distance import PartSpheres
 from independent import closest_robot_person
 from madar_states import CLEAR
 

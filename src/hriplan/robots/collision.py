@@ -26,10 +26,10 @@ from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
+from hriplan.robots.part_spheres import PartSpheres
 from hriplan.robots.robot_geometry import ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
-from hriplan.safety.person_distance import PartSpheres
 
 # How a separation zone is named in contacts and messages: "bob/left_upperleg (minimum separation 0.225 m)".
 ZONE_NAMING = "minimum separation"

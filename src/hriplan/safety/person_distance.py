@@ -14,7 +14,7 @@ cannot change the answer, and reading coal's results from Python, were most of t
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 
 import coal
@@ -23,6 +23,7 @@ import pinocchio as pin
 
 from hriplan.recent import Recent
 from hriplan.robots.batch_kinematics import BatchKinematics
+from hriplan.robots.part_spheres import BOUND_TOLERANCE, axis_gaps, bounding_sphere
 from hriplan.safety.capsule_distance import capsule_distances
 
 
@@ -49,9 +50,6 @@ class Select:
     needed: Callable[[StatePairs, np.ndarray, np.ndarray], np.ndarray]
 
 
-# A lower bound is lowered by this (m) to stay below coal's (and rounding's) answer: its GJK stops when the squared
-# distance is within 1e-6, ~1e-5 m at 2 cm (the same pair differs by 9e-6 m from another start).
-_COAL_TOLERANCE = 1e-4
 # An upper bound on a speed is raised by this, relatively and absolutely (m/s): float rounding.
 _ROUNDING = 1e-9
 
@@ -108,7 +106,7 @@ class PersonDistances:
         parts = sorted({a for a, _ in pairs})
         self._part = np.array([parts.index(a) for a, _ in pairs], dtype=int)
         self._sphere_frame = np.array([self._frames.index(objects[a].parentJoint) for a in parts], dtype=int)
-        spheres = [_bounding_sphere(objects[a]) for a in parts]
+        spheres = [bounding_sphere(objects[a]) for a in parts]
         self._sphere_centre = np.array([c for c, _ in spheres]).reshape(-1, 3, 1)
         self._sphere_radius = np.array([r for _, r in spheres])
 
@@ -201,7 +199,7 @@ class PersonDistances:
         speed = np.linalg.norm(_point_velocity(world.linear[:, frame], spin, world.origin[:, frame], centre), axis=2)
         speed += np.linalg.norm(spin, axis=2) * self._sphere_radius
         gap = axis_gaps(centre, world.person_centre, world.person_axis, self._slot_half)[:, self._part, self._slot]
-        floor = gap - self._sphere_radius[self._part] - self._person_radius - _COAL_TOLERANCE
+        floor = gap - self._sphere_radius[self._part] - self._person_radius - BOUND_TOLERANCE
         return floor, speed[:, self._part] * (1.0 + _ROUNDING) + _ROUNDING
 
     def _person_capsules(self) -> tuple[np.ndarray, np.ndarray]:
@@ -209,59 +207,6 @@ class PersonDistances:
         the person may have been re-posed."""
         person = [self.person_model.geometryObjects[b].placement for b in self._slots]
         return np.array([m.translation for m in person]), np.array([m.rotation[:, 2] for m in person])
-
-
-class PartSpheres:
-    """Bounding spheres of some parts of a geometry model, placed at many states at once. Why:
-    the closest approach over a path (`CollisionChecker.closest_human`) is one number; a lower
-    bound per state rules out most states without measuring any pair of them through coal."""
-
-    @classmethod
-    def of(cls, robot_model: pin.Model, model: pin.GeometryModel, parts: Sequence[int]) -> PartSpheres:
-        """The one made last for these models and parts, else a new one (~0.3 ms to make)."""
-        key = (id(robot_model), id(model), tuple(parts))
-        made = _SPHERES.get(key)  # held here, the models' ids are not reused while it is
-        if made is None or made.robot_model is not robot_model or made.model is not model:
-            made = cls(robot_model, model, parts)
-            _SPHERES.put(key, made)
-        return made
-
-    def __init__(self, robot_model: pin.Model, model: pin.GeometryModel, parts: Sequence[int]) -> None:
-        self.robot_model, self.model = robot_model, model
-        objects = model.geometryObjects
-        joints = sorted({objects[a].parentJoint for a in parts})
-        self._kinematics = BatchKinematics(robot_model, joints)
-        self._frame = np.array([joints.index(objects[a].parentJoint) for a in parts], dtype=int)
-        spheres = [_bounding_sphere(objects[a]) for a in parts]
-        self._centre = np.array([c for c, _ in spheres]).reshape(-1, 3, 1)
-        self._radius = np.array([r for _, r in spheres])
-
-    def floors(
-        self, qs: np.ndarray, centre: np.ndarray, axis: np.ndarray, half: np.ndarray, radius: np.ndarray
-    ) -> np.ndarray:
-        """Per configuration of `qs` (N, nq), part and capsule (N, P, S): a lower bound on their
-        signed distance, the capsules given by centre and unit axis (S, 3), half length and
-        radius (S,); less coal's tolerance, so below coal's answer too. A part lies inside its
-        sphere, so none of its points is nearer a capsule than the sphere's centre's gap to the
-        capsule's axis less both radii; inside a capsule as well (a negative bound)."""
-        frames = self._kinematics(qs, np.zeros((len(qs), self.robot_model.nv)))
-        placed = (frames.rotation[:, self._frame] @ self._centre)[..., 0] + frames.origin[:, self._frame]
-        return axis_gaps(placed, centre, axis, half) - self._radius[:, None] - radius - _COAL_TOLERANCE
-
-
-_SPHERES: Recent[tuple[int, int, tuple[int, ...]], PartSpheres] = Recent(8)
-
-
-def axis_gaps(centre: np.ndarray, p: np.ndarray, a: np.ndarray, half: np.ndarray) -> np.ndarray:
-    """Distances (N, P, S) from points `centre` (N, P, 3) to segments of centre `p`, unit axis `a`
-    (S, 3) and half length `half` (S,), as products of (N, P, 3) by (3, S), not per pair: the
-    squared gaps lose ~1e-15 m^2 to rounding, ~3e-8 m at contact (callers' tolerance is 1e-4)."""
-    # With o = c - p and t = clip(o.a, -h, h), the squared gap is |o|^2 - t (2 o.a - t).
-    along = centre @ a.T - np.einsum("sj,sj->s", p, a)
-    t = np.clip(along, -half, half)
-    squared = np.einsum("npj,npj->np", centre, centre)[..., None] + np.einsum("sj,sj->s", p, p)
-    squared -= 2.0 * (centre @ p.T) + t * (2.0 * along - t)
-    return np.sqrt(np.maximum(squared, 0.0))
 
 
 @dataclass(frozen=True)
@@ -284,16 +229,6 @@ def _point_velocity(linear: np.ndarray, angular: np.ndarray, origin: np.ndarray,
     """The world velocity of `point` on a body whose `origin` moves at `linear` and turns at
     `angular` (all (..., 3), world)."""
     return linear + np.cross(angular, point - origin)
-
-
-def _bounding_sphere(part: pin.GeometryObject) -> tuple[np.ndarray, float]:
-    """A sphere holding the part's shape (about its local bounding box): centre in the part's
-    joint frame, radius."""
-    if isinstance(part.geometry, coal.Capsule):  # its own sphere is tighter than its box's
-        return part.placement.translation.copy(), float(part.geometry.halfLength + part.geometry.radius)
-    shape = part.geometry.clone()  # computing the box on the model's own shape would change it
-    shape.computeLocalAABB()
-    return part.placement.act(np.asarray(shape.aabb_center, dtype=float)), float(shape.aabb_radius)
 
 
 def _coal_model(
