@@ -46,8 +46,8 @@ STAGES = (
     ("  TOPP-RA with the ISO/TS 15066 limit", session_module, ("time_parameterize",)),
     ("    ISO/TS 15066 monitor (speed_scale)", ApproachMonitor, ("speed_scale",)),
     ("  dense validation", session_module, ("validate_path",)),
-    ("    closest person distance (report)", CollisionChecker, ("human_distances",)),
-    ("    collision checks", CollisionChecker, ("in_collision",)),
+    ("    closest person distance (report)", CollisionChecker, ("human_distances", "closest_human")),
+    ("    collision checks", CollisionChecker, ("in_collision", "first_collision")),
     ("collision builds (anywhere)", CollisionChecker, ("set_world", "_ready", "_people_ready")),
 )
 

@@ -12,7 +12,8 @@ standing on a table must not collide through its capsule, which reaches 8 cm bel
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import coal
@@ -25,6 +26,7 @@ from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
+from hriplan.robots.part_spheres import PartSpheres
 from hriplan.robots.robot_geometry import ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
@@ -557,12 +559,27 @@ class CollisionChecker:
         if not self._tabled:
             return False
         values = q.tolist()
-        for table, pairs in self._tabled:
-            if not table.certified(values):
-                for k in pairs:
-                    if pin.computeCollision(self._geom_model, self._geom_data, k):
-                        return True
-        return False
+        return any(not table.certified(values) and self._meshes_touch(pairs) for table, pairs in self._tabled)
+
+    def first_collision(self, qs: np.ndarray) -> int | None:
+        """The index of the first of the states `qs` (N, nq) in collision, None if none: each
+        state checked as `in_collision` does, in order, until one collides; the clearance
+        tables asked about every state at once (a path's dense validation)."""
+        if self._stale:
+            self._ready()
+        model, data, broadphase = self.robot.model, self.robot.data, self._broadphase
+        certified = np.array([table.certified_many(qs) for table, _ in self._tabled], dtype=bool)
+        certified = certified.reshape(len(self._tabled), len(qs)).T
+        for k, q in enumerate(qs):
+            if pin.computeCollisions(model, data, broadphase, q, True):
+                return k
+            if any(not free and self._meshes_touch(pairs) for (_, pairs), free in zip(self._tabled, certified[k])):
+                return k
+        return None
+
+    def _meshes_touch(self, pairs: list[int]) -> bool:
+        """Does any of a table's mesh pairs collide, where the broad phase placed them?"""
+        return any(pin.computeCollision(self._geom_model, self._geom_data, k) for k in pairs)
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
         """Every colliding pair at `q`, by name (for error messages and reports). A free state
@@ -603,34 +620,114 @@ class CollisionChecker:
         group: most of MADAR stands still), the others at every state, in one C++ call each."""
         if self._people_stale:
             self._people_ready()
-        dm, data, model = self._distance_model, self._distance_data, self.robot.model
+        dm = self._distance_model
         if not dm.collisionPairs or not len(qs):
             return [(float("inf"), "", "")] * len(qs)
         qs = np.asarray(qs, dtype=float)
+        pairs, _ = self._distance_pair_table()
+        moving = self._moving_pairs(qs)
+        # Per state (distance, pair): the least, and of equal ones the first pair, as one call over all.
+        ranked: list[tuple[float, int]] = [(float("inf"), -1)] * len(qs)
+        for part, states in ((~moving, qs[:1]), (moving, qs)):
+            if part.any():
+                with self._only_pairs(part):
+                    found = [self._closest_at(q) for q in states]
+                if len(found) == 1:  # the still parts: the same at every state
+                    found *= len(qs)
+                ranked = [min(r, f) for r, f in zip(ranked, found)]
+        names = [g.name for g in dm.geometryObjects]
+        return [(d, names[pairs[k, 0]], names[pairs[k, 1]]) for d, k in ranked]
+
+    def closest_human(self, qs: np.ndarray) -> tuple[float, str, str]:
+        """The closest robot-person pair over the states `qs` (N, nq): the least of
+        `human_distances(qs)` and its pair (of equal ones, the first state's); (inf, "", "")
+        without people or states. A path report keeps only this one number, so not every pair
+        is measured at every state. The still parts are measured once (as there). Every moving
+        pair gets a lower bound per state (`PartSpheres`: its part's bounding sphere against the
+        grown capsule's axis); the state of the least bound is measured on every moving pair,
+        then only the pairs whose bound comes within the closest found at some state, at the
+        states in the order of their bound until it passes the closest found, each state through
+        coal as there. A pair or state whose bound is above the closest found cannot hold a
+        closer distance, nor an equal one (the bound is 1e-4 m below coal's), so the least, its
+        first state and that state's first pair of the least are those of `human_distances`."""
+        if not len(qs):
+            return (float("inf"), "", "")
+        if self._people_stale:
+            self._people_ready()
+        dm = self._distance_model
+        if not dm.collisionPairs:
+            return (float("inf"), "", "")
+        qs = np.asarray(qs, dtype=float)
+        pairs, _ = self._distance_pair_table()
+        moving = self._moving_pairs(qs)
+        best = (float("inf"), 0, -1)  # (distance, state, pair): the least, then the first state, then pair
+        if (~moving).any():
+            with self._only_pairs(~moving):
+                distance, pair = self._closest_at(qs[0])
+            best = (distance, 0, pair)
+        if moving.any():
+            floor, rows = self._moving_floors(qs, moving)
+            first = int(np.argmin(floor.min(axis=1)))
+            if floor[first].min() <= best[0]:
+                with self._only_pairs(moving):
+                    distance, pair = self._closest_at(qs[first])
+                best = min(best, (distance, first, pair))
+            near = floor.min(axis=0) <= best[0]
+            active = np.zeros(len(pairs), dtype=bool)
+            active[rows[near]] = True
+            bound = floor[:, near].min(axis=1, initial=np.inf)
+            with self._only_pairs(active):
+                for state in np.argsort(bound, kind="stable").tolist():
+                    if bound[state] > best[0]:
+                        break
+                    if state != first:
+                        distance, pair = self._closest_at(qs[state])
+                        best = min(best, (distance, state, pair))
+        objects = dm.geometryObjects
+        return best[0], objects[int(pairs[best[2], 0])].name, objects[int(pairs[best[2], 1])].name
+
+    def _moving_floors(self, qs: np.ndarray, moving: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A lower bound on the distance of each of the distance model's `moving` pairs at each
+        state (N, R), and those pairs' indices (R,)."""
+        pairs, _ = self._distance_pair_table()
+        objects = self._distance_model.geometryObjects
+        parts, capsules = sorted(set(pairs[moving, 0].tolist())), sorted(set(pairs[moving, 1].tolist()))
+        placements = [objects[b].placement for b in capsules]
+        floors = PartSpheres.of(self.robot.model, self._distance_model, parts).floors(
+            qs,
+            np.array([m.translation for m in placements]),
+            np.array([m.rotation[:, 2] for m in placements]),
+            np.array([objects[b].geometry.halfLength for b in capsules]),
+            np.array([objects[b].geometry.radius for b in capsules]),
+        )
+        index = np.full((self._distance_model.ngeoms,) * 2, -1, dtype=int)
+        index[pairs[:, 0], pairs[:, 1]] = np.arange(len(pairs))
+        return floors.reshape(len(qs), -1), index[np.ix_(parts, capsules)].reshape(-1)
+
+    def _moving_pairs(self, qs: np.ndarray) -> np.ndarray:
+        """Which distance-model pairs have their robot part on a joint that a joint varying
+        along `qs` moves."""
+        model = self.robot.model
         varying = np.ptp(qs, axis=0) > 0.0
         changed = {
             j for j in range(1, model.njoints) if varying[model.idx_qs[j] : model.idx_qs[j] + model.nqs[j]].any()
         }
         moved = {j for j in range(model.njoints) if changed.intersection(model.supports[j])}
-        pairs, joints = self._distance_pair_table()
-        moving = np.isin(joints, sorted(moved))
-        # Per state (distance, pair): the least, and of equal ones the first pair, as one call over all.
-        ranked: list[tuple[float, int]] = [(float("inf"), -1)] * len(qs)
-        try:
-            for part, states in ((~moving, qs[:1]), (moving, qs)):
-                if part.any():
-                    data.setActiveCollisionPairs(dm, self._pair_map(part), False)
-                    found = [self._closest_active(q) for q in states]
-                    if len(found) == 1:  # the still parts: the same at every state
-                        found *= len(qs)
-                    ranked = [min(r, f) for r, f in zip(ranked, found)]
-        finally:
-            data.setActiveCollisionPairs(dm, self._pair_map(np.ones(len(pairs), dtype=bool)), False)
-        names = [g.name for g in dm.geometryObjects]
-        return [(d, names[pairs[k, 0]], names[pairs[k, 1]]) for d, k in ranked]
+        _, joints = self._distance_pair_table()
+        return np.isin(joints, sorted(moved))
 
-    def _closest_active(self, q: np.ndarray) -> tuple[float, int]:
-        """(distance, pair) of the distance model's closest active pair at `q`."""
+    @contextmanager
+    def _only_pairs(self, active: np.ndarray) -> Iterator[None]:
+        """The distance model's pairs `active` (a flag a pair) alone active, within the block."""
+        dm, data = self._distance_model, self._distance_data
+        data.setActiveCollisionPairs(dm, self._pair_map(active), False)
+        try:
+            yield
+        finally:
+            data.setActiveCollisionPairs(dm, self._pair_map(np.ones(len(active), dtype=bool)), False)
+
+    def _closest_at(self, q: np.ndarray) -> tuple[float, int]:
+        """(distance, pair) of the distance model's closest active pair at `q`, in one C++ call."""
         k = pin.computeDistances(self.robot.model, self.robot.data, self._distance_model, self._distance_data, q)
         return float(self._distance_data.distanceResults[k].min_distance), k
 

@@ -84,6 +84,21 @@ class ClearanceTable:
             flat = flat * n + c
         return self._bits[flat] == 1
 
+    def certified_many(self, qs: np.ndarray) -> np.ndarray:
+        """`certified` of every row of `qs` (N, nq) at once, by the same arithmetic (a path's
+        states are asked together: one numpy pass instead of a Python loop per state)."""
+        certain, flat = np.ones(len(qs), dtype=bool), np.zeros(len(qs), dtype=np.int64)
+        for i, lower, step, n, wrap in self._axes:
+            offset = qs[:, i] - lower
+            c = np.floor(offset / step)
+            if wrap:
+                c = np.mod(c, n)
+            else:
+                c = np.where((c == n) & (offset <= step * n), n - 1, c)
+                certain &= (c >= 0) & (c < n)
+            flat = flat * n + np.where(certain, c, 0).astype(np.int64)
+        return certain & self.free[flat]
+
 
 def _chain(model: pin.Model, joint: int) -> list[int]:
     """The joint and its ancestors, without the universe."""

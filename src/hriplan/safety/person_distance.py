@@ -23,6 +23,7 @@ import pinocchio as pin
 
 from hriplan.recent import Recent
 from hriplan.robots.batch_kinematics import BatchKinematics
+from hriplan.robots.part_spheres import BOUND_TOLERANCE, axis_gaps, bounding_sphere
 from hriplan.safety.capsule_distance import capsule_distances
 
 
@@ -49,9 +50,6 @@ class Select:
     needed: Callable[[StatePairs, np.ndarray, np.ndarray], np.ndarray]
 
 
-# A lower bound is lowered by this (m) to stay below coal's (and rounding's) answer: its GJK stops when the squared
-# distance is within 1e-6, ~1e-5 m at 2 cm (the same pair differs by 9e-6 m from another start).
-_COAL_TOLERANCE = 1e-4
 # An upper bound on a speed is raised by this, relatively and absolutely (m/s): float rounding.
 _ROUNDING = 1e-9
 
@@ -108,7 +106,7 @@ class PersonDistances:
         parts = sorted({a for a, _ in pairs})
         self._part = np.array([parts.index(a) for a, _ in pairs], dtype=int)
         self._sphere_frame = np.array([self._frames.index(objects[a].parentJoint) for a in parts], dtype=int)
-        spheres = [_bounding_sphere(objects[a]) for a in parts]
+        spheres = [bounding_sphere(objects[a]) for a in parts]
         self._sphere_centre = np.array([c for c, _ in spheres]).reshape(-1, 3, 1)
         self._sphere_radius = np.array([r for _, r in spheres])
 
@@ -200,15 +198,8 @@ class PersonDistances:
         spin = world.angular[:, frame]
         speed = np.linalg.norm(_point_velocity(world.linear[:, frame], spin, world.origin[:, frame], centre), axis=2)
         speed += np.linalg.norm(spin, axis=2) * self._sphere_radius
-        # Sphere centre c against each capsule axis (centre p, unit axis a, half length h): with
-        # o = c - p and t = clip(o.a, -h, h), the squared gap is |o|^2 - t (2 o.a - t).
-        p, a = world.person_centre, world.person_axis
-        along = centre @ a.T - np.einsum("sj,sj->s", p, a)
-        t = np.clip(along, -self._slot_half, self._slot_half)
-        squared = np.einsum("npj,npj->np", centre, centre)[..., None] + np.einsum("sj,sj->s", p, p)
-        squared -= 2.0 * (centre @ p.T) + t * (2.0 * along - t)
-        gap = np.sqrt(np.maximum(squared, 0.0))[:, self._part, self._slot]
-        floor = gap - self._sphere_radius[self._part] - self._person_radius - _COAL_TOLERANCE
+        gap = axis_gaps(centre, world.person_centre, world.person_axis, self._slot_half)[:, self._part, self._slot]
+        floor = gap - self._sphere_radius[self._part] - self._person_radius - BOUND_TOLERANCE
         return floor, speed[:, self._part] * (1.0 + _ROUNDING) + _ROUNDING
 
     def _person_capsules(self) -> tuple[np.ndarray, np.ndarray]:
@@ -238,16 +229,6 @@ def _point_velocity(linear: np.ndarray, angular: np.ndarray, origin: np.ndarray,
     """The world velocity of `point` on a body whose `origin` moves at `linear` and turns at
     `angular` (all (..., 3), world)."""
     return linear + np.cross(angular, point - origin)
-
-
-def _bounding_sphere(part: pin.GeometryObject) -> tuple[np.ndarray, float]:
-    """A sphere holding the part's shape (about its local bounding box): centre in the part's
-    joint frame, radius."""
-    if isinstance(part.geometry, coal.Capsule):  # its own sphere is tighter than its box's
-        return part.placement.translation.copy(), float(part.geometry.halfLength + part.geometry.radius)
-    shape = part.geometry.clone()  # computing the box on the model's own shape would change it
-    shape.computeLocalAABB()
-    return part.placement.act(np.asarray(shape.aabb_center, dtype=float)), float(shape.aabb_radius)
 
 
 def _coal_model(

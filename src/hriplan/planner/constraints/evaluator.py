@@ -216,6 +216,12 @@ class ConstraintEvaluator:
         q[self._q_slot] = x
         return q
 
+    def full_many(self, xs: np.ndarray) -> np.ndarray:
+        """`full` of every row of `xs` (N, n) at once: (N, nq)."""
+        qs = np.repeat(self.q[None, :], len(xs), axis=0)
+        qs[:, self._q_slot] = xs
+        return qs
+
     def _update(self, q: np.ndarray, jacobians: bool) -> None:
         """Kinematics at q, computed once per configuration: OMPL asks for the rows, the
         Jacobian and the validity of the same state in turn, and each needs the same FK."""

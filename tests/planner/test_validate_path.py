@@ -1,0 +1,117 @@
+"""Dense validation (`validate_path`) against the plain state-by-state check it replaced: densify
+one segment at a time, every state's margins and collision in order, the closest person from
+`human_distances` at every sampled state. Same PathValidation, field for field, on paths that
+stay valid, leave constraints, collide (the first colliding state named) and pass a person."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from hriplan.planner.constraints.binding import bind
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.planner.constraints.spec import BoxConstraint, FrameRef, OrientationConstraint
+from hriplan.planner.validate import (
+    DISTANCE_SAMPLES,
+    VALIDATION_TOLERANCE,
+    ConstraintCheck,
+    PathValidation,
+    densify,
+    validate_path,
+)
+from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.human import HumanSpec
+from hriplan.robots.scene import Scene, table
+from hriplan.robots.spatial import Pose
+from independent import densified
+from madar_states import CLEAR
+
+
+def _one_state_at_a_time(evaluator, checker, states, step, human_distance) -> PathValidation:
+    """The validation as it was: densify row by row, then each state in turn."""
+    dense = [np.asarray(states[0], dtype=float)]
+    for a, b in zip(states, states[1:]):
+        count = max(1, int(np.ceil(np.abs(b - a).max() / step)))
+        dense.extend(a + (b - a) * (k / count) for k in range(1, count + 1))
+    dense = np.array(dense)
+    worst = np.full(len(evaluator.constraints), -np.inf)
+    collision, failed = None, None
+    for k, x in enumerate(dense):
+        q = evaluator.full(x)
+        margins = evaluator.margins(q) if evaluator.constraints else np.zeros(0)
+        worst = np.maximum(worst, margins)
+        if collision is None and checker.in_collision(q):
+            contacts = checker.contacts(q)
+            pair = f"{contacts[0].a} - {contacts[0].b}" if contacts else "collision"
+            collision = f"{pair} at dense state {k} of {len(dense)}"
+        if failed is None and (collision is not None or margins.max(initial=-np.inf) > VALIDATION_TOLERANCE):
+            failed = x
+    checks = [
+        ConstraintCheck(id=c.id, max_violation=float(w), satisfied=bool(w <= VALIDATION_TOLERANCE))
+        for c, w in zip(evaluator.constraints, worst)
+    ]
+    sample = dense[np.unique(np.linspace(0, len(dense) - 1, min(len(dense), DISTANCE_SAMPLES)).astype(int))]
+    distances = checker.human_distances(np.array([evaluator.full(x) for x in sample])) if human_distance else []
+    best = min(distances, key=lambda d: d[0]) if distances else (float("inf"), "", "")
+    violated = [c.id for c in checks if not c.satisfied]
+    problems = ([f"constraint {', '.join(violated)} violated"] if violated else []) + ([collision] if collision else [])
+    return PathValidation(
+        valid=not problems,
+        states_checked=len(dense),
+        constraints=checks,
+        collision=collision,
+        min_human_distance=None if best[0] == float("inf") else best[0],
+        closest_pair=None if best[0] == float("inf") else (best[1], best[2]),
+        message="; ".join(problems),
+        failed_state=None if failed is None else failed.tolist(),
+    )
+
+
+def test_densify_is_the_segments_one_at_a_time(rng):
+    """Bit for bit, whatever the segment lengths (repeated rows, one row, long and short)."""
+    for _ in range(300):
+        rows = rng.normal(0.0, rng.choice([1e-3, 0.05, 1.0]), (rng.integers(1, 7), rng.integers(1, 8)))
+        if len(rows) > 2:
+            rows[2] = rows[1]
+        step = float(rng.choice([0.003, 0.01, 0.05]))
+        assert np.array_equal(densify(list(rows), step), densified(rows, step))
+    assert densify([np.zeros(3)], 0.01).shape == (1, 3)
+
+
+@pytest.fixture(scope="module")
+def problem(madar):
+    """The right arm under an orientation and a box constraint, beside a table and a person."""
+    joints = madar.group_joints("right_arm")
+    q0 = madar.configuration(CLEAR)
+    tool = madar.frame_pose("right_tool", q0)
+    frame = Pose(xyz=tuple(tool[:3, 3]))
+    upright = Pose(rpy=tuple(pin.rpy.matrixToRpy(tool[:3, :3])))
+    specs = [
+        OrientationConstraint(
+            id="upright", joints=joints, target_link="right_tool", target=upright, free_axes=["z"], tolerance=0.3
+        ),
+        BoxConstraint(
+            id="reach", joints=joints, target_link="right_tool", frame=FrameRef(offset=frame), size=(0.6, 0.6, 0.6)
+        ),
+    ]
+    scene = Scene(
+        obstacles=[table(position=(0.6, 0.6), size=(0.5, 0.6, 0.04), top=0.72)],
+        humans=[HumanSpec(name="bob", position=(0.1, 1.3), yaw=-np.pi / 2, margin=0.05)],
+    )
+    checker = CollisionChecker(madar, scene)
+    constrained = ConstraintEvaluator(madar, bind(specs, madar, checker), "right_arm", q0)
+    free = ConstraintEvaluator(madar, [], "right_arm", q0)
+    return (constrained, free), checker, q0[madar.group_indices("right_arm")]
+
+
+def test_validate_path_is_the_state_by_state_check(problem, rng):
+    evaluators, checker, x0 = problem
+    kinds = {"valid": 0, "violated": 0, "collides": 0, "both": 0}
+    for n in range(40):
+        waypoints = x0 + rng.normal(0.0, 0.05 + 0.02 * n, (rng.integers(1, 5), x0.size))
+        waypoints[0] = x0
+        for evaluator, human_distance in zip(evaluators * 2, (False, False, True, True)):
+            found = validate_path(evaluator, checker, list(waypoints), 0.01, human_distance)
+            assert found == _one_state_at_a_time(evaluator, checker, list(waypoints), 0.01, human_distance)
+            violated, collides = any(not c.satisfied for c in found.constraints), found.collision is not None
+            kinds[{(0, 0): "valid", (1, 0): "violated", (0, 1): "collides", (1, 1): "both"}[violated, collides]] += 1
+    assert all(kinds.values()), kinds  # every outcome was compared

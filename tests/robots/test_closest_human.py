@@ -1,0 +1,130 @@
+"""The path report's closest approach to a person (`CollisionChecker.closest_human`) is the least
+of `human_distances` over the same states, same pair, by branch and bound over the states; and
+the bound it orders them by (`PartSpheres.floor`) is below coal's distance of every moving pair."""
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.human import HumanSpec
+from hriplan.robots.part_spheres import PartSpheres
+from hriplan.robots.scene import AttachedObject, Cylinder, Scene
+from independent import closest_robot_person
+from madar_states import CLEAR
+
+PEOPLE = [
+    HumanSpec(name="kim", position=(0.0, 0.55), yaw=-np.pi / 2, margin=0.05, reach={"right": (0.05, 0.4, 1.0)}),
+    HumanSpec(name="lou", position=(1.3, 0.2), yaw=np.pi),
+]
+
+
+@pytest.fixture(scope="module")
+def checker(madar):
+    can = AttachedObject(name="can", shape=Cylinder(radius=0.033, height=0.12), arm="right")
+    return CollisionChecker(madar, Scene(humans=PEOPLE, attached=[can]))
+
+
+def _paths(madar, rng) -> list[np.ndarray]:
+    """Smooth right-arm paths from CLEAR (reaching towards kim, into her, past lou), random
+    states, the shoulder alone turning, and a path that moves nothing."""
+    q0 = madar.configuration(CLEAR)
+    arm = madar.group_indices("right_arm")
+    paths = []
+    for _ in range(12):
+        ends = q0[arm] + rng.normal(0.0, 0.9, (3, arm.size))
+        line = np.concatenate([np.linspace(a, b, 50) for a, b in zip(ends, ends[1:])])
+        path = np.repeat(q0[None], len(line), axis=0)
+        path[:, arm] = line
+        paths.append(path)
+    scattered = np.repeat(q0[None], 60, axis=0)
+    scattered[:, arm] += rng.normal(0.0, 0.8, (60, arm.size))
+    swing = np.repeat(q0[None], 30, axis=0)
+    swing[:, arm[0]] += np.linspace(-1.2, 1.2, 30)
+    return [*paths, scattered, swing, np.repeat(q0[None], 5, axis=0)]
+
+
+def test_closest_human_is_the_least_of_human_distances(madar, checker, rng):
+    touching = 0
+    for path in _paths(madar, rng):
+        every = checker.human_distances(path)
+        least = min(every, key=lambda found: found[0])
+        found = checker.closest_human(path)
+        assert found[1:] == least[1:]
+        assert found[0] == pytest.approx(least[0], abs=1e-5)
+        touching += least[0] < 0.0
+        # and coal over every pair of the full geometry, from fresh data, at the state it names
+        state = next(k for k, d in enumerate(every) if d == least)
+        reference = closest_robot_person(madar.model, checker.geom_model, checker.kind, path[state])
+        assert reference[1:] == found[1:] and reference[0] == pytest.approx(found[0], abs=1e-5)
+    assert touching  # some paths run into kim's grown capsules: negative distances compared too
+
+
+def test_closest_human_without_states_or_people(madar, checker):
+    q = madar.configuration(CLEAR)
+    assert checker.closest_human(np.zeros((0, madar.model.nq))) == (np.inf, "", "")
+    assert CollisionChecker(madar).closest_human(q[None]) == (np.inf, "", "")
+
+
+def test_closest_human_follows_the_person(madar):
+    """The bound reads the people where they stand now: moved next to the hand, she is closest."""
+    checker = CollisionChecker(madar, Scene(humans=[HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)]))
+    q = madar.configuration(CLEAR)
+    path = np.repeat(q[None], 20, axis=0)
+    path[:, madar.group_indices("right_arm")[0]] += np.linspace(0.0, 0.5, 20)
+    far = checker.closest_human(path)
+    tool = madar.frame_pose("right_tool", path[-1])[:3, 3]
+    checker.pose_human(HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2))
+    near = checker.closest_human(path)
+    assert near[0] < far[0] - 0.5
+    assert near == min(checker.human_distances(path), key=lambda found: found[0])
+
+
+def test_part_spheres_bound_every_moving_pair_from_below(madar, checker, rng):
+    """At random states, the floor of every pair of a moving part and a grown capsule is at most
+    coal's distance of that pair (the parts' placements from pinocchio, fresh data)."""
+    model = checker.robot.model
+    q0 = madar.configuration(CLEAR)
+    arm = madar.group_indices("right_arm")
+    qs = np.repeat(q0[None], 200, axis=0)
+    qs[:, arm] += rng.normal(0.0, 1.0, (200, arm.size))
+    checker.human_distances(qs[:1])  # the distance model, placed
+    geometry = checker._distance_model
+    moved = {
+        j
+        for j in range(model.njoints)
+        if set(model.supports[j]) & {model.getJointId(n) for n in madar.group_joints("right_arm")}
+    }
+    parts = [a for a in range(len(checker.parts)) if geometry.geometryObjects[a].parentJoint in moved]
+    capsules = list(range(len(checker.parts), geometry.ngeoms))
+    placements = [geometry.geometryObjects[b].placement for b in capsules]
+    floor = PartSpheres(model, geometry, parts).floors(
+        qs,
+        np.array([m.translation for m in placements]),
+        np.array([m.rotation[:, 2] for m in placements]),
+        np.array([geometry.geometryObjects[b].geometry.halfLength for b in capsules]),
+        np.array([geometry.geometryObjects[b].geometry.radius for b in capsules]),
+    )
+    data, coals = model.createData(), np.empty(floor.shape)
+    for n, q in enumerate(qs):
+        pin.forwardKinematics(model, data, q)
+        for p, a in enumerate(parts):
+            part = geometry.geometryObjects[a]
+            at = data.oMi[part.parentJoint] * part.placement
+            for s, b in enumerate(capsules):
+                other = geometry.geometryObjects[b]
+                result = coal.DistanceResult()
+                coal.distance(
+                    part.geometry,
+                    coal.Transform3s(at.rotation, at.translation),
+                    other.geometry,
+                    coal.Transform3s(other.placement.rotation, other.placement.translation),
+                    coal.DistanceRequest(),
+                    result,
+                )
+                coals[n, p, s] = result.min_distance
+    assert np.all(floor <= coals)
+    least, floor = coals.min(axis=(1, 2)), floor.min(axis=(1, 2))
+    assert np.median(least - floor) < 0.2  # and not a useless bound (spheres about long capsules are loose)
+    assert (least < 0.05).any()  # states near the people were among them
