@@ -34,7 +34,7 @@ def test_the_trace_summarises_each_point_as_worked_by_hand():
     monitor = SimpleNamespace(
         people=[ANN],
         policy=SimpleNamespace(robot=ROBOT),
-        samples=lambda x, v: [SAMPLES[int(x[0])]],
+        samples_along=lambda xs, vs: [[SAMPLES[int(x[0])]] for x in xs],
     )
     (trace,) = separation_report(monitor, [[k] for k in range(5)], [[0.0]] * 5)
     assert (trace.person, trace.role, trace.contact_speed) == ("ann", "Observer", None)

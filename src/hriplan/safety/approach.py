@@ -93,7 +93,11 @@ class ApproachMonitor:
 
     def samples(self, x: np.ndarray, dx: np.ndarray) -> list[PersonSample]:
         """Per person (policy order), at group values `x` moving with group velocity `dx`."""
-        return self._rows(np.asarray(x, dtype=float)[None], np.asarray(dx, dtype=float)[None])[0]
+        return self.samples_along(np.asarray(x, dtype=float)[None], np.asarray(dx, dtype=float)[None])[0]
+
+    def samples_along(self, xs: np.ndarray, dxs: np.ndarray) -> list[list[PersonSample]]:
+        """`samples` at every row of `xs` (k x group) moving with `dxs`, in one batch."""
+        return self._rows(np.asarray(xs, dtype=float), np.asarray(dxs, dtype=float))
 
     def speed_scale(self, xs: np.ndarray, dxs: np.ndarray) -> np.ndarray:
         """Per row: the largest factor on `dxs` that keeps every person's limit (inf: unbounded)."""
@@ -103,13 +107,14 @@ class ApproachMonitor:
     def _rows(self, xs: np.ndarray, dxs: np.ndarray) -> list[list[PersonSample]]:
         """`samples` of every row, the ones not memoised computed in one batch; a moved part inside
         S_0 raises at the first such row (first person there), as row-by-row evaluation would."""
-        keys = [np.concatenate([x, dx]).tobytes() for x, dx in zip(xs, dxs)]
+        keys = [row.tobytes() for row in np.concatenate([xs, dxs], axis=1)]
         first: dict[bytes, int] = {}
         for i, key in enumerate(keys):
             first.setdefault(key, i)
         new = [i for key, i in first.items() if key not in self._memo]
         if new:
-            qs = np.array([self.full(x) for x in xs[new]])
+            qs = np.repeat(self.base[None], len(new), axis=0)
+            qs[:, self._iq] = xs[new]
             dqs = np.zeros((len(new), self.robot.model.nv))
             dqs[:, self._iv] = dxs[new]
             per_person = [self._person(person, qs, dqs) for person in self.people]
@@ -141,8 +146,16 @@ class ApproachMonitor:
         state, the rows whose bounds make them likeliest to be the closest (overall and outside
         the contact regions), to bind and to set the scale: they make the second answer small."""
 
+        at_floor: list = [None, None]  # the last floor asked about, and the allowed speeds there
+
+        def allowed_at(floor: np.ndarray) -> np.ndarray:
+            """kept_capped_speeds at the distance bounds: a batch asks with one `floor`, thrice."""
+            if at_floor[0] is not floor:
+                at_floor[:] = floor, kept_capped_speeds(self.policy, person, floor, kind.caps)
+            return at_floor[1]
+
         def likely(floor: np.ndarray, speed: np.ndarray) -> np.ndarray:
-            lowest = kept_capped_speeds(self.policy, person, floor, kind.caps)
+            lowest = allowed_at(floor)
             closing = speed > CLOSING
             ratio = np.where(closing, lowest / np.where(closing, speed, 1.0), np.inf)
             chosen = np.zeros(floor.shape, dtype=bool)
@@ -157,7 +170,7 @@ class ApproachMonitor:
             body = _body(kind.contact, pairs.distance)[:, None]
             margin = (allowed - approach).min(axis=1, initial=np.inf)[:, None]
             scale = _scales(allowed, approach).min(axis=1, initial=np.inf)
-            lowest = kept_capped_speeds(self.policy, person, floor, kind.caps)
+            lowest = allowed_at(floor)
             moving = speed > CLOSING
             return (
                 (floor <= nearest)
@@ -195,17 +208,10 @@ class ApproachMonitor:
         scale, body = _scales(allowed, approach).min(axis=1), _body(kind.contact, distance)
         at = np.arange(len(qs))
         iso = capped_speeds(self.policy.robot, person, distance[at, binding], kind.caps[binding])
+        numbers = (distance.min(axis=1), body, allowed[at, binding], iso, approach[at, binding], scale, binding)
         samples = [
-            PersonSample(float(d), float(b), float(a), float(i), float(r), float(s), pairs.parts[k], pairs.capsules[k])
-            for d, b, a, i, r, s, k in zip(
-                distance.min(axis=1),
-                body,
-                allowed[at, binding],
-                iso,
-                approach[at, binding],
-                scale,
-                binding,
-            )
+            PersonSample(d, b, a, i, r, s, pairs.parts[k], pairs.capsules[k])
+            for d, b, a, i, r, s, k in zip(*(np.asarray(column).tolist() for column in numbers))
         ]
         return samples, None
 

@@ -22,7 +22,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.recent import Recent
-from hriplan.robots.batch_kinematics import BatchKinematics
+from hriplan.robots.batch_kinematics import BatchKinematics, cross
 from hriplan.robots.part_spheres import BOUND_TOLERANCE, axis_gaps, bounding_sphere
 from hriplan.safety.capsule_distance import capsule_distances
 
@@ -139,6 +139,7 @@ class PersonDistances:
             at = states, frame[rows]
             velocity[states, rows] = _point_velocity(linear[at], angular[at], origin[at], robot_point[states, rows])
 
+        self._place_person_copies()
         if select is None or not self.parts:
             measure(np.ones(distance.shape, dtype=bool))
             return pairs
@@ -172,9 +173,7 @@ class PersonDistances:
         Each result is read once and all of them turned into arrays at the end."""
         if not rows.size:
             return
-        (others, other_data, copies), model, data = self._others, self.robot_model, self.robot_data
-        for original, copy in copies.items():
-            others.geometryObjects[copy].placement = self.person_model.geometryObjects[original].placement
+        (others, other_data, _), model, data = self._others, self.robot_model, self.robot_data
         found, copy_of = [], self._copy_of[rows].tolist()
         last = -1
         for n, m in zip(states.tolist(), copy_of):
@@ -186,6 +185,14 @@ class PersonDistances:
         pairs.distance[states, rows] = [d for d, _, _ in found]
         pairs.robot_point[states, rows] = [p for _, p, _ in found]
         pairs.person_point[states, rows] = [p for _, _, p in found]
+
+    def _place_person_copies(self) -> None:
+        """The person's capsules in the coal model of the other shapes placed where the person
+        model has them (~4 us each: once a batch, not once a round of measuring)."""
+        (others, _, copies), person = self._others, self.person_model.geometryObjects
+        if self._other_rows.size:
+            for original, copy in copies.items():
+                others.geometryObjects[copy].placement = person[original].placement
 
     def _bounds(self, world: _Placed) -> tuple[np.ndarray, np.ndarray]:
         """Per state and row (N, k): a lower bound on its distance (its part's bounding sphere
@@ -228,7 +235,7 @@ class _Placed:
 def _point_velocity(linear: np.ndarray, angular: np.ndarray, origin: np.ndarray, point: np.ndarray) -> np.ndarray:
     """The world velocity of `point` on a body whose `origin` moves at `linear` and turns at
     `angular` (all (..., 3), world)."""
-    return linear + np.cross(angular, point - origin)
+    return linear + cross(angular, point - origin)
 
 
 def _coal_model(

@@ -46,7 +46,7 @@ def separation_report(
 ) -> list[SeparationTrace]:
     """Separation, allowed and actual speed towards each person at every trajectory point (the
     monitored group's `positions` and `velocities`, one row per point)."""
-    rows = [monitor.samples(np.asarray(x), np.asarray(v)) for x, v in zip(positions, velocities)]
+    rows = monitor.samples_along(np.asarray(positions, dtype=float), np.asarray(velocities, dtype=float))
     traces = []
     for k, person in enumerate(monitor.people):
         samples = [row[k] for row in rows]
