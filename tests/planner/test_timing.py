@@ -176,3 +176,16 @@ def test_the_path_speed_limit_gives_toppras_per_gridpoint_bounds():
     theirs = toppra.constraint.JointVelocityConstraintVarying(vlim).compute_constraint_params(path, grid)
     np.testing.assert_allclose(ours[-1], theirs[-1], rtol=1e-12, atol=0.0)
     assert all(a is None and b is None for a, b in zip(ours[:-1], theirs[:-1]))
+
+
+def test_joint_limit_constraints_are_made_once_per_limits():
+    """The same limits give TOPP-RA the same constraint objects (a fresh list), other limits
+    other constraints, holding those limits."""
+    from hriplan.planner.timing import _joint_limits
+
+    first, again = _joint_limits(VMAX, AMAX), _joint_limits(VMAX.copy(), AMAX.copy())
+    assert first is not again and all(a is b for a, b in zip(first, again))
+    other = _joint_limits(VMAX, 2 * AMAX)
+    assert other[0] is not first[0]
+    np.testing.assert_array_equal(other[0].vlim, np.stack([-VMAX, VMAX], axis=1))
+    np.testing.assert_array_equal(other[1].alim, np.stack([-2 * AMAX, 2 * AMAX], axis=1))

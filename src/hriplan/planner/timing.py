@@ -21,6 +21,7 @@ from pydantic import BaseModel, ConfigDict
 
 from hriplan import HriplanError
 from hriplan.planner.natural_spline import NaturalSpline
+from hriplan.recent import Recent
 from hriplan.safety.separation import SPEED_LIMIT_SLACK
 
 
@@ -243,12 +244,7 @@ def _retimed(
     limit: tuple[tuple[np.ndarray, np.ndarray], float] | None,
 ):
     """TOPP-RA under the joint limits (and a path-speed limit times a factor), grid refined."""
-    constraints = [
-        toppra.constraint.JointVelocityConstraint(vmax),
-        toppra.constraint.JointAccelerationConstraint(
-            amax, discretization_scheme=toppra.constraint.DiscretizationType.Interpolation
-        ),
-    ]
+    constraints = _joint_limits(vmax, amax)
     if limit is not None:
         (at, sd_max), factor = limit
         constraints.append(_PathSpeedLimit(path, vmax, at, factor * sd_max))
@@ -272,6 +268,27 @@ def _retimed(
             break
         grid = _subdivided(grid, np.where(overshooting, 4, 1))
     return trajectory
+
+
+# The joint-limit constraints made lately, by limits (`_joint_limits`).
+_JOINT_LIMITS: Recent[bytes, list] = Recent(8)
+
+
+def _joint_limits(vmax: np.ndarray, amax: np.ndarray) -> list:
+    """TOPP-RA's joint velocity and acceleration constraints for these limits, the ones made last
+    for them if any: making them formats every limit into a description string (~0.7 ms a pair,
+    twice a re-plan), and TOPP-RA only reads them (its `compute_constraint_params`)."""
+    key = vmax.tobytes() + amax.tobytes()
+    made = _JOINT_LIMITS.get(key)
+    if made is None:
+        made = [
+            toppra.constraint.JointVelocityConstraint(vmax),
+            toppra.constraint.JointAccelerationConstraint(
+                amax, discretization_scheme=toppra.constraint.DiscretizationType.Interpolation
+            ),
+        ]
+        _JOINT_LIMITS.put(key, made)
+    return list(made)
 
 
 class _PathSpeedLimit(toppra.constraint.JointVelocityConstraintVarying):
