@@ -5,6 +5,7 @@ loads from them have the kinematics of those URDFs, frame by frame."""
 from __future__ import annotations
 
 import importlib.util
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,7 @@ import pinocchio as pin
 import pytest
 
 from hriplan.robots.descriptions.registry import description_of
+from hriplan.robots.robot_file import resolve_file
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "src" / "hriplan" / "robots" / "data"
@@ -127,3 +129,15 @@ def test_a_built_in_robots_own_file_is_that_robot():
     from hriplan.robots.descriptions.registry import DATA, load_robot_file
 
     assert load_robot_file(DATA / "ur5.yaml") is description_of("ur5")
+
+
+@pytest.mark.parametrize("name", ["madar", "ur5"])
+def test_each_mesh_is_the_file_its_own_uri_resolves_to(name):
+    """A URDF's meshes are resolved once per distinct name (robot_file._resolve_meshes): each
+    <mesh> of the loaded robot, in order, is what `resolve_file` gives its own filename in the
+    shipped URDF, an existing file."""
+    shipped = [el.get("filename") for el in ET.parse(DATA / f"{name}.urdf").getroot().iter("mesh")]
+    loaded = [el.get("filename") for el in ET.fromstring(description_of(name).urdf()).iter("mesh")]
+    assert len(loaded) == len(shipped) >= len(set(shipped))  # MADAR names 27 files 70 times
+    assert loaded == [str(resolve_file(uri, {}, DATA, "mesh")) for uri in shipped]
+    assert all(Path(path).is_file() and Path(path).is_absolute() for path in loaded)

@@ -16,10 +16,12 @@ from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
 import typer
+from typer._click import Context
 from typer._click import exceptions as click_errors  # typer vendors click: its exceptions live here
 from typer.core import TyperGroup
 
 from hriplan import HriplanError
+from hriplan.cli.collector import collector_paused_while_importing
 from hriplan.cli.outputs import remove_partial_outputs
 
 F = TypeVar("F", bound=Callable)
@@ -50,6 +52,13 @@ def _interrupted(signum: int, frame: object) -> None:
 
 class OneLineErrors(TyperGroup):
     """The root command: usage errors as one line, Ctrl-C as exit 130 with nothing half written."""
+
+    def make_context(
+        self, info_name: str | None, args: list[str], parent: Context | None = None, **extra: Any
+    ) -> Context:
+        """Parse the root's options; typer's conversion of them imports pydantic (not for `--help`)."""
+        with collector_paused_while_importing():
+            return super().make_context(info_name, args, parent, **extra)
 
     def main(
         self,

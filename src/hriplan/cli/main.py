@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from hriplan import HriplanError, __version__
+from hriplan.blas_threads import single_threaded_blas
 from hriplan.cli.errors import OneLineErrors, clear_errors
 from hriplan.cli.export import export
 from hriplan.cli.ontology import ontology_app
@@ -18,6 +19,7 @@ from hriplan.cli.tasks import TASK_COMMANDS
 from hriplan.cli.validate import validate
 from hriplan.cli.view import plot, view
 
+single_threaded_blas()  # before any command imports numpy
 app = typer.Typer(
     cls=OneLineErrors, no_args_is_help=True, add_completion=False, rich_markup_mode=None, pretty_exceptions_enable=False
 )

@@ -14,6 +14,7 @@ from typing import Annotated, Literal
 import typer
 
 from hriplan import HriplanError
+from hriplan.cli.collector import collector_paused_while_importing
 from hriplan.cli.outputs import directory_output, file_output
 from hriplan.cli.progress import progress
 from hriplan.ontology.reasoners import Reasoner, use_reasoner
@@ -98,8 +99,9 @@ def plan(
     reasoner: ReasonerOption = "fast",
 ) -> None:
     """Run the pipeline: derive each step's constraints, plan, validate, time, write trajectories."""
-    from hriplan.cli.summary import summarize
-    from hriplan.tasks.model import step_name
+    with collector_paused_while_importing():
+        from hriplan.cli.summary import summarize
+        from hriplan.tasks.model import step_name
 
     loaded = load_checked_task(task, seed, project_start or None)
     output = file_output(output or Path("out") / f"{loaded.name}.json")
@@ -169,7 +171,8 @@ def constraints(
     reasoner: ReasonerOption = "fast",
 ) -> None:
     """What each step would have to respect, with one-line reasons (no planning)."""
-    from hriplan.cli.summary import constraint_lines
+    with collector_paused_while_importing():
+        from hriplan.cli.summary import constraint_lines
 
     with progress(quiet) as report:
         outcome = _runner(task, report).run(plan=False)

@@ -11,6 +11,7 @@ from typing import Annotated
 import typer
 
 from hriplan import HriplanError
+from hriplan.cli.collector import collector_paused_while_importing
 from hriplan.cli.progress import progress
 from hriplan.cli.tasks import Quiet, TaskOption, _runner, load_for_task
 
@@ -37,9 +38,8 @@ def _problem_setting(path: Path):
 
 
 def _message_world(path: Path, task: Path | None, step: str | None, problem: Path | None, quiet: bool):
-    """A JointTrajectory message placed in its setting: (world, ISO/TS 15066 policy, velocity scale, notes)."""
+    """A JointTrajectory message placed in its setting: (trajectory, ISO/TS 15066 policy, velocity scale, notes)."""
     from hriplan.formats.ros_trajectory import load_joint_trajectory, place
-    from hriplan.planner.replay import PlannedWorld
     from hriplan.tasks.joints import check_joint_values
     from hriplan.tasks.pipeline import step_setting
 
@@ -61,12 +61,11 @@ def _message_world(path: Path, task: Path | None, step: str | None, problem: Pat
     placed = place(message, setting)
     first = dict(zip(message.joint_names, message.points[0].positions))
     check_joint_values(first, setting.robot, f"{path}: points.0")
-    return PlannedWorld.load(placed), setting.policy, setting.velocity_scale, placed.notes
+    return placed, setting.policy, setting.velocity_scale, placed.notes
 
 
 def _file_world(path: Path, task: Path | None, quiet: bool):
-    """A trajectory file (its constraints and scene from `task` if given): (world, policy, velocity scale, notes)."""
-    from hriplan.planner.replay import PlannedWorld
+    """A trajectory file (its constraints and scene from `task` if given): (trajectory, policy, velocity scale, notes)."""
     from hriplan.safety.policy import default_policy
     from hriplan.safety.separation import NO_MARGIN
 
@@ -76,7 +75,7 @@ def _file_world(path: Path, task: Path | None, quiet: bool):
         roles = {trace.person: trace.role for trace in plan_file.report.separation if trace.role}
         margin = plan_file.report.safety_margin or NO_MARGIN  # as the file was timed
         policy = default_policy(plan_file.robot, plan_file.scene.humans, roles).model_copy(update={"margin": margin})
-    return PlannedWorld.load(plan_file), policy, plan_file.report.velocity_scale, []
+    return plan_file, policy, plan_file.report.velocity_scale, []
 
 
 def validate(
@@ -96,14 +95,17 @@ def validate(
     speeds (the spline a controller follows through the points), and its speed near people against
     ISO/TS 15066 (exit 1 if it fails). A JointTrajectory message is checked in a task step (--task,
     --step) or a planning problem (--problem); joints it omits stay at the start."""
-    from hriplan.formats.ros_trajectory import is_joint_trajectory_message
+    with collector_paused_while_importing():
+        from hriplan.formats.ros_trajectory import is_joint_trajectory_message
+        from hriplan.planner.replay import PlannedWorld
 
     if is_joint_trajectory_message(trajectory):
-        world, policy, velocity_scale, notes = _message_world(trajectory, task, step, problem, quiet)
+        planned, policy, velocity_scale, notes = _message_world(trajectory, task, step, problem, quiet)
     elif step is not None or problem is not None:
         raise HriplanError(f"--step and --problem place a JointTrajectory message; {trajectory} is a trajectory file")
     else:
-        world, policy, velocity_scale, notes = _file_world(trajectory, task, quiet)
+        planned, policy, velocity_scale, notes = _file_world(trajectory, task, quiet)
+    world = PlannedWorld.load(planned)
     for note in notes:
         typer.echo(f"note: {note}")
     result = world.validate()

@@ -212,6 +212,18 @@ def resolve_file(uri: str, packages: dict[str, Path], folder: Path, what: str) -
     return path.resolve()
 
 
+def _resolve_meshes(root: ET.Element, packages: dict[str, Path], folder: Path) -> None:
+    """Every <mesh filename> of a URDF as an absolute path (`resolve_file`), each distinct name
+    resolved once: MADAR's 70 meshes are 27 files, and resolving a path (a stat of each of its
+    folders) took 11 of the 30 ms that reading the built-in robots took at every start."""
+    resolved: dict[str, str] = {}
+    for el in root.iter("mesh"):
+        name = el.get("filename", "")
+        if name not in resolved:
+            resolved[name] = str(resolve_file(name, packages, folder, "mesh"))
+        el.set("filename", resolved[name])
+
+
 def _urdf_root(path: Path) -> ET.Element:
     try:
         root = ET.fromstring(read_text(path, "URDF file"))
@@ -230,8 +242,7 @@ class _Builder:
         packages = {name: (folder / path).resolve() for name, path in spec.packages.items()}
         urdf = resolve_file(spec.urdf, packages, folder, "URDF file")
         self.root = _urdf_root(urdf)
-        for el in self.root.iter("mesh"):
-            el.set("filename", str(resolve_file(el.get("filename", ""), packages, urdf.parent, "mesh")))
+        _resolve_meshes(self.root, packages, urdf.parent)
         self._set_ranges()
         self.tree = UrdfTree(self.root)
         self.frame_aliases = {}

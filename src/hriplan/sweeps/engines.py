@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from hriplan import HriplanError
+from hriplan.blas_threads import VARIABLES, single_threaded_blas
 from hriplan.planner.outcome import Status
 from hriplan.sweeps.variants import Variant
 from hriplan.sweeps.worker import Row, failure_rows, run_variant, variant_columns
@@ -64,12 +65,6 @@ def _died(variant: Variant, detail: str) -> list[Row]:
     return failure_rows(variant, f"its worker died on each of {ATTEMPTS} attempts ({detail})")
 
 
-def _single_threaded_blas() -> None:
-    """One BLAS thread per worker: workers are the parallelism (children inherit the setting)."""
-    for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(name, "1")
-
-
 class LocalEngine:
     """Worker processes on this machine (spawned, one per core by default)."""
 
@@ -86,7 +81,7 @@ class LocalEngine:
         return ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"))
 
     def run(self, variants: list[Variant], plan: bool, deliver: Deliver, work: Work = run_variant) -> None:
-        _single_threaded_blas()
+        single_threaded_blas()
         queue, alone = deque(variants), deque()  # after a death, suspects rerun one at a time
         attempts: Counter[str] = Counter()
         running: dict[Future, Variant] = {}
@@ -157,8 +152,8 @@ JOIN_RETRIES = "10"  # Ray's connection attempts (about 1 s each; its default 20
 
 
 def _blas_threads() -> dict[str, str]:
-    _single_threaded_blas()
-    return {k: os.environ[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    single_threaded_blas()
+    return {k: os.environ[k] for k in VARIABLES}
 
 
 def cluster_runtime_env(extra: dict[str, Any] | None = None) -> dict[str, Any]:
