@@ -185,26 +185,39 @@ class TaskRunner:
             )
         self.session = session
         self.knowledge_bases: dict[str, KnowledgeBase] = {}  # per step, from the last run
-        self._derived: dict[str, tuple[KnowledgeBase, Derivation]] = {}  # per situation
+        # Per situation (its JSON): the knowledge base, and what the rules derive from it once asked.
+        self._known: dict[str, KnowledgeBase] = {}
+        self._derived: dict[str, Derivation] = {}
+
+    def step_knowledge(
+        self, step: Step, index: int, state: TaskState, paths: dict[str, list[tuple[float, float, float]]] | None = None
+    ) -> tuple[str, KnowledgeBase]:
+        """The situation's key and knowledge base: what choosing a grasp reads (the facts), made
+        once per situation, without turning them into constraints (`derive_step`)."""
+        situation = situation_for(self.task, step, index, state, paths)  # nearness along `paths`: ontology/relations.py
+        self.progress(f"{situation.task.name}: reasoning about the situation")
+        key = situation.model_dump_json()
+        if key not in self._known:
+            self._known[key] = KnowledgeBase(situation, rule_files=self.rule_files)
+        kb = self._known[key]
+        self.knowledge_bases[situation.task.name] = kb
+        return key, kb
 
     def derive_step(
         self, step: Step, index: int, state: TaskState, paths: dict[str, list[tuple[float, float, float]]] | None = None
     ) -> tuple[KnowledgeBase, Derivation]:
-        situation = situation_for(self.task, step, index, state, paths)  # nearness along `paths`: ontology/relations.py
-        self.progress(f"{situation.task.name}: reasoning about the situation")
-        key = situation.model_dump_json()  # the grasp choice and the step derive the same situation
+        """The step's knowledge base and the constraints, velocity scale and ISO/TS 15066 policy
+        the rules derive from it (once per situation)."""
+        key, kb = self.step_knowledge(step, index, state, paths)
         if key not in self._derived:
-            kb = KnowledgeBase(situation, rule_files=self.rule_files)
             derivation = derive(kb)
             if derivation.separation is not None:  # the task's margin beyond ISO/TS 15066's limits
                 margin = {"margin": self.task.planning.safety_margin}
                 derivation = derivation.model_copy(
                     update={"separation": derivation.separation.model_copy(update=margin)}
                 )
-            self._derived[key] = kb, derivation
-        kb, derivation = self._derived[key]
-        self.knowledge_bases[situation.task.name] = kb
-        return kb, derivation
+            self._derived[key] = derivation
+        return kb, self._derived[key]
 
     def run(
         self,
@@ -255,7 +268,7 @@ class TaskRunner:
         grasped or taken now): each allowed grasp of the first such object, in order of
         preference, the others in their preferred one; an object held from the start by a stated
         grasp, or one in `recorded`, only in that one. [{}] when every grasp is already fixed."""
-        kb, _ = self.derive_step(step, index, state)
+        _, kb = self.step_knowledge(step, index, state)  # the grasp decides the situation derived from
         robot = kb.situation.robot
         usual = object_axes(kb, list(arms_of(self.task.robot)))
         holders = dict(state.held_by_arm) | closing_on(step, kb.situation.task.arms)
@@ -494,7 +507,8 @@ class TaskRunner:
         scene = after.scene({obj: arm})
         q = closed.robot.configuration(start)
         came = done.trajectory
-        arrival = [closed.robot.configuration(dict(zip(came.joint_names, p.positions)), base=q) for p in came.points]
+        group = closed.robot.arm_group(arm)  # the step's own group: its trajectory's joints, in order
+        arrival = [closed.robot.configuration(p.positions, group, base=q) for p in came.points]
         robots = [s.robot for s in sessions]
         used, path, why = retreat_path(robots, closed.robot, arm, arrival, obj, scene, after.scene())
         kept = done.derivation.model_copy(
