@@ -205,6 +205,27 @@ def test_a_remembered_build_is_the_build_and_in_place_updates_survive_a_rebuild(
     assert checker.in_collision(q)
 
 
+def test_a_scene_given_back_is_the_checkers_own_and_a_callers_copy_is_still_copied(madar):
+    """`with_keep_out` ends by giving the checker the scene it had: that one is not copied again,
+    and checks exactly as built from a copy; a scene of the caller's still is, so changing it
+    afterwards changes nothing here."""
+    q = madar.configuration(CLEAR)
+    tool = madar.frame_pose("right_tool", q)[:3, 3]
+    ball = Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=tuple(tool)))
+    mine = Scene(obstacles=[ball], humans=[HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)])
+    checker = CollisionChecker(madar, mine)
+    own = checker.scene
+    assert own is not mine and own == mine
+    mine.obstacles.clear()  # the caller's: not the checker's
+    assert checker.in_collision(q) and checker.scene.obstacles == [ball]
+    checker.set_scene(Scene())
+    checker.set_scene(own)  # given back: kept as it is
+    assert checker.scene is own and checker.in_collision(q)
+    assert pair_names(checker) == pair_names(CollisionChecker(madar, own))
+    checker.set_scene(mine)  # the caller's again (emptied): copied
+    assert checker.scene is not mine and not checker.in_collision(q)
+
+
 def test_a_long_list_of_colliding_pairs_is_cut_to_one_line_with_its_count():
     """A person inside the robot touches dozens of parts: the message lists what fits in the
     width and says how many more there are; a short list is left whole."""

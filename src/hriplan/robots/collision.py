@@ -152,6 +152,9 @@ class CollisionChecker:
         self._people_models: Recent[str, tuple] = Recent(_REMEMBERED_BUILDS)
         # Per distance model: its pairs as geometry indices and the joint of each pair's robot part.
         self._distance_pairs: Recent[int, tuple[pin.GeometryModel, np.ndarray, np.ndarray]] = Recent(_REMEMBERED_BUILDS)
+        # The scenes this checker copied lately: given back (a keep-out's block ends with the scene
+        # before it), one is the checker's own already and needs no copy (~0.1 ms each).
+        self._copies: Recent[int, Scene] = Recent(_REMEMBERED_BUILDS)
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
@@ -208,7 +211,8 @@ class CollisionChecker:
             raise HriplanError(f"the scene has no person {missing[0]!r} to keep a separation from")
         for obj in scene.attached:  # refused here, as when the scene was built at once
             self.robot.tool_frame(obj.arm)
-        copy = scene.model_copy(deep=True)  # the caller may change theirs in place later
+        # The caller may change theirs in place later (not one of the checker's own).
+        copy = scene if self._copies.get(id(scene)) is scene else scene.model_copy(deep=True)
         try:
             humans = {spec.name: self._posed(spec) for spec in copy.humans}
         except HriplanError:  # a reach out of range: the people stay where the scene has them
@@ -216,6 +220,7 @@ class CollisionChecker:
                 self._posed(spec)
             raise
         self.scene, self.zones, self.humans = copy, zones, humans
+        self._copies.put(id(copy), copy)  # held here, so its id is not reused while it is
         self._key = self._build_key()
         self._stale = self._people_stale = True
 
