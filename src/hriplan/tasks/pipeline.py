@@ -506,11 +506,13 @@ class TaskRunner:
             sessions.insert(0, worker_session(self.task.robot, released))
         scene = after.scene({obj: arm})
         q = closed.robot.configuration(start)
-        came = done.trajectory
-        group = closed.robot.arm_group(arm)  # the step's own group: its trajectory's joints, in order
-        arrival = [closed.robot.configuration(p.positions, group, base=q) for p in came.points]
+        # Every point of the step's trajectory on `q`, in one assignment: its joints are the arm's group's, in order.
+        arrival = np.tile(q, (len(done.trajectory.points), 1))
+        arrival[:, closed.robot.group_indices(closed.robot.arm_group(arm))] = [
+            p.positions for p in done.trajectory.points
+        ]
         robots = [s.robot for s in sessions]
-        used, path, why = retreat_path(robots, closed.robot, arm, arrival, obj, scene, after.scene())
+        used, path, why = retreat_path(robots, closed.robot, arm, list(arrival), obj, scene, after.scene())
         kept = done.derivation.model_copy(
             update={"constraints": [c for c in done.derivation.constraints if c.anchor != obj]}
         )
