@@ -38,7 +38,7 @@ EXAMPLE = Path(__file__).parents[1] / "examples" / "handover_full_can_receiver.y
 # which stage above holds it. Functions are wrapped where the re-plan looks them up; one the
 # owner lacks is left out (a checker before 2026-12-03 built in set_world, now when first asked).
 STAGES = (
-    ("derivation (rules, nearness)", TaskRunner, ("derive_step",)),
+    ("derivation (rules, nearness)", TaskRunner, ("derive_step", "step_knowledge")),
     ("planning (the handover)", pipeline, ("plan_motion",)),
     ("retreat path after the release", pipeline, ("retreat_path",)),
     ("leave check", Session, ("leave",)),

@@ -8,7 +8,7 @@ from hriplan import HriplanError
 from hriplan.robots.acm import load_acm
 from hriplan.robots.bounding import capsule_contains, fit_capsule
 from hriplan.robots.collision import CollisionChecker
-from hriplan.robots.human import HumanSpec
+from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.robot_geometry import robot_parts
 from hriplan.robots.scene import AttachedObject, Box, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
@@ -203,6 +203,64 @@ def test_a_remembered_build_is_the_build_and_in_place_updates_survive_a_rebuild(
     mine.obstacles.append(Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=tuple(tool))))
     checker.set_scene(mine)
     assert checker.in_collision(q)
+
+
+def test_a_scene_given_back_is_the_checkers_own_and_a_callers_copy_is_still_copied(madar):
+    """`with_keep_out` ends by giving the checker the scene it had: that one is not copied again,
+    and checks exactly as built from a copy; a scene of the caller's still is, so changing it
+    afterwards changes nothing here."""
+    q = madar.configuration(CLEAR)
+    tool = madar.frame_pose("right_tool", q)[:3, 3]
+    ball = Obstacle(name="ball", shape=Sphere(radius=0.05), pose=Pose(xyz=tuple(tool)))
+    mine = Scene(obstacles=[ball], humans=[HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)])
+    checker = CollisionChecker(madar, mine)
+    own = checker.scene
+    assert own is not mine and own == mine
+    mine.obstacles.clear()  # the caller's: not the checker's
+    assert checker.in_collision(q) and checker.scene.obstacles == [ball]
+    checker.set_scene(Scene())
+    checker.set_scene(own)  # given back: kept as it is
+    assert checker.scene is own and checker.in_collision(q)
+    assert pair_names(checker) == pair_names(CollisionChecker(madar, own))
+    checker.set_scene(mine)  # the caller's again (emptied): copied
+    assert checker.scene is not mine and not checker.in_collision(q)
+
+
+def test_a_person_moved_by_a_scene_or_re_posed_is_placed_where_they_stand_in_every_model(madar):
+    """The checker keeps each person's capsule placements per posing: after every move (a new
+    scene, `pose_human`, back to a remembered build) its collision model holds a fresh Human's
+    placements and its distance and person models measure as a checker built there."""
+    q = madar.configuration(CLEAR)
+    tool = madar.frame_pose("right_tool", q)[:3, 3]
+    table_scene = Scene(obstacles=[table()])
+    moves = [
+        HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2),
+        HumanSpec(name="bob", position=(tool[0], tool[1] + 0.45), yaw=-np.pi / 2, reach={"right": tuple(tool)}),
+        HumanSpec(name="bob", position=(0.4, 1.9), yaw=-np.pi / 2),
+        HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2),
+    ]
+    checker = CollisionChecker(madar, table_scene.model_copy(update={"humans": [moves[0]]}))
+    checker.in_collision(q)
+    for k, spec in enumerate(moves[1:]):
+        if k % 2:
+            checker.pose_human(spec)
+        else:
+            checker.set_scene(table_scene.model_copy(update={"humans": [spec]}))
+        fresh = CollisionChecker(madar, checker.scene)
+        placed = {
+            g.name: g.placement.homogeneous for g in checker.geom_model.geometryObjects if g.name.startswith("bob/")
+        }
+        expected = {
+            f"bob/{c.name}": p.homogeneous
+            for c, p in zip(fresh.humans["bob"].capsules, Human(spec).capsule_placements())
+        }
+        assert placed.keys() == expected.keys()
+        for name, placement in placed.items():
+            np.testing.assert_array_equal(placement, expected[name])
+        # coal's GJK on the non-capsule pairs starts from the model's last answer: 1e-6 apart (so on d3c16e0 too).
+        measured, built = checker.person_pairs(q, "bob").distance, fresh.person_pairs(q, "bob").distance
+        np.testing.assert_allclose(measured, built, rtol=0, atol=1e-5)
+        assert checker.in_collision(q) == fresh.in_collision(q)
 
 
 def test_a_long_list_of_colliding_pairs_is_cut_to_one_line_with_its_count():

@@ -42,6 +42,8 @@ class KnowledgeBase:
     (e.g. with changed parameters). cache: where results are kept (default: memory + the XDG
     cache directory). reasoner: "fast" (in process) or "pellet"; default: `use_reasoner`'s.
     relations: the relations computed from the geometry (those some rule reads are asserted).
+    rules: the rules as `load_rules(rule_files)` read them already (a task run reads them once for
+    all its situations); given, `rule_files` is not read.
     Raises HriplanError for bad input, InconsistentSituation for a contradiction.
     """
 
@@ -54,10 +56,11 @@ class KnowledgeBase:
         cache: ReasoningCache | None = None,
         reasoner: Reasoner | None = None,
         relations: Sequence[RelationKind] = RELATIONS,
+        rules: Sequence[Rule] | None = None,
     ) -> None:
         self.situation = situation
         self.reasoner: Reasoner = reasoner or default_reasoner()
-        self.rules: tuple[Rule, ...] = load_rules(rule_files)
+        self.rules: tuple[Rule, ...] = tuple(rules) if rules is not None else load_rules(rule_files)
         self._source: OntologySource = ontology_source(ontology)
         self.schema: Schema = load_schema(self._source)
         read = read_predicates(self.rules)

@@ -154,6 +154,12 @@ class CollisionChecker:
         self._people_models: Recent[str, tuple] = Recent(_REMEMBERED_BUILDS)
         # Per distance model: its pairs as geometry indices and the joint of each pair's robot part.
         self._distance_pairs: Recent[int, tuple[pin.GeometryModel, np.ndarray, np.ndarray]] = Recent(_REMEMBERED_BUILDS)
+        # The scenes this checker copied lately: given back (a keep-out's block ends with the scene
+        # before it), one is the checker's own already and needs no copy (~0.1 ms each).
+        self._copies: Recent[int, Scene] = Recent(_REMEMBERED_BUILDS)
+        # Per person: where their capsules are as posed now (made once a posing; every build and
+        # every remembered build placed anew asks: ~40 us each, a dozen a re-plan).
+        self._placements: dict[str, list[pin.SE3]] = {}
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
@@ -210,7 +216,9 @@ class CollisionChecker:
             raise HriplanError(f"the scene has no person {missing[0]!r} to keep a separation from")
         for obj in scene.attached:  # refused here, as when the scene was built at once
             self.robot.tool_frame(obj.arm)
-        copy = scene.model_copy(deep=True)  # the caller may change theirs in place later
+        # The caller may change theirs in place later (not one of the checker's own).
+        copy = scene if self._copies.get(id(scene)) is scene else scene.model_copy(deep=True)
+        self._placements = {}  # posing anew, whether or not it succeeds
         try:
             humans = {spec.name: self._posed(spec) for spec in copy.humans}
         except HriplanError:  # a reach out of range: the people stay where the scene has them
@@ -218,6 +226,7 @@ class CollisionChecker:
                 self._posed(spec)
             raise
         self.scene, self.zones, self.humans = copy, zones, humans
+        self._copies.put(id(copy), copy)  # held here, so its id is not reused while it is
         self._key = self._build_key()
         self._stale = self._people_stale = True
 
@@ -230,6 +239,12 @@ class CollisionChecker:
         else:
             human.pose(spec)
         return human
+
+    def _placed(self, name: str) -> list[pin.SE3]:
+        """Where the person's capsules are in the world as the Human is posed now, in `capsules` order."""
+        if name not in self._placements:
+            self._placements[name] = self.humans[name].capsule_placements()
+        return self._placements[name]
 
     def _build_key(self) -> str:
         """What makes a build: the scene's contents and the zones (not where things stand)."""
@@ -324,7 +339,7 @@ class CollisionChecker:
             pin.GeometryObject(
                 f"{spec.name}/{capsule.name}", 0, placement, coal.Capsule(capsule.radius + spec.margin, capsule.length)
             )
-            for capsule, placement in zip(human.capsules, human.capsule_placements())
+            for capsule, placement in zip(human.capsules, self._placed(spec.name))
         ]
 
     def _add_zones(self, gm: pin.GeometryModel) -> dict[str, list[tuple[int, int]]]:
@@ -333,7 +348,7 @@ class CollisionChecker:
         for name, distances in (self.zones.distances if self.zones else {}).items():
             human = self.humans[name]
             slots[name] = []
-            for k, (capsule, placement) in enumerate(zip(human.capsules, human.capsule_placements())):
+            for k, (capsule, placement) in enumerate(zip(human.capsules, self._placed(name))):
                 if capsule.name in distances:
                     grown = coal.Capsule(capsule.radius + distances[capsule.name], capsule.length)
                     label = f"{name}/{capsule.name} ({ZONE_NAMING} {distances[capsule.name]:.3f} m)"
@@ -384,7 +399,7 @@ class CollisionChecker:
             pm = pin.GeometryModel()
             for mover in movers:
                 pm.addGeometryObject(pin.GeometryObject(mover))
-            for capsule, placement in zip(human.capsules, human.capsule_placements()):
+            for capsule, placement in zip(human.capsules, self._placed(name)):
                 k = pm.addGeometryObject(
                     pin.GeometryObject(capsule.name, 0, placement, coal.Capsule(capsule.radius, capsule.length))
                 )
@@ -518,6 +533,7 @@ class CollisionChecker:
         """Re-pose a person already in the scene: only capsule placements change (and the scene)."""
         if spec.name not in self.humans:
             raise HriplanError(f"the scene has no person {spec.name!r}")
+        self._placements.pop(spec.name, None)
         self.humans[spec.name].pose(spec)
         self.scene = self.scene.model_copy(
             update={"humans": [spec if h.name == spec.name else h for h in self.scene.humans]}
@@ -531,7 +547,7 @@ class CollisionChecker:
         """Set the person's capsules, and the separation zones grown from them, where the Human
         stands now, in the build. Builds are remembered without the people's poses (a person who
         moved changes no pair), so using one places them."""
-        placements = self.humans[name].capsule_placements()
+        placements = self._placed(name)
         for slot, placement in zip(self._human_slots[name], placements):
             self._geom_model.geometryObjects[slot].placement = placement
         for slot, k in self._zone_slots.get(name, []):
@@ -539,7 +555,7 @@ class CollisionChecker:
 
     def _place_person_models(self, name: str) -> None:
         """The same in the distance model and the person's model."""
-        placements = self.humans[name].capsule_placements()
+        placements = self._placed(name)
         first = self._distance_slots[name]
         for k, placement in enumerate(placements):
             self._distance_model.geometryObjects[first + k].placement = placement

@@ -60,7 +60,7 @@ class Derivation(BaseModel):
 def derive(kb: KnowledgeBase) -> Derivation:
     """Turn every (anchor, kind) the knowledge base concluded into planner terms."""
     ctx = Context(kb.situation, kb.facts)
-    provenance = Provenance(kb.rules, kb.facts, kb.assertions, kb.relations)
+    provenance = Provenance(kb.rules, kb.facts, kb.assertions, kb.relations, kb.key)
     rationale = {r.name: r.rationale for r in kb.rules}
     several_arms = len(kb.situation.task.arms) > 1
     derivation = Derivation(separation=situation_policy(kb.facts, kb.situation))

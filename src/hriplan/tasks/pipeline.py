@@ -6,6 +6,7 @@ provenance -> planning scene and goal -> plan -> validated, timed trajectory.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,6 +17,7 @@ from pydantic import BaseModel, Field
 from hriplan import HriplanError
 from hriplan.ontology.assertions import arm_individual
 from hriplan.ontology.knowledge_base import KnowledgeBase
+from hriplan.ontology.ruleset import Rule, load_rules
 from hriplan.ontology.situation import Situation, SituationHuman, SituationObject, SituationTask
 from hriplan.planner.constraints.spec import ConstraintSpec
 from hriplan.planner.kinematics import carried_paths, tool_poses
@@ -185,26 +187,45 @@ class TaskRunner:
             )
         self.session = session
         self.knowledge_bases: dict[str, KnowledgeBase] = {}  # per step, from the last run
-        self._derived: dict[str, tuple[KnowledgeBase, Derivation]] = {}  # per situation
+        # Per situation (its JSON): the knowledge base, and what the rules derive from it once asked.
+        self._known: dict[str, KnowledgeBase] = {}
+        self._derived: dict[str, Derivation] = {}
+
+    def step_knowledge(
+        self, step: Step, index: int, state: TaskState, paths: dict[str, list[tuple[float, float, float]]] | None = None
+    ) -> tuple[str, KnowledgeBase]:
+        """The situation's key and knowledge base: what choosing a grasp reads (the facts), made
+        once per situation, without turning them into constraints (`derive_step`)."""
+        situation = situation_for(self.task, step, index, state, paths)  # nearness along `paths`: ontology/relations.py
+        self.progress(f"{situation.task.name}: reasoning about the situation")
+        key = situation.model_dump_json()
+        if key not in self._known:
+            self._known[key] = KnowledgeBase(situation, rules=self._rules)
+        kb = self._known[key]
+        self.knowledge_bases[situation.task.name] = kb
+        return key, kb
+
+    @functools.cached_property
+    def _rules(self) -> tuple[Rule, ...]:
+        """The packaged rules and the task's rule files, read when first needed and then once for
+        every situation of the runner (each knowledge base read and globbed them: ~0.3 ms)."""
+        return load_rules(self.rule_files)
 
     def derive_step(
         self, step: Step, index: int, state: TaskState, paths: dict[str, list[tuple[float, float, float]]] | None = None
     ) -> tuple[KnowledgeBase, Derivation]:
-        situation = situation_for(self.task, step, index, state, paths)  # nearness along `paths`: ontology/relations.py
-        self.progress(f"{situation.task.name}: reasoning about the situation")
-        key = situation.model_dump_json()  # the grasp choice and the step derive the same situation
+        """The step's knowledge base and the constraints, velocity scale and ISO/TS 15066 policy
+        the rules derive from it (once per situation)."""
+        key, kb = self.step_knowledge(step, index, state, paths)
         if key not in self._derived:
-            kb = KnowledgeBase(situation, rule_files=self.rule_files)
             derivation = derive(kb)
             if derivation.separation is not None:  # the task's margin beyond ISO/TS 15066's limits
                 margin = {"margin": self.task.planning.safety_margin}
                 derivation = derivation.model_copy(
                     update={"separation": derivation.separation.model_copy(update=margin)}
                 )
-            self._derived[key] = kb, derivation
-        kb, derivation = self._derived[key]
-        self.knowledge_bases[situation.task.name] = kb
-        return kb, derivation
+            self._derived[key] = derivation
+        return kb, self._derived[key]
 
     def run(
         self,
@@ -255,7 +276,7 @@ class TaskRunner:
         grasped or taken now): each allowed grasp of the first such object, in order of
         preference, the others in their preferred one; an object held from the start by a stated
         grasp, or one in `recorded`, only in that one. [{}] when every grasp is already fixed."""
-        kb, _ = self.derive_step(step, index, state)
+        _, kb = self.step_knowledge(step, index, state)  # the grasp decides the situation derived from
         robot = kb.situation.robot
         usual = object_axes(kb, list(arms_of(self.task.robot)))
         holders = dict(state.held_by_arm) | closing_on(step, kb.situation.task.arms)
@@ -493,10 +514,13 @@ class TaskRunner:
             sessions.insert(0, worker_session(self.task.robot, released))
         scene = after.scene({obj: arm})
         q = closed.robot.configuration(start)
-        came = done.trajectory
-        arrival = [closed.robot.configuration(dict(zip(came.joint_names, p.positions)), base=q) for p in came.points]
+        # Every point of the step's trajectory on `q`, in one assignment: its joints are the arm's group's, in order.
+        arrival = np.tile(q, (len(done.trajectory.points), 1))
+        arrival[:, closed.robot.group_indices(closed.robot.arm_group(arm))] = [
+            p.positions for p in done.trajectory.points
+        ]
         robots = [s.robot for s in sessions]
-        used, path, why = retreat_path(robots, closed.robot, arm, arrival, obj, scene, after.scene())
+        used, path, why = retreat_path(robots, closed.robot, arm, list(arrival), obj, scene, after.scene())
         kept = done.derivation.model_copy(
             update={"constraints": [c for c in done.derivation.constraints if c.anchor != obj]}
         )
