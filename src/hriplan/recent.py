@@ -7,6 +7,7 @@ again while it is among them.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Hashable
 from typing import Generic, TypeVar
 
 K = TypeVar("K")
@@ -38,3 +39,27 @@ class Recent(Generic[K, V]):
 
     def clear(self) -> None:
         self._items.clear()
+
+
+class MadeFor(Generic[V]):
+    """The last few values made for some objects, found again by those very objects (identity, not
+    equality: pinocchio models, robots) and an extra key. Keyed by the objects' ids, each entry
+    holding the objects, so that no other object takes one of their ids while it is kept."""
+
+    def __init__(self, size: int) -> None:
+        self._recent: Recent[tuple, tuple[tuple, V]] = Recent(size)
+
+    def get(self, objects: tuple, extra: Hashable = None) -> V | None:
+        kept = self._recent.get((*map(id, objects), extra))
+        return None if kept is None or any(a is not b for a, b in zip(kept[0], objects)) else kept[1]
+
+    def put(self, objects: tuple, value: V, extra: Hashable = None) -> None:
+        self._recent.put((*map(id, objects), extra), (objects, value))
+
+    def made(self, objects: tuple, make: Callable[[], V], extra: Hashable = None) -> V:
+        """The value kept for `objects` and `extra`, else `make()`'s, kept."""
+        value = self.get(objects, extra)
+        if value is None:
+            value = make()
+            self.put(objects, value, extra)
+        return value

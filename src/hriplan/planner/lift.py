@@ -22,7 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from hriplan.planner.validate import densify
-from hriplan.recent import Recent
+from hriplan.recent import MadeFor
 from hriplan.robots.collision import LISTED_WIDTH, CollisionChecker, listed_contacts
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import Robot
@@ -181,20 +181,19 @@ def retreat_path(
 # touch this hand): a re-plan asks again for the same, in a scene whose people moved and whose
 # released object lies elsewhere, and a checker given that scene keeps what does not change (its
 # person and distance models, the people's bodies), where a new one built everything (~20 ms).
-_CHECKERS: Recent[tuple[int, str], tuple[Robot, CollisionChecker]] = Recent(6)
+_CHECKERS: MadeFor[CollisionChecker] = MadeFor(6)
 
 
 def _checker(robot: Robot, scene: Scene, kind: str) -> CollisionChecker:
     """A checker of `robot` in `scene`: the one retreat_path used last for this robot and kind of
     scene, given `scene`, else a new one."""
-    key = (id(robot), kind)
-    held = _CHECKERS.get(key)  # holding the robot, its id is not reused while it is here
-    if held is None or held[0] is not robot:
-        held = robot, CollisionChecker(robot, scene)
-        _CHECKERS.put(key, held)
+    checker = _CHECKERS.get((robot,), kind)
+    if checker is None:
+        checker = CollisionChecker(robot, scene)
+        _CHECKERS.put((robot,), checker, kind)
     else:
-        held[1].set_scene(scene)
-    return held[1]
+        checker.set_scene(scene)
+    return checker
 
 
 def _retreat_along(

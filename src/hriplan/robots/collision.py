@@ -21,7 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan import HriplanError
-from hriplan.recent import Recent
+from hriplan.recent import MadeFor, Recent
 from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
@@ -153,7 +153,7 @@ class CollisionChecker:
         # Distance and person models, by what is carried and the people.
         self._people_models: Recent[str, tuple] = Recent(_REMEMBERED_BUILDS)
         # Per distance model: its pairs as geometry indices and the joint of each pair's robot part.
-        self._distance_pairs: Recent[int, tuple[pin.GeometryModel, np.ndarray, np.ndarray]] = Recent(_REMEMBERED_BUILDS)
+        self._distance_pairs: MadeFor[tuple[np.ndarray, np.ndarray]] = MadeFor(_REMEMBERED_BUILDS)
         # The scenes this checker copied lately: given back (a keep-out's block ends with the scene
         # before it), one is the checker's own already and needs no copy (~0.1 ms each).
         self._copies: Recent[int, Scene] = Recent(_REMEMBERED_BUILDS)
@@ -751,13 +751,12 @@ class CollisionChecker:
         """The distance model's pairs as geometry indices (k, 2) and the joint carrying each
         pair's robot part (k): read from pinocchio once per distance model, not at every call."""
         dm = self._distance_model
-        kept = self._distance_pairs.get(id(dm))
-        if kept is None or kept[0] is not dm:  # held here, the model's id is not reused while it is
+
+        def table() -> tuple[np.ndarray, np.ndarray]:
             pairs = np.array([(p.first, p.second) for p in dm.collisionPairs], dtype=int).reshape(-1, 2)
-            joints = np.array([dm.geometryObjects[int(a)].parentJoint for a in pairs[:, 0]], dtype=int)
-            kept = (dm, pairs, joints)
-            self._distance_pairs.put(id(dm), kept)
-        return kept[1], kept[2]
+            return pairs, np.array([dm.geometryObjects[int(a)].parentJoint for a in pairs[:, 0]], dtype=int)
+
+        return self._distance_pairs.made((dm,), table)
 
     def _pair_map(self, active: np.ndarray) -> np.ndarray:
         """The distance model's pairs `active` (a flag a pair) as the map of geometries pinocchio takes."""

@@ -16,7 +16,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from hriplan.recent import Recent
+from hriplan.recent import MadeFor
 from hriplan.robots.batch_kinematics import BatchKinematics
 
 # A lower bound is lowered by this (m) to stay below coal's (and rounding's) answer: its GJK stops when the squared
@@ -32,12 +32,7 @@ class PartSpheres:
     @classmethod
     def of(cls, robot_model: pin.Model, model: pin.GeometryModel, parts: Sequence[int]) -> PartSpheres:
         """The one made last for these models and parts, else a new one (~0.3 ms to make)."""
-        key = (id(robot_model), id(model), tuple(parts))
-        made = _SPHERES.get(key)  # held here, the models' ids are not reused while it is
-        if made is None or made.robot_model is not robot_model or made.model is not model:
-            made = cls(robot_model, model, parts)
-            _SPHERES.put(key, made)
-        return made
+        return _SPHERES.made((robot_model, model), lambda: cls(robot_model, model, parts), tuple(parts))
 
     def __init__(self, robot_model: pin.Model, model: pin.GeometryModel, parts: Sequence[int]) -> None:
         self.robot_model, self.model = robot_model, model
@@ -62,7 +57,7 @@ class PartSpheres:
         return axis_gaps(placed, centre, axis, half) - self._radius[:, None] - radius - BOUND_TOLERANCE
 
 
-_SPHERES: Recent[tuple[int, int, tuple[int, ...]], PartSpheres] = Recent(8)
+_SPHERES: MadeFor[PartSpheres] = MadeFor(8)
 
 
 def axis_gaps(centre: np.ndarray, p: np.ndarray, a: np.ndarray, half: np.ndarray) -> np.ndarray:

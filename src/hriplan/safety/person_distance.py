@@ -21,7 +21,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from hriplan.recent import Recent
+from hriplan.recent import MadeFor
 from hriplan.robots.batch_kinematics import BatchKinematics, cross
 from hriplan.robots.part_spheres import BOUND_TOLERANCE, axis_gaps, bounding_sphere
 from hriplan.safety.capsule_distance import capsule_distances
@@ -54,7 +54,7 @@ class Select:
 _ROUNDING = 1e-9
 
 # PersonDistances made lately, by robot model, person model and joints (`PersonDistances.of`).
-_MADE: Recent[tuple[int, int, frozenset[int]], PersonDistances] = Recent(8)
+_MADE: MadeFor[PersonDistances] = MadeFor(8)
 
 
 class PersonDistances:
@@ -66,12 +66,9 @@ class PersonDistances:
     def of(cls, robot_model: pin.Model, person_model: pin.GeometryModel, joints: Collection[int]) -> PersonDistances:
         """The one made last for these models and joints, else a new one: a checker keeps a person
         model across builds and re-poses, and every timing call makes a monitor (~2.5 ms to make)."""
-        key = (id(robot_model), id(person_model), frozenset(joints))
-        made = _MADE.get(key)  # held here, the models' ids are not reused while it is
-        if made is None or made.robot_model is not robot_model or made.person_model is not person_model:
-            made = cls(robot_model, person_model, joints)
-            _MADE.put(key, made)
-        return made
+        return _MADE.made(
+            (robot_model, person_model), lambda: cls(robot_model, person_model, joints), frozenset(joints)
+        )
 
     def __init__(self, robot_model: pin.Model, person_model: pin.GeometryModel, joints: Collection[int]) -> None:
         self.robot_model, self.robot_data, self.person_model = robot_model, robot_model.createData(), person_model
