@@ -50,6 +50,12 @@ TASK = {
 }
 
 
+def bare_ur5(name: str, more: str = "") -> str:
+    """A robot file of example-robot-data's UR5 with what `robot init` gives it and `more`."""
+    urdf = "package://example-robot-data/robots/ur_description/urdf/ur5_robot.urdf"
+    return f"name: {name}\nurdf: {urdf}\narms:\n  arm: {{base: base_link, tip: tool0}}\n{more}"
+
+
 # A slab through the UR5 at its start: a dozen parts collide with it.
 SLAB = {"name": "slab", "shape": {"type": "box", "size": [2.0, 2.0, 0.6]}, "pose": {"xyz": [0.0, 0.0, 0.5]}}
 
@@ -266,18 +272,14 @@ CASES: list[Case] = [
         "plan {d}/t.yaml -o {d}/out.json",
         "robot arm_without_stopping has no ISO/TS 15066 stopping data: give its robot file 'stopping:",
         absent=("out.json",),
-        arm__yaml="name: arm_without_stopping\n"
-        "urdf: package://example-robot-data/robots/ur_description/urdf/ur5_robot.urdf\n"
-        "arms:\n  arm: {base: base_link, tip: tool0}\npostures:\n  ready: {shoulder_lift_joint: -1.57}\n",
+        arm__yaml=bare_ur5("arm_without_stopping", "postures:\n  ready: {shoulder_lift_joint: -1.57}\n"),
         t__yaml=task(robot="arm.yaml", objects=[]),
     ),
     C(
         "task_robot_file_without_postures",
         "constraints {d}/t.yaml",
         "start.posture: robot 'arm_without_postures' has no posture 'ready'; postures: none (a robot file's `postures`",
-        arm__yaml="name: arm_without_postures\n"
-        "urdf: package://example-robot-data/robots/ur_description/urdf/ur5_robot.urdf\n"
-        "arms:\n  arm: {base: base_link, tip: tool0}\n",
+        arm__yaml=bare_ur5("arm_without_postures"),
         t__yaml=task(robot="arm.yaml", objects=[]),
     ),
     C(
