@@ -1000,6 +1000,7 @@ def test_the_corpus_is_large_and_distinct():
     assert all(c.says for c in CASES)  # each names its problem: no case accepts any one line
 
 
+@pytest.mark.usefixtures("robot_registry")  # a case's robot file registers its robot: for that case only
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.id)
 def test_bad_input(case: Case, tmp_path: Path, trajectory_text: str) -> None:
     argv = _materialise(case, tmp_path, trajectory_text)
