@@ -226,3 +226,18 @@ def test_init_from_the_panda_urdf_alone_takes_its_fingers_as_the_gripper(tmp_pat
         }
     }
     assert not any(line.startswith("posture ready: in self-collision") for line in result.stdout.splitlines())
+
+
+def test_init_writes_a_file_that_loads_when_the_guessed_gripper_does_not(tmp_path):
+    """The PR2's URDF alone: the fingers below its left palm turn about the palm's z axis, which a
+    parallel gripper must be told how to close along. init wrote them as one and its own file did
+    not load; it now writes the arm without a hand and says why, in one line of its output."""
+    out = tmp_path / "pr2.yaml"
+    result = invoke("robot", "init", "--urdf", ROBOTS / "pr2_description" / "urdf" / "pr2.urdf", "-o", out)
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    assert lines[0] == f"wrote {out}: robot pr2, arms arm (8 joints, tool l_gripper_palm_link, IK numeric)"
+    assert lines[1].startswith("arm arm: hand none: its fingers (l_gripper_l_finger_joint, ")
+    assert "does not close along the tool's x or y axis; say which: closes_along: x or y" in lines[1]
+    assert yaml.safe_load(out.read_text())["arms"]["arm"]["hand"] == "none"
+    assert not any(line.startswith("posture ready: in self-collision") for line in lines)

@@ -10,6 +10,7 @@ import os
 import re
 import time
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,7 @@ from hriplan import HriplanError
 from hriplan.files import read_text, write_atomically
 from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.collision import CollisionChecker
-from hriplan.robots.descriptions.description import hand_model
+from hriplan.robots.descriptions.description import RobotDescription, hand_model
 from hriplan.robots.descriptions.registry import DESCRIPTIONS, load_robot_file
 from hriplan.robots.ik import ANALYTIC_IK, fit_analytic, solve_ik
 from hriplan.robots.info import describe
@@ -357,7 +358,7 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
         )
 
     write()
-    description = load_robot_file(output)
+    description, dropped = _loaded_without_bad_grippers(output, arms, write)
     robot = load_robot(description.name)  # the same model whichever ready is written
     checker = CollisionChecker(robot, Scene())
     if "postures" in data:
@@ -375,4 +376,27 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
     wrote = f"wrote {output}: robot {description.name}, arms " + ", ".join(
         f"{arm} ({len(a.joints)} joints, tool {a.tool_frame}, IK {a.ik})" for arm, a in description.arms.items()
     )
-    return "\n".join([wrote, *_colliding_postures(checker, description.postures)])
+    return "\n".join([wrote, *dropped, *_colliding_postures(checker, description.postures)])
+
+
+def _loaded_without_bad_grippers(
+    output: Path, arms: dict[str, dict], write: Callable[[], None]
+) -> tuple[RobotDescription, list[str]]:
+    """The written file loaded; where an arm's guessed gripper does not load (fingers that turn
+    about an axis the tool frame does not say how to close along: the PR2's), the arm is written
+    with no hand and a line says why, so that init always writes a file that loads."""
+    dropped = []
+    while True:
+        try:
+            return load_robot_file(output), dropped
+        except HriplanError as exc:
+            arm = next(
+                (a for a, spec in arms.items() if f": arms.{a}.hand: " in str(exc) and spec["hand"] != "none"), None
+            )
+            if arm is None:
+                raise
+            reason = str(exc).split(f": arms.{arm}.hand: ", 1)[1]
+            fingers = ", ".join(arms[arm]["hand"]["gripper"])
+            dropped.append(f"arm {arm}: hand none: its fingers ({fingers}) as a parallel gripper: {reason}")
+            arms[arm]["hand"] = "none"
+            write()
