@@ -115,3 +115,15 @@ def test_validate_path_is_the_state_by_state_check(problem, rng):
             violated, collides = any(not c.satisfied for c in found.constraints), found.collision is not None
             kinds[{(0, 0): "valid", (1, 0): "violated", (0, 1): "collides", (1, 1): "both"}[violated, collides]] += 1
     assert all(kinds.values()), kinds  # every outcome was compared
+
+
+def test_the_report_samples_are_spread_evenly_each_once():
+    """The closest person is measured at up to DISTANCE_SAMPLES states spread from the first to
+    the last, each once: np.unique's answer (which imports numpy.ma), for every path length."""
+    from hriplan.planner.validate import _spread
+
+    for count in [*range(1, 400), 1000, 4515]:
+        for most in (1, 2, 3, 150):
+            expected = np.unique(np.linspace(0, count - 1, min(count, most)).astype(int))
+            assert np.array_equal(_spread(count, most), expected)
+    assert _spread(4515, 150)[[0, -1]].tolist() == [0, 4514] and len(_spread(4515, 150)) == 150
