@@ -177,8 +177,31 @@ def test_init_of_a_bravo_7_guesses_velocities_and_takes_its_arm_off_the_fingers(
     assert meshes.touching(robot.configuration(posture(robot.name, "ready"))) == set()
 
 
-def test_a_joint_named_like_a_link_is_one_line(tmp_path, robot_registry):
-    """so_arm100's URDF names a joint and a link `gripper`: pinocchio cannot reduce the model."""
+def test_a_moving_joint_named_like_a_link_is_one_line(tmp_path, robot_registry):
+    """so_arm100's URDF names its jaw's joint and a link `gripper`: pinocchio cannot reduce the
+    model, and renaming either would rename what the robot file and trajectories say."""
     share = SHARE / "so_arm_description"
-    with pytest.raises(HriplanError, match=r"names a joint and a link alike \(gripper\)"):
+    with pytest.raises(HriplanError, match=r"names a moving joint and a link alike \(gripper\)"):
         write_starting_file(str(share / "urdf/so100.urdf"), None, tmp_path / "so.yaml")
+
+
+def test_a_fixed_joint_named_like_a_link_is_renamed_and_the_robot_loads(tmp_path, robot_registry):
+    """Unitree Z1's URDF names a fixed joint and a link `gripperStator` (its SRDF's chain starts
+    at a link `base` the URDF does not have, so the user gives the URDF alone). Nothing refers to
+    a fixed joint, so hriplan renames it and the robot loads. (init's arm ends at the one jaw's
+    link: a single gripper joint at a chain's end looks like an arm joint; the file is a start.)"""
+    share = SHARE / "z1_description"
+    path = tmp_path / "z1.yaml"
+    write_starting_file(str(share / "urdf/z1.urdf"), None, path)
+    robot = load_robot(load_robot_file(path).name)
+    assert robot.joint_names == [f"joint{k}" for k in range(1, 7)] + ["jointGripper"]
+    model = robot.model
+    assert model.existFrame("gripperStator", pin.FrameType.BODY)
+    assert model.existFrame("gripperStator_joint", pin.FrameType.FIXED_JOINT)
+    assert not model.existFrame("gripperStator", pin.FrameType.FIXED_JOINT)
+    # The stator stays where the URDF puts it: 0.051 m out along joint6's x (z1.urdf).
+    zero = {j: 0.0 for j in robot.joint_names}
+    stator, flange = robot.frame_pose("gripperStator", zero), robot.frame_pose("link06", zero)
+    expected = np.eye(4)
+    expected[0, 3] = 0.051
+    np.testing.assert_allclose(np.linalg.inv(flange) @ stator, expected, atol=1e-12)

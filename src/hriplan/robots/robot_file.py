@@ -41,6 +41,7 @@ import math
 import os
 import re
 import xml.etree.ElementTree as ET
+from collections.abc import Collection
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -234,6 +235,25 @@ def _urdf_root(path: Path) -> ET.Element:
     return root
 
 
+def _unused(name: str, taken: Collection[str]) -> str:
+    """`name`, else `name1`, `name2`, ...: the first that `taken` does not hold."""
+    return next(f"{name}{k or ''}" for k in range(len(taken) + 1) if f"{name}{k or ''}" not in taken)
+
+
+def _rename_fixed_joints_named_as_links(root: ET.Element) -> None:
+    """Give a fixed joint named like a link (Unitree Z1's `gripperStator`) a name of its own,
+    `NAME_joint`: pinocchio cannot reduce a model whose frames share a name, and nothing refers
+    to a fixed joint (not postures, trajectories or the SRDF's states), so the rename is unseen."""
+    links = {el.get("name") for el in root.findall("link")}
+    joints = root.findall("joint")
+    names = {el.get("name") for el in joints}
+    for el in joints:
+        if el.get("type") == "fixed" and el.get("name") in links:
+            new = _unused(f"{el.get('name')}_joint", names | links)
+            names.add(new)
+            el.set("name", new)
+
+
 class _Builder:
     """Turns a validated robot file into a description (every check in one place)."""
 
@@ -242,6 +262,7 @@ class _Builder:
         packages = {name: (folder / path).resolve() for name, path in spec.packages.items()}
         urdf = resolve_file(spec.urdf, packages, folder, "URDF file")
         self.root = _urdf_root(urdf)
+        _rename_fixed_joints_named_as_links(self.root)
         _resolve_meshes(self.root, packages, urdf.parent)
         self._set_ranges()
         self.tree = UrdfTree(self.root)
@@ -356,12 +377,7 @@ class _Builder:
         xyz, rpy = _xyz_rpy(a.tool_offset)
         X.link(self.root, name)
         # Its joint's name is ours to choose: one the URDF does not use (TIAGo has an arm_tool_joint).
-        joint = next(
-            f"{name}_joint{k or ''}"
-            for k in range(len(self.tree.joints) + 1)
-            if f"{name}_joint{k or ''}" not in self.tree.joints
-        )
-        X.joint(self.root, joint, "fixed", link, name, xyz, rpy)
+        X.joint(self.root, _unused(f"{name}_joint", self.tree.joints), "fixed", link, name, xyz, rpy)
         return name
 
     def hand(self, arm: str, a: ArmSpec, prefix: str, joints: list[str]) -> str | None:
@@ -464,13 +480,14 @@ class _Builder:
         return acceleration
 
     def shared_names(self) -> None:
-        """pinocchio cannot reduce a model in which a joint has the name of a link (its frames are
-        ambiguous: so_arm100's `gripper`): say so in one line, not with its traceback."""
+        """pinocchio cannot reduce a model in which a moving joint has the name of a link (its
+        frames are ambiguous: so_arm100's `gripper`), and renaming either would change names the
+        robot file and the trajectories use: say so in one line, not with its traceback."""
         shared = sorted(set(self.tree.joints) & set(self.tree.links))
         if shared:
             raise HriplanError(
-                f"the URDF names a joint and a link alike ({', '.join(shared)}), which pinocchio cannot"
-                " reduce to the arms: rename one of each pair"
+                f"the URDF names a moving joint and a link alike ({', '.join(shared)}), which pinocchio"
+                " cannot reduce to the arms: rename one of each pair in a copy of the URDF"
             )
 
     def whole_group(self, arms: dict[str, ArmDescription], planning: list[str]) -> str:
