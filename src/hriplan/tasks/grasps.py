@@ -22,11 +22,19 @@ from hriplan.robots.spatial import Transform
 AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
 
 
+USUAL = "usual"  # the grasp of an arm without a robot hand: along its usual axis
+
+
 @dataclass(frozen=True)
 class Grasp:
     name: str
     axis: str  # signed tool axis along the held object's z axis
     offset: float = 0.0  # where the hand closes: from the centre along the object's z, per length
+
+    def described(self, obj: str) -> str:
+        """How a message says `obj` is held: by its grasp's name, or (an arm without a hand)
+        along the tool axis the robot holds objects by."""
+        return f"{obj} along the tool's {self.axis}" if self.name == USUAL else f"{obj} by {self.name}"
 
     def object_in_tool(self, length: float) -> Transform:
         """Pose of the held object in the tool frame: its z along `axis`, the grasp point at the tool."""
@@ -61,10 +69,10 @@ def object_length(shape: Shape | None) -> float:
 def allowed_grasps(facts: Facts, obj: str, arm_individual: str, usual_axis: str) -> list[Grasp]:
     """The grasps the rules allow for `obj` in an arm, most preferred first."""
     if not facts.get(arm_individual, "hasRobotHand"):
-        return [Grasp("usual", usual_axis)]
+        return [Grasp(USUAL, usual_axis)]
     required, afforded = set(map(str, facts.get(obj, "requiresGrasp"))), set(map(str, facts.get(obj, "affordsGrasp")))
     if not afforded | required:
-        return [Grasp("usual", usual_axis)]
+        return [Grasp(USUAL, usual_axis)]
     names = (
         required & afforded if required and afforded else required or afforded
     )  # rules restrict what the kind affords

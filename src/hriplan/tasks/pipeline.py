@@ -326,7 +326,7 @@ class TaskRunner:
         holding = {o: g.name for o, g in state.grasps.items() if o in kb.situation.task.carries | touched}
         planned, end = self._plan_step(step, index, state, resolved, start, outcome)
         if holding and planned[-1].status != Status.SOLVED:
-            grasps = ", ".join(f"{o} by {g}" for o, g in holding.items())
+            grasps = ", ".join(state.grasps[o].described(o) for o in holding)
             planned[-1] = planned[-1].model_copy(update={"message": f"{planned[-1].message} (holding {grasps})"})
         # Each trajectory records the grasps it holds its objects by: `validate --task` re-derives with them.
         planned = [
