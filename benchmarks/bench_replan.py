@@ -10,11 +10,15 @@ machine; compare the parts with each other, in one run. Last, the ISO/TS 15066 m
 last re-plan's own calls: the batched `ApproachMonitor.speed_scale` against the per-point route it
 replaced (coal on every pair through `CollisionChecker.person_pairs`, pinocchio Jacobians), same
 numbers checked.
+`--save FILE` writes every update's outcome (JSON, one line an update, planning times left out);
+`--against FILE` compares each update's with that file's (another tree's run): re-plans must
+give the same trajectories, bit for bit.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import time
 from collections.abc import Callable
@@ -55,6 +59,8 @@ STAGES = (
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--updates", type=int, default=10)
+    parser.add_argument("--save", type=Path, help="write each update's outcome here (JSON lines)")
+    parser.add_argument("--against", type=Path, help="compare each update's outcome with this --save file")
     args = parser.parse_args()
     task = load_task(EXAMPLE)
     session = PlanningSession(task.robot, hands=task.hands)
@@ -82,7 +88,7 @@ def main() -> None:
 
     ApproachMonitor.speed_scale = comparing
     run_task(task, session, advance=False)  # warm: robot, collision model, reasoner's schema
-    totals, cpu, stages, by_stage = [], [], [], []
+    totals, cpu, stages, by_stage, outcomes = [], [], [], [], []
     bob = task.humans[0]
     for k in range(args.updates):
         # 10 cm to and fro, plus 1 mm more each time: every update is a place she has not been
@@ -98,6 +104,7 @@ def main() -> None:
         cpu.append(time.process_time() - started_cpu)
         stages.append(timing["time"])
         by_stage.append(dict(spent))
+        outcomes.append(_without_planning_times(outcome.model_dump(mode="json")))
         print(
             f"update {k + 1}: {outcome.steps[-1].status:>8} in {totals[-1]:.3f} s, CPU {cpu[-1]:.3f} s (timing stage {stages[-1]:.3f} s)"
         )
@@ -108,6 +115,15 @@ def main() -> None:
     print("median CPU per re-plan by stage (inclusive):")
     for label, _, _ in STAGES:
         print(f"  {label:44s} {1e3 * statistics.median(s.get(label, 0.0) for s in by_stage):6.1f} ms")
+    if args.save:
+        args.save.write_text("".join(json.dumps(o, sort_keys=True) + "\n" for o in outcomes))
+    if args.against:
+        before = [json.loads(line) for line in args.against.read_text().splitlines()]
+        same = [k + 1 for k, (a, b) in enumerate(zip(outcomes, before)) if a == b]
+        print(f"outcomes identical to {args.against} at {len(same)} of {len(outcomes)} updates")
+        assert len(same) == len(outcomes) == len(before), (
+            f"updates that differ: {sorted(set(range(1, len(outcomes) + 1)) - set(same))}"
+        )
     compared["on"] = True
     run_task(variant, session, advance=False)
     c = compared
@@ -116,6 +132,15 @@ def main() -> None:
         f"{1e3 * c['point']:.1f} ms ({c['point'] / c['batch']:.1f}x); largest relative difference {c['worst']:.1e} (coal's GJK "
         f"on the non-capsule pairs converges to 1e-6 from a guess that depends on the model's history)"
     )
+
+
+def _without_planning_times(value):
+    """`value` (a JSON tree) without its planning_time entries: the clock, not the result."""
+    if isinstance(value, dict):
+        return {k: _without_planning_times(v) for k, v in value.items() if k != "planning_time"}
+    if isinstance(value, list):
+        return [_without_planning_times(v) for v in value]
+    return value
 
 
 def _spent_in_stages() -> dict[str, float]:

@@ -64,6 +64,25 @@ def test_the_walk_gives_pinocchios_frames_and_velocities(model, walked):
             np.testing.assert_allclose(frames.angular[n, k], rotation @ data.v[j].angular, atol=1e-9)
 
 
+@pytest.mark.parametrize(
+    "model",
+    [load_robot("madar").model, _mixed_chain(), pin.buildSampleModelHumanoid()],
+    ids=["madar", "every-kind", "free-flyer"],
+)
+def test_placements_are_the_walks_own_bit_for_bit(model):
+    """The placements alone (the velocities' walk skipped, for distance bounds) are the very
+    numbers the full walk gives, whatever the velocities."""
+    rng = np.random.default_rng(6)
+    lower, upper = np.maximum(model.lowerPositionLimit, -2.0), np.minimum(model.upperPositionLimit, 2.0)  # finite
+    qs = np.array([pin.randomConfiguration(model, lower, upper) for _ in range(25)])
+    joints = list(range(model.njoints - 1, 0, -2))
+    kinematics = BatchKinematics(model, joints)
+    rotation, origin = kinematics.placements(qs)
+    frames = kinematics(qs, rng.normal(size=(25, model.nv)))
+    assert np.array_equal(rotation, frames.rotation) and np.array_equal(origin, frames.origin)
+    assert rotation.shape == (25, len(joints), 3, 3) and origin.shape == (25, len(joints), 3)
+
+
 def test_cross_is_numpys_bit_for_bit():
     """The cross product the walk and the monitor use gives np.cross's numbers exactly (the
     same products and differences), on stacks of random vectors of several scales."""

@@ -128,3 +128,22 @@ def test_part_spheres_bound_every_moving_pair_from_below(madar, checker, rng):
     least, floor = coals.min(axis=(1, 2)), floor.min(axis=(1, 2))
     assert np.median(least - floor) < 0.2  # and not a useless bound (spheres about long capsules are loose)
     assert (least < 0.05).any()  # states near the people were among them
+
+
+def test_moving_pairs_are_those_whose_chain_holds_a_varying_joint(madar, checker, rng):
+    """The pairs whose robot part a joint varying along the states moves: against the chains
+    walked in Python (pinocchio's supports), for each single joint varying, each arm, and all."""
+    model, q0 = madar.model, madar.configuration(CLEAR)
+    _, carriers = checker._distance_pair_table()
+    varied = [[i] for i in range(model.nq)] + [list(madar.group_indices(g)) for g in ("right_arm", "left_arm")]
+    for entries in [*varied, list(range(model.nq)), []]:
+        qs = np.repeat(q0[None], 4, axis=0)
+        qs[1:, entries] += rng.uniform(0.05, 0.3, (3, len(entries)))
+        changed = {
+            j
+            for j in range(1, model.njoints)
+            if set(range(model.idx_qs[j], model.idx_qs[j] + model.nqs[j])) & set(entries)
+        }
+        moved = [bool(changed.intersection(model.supports[int(j)])) for j in carriers]
+        assert checker._moving_pairs(qs).tolist() == moved
+    assert checker._moving_pairs(np.repeat(q0[None], 3, axis=0)).sum() == 0

@@ -230,10 +230,11 @@ def _retreat_along(
         if why:
             told = told or (why, None, end)
             continue
-        states = [opened.configuration(x, group, base=q_release) for x in dense]
-        hit = next((q for q in states if checker.in_collision(q)), None)
+        states = np.repeat(q_release[None], len(dense), axis=0)
+        states[:, opened.group_indices(group)] = dense
+        hit = checker.first_collision(states)  # the first colliding state, the tables asked all at once
         if hit is not None:
-            told = (f"{what} it collides: ", checker, hit)
+            told = (f"{what} it collides: ", checker, states[hit])
             continue
         touches = [untouched.touches(q, released) for q in states]
         if touches[-1] or (False in touches and True in touches[touches.index(False) :]):

@@ -60,9 +60,25 @@ class BatchKinematics:
         """At configurations `qs` (N, nq) moving with joint velocities `dqs` (N, nv)."""
         if self._walk is None:
             return self._one_by_one(qs, dqs)
-        n = len(qs)
+        return Frames(*self._walked(qs, dqs))
+
+    def placements(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The rotations (N, F, 3, 3) and origins (N, F, 3) alone, at configurations `qs`: the
+        same numbers as `__call__`'s, without the velocities' walk (a distance bound needs none)."""
+        if self._walk is None:
+            frames = self._one_by_one(qs, np.zeros((len(qs), self.model.nv)))
+            return frames.rotation, frames.origin
+        rotation, origin, _, _ = self._walked(qs, None)
+        return rotation, origin
+
+    def _walked(
+        self, qs: np.ndarray, dqs: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """The walk down the chains: rotations, origins and (unless `dqs` is None) linear and
+        angular velocities of the asked joints."""
+        n, moves = len(qs), dqs is not None
         rotation, origin = np.empty((n, len(self._walk), 3, 3)), np.empty((n, len(self._walk), 3))
-        linear, angular = np.empty_like(origin), np.empty_like(origin)
+        linear, angular = (np.empty_like(origin), np.empty_like(origin)) if moves else (None, None)
         for k, joint in enumerate(self._walk):
             if joint.parent < 0:
                 place, offset = np.broadcast_to(joint.rotation, (n, 3, 3)), np.broadcast_to(joint.translation, (n, 3))
@@ -71,23 +87,26 @@ class BatchKinematics:
                 up = rotation[:, joint.parent]
                 place, at = up @ joint.rotation, origin[:, joint.parent]
                 offset = at + up @ joint.translation
-                spin, moving = angular[:, joint.parent], linear[:, joint.parent]
+                if moves:
+                    spin, moving = angular[:, joint.parent], linear[:, joint.parent]
             axis = place @ joint.axis  # the world axis: a joint's own motion leaves it fixed
-            dq = dqs[:, joint.idx_v, None]
             if joint.turns:
                 cos, sin = _angle(qs, joint)
                 rotation[:, k] = place @ _rotation(joint, cos, sin)
                 origin[:, k] = offset
-                angular[:, k] = spin + axis * dq
-                linear[:, k] = moving + cross(spin, offset - at)
+                if moves:
+                    angular[:, k] = spin + axis * dqs[:, joint.idx_v, None]
+                    linear[:, k] = moving + cross(spin, offset - at)
             else:
-                slide = qs[:, joint.idx_q, None]
                 rotation[:, k] = place
-                origin[:, k] = offset + axis * slide
-                angular[:, k] = spin
-                linear[:, k] = moving + cross(spin, origin[:, k] - at) + axis * dq
+                origin[:, k] = offset + axis * qs[:, joint.idx_q, None]
+                if moves:
+                    angular[:, k] = spin
+                    linear[:, k] = moving + cross(spin, origin[:, k] - at) + axis * dqs[:, joint.idx_v, None]
         asked = self._asked
-        return Frames(rotation[:, asked], origin[:, asked], linear[:, asked], angular[:, asked])
+        if not moves:
+            return rotation[:, asked], origin[:, asked], None, None
+        return rotation[:, asked], origin[:, asked], linear[:, asked], angular[:, asked]
 
     def _one_by_one(self, qs: np.ndarray, dqs: np.ndarray) -> Frames:
         """pinocchio per configuration (a chain with a joint the walk does not know)."""

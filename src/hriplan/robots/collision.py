@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import cached_property
 
 import coal
 import numpy as np
@@ -723,14 +724,22 @@ class CollisionChecker:
     def _moving_pairs(self, qs: np.ndarray) -> np.ndarray:
         """Which distance-model pairs have their robot part on a joint that a joint varying
         along `qs` moves."""
-        model = self.robot.model
-        varying = np.ptp(qs, axis=0) > 0.0
-        changed = {
-            j for j in range(1, model.njoints) if varying[model.idx_qs[j] : model.idx_qs[j] + model.nqs[j]].any()
-        }
-        moved = {j for j in range(model.njoints) if changed.intersection(model.supports[j])}
+        moved = self._moves[np.ptp(qs, axis=0) > 0.0].any(axis=0)
         _, joints = self._distance_pair_table()
-        return np.isin(joints, sorted(moved))
+        return moved[joints]
+
+    @cached_property
+    def _moves(self) -> np.ndarray:
+        """(nq, njoints): does configuration entry i move joint j (a joint on j's chain, the
+        universe aside, holds i)? Read once: walking the chains in Python at every call cost
+        ~0.4 ms, a tenth of the closest approach's."""
+        model = self.robot.model
+        moves = np.zeros((model.nq, model.njoints), dtype=bool)
+        for j in range(model.njoints):
+            for c in model.supports[j]:
+                if c > 0:
+                    moves[model.idx_qs[c] : model.idx_qs[c] + model.nqs[c], j] = True
+        return moves
 
     @contextmanager
     def _only_pairs(self, active: np.ndarray) -> Iterator[None]:

@@ -52,8 +52,8 @@ class PartSpheres:
         radius (S,); less coal's tolerance, so below coal's answer too. A part lies inside its
         sphere, so none of its points is nearer a capsule than the sphere's centre's gap to the
         capsule's axis less both radii; inside a capsule as well (a negative bound)."""
-        frames = self._kinematics(qs, np.zeros((len(qs), self.robot_model.nv)))
-        placed = (frames.rotation[:, self._frame] @ self._centre)[..., 0] + frames.origin[:, self._frame]
+        rotation, origin = self._kinematics.placements(qs)
+        placed = (rotation[:, self._frame] @ self._centre)[..., 0] + origin[:, self._frame]
         return axis_gaps(placed, centre, axis, half) - self._radius[:, None] - radius - BOUND_TOLERANCE
 
 
