@@ -2,7 +2,8 @@
 
 `clear_errors` maps a `HriplanError` to `error: ...`; `OneLineErrors` does the same for the
 command line itself (a missing argument, an unknown option) and makes Ctrl-C stop at once, even
-inside OMPL's solve, which never returns to Python's own KeyboardInterrupt handling.
+inside OMPL's solve, which never returns to Python's own KeyboardInterrupt handling; the process
+of a command line ends as soon as its command is done (`cli/quick_exit.py`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from typer.core import TyperGroup
 from hriplan import HriplanError
 from hriplan.cli.collector import collector_paused_while_importing
 from hriplan.cli.outputs import remove_partial_outputs
+from hriplan.cli.quick_exit import exit_now
 
 F = TypeVar("F", bound=Callable)
 INTERRUPTED = 130  # 128 + SIGINT, what a shell reports for Ctrl-C
@@ -87,4 +89,7 @@ class OneLineErrors(TyperGroup):
                 signal.signal(signal.SIGINT, previous)
         if not standalone_mode:
             return code
-        sys.exit(code if isinstance(code, int) else 0)
+        code = code if isinstance(code, int) else 0
+        if args is None:  # the process's own command line (click read sys.argv): nothing is left to run
+            exit_now(code)
+        sys.exit(code)

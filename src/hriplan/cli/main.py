@@ -12,6 +12,7 @@ from hriplan import HriplanError, __version__
 from hriplan.blas_threads import single_threaded_blas
 from hriplan.cli.errors import OneLineErrors, clear_errors
 from hriplan.cli.export import export
+from hriplan.cli.one_command import OneCommandTyper
 from hriplan.cli.ontology import ontology_app
 from hriplan.cli.serve import serve
 from hriplan.cli.sweeps import SWEEP_COMMANDS
@@ -20,7 +21,7 @@ from hriplan.cli.validate import validate
 from hriplan.cli.view import plot, view
 
 single_threaded_blas()  # before any command imports numpy
-app = typer.Typer(
+app = OneCommandTyper(
     cls=OneLineErrors, no_args_is_help=True, add_completion=False, rich_markup_mode=None, pretty_exceptions_enable=False
 )
 robot_app = typer.Typer(
