@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import coal
 import numpy as np
@@ -24,12 +25,16 @@ from hriplan import HriplanError
 from hriplan.recent import MadeFor, Recent
 from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
+from hriplan.robots.kernel_switch import kernels_on
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
 from hriplan.robots.part_spheres import PartSpheres
 from hriplan.robots.robot_geometry import ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
+
+if TYPE_CHECKING:
+    from hriplan.robots.free_certifier import FreeCertifier
 
 # How a separation zone is named in contacts and messages: "bob/left_upperleg (minimum separation 0.225 m)".
 ZONE_NAMING = "minimum separation"
@@ -103,6 +108,7 @@ _BUILT = (
     "_index",
     "_names",
     "_joints",
+    "_certifier",
 )
 _REMEMBERED_BUILDS = 8
 _PEOPLE_KEPT = 16  # the people a checker keeps a Human of (a service's session sees many)
@@ -274,6 +280,7 @@ class CollisionChecker:
             self._build_new()
         self._remember()
         self._stale = False
+        self._statics_moved = True
 
     @property
     def geom_model(self) -> pin.GeometryModel:
@@ -491,6 +498,7 @@ class CollisionChecker:
         self._tabled = [(table, ks) for table, ks in tabled if not table.free.all()]
         # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
         self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self._geom_data)
+        self._certifier: FreeCertifier | bool | None = None  # made when first asked, with the kernels on
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
@@ -513,6 +521,7 @@ class CollisionChecker:
                 ]
             }
         )
+        self._statics_moved = True
         if not self._stale and self._place_obstacle(self._index[name], pose):
             self._pair_up()
             self._remember()
@@ -548,6 +557,7 @@ class CollisionChecker:
         stands now, in the build. Builds are remembered without the people's poses (a person who
         moved changes no pair), so using one places them."""
         placements = self._placed(name)
+        self._statics_moved = True
         for slot, placement in zip(self._human_slots[name], placements):
             self._geom_model.geometryObjects[slot].placement = placement
         for slot, k in self._zone_slots.get(name, []):
@@ -570,6 +580,9 @@ class CollisionChecker:
         checked on its meshes only where its table cannot certify it (the broad phase placed them)."""
         if self._stale:
             self._ready()
+        certifier = self._free_certifier()
+        if certifier is not None and certifier.free(q):
+            return False
         if pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True):
             return True
         if not self._tabled:
@@ -586,12 +599,38 @@ class CollisionChecker:
         model, data, broadphase = self.robot.model, self.robot.data, self._broadphase
         certified = np.array([table.certified_many(qs) for table, _ in self._tabled], dtype=bool)
         certified = certified.reshape(len(self._tabled), len(qs)).T
+        certifier = self._free_certifier()
+        free = certifier.free_many(qs) if certifier is not None else np.zeros(len(qs), dtype=bool)
         for k, q in enumerate(qs):
+            if free[k]:
+                continue
             if pin.computeCollisions(model, data, broadphase, q, True):
                 return k
             if any(not free and self._meshes_touch(pairs) for (_, pairs), free in zip(self._tabled, certified[k])):
                 return k
         return None
+
+    def _free_certifier(self) -> FreeCertifier | None:
+        """The compiled certifier of this build's broad-phase pairs and tables, placed where the
+        scene stands now; None with the kernels off (`kernel_switch`) or for a robot it cannot
+        walk. It says free only where coal and the tables would, so answers are the same."""
+        if not kernels_on():
+            return None
+        if self._certifier is None:
+            from hriplan.robots.free_certifier import FreeCertifier
+
+            active = np.array(self._geom_data.activeCollisionPairs, dtype=bool)
+            pairs = np.array([(p.first, p.second) for p in self._geom_model.collisionPairs], dtype=np.int64)
+            tables = [table for table, _ in self._tabled]
+            people = [slots + [s for s, _ in self._zone_slots.get(n, [])] for n, slots in self._human_slots.items()]
+            made = FreeCertifier.of(self.robot.model, self._geom_model, pairs.reshape(-1, 2)[active], tables, people)
+            self._certifier = made or False  # False: none for this robot, not asked again
+            self._statics_moved = False
+            self._remember()
+        elif self._statics_moved and self._certifier:
+            self._certifier.place(self._geom_model)
+            self._statics_moved = False
+        return self._certifier or None
 
     def _meshes_touch(self, pairs: list[int]) -> bool:
         """Does any of a table's mesh pairs collide, where the broad phase placed them?"""
