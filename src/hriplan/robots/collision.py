@@ -581,8 +581,8 @@ class CollisionChecker:
         if self._stale:
             self._ready()
         certifier = self._free_certifier()
-        if certifier is not None and certifier.free(q):
-            return False
+        if certifier is not None and (verdict := certifier.verdict(q)) >= 0:
+            return self._tables_touch(q, verdict)
         if pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True):
             return True
         if not self._tabled:
@@ -600,9 +600,11 @@ class CollisionChecker:
         certified = np.array([table.certified_many(qs) for table, _ in self._tabled], dtype=bool)
         certified = certified.reshape(len(self._tabled), len(qs)).T
         certifier = self._free_certifier()
-        free = certifier.free_many(qs) if certifier is not None else np.zeros(len(qs), dtype=bool)
+        verdicts = certifier.verdicts(qs) if certifier is not None else np.full(len(qs), -1)
         for k, q in enumerate(qs):
-            if free[k]:
+            if verdicts[k] >= 0:
+                if self._tables_touch(q, verdicts[k]):
+                    return k
                 continue
             if pin.computeCollisions(model, data, broadphase, q, True):
                 return k
@@ -631,6 +633,15 @@ class CollisionChecker:
             self._certifier.place(self._geom_model)
             self._statics_moved = False
         return self._certifier or None
+
+    def _tables_touch(self, q: np.ndarray, uncertified: int) -> bool:
+        """With every broad-phase pair clear at `q` (the certifier's word): does a mesh pair of a
+        table that does not certify `q` (bit k: `_tabled[k]`) touch? The meshes are placed
+        here, as the broad phase would have placed them."""
+        if not uncertified:
+            return False
+        pin.updateGeometryPlacements(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q)
+        return any(uncertified >> k & 1 and self._meshes_touch(pairs) for k, (_, pairs) in enumerate(self._tabled))
 
     def _meshes_touch(self, pairs: list[int]) -> bool:
         """Does any of a table's mesh pairs collide, where the broad phase placed them?"""

@@ -146,11 +146,11 @@ class FreeCertifier:
         tables: Sequence[ClearanceTable],
         groups: Sequence[Sequence[int]] = (),
     ) -> FreeCertifier | None:
-        """The certifier of these pairs (k, 2) and tables, or None for a robot whose joints the
-        kernel does not walk. `groups`: geometries on no joint that stand together (a person's
+        """The certifier of these pairs (k, 2) and tables (at most 62), or None for a robot whose
+        joints the kernel does not walk or with more tables. `groups`: geometries on no joint that stand together (a person's
         capsules), against which a moving geometry is first tested as one sphere."""
         joints = joint_tables(model)
-        return None if joints is None else cls(joints, geom_model, pairs, tables, groups)
+        return None if joints is None or len(tables) > 62 else cls(joints, geom_model, pairs, tables, groups)
 
     def __init__(
         self,
@@ -254,23 +254,28 @@ class FreeCertifier:
         self._placed = self._rows.copy()
         return np.concatenate([a.reshape(-1) for a in floats]), packed
 
-    def free(self, q: np.ndarray) -> bool:
-        """True only if no checked pair can collide at `q` (False says nothing)."""
-        return _free_one(q, self._floats, self._ints, self._placed)
+    def verdict(self, q: np.ndarray) -> int:
+        """-1: some checked pair may touch at `q` (ask coal). Else every pair is clear, and the
+        result's bit k says table k (of those given) does not certify `q`: 0 is free."""
+        return _verdict_one(q, self._floats, self._ints, self._placed)
+
+    def verdicts(self, qs: np.ndarray) -> np.ndarray:
+        """`verdict` of every state of `qs` (N, nq), in one call."""
+        if not len(qs):
+            return np.zeros(0, dtype=np.int64)
+        return _verdicts(np.ascontiguousarray(qs, dtype=float), self._floats, self._ints, self._placed)
 
     def free_many(self, qs: np.ndarray) -> np.ndarray:
-        """`free` of every state of `qs` (N, nq), in one call."""
-        if not len(qs):
-            return np.zeros(0, dtype=bool)
-        qs = np.ascontiguousarray(qs, dtype=float)
-        return _free_many(qs, self._floats, self._ints, self._placed)
+        """Per state of `qs`: free (no pair may touch, every table certifies it)."""
+        return self.verdicts(qs) == 0
 
 
 @njit(cache=True, nogil=True)
-def _tabled(q, tables, axis_ints, axis_floats, bits) -> bool:
-    """Every clearance table certifies `q`: `ClearanceTable.certified`'s arithmetic."""
+def _uncertified_tables(q, tables, axis_ints, axis_floats, bits) -> int:
+    """The tables that do not certify `q`, bit k for table k: `ClearanceTable.certified`'s arithmetic."""
+    mask = 0
     for k in range(tables.shape[0]):
-        first, count, flat = tables[k, 0], tables[k, 1], 0
+        first, count, flat, inside = tables[k, 0], tables[k, 1], 0, True
         for a in range(first, first + count):
             i, n, wrap = axis_ints[a, 0], axis_ints[a, 1], axis_ints[a, 2]
             lower, step = axis_floats[a, 0], axis_floats[a, 1]
@@ -280,11 +285,12 @@ def _tabled(q, tables, axis_ints, axis_floats, bits) -> bool:
             elif c == n and q[i] - lower <= step * n:
                 c = n - 1
             elif not 0 <= c < n:
-                return False
+                inside = False
+                break
             flat = flat * n + c
-        if bits[tables[k, 2] + flat] != 1:
-            return False
-    return True
+        if not inside or bits[tables[k, 2] + flat] != 1:
+            mask |= 1 << k
+    return mask
 
 
 @njit(cache=True, nogil=True)
@@ -455,13 +461,11 @@ def _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b) -> bo
 
 
 @njit(cache=True, nogil=True)
-def _free_at(q, floats, ints, placed) -> bool:
-    """Every table certifies `q` and every pair is clear (stops at the first that is not); a
-    run of pairs with one group passes at once when its sphere is clear. `placed` holds the
-    rows on no joint already (placed once, when packed)."""
+def _verdict(q, floats, ints, placed) -> int:
+    """-1 if some pair may touch at `q` (stops at the first); else the tables that do not
+    certify it (bit k for table k; 0: free). A run of pairs with one group passes at once when
+    its sphere is clear. `placed` holds the rows on no joint already (placed once, when packed)."""
     joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = _unpack(floats, ints)
-    if not _tabled(q, tables, axis_ints, axis_floats, bits):
-        return False
     nj = joint_rows.shape[0]
     rotation, origin = np.empty((nj, 3, 3)), np.empty((nj, 3))
     place_joints(q, joint_rows, joint_ints, rotation, origin)
@@ -476,21 +480,21 @@ def _free_at(q, floats, ints, placed) -> bool:
             continue
         if not pair_clear(placed, a, b, BOUND_TOLERANCE):
             if children[a, 1] == 0 and children[b, 1] == 0:
-                return False
+                return -1
             if not _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b):
-                return False
+                return -1
         k += 1
-    return True
+    return _uncertified_tables(q, tables, axis_ints, axis_floats, bits)
 
 
 @njit(cache=True, nogil=True)
-def _free_one(q, floats, ints, placed) -> bool:
-    return _free_at(q, floats, ints, placed)
+def _verdict_one(q, floats, ints, placed) -> int:
+    return _verdict(q, floats, ints, placed)
 
 
 @njit(cache=True, nogil=True)
-def _free_many(qs, floats, ints, placed) -> np.ndarray:
-    out = np.zeros(qs.shape[0], dtype=np.bool_)
+def _verdicts(qs, floats, ints, placed) -> np.ndarray:
+    out = np.empty(qs.shape[0], dtype=np.int64)
     for n in range(qs.shape[0]):
-        out[n] = _free_at(qs[n], floats, ints, placed)
+        out[n] = _verdict(qs[n], floats, ints, placed)
     return out
