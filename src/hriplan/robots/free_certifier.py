@@ -397,12 +397,14 @@ def _place(rows, g, rotation, origin, j, out) -> None:
         for r in range(3):
             out[g, 3 * e + r] = origin[j, r] + rotation[j, r, 0] * x + rotation[j, r, 1] * y + rotation[j, r, 2] * z
     out[g, 6] = rows[g, 6]
+    out[g, 19], out[g, 20], out[g, 21], out[g, _REACH] = rows[g, 19], rows[g, 20], rows[g, 21], rows[g, _REACH]
+    if rows[g, 19] == np.inf:  # no box (a capsule or sphere): nothing more is read
+        return
     for r in range(3):
         u0, u1, u2 = rotation[j, r, 0], rotation[j, r, 1], rotation[j, r, 2]
         for c in range(3):
             out[g, 7 + 3 * r + c] = u0 * rows[g, 7 + c] + u1 * rows[g, 10 + c] + u2 * rows[g, 13 + c]
         out[g, 16 + r] = origin[j, r] + u0 * rows[g, 16] + u1 * rows[g, 17] + u2 * rows[g, 18]
-    out[g, 19], out[g, 20], out[g, 21], out[g, _REACH] = rows[g, 19], rows[g, 20], rows[g, 21], rows[g, _REACH]
 
 
 @njit(cache=True, nogil=True)
@@ -412,7 +414,8 @@ def pair_clear(rows, a, b, tolerance) -> bool:
     cx = rows[a, 0] + rows[a, 3] - rows[b, 0] - rows[b, 3]
     cy = rows[a, 1] + rows[a, 4] - rows[b, 1] - rows[b, 4]
     cz = rows[a, 2] + rows[a, 5] - rows[b, 2] - rows[b, 5]
-    if 0.5 * math.sqrt(cx * cx + cy * cy + cz * cz) - rows[a, _REACH] - rows[b, _REACH] > tolerance:
+    apart = 2.0 * (rows[a, _REACH] + rows[b, _REACH] + tolerance)  # |cx, cy, cz| is twice the centres' gap
+    if cx * cx + cy * cy + cz * cz > apart * apart:
         return True
     if segment_floor(rows, a, b) - rows[a, 6] - rows[b, 6] > tolerance:
         return True
