@@ -15,24 +15,14 @@ from __future__ import annotations
 import hashlib
 import os
 import time
-from pathlib import Path
 
 import numpy as np
+from bench_collision import PLANS, SCENARIOS, UNCONSTRAINED, _per_state_us, free_states, median_row
 from trees import runs_by_tree
 
-SCENARIOS = Path(__file__).parent / "scenarios"
-PLANS = {"a_ur5_upright_box": 12, "a_ur5_unconstrained": 12, "b_madar_handover": 12, "c_madar_peg_in_hole": 4}
-UNCONSTRAINED = {"a_ur5_unconstrained": "a_ur5_upright_box"}
 
-
-def _per_state_us(checker, states: np.ndarray) -> float:
-    best = np.inf
-    for _ in range(3):
-        start = time.process_time()
-        for q in states:
-            checker.in_collision(q)
-        best = min(best, (time.process_time() - start) / len(states) * 1e6)
-    return best
+def _cpu_us(checker, states: np.ndarray) -> float:
+    return _per_state_us(checker, states, time.process_time)
 
 
 def _certified(checker, states: np.ndarray) -> float:
@@ -51,11 +41,9 @@ def measure() -> dict:
     out: dict = {"kernels": os.environ.get("HRIPLAN_KERNELS", "")}
     rng = np.random.default_rng(0)
     for name in ("ur5", "madar"):
-        robot = load_robot(name)
-        checker = CollisionChecker(robot)
-        drawn = rng.uniform(robot.model.lowerPositionLimit, robot.model.upperPositionLimit, (3000, robot.model.nq))
-        free = np.array([q for q in drawn if not checker.in_collision(q)][:500])
-        out[f"{name} free state (us)"] = _per_state_us(checker, free)
+        checker = CollisionChecker(load_robot(name))
+        free = free_states(checker, rng)
+        out[f"{name} free state (us)"] = _cpu_us(checker, free)
         out[f"{name} free states certified"] = _certified(checker, free)
     for scenario, seeds in PLANS.items():
         problem = load_problem(SCENARIOS / f"{UNCONSTRAINED.get(scenario, scenario)}.json")
@@ -76,7 +64,7 @@ def measure() -> dict:
         out[f"{scenario} solved"] = solved
         out[f"{scenario} paths"] = digest.hexdigest()[:12]
         if states:
-            out[f"{scenario} path state (us)"] = _per_state_us(session.checker, np.array(states))
+            out[f"{scenario} path state (us)"] = _cpu_us(session.checker, np.array(states))
             out[f"{scenario} path states certified"] = _certified(session.checker, np.array(states))
     return out
 
@@ -95,12 +83,7 @@ def main() -> None:
                 + (f" {', '.join(sorted(theirs))} | |" if compared else "")
             )
             continue
-        mine = float(np.median(values))
-        row = f"| {key} | {mine:.4g} |"
-        if compared:
-            theirs = float(np.median([r.get(key, np.nan) for r in runs["other"]]))
-            row += f" {theirs:.4g} | {mine / theirs:.2f} |"
-        print(row)
+        print(median_row(runs, key, compared))
 
 
 if __name__ == "__main__":
