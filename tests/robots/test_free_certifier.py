@@ -169,7 +169,7 @@ def test_tables_are_asked_as_clearance_table_asks_them(robots):
             rows = slice(100 * (2 * k + a), 100 * (2 * k + a) + 100)
             qs[rows, i] = np.resize(edges, 100)
     expected = [sum((not table.certified(q.tolist())) << k for k, table in enumerate(tables)) for q in qs]
-    assert certifier.verdicts(qs).tolist() == expected
+    assert [tables for tables, _ in certifier.verdicts(qs)] == expected  # no pairs: never None
     assert 0.1 < np.mean(np.array(expected) == 0) < 0.9
 
 
@@ -209,11 +209,13 @@ def test_certified_states_are_free_for_coal_and_answers_are_the_same(robots, nam
     assert not (certified & collides).any()
     assert certified.mean() >= share and collides.mean() > 0.05  # both sides are exercised
     verdicts = certifier.verdicts(states)
-    tabled = np.flatnonzero(verdicts > 0)[:1000]  # pairs clear, a table's meshes asked of coal
-    assert len(tabled) >= (100 if name == "madar" else 0)
+    # Some pairs or a table's meshes left to coal one by one (the rest clear): both answers occur.
+    tabled = np.array([k for k, v in enumerate(verdicts) if v is not None and v != (0, ())][:1000], dtype=int)
+    if name != "baxter":
+        assert collides[tabled].any() and not collides[tabled].all()
     asked = np.concatenate([np.arange(2000), tabled])
     assert [checker.in_collision(q) for q in states[asked]] == collides[asked].tolist()
-    assert [certifier.verdict(q) for q in states[:500]] == certifier.verdicts(states[:500]).tolist()
+    assert [certifier.verdict(q) for q in states[:500]] == certifier.verdicts(states[:500])
     assert checker.first_collision(states[~certified][:50]) == first
 
 
@@ -224,12 +226,12 @@ def test_moved_people_and_obstacles_are_where_the_certifier_looks(robots, kernel
     states = _random_states(robot, 200, 6)
     checker.in_collision(states[0])
     q = states[np.argmax(checker._free_certifier().free_many(states))]
-    assert not checker.in_collision(q) and checker._free_certifier().verdict(q) == 0
+    assert not checker.in_collision(q) and checker._free_certifier().verdict(q) == (0, ())
     pin.framesForwardKinematics(robot.model, robot.data, q)
     tool = robot.data.oMf[robot.frame_id(robot.tool_frame(next(iter(robot.arms))))].translation
     checker.pose_human(HumanSpec(name="bob", position=(tool[0], tool[1]), yaw=np.pi))
-    assert checker.in_collision(q) and not checker._free_certifier().verdict(q) == 0
+    assert checker.in_collision(q) and not checker._free_certifier().verdict(q) == (0, ())
     checker.pose_human(HumanSpec(name="bob", position=(3.0, 3.0), yaw=np.pi))
     assert not checker.in_collision(q)
     checker.move_obstacle("ball", Pose(xyz=tuple(tool)))
-    assert checker.in_collision(q) and not checker._free_certifier().verdict(q) == 0
+    assert checker.in_collision(q) and not checker._free_certifier().verdict(q) == (0, ())

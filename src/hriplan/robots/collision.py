@@ -581,8 +581,8 @@ class CollisionChecker:
         if self._stale:
             self._ready()
         certifier = self._free_certifier()
-        if certifier is not None and (verdict := certifier.verdict(q)) >= 0:
-            return self._tables_touch(q, verdict)
+        if certifier is not None and (verdict := certifier.verdict(q)) is not None:
+            return bool(verdict[0] or verdict[1]) and self._left_touch(q, *verdict)
         if pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True):
             return True
         if not self._tabled:
@@ -600,10 +600,10 @@ class CollisionChecker:
         certified = np.array([table.certified_many(qs) for table, _ in self._tabled], dtype=bool)
         certified = certified.reshape(len(self._tabled), len(qs)).T
         certifier = self._free_certifier()
-        verdicts = certifier.verdicts(qs) if certifier is not None else np.full(len(qs), -1)
+        verdicts = certifier.verdicts(qs) if certifier is not None else [None] * len(qs)
         for k, q in enumerate(qs):
-            if verdicts[k] >= 0:
-                if self._tables_touch(q, verdicts[k]):
+            if verdicts[k] is not None:
+                if (verdicts[k][0] or verdicts[k][1]) and self._left_touch(q, *verdicts[k]):
                     return k
                 continue
             if pin.computeCollisions(model, data, broadphase, q, True):
@@ -625,7 +625,8 @@ class CollisionChecker:
             pairs = np.array([(p.first, p.second) for p in self._geom_model.collisionPairs], dtype=np.int64)
             tables = [table for table, _ in self._tabled]
             people = [slots + [s for s, _ in self._zone_slots.get(n, [])] for n, slots in self._human_slots.items()]
-            made = FreeCertifier.of(self.robot.model, self._geom_model, pairs.reshape(-1, 2)[active], tables, people)
+            ids = np.flatnonzero(active)
+            made = FreeCertifier.of(self.robot.model, self._geom_model, pairs.reshape(-1, 2)[ids], tables, people, ids)
             self._certifier = made or False  # False: none for this robot, not asked again
             self._statics_moved = False
             self._remember()
@@ -634,14 +635,14 @@ class CollisionChecker:
             self._statics_moved = False
         return self._certifier or None
 
-    def _tables_touch(self, q: np.ndarray, uncertified: int) -> bool:
-        """With every broad-phase pair clear at `q` (the certifier's word): does a mesh pair of a
-        table that does not certify `q` (bit k: `_tabled[k]`) touch? The meshes are placed
-        here, as the broad phase would have placed them."""
-        if not uncertified:
-            return False
+    def _left_touch(self, q: np.ndarray, uncertified: int, pairs: tuple[int, ...]) -> bool:
+        """With every other broad-phase pair clear at `q` (the certifier's word): does one of
+        `pairs` (ids in the collision model) or a mesh pair of a table that does not certify `q`
+        (bit k: `_tabled[k]`) touch? Each asked of coal as the broad phase would, placed here."""
         pin.updateGeometryPlacements(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q)
-        return any(uncertified >> k & 1 and self._meshes_touch(pairs) for k, (_, pairs) in enumerate(self._tabled))
+        if any(pin.computeCollision(self._geom_model, self._geom_data, k) for k in pairs):
+            return True
+        return any(uncertified >> k & 1 and self._meshes_touch(ks) for k, (_, ks) in enumerate(self._tabled))
 
     def _meshes_touch(self, pairs: list[int]) -> bool:
         """Does any of a table's mesh pairs collide, where the broad phase placed them?"""

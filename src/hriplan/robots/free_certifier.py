@@ -42,6 +42,7 @@ from hriplan.robots.part_spheres import BOUND_TOLERANCE
 
 _DEPTH = 6  # a capsule against a box: pieces of 1/64 of its segment at the finest
 _LEAVES = 16  # spheres per mesh
+ASKED_OF_COAL = 8  # pairs a state may leave to coal one by one; more: the whole broad phase
 _PARALLEL = 1e-4  # sine below which two segments' line distance is not used
 _INSIDE = 1e-3  # margin on the lines' nearest points falling within both segments
 # A geometry's row: capsule ends in its joint's frame (3 + 3) and radius; box rotation (9),
@@ -145,12 +146,15 @@ class FreeCertifier:
         pairs: np.ndarray,
         tables: Sequence[ClearanceTable],
         groups: Sequence[Sequence[int]] = (),
+        ids: Sequence[int] | None = None,
     ) -> FreeCertifier | None:
-        """The certifier of these pairs (k, 2) and tables (at most 62), or None for a robot whose
+        """The certifier of these pairs (k, 2) and tables (at most 31), or None for a robot whose
         joints the kernel does not walk or with more tables. `groups`: geometries on no joint that stand together (a person's
         capsules), against which a moving geometry is first tested as one sphere."""
         joints = joint_tables(model)
-        return None if joints is None or len(tables) > 62 else cls(joints, geom_model, pairs, tables, groups)
+        if joints is None or len(tables) > 31:
+            return None
+        return cls(joints, geom_model, pairs, tables, groups, ids)
 
     def __init__(
         self,
@@ -159,6 +163,7 @@ class FreeCertifier:
         pairs: np.ndarray,
         tables: Sequence[ClearanceTable],
         groups: Sequence[Sequence[int]] = (),
+        ids: Sequence[int] | None = None,
     ) -> None:
         self._joint_rows, self._joint_ints = joints
         objects = geom_model.geometryObjects
@@ -180,7 +185,10 @@ class FreeCertifier:
         rows += [np.zeros(_ROW)] * len(self._groups)
         carrier += [0] * len(self._groups)
         self._rows, self._carrier = np.array(rows).reshape(-1, _ROW), np.array(carrier, dtype=np.int64)
-        self._pairs = self._ordered_pairs(np.vectorize(slot.get, otypes=[np.int64])(pairs).reshape(-1, 2))
+        ids = np.arange(len(pairs)) if ids is None else np.asarray(ids, dtype=np.int64)
+        slots = np.vectorize(slot.get, otypes=[np.int64])(pairs).reshape(-1, 2)
+        self._pairs = self._ordered_pairs(np.column_stack([slots, ids]))
+        self._left = np.empty(ASKED_OF_COAL + 1, dtype=np.int64)
         # The tables: per table its first axis, number of axes and first bit; per axis (q index,
         # cells, periodic) and (lower, step); the cells' bits one after another.
         axes = [axis for table in tables for axis in table._axes]
@@ -196,24 +204,22 @@ class FreeCertifier:
         self._floats, self._ints = self._packed()
 
     def _ordered_pairs(self, pairs: np.ndarray) -> np.ndarray:
-        """Pairs (a, b, group's row or -1, end of the run or 0): a moving geometry's pairs with
-        the members of one group follow one another, the first holding where the run ends, so
-        that one test against the group's sphere passes them all."""
+        """Pairs (a, b, group's row or -1, end of the run or 0, id) from rows (a, b, id): a
+        moving geometry's pairs with the members of one group follow one another, the first
+        holding where the run ends, so that one test against the group's sphere passes them all."""
         member = {g: k for k, group in enumerate(self._groups) for g in group}
         grouped = sorted(
-            ((a, b) if b in member else (b, a) for a, b in pairs.tolist() if (a in member) != (b in member)),
+            ((a, b, i) if b in member else (b, a, i) for a, b, i in pairs.tolist() if (a in member) != (b in member)),
             key=lambda p: (p[0], member[p[1]]),
         )
-        alone = [(a, b) for a, b in pairs.tolist() if (a in member) == (b in member)]
-        out = [(a, b, -1, 0) for a, b in alone]
-        for k, (a, b) in enumerate(grouped):
-            run = (a, member[b])
-            first = k == 0 or (grouped[k - 1][0], member[grouped[k - 1][1]]) != run
-            end = len(alone) + next(
-                (i for i in range(k, len(grouped)) if (grouped[i][0], member[grouped[i][1]]) != run), len(grouped)
-            )
-            out.append((a, b, self._group_rows[member[b]], end if first else 0))
-        return np.array(out, dtype=np.int64).reshape(-1, 4)
+        alone = [(a, b, -1, 0, i) for a, b, i in pairs.tolist() if (a in member) == (b in member)]
+        runs = [(a, member[b]) for a, b, _ in grouped]
+        out = list(alone)
+        for k, (a, b, i) in enumerate(grouped):
+            first = k == 0 or runs[k - 1] != runs[k]
+            end = len(alone) + next((j for j in range(k, len(grouped)) if runs[j] != runs[k]), len(grouped))
+            out.append((a, b, self._group_rows[member[b]], end if first else 0, i))
+        return np.array(out, dtype=np.int64).reshape(-1, 5)
 
     def _place_groups(self) -> None:
         """Each group's sphere: about the middle of its members' spheres' box, holding them all."""
@@ -254,20 +260,35 @@ class FreeCertifier:
         self._placed = self._rows.copy()
         return np.concatenate([a.reshape(-1) for a in floats]), packed
 
-    def verdict(self, q: np.ndarray) -> int:
-        """-1: some checked pair may touch at `q` (ask coal). Else every pair is clear, and the
-        result's bit k says table k (of those given) does not certify `q`: 0 is free."""
-        return _verdict_one(q, self._floats, self._ints, self._placed)
+    def verdict(self, q: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
+        """(tables, pairs) at `q`: bit k of tables says table k (of those given) does not
+        certify it; pairs are the ids of the pairs that may touch; only those can. `FREE`
+        (the same object) if none; None if more than `ASKED_OF_COAL` pairs may touch."""
+        return _decoded(_verdict_one(q, self._floats, self._ints, self._placed, self._left), self._left)
 
-    def verdicts(self, qs: np.ndarray) -> np.ndarray:
+    def verdicts(self, qs: np.ndarray) -> list[tuple[int, tuple[int, ...]] | None]:
         """`verdict` of every state of `qs` (N, nq), in one call."""
         if not len(qs):
-            return np.zeros(0, dtype=np.int64)
-        return _verdicts(np.ascontiguousarray(qs, dtype=float), self._floats, self._ints, self._placed)
+            return []
+        left = np.empty((len(qs), ASKED_OF_COAL + 1), dtype=np.int64)
+        codes = _verdicts(np.ascontiguousarray(qs, dtype=float), self._floats, self._ints, self._placed, left)
+        return [_decoded(code, row) for code, row in zip(codes.tolist(), left)]
 
     def free_many(self, qs: np.ndarray) -> np.ndarray:
         """Per state of `qs`: free (no pair may touch, every table certifies it)."""
-        return self.verdicts(qs) == 0
+        return np.array([verdict is FREE for verdict in self.verdicts(qs)], dtype=bool)
+
+
+FREE: tuple[int, tuple[int, ...]] = (0, ())
+
+
+def _decoded(code: int, left: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
+    """`verdict`'s answer from the kernel's code and the ids it left."""
+    if code == 0:
+        return FREE
+    if code < 0:
+        return None
+    return code & 0xFFFFFFFF, tuple(left[1 : (code >> 32) + 1].tolist())
 
 
 @njit(cache=True, nogil=True)
@@ -433,7 +454,7 @@ def _unpack(floats, ints):
     axis_floats = floats[ints[8] : ints[8] + naxes * 2].reshape((naxes, 2))
     joint_ints = ints[ints[9] : ints[9] + nj * 3].reshape((nj, 3))
     carrier = ints[ints[10] : ints[10] + ng]
-    pairs = ints[ints[11] : ints[11] + npairs * 4].reshape((npairs, 4))
+    pairs = ints[ints[11] : ints[11] + npairs * 5].reshape((npairs, 5))
     tables = ints[ints[12] : ints[12] + ntables * 3].reshape((ntables, 3))
     axis_ints = ints[ints[13] : ints[13] + naxes * 3].reshape((naxes, 3))
     children = ints[ints[14] : ints[14] + nused * 2].reshape((nused, 2))
@@ -464,10 +485,12 @@ def _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b) -> bo
 
 
 @njit(cache=True, nogil=True)
-def _verdict(q, floats, ints, placed) -> int:
-    """-1 if some pair may touch at `q` (stops at the first); else the tables that do not
-    certify it (bit k for table k; 0: free). A run of pairs with one group passes at once when
-    its sphere is clear. `placed` holds the rows on no joint already (placed once, when packed)."""
+def _verdict(q, floats, ints, placed, left) -> int:
+    """-1 if more pairs may touch at `q` than `left` holds (stopped there); else the tables
+    that do not certify `q` (bit k for table k) plus 2^32 times the count of pairs that may
+    touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs with one group
+    passes at once when its sphere is clear. `placed` holds the rows on no joint already
+    (placed once, when packed)."""
     joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = _unpack(floats, ints)
     nj = joint_rows.shape[0]
     rotation, origin = np.empty((nj, 3, 3)), np.empty((nj, 3))
@@ -475,29 +498,33 @@ def _verdict(q, floats, ints, placed) -> int:
     for g in range(children.shape[0]):
         if carrier[g] != 0:
             _place(rows, g, rotation, origin, carrier[g], placed)
-    k = 0
+    count, k = 0, 0
     while k < pairs.shape[0]:
         a, b, group, end = pairs[k, 0], pairs[k, 1], pairs[k, 2], pairs[k, 3]
         if end > 0 and pair_clear(placed, a, group, BOUND_TOLERANCE):
             k = end
             continue
-        if not pair_clear(placed, a, b, BOUND_TOLERANCE):
-            if children[a, 1] == 0 and children[b, 1] == 0:
+        if not pair_clear(placed, a, b, BOUND_TOLERANCE) and (
+            (children[a, 1] == 0 and children[b, 1] == 0)
+            or not _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b)
+        ):
+            if count + 1 == left.shape[0]:
                 return -1
-            if not _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b):
-                return -1
+            count += 1
+            left[count] = pairs[k, 4]
         k += 1
-    return _uncertified_tables(q, tables, axis_ints, axis_floats, bits)
+    return _uncertified_tables(q, tables, axis_ints, axis_floats, bits) + (count << 32)
 
 
 @njit(cache=True, nogil=True)
-def _verdict_one(q, floats, ints, placed) -> int:
-    return _verdict(q, floats, ints, placed)
+def _verdict_one(q, floats, ints, placed, left) -> int:
+    return _verdict(q, floats, ints, placed, left)
 
 
 @njit(cache=True, nogil=True)
-def _verdicts(qs, floats, ints, placed) -> np.ndarray:
+def _verdicts(qs, floats, ints, placed, left) -> np.ndarray:
+    """Per state (row n of `left` its pairs that may touch)."""
     out = np.empty(qs.shape[0], dtype=np.int64)
     for n in range(qs.shape[0]):
-        out[n] = _verdict(qs[n], floats, ints, placed)
+        out[n] = _verdict(qs[n], floats, ints, placed, left[n])
     return out
