@@ -1,4 +1,5 @@
-"""The compiled certifier (robots/free_certifier.py, kernel_fk.py) against pinocchio and coal.
+"""The compiled certifier (robots/free_certifier.py, certifier_kernels.py, kernel_fk.py) against
+pinocchio and coal.
 
 Its forward kinematics is pinocchio's to 1e-9; its bounds are never above coal's distances; a
 state it certifies is free for coal (10 000 random states per robot, in scenes with boxes, a
@@ -17,11 +18,12 @@ import pytest
 pytest.importorskip("numba")
 
 from hriplan.robots import kernel_switch
+from hriplan.robots.certifier_kernels import capsule_clears_box, place_joints, segment_floor
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import load_robot_file
-from hriplan.robots.free_certifier import FreeCertifier, _mesh_pieces, capsule_clears_box, segment_floor
+from hriplan.robots.free_certifier import FreeCertifier, _mesh_pieces
 from hriplan.robots.human import HumanSpec
-from hriplan.robots.kernel_fk import joint_tables, place_joints
+from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Box, Cone, Cylinder, Obstacle, Scene, Sphere
 from hriplan.robots.spatial import Pose
