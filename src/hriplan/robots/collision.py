@@ -577,7 +577,9 @@ class CollisionChecker:
     # -- queries --------------------------------------------------------------------------
     def in_collision(self, q: np.ndarray) -> bool:
         """True if any checked pair collides at planning configuration `q`. A tabled mesh pair is
-        checked on its meshes only where its table cannot certify it (the broad phase placed them)."""
+        checked on its meshes only where its table cannot certify it (the broad phase placed them).
+        With the kernels on, the certifier's verdict first: coal is asked only about what it
+        cannot clear (`_free_certifier`)."""
         if self._stale:
             self._ready()
         certifier = self._free_certifier()
