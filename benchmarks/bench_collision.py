@@ -21,14 +21,21 @@ PLANS = {"a_ur5_upright_box": 12, "a_ur5_unconstrained": 12, "b_madar_handover":
 UNCONSTRAINED = {"a_ur5_unconstrained": "a_ur5_upright_box"}
 
 
-def _per_state_us(checker, states: np.ndarray) -> float:
+def _per_state_us(checker, states: np.ndarray, clock=time.perf_counter) -> float:
     best = np.inf
     for _ in range(3):
-        start = time.perf_counter()
+        start = clock()
         for q in states:
             checker.in_collision(q)
-        best = min(best, (time.perf_counter() - start) / len(states) * 1e6)
+        best = min(best, (clock() - start) / len(states) * 1e6)
     return best
+
+
+def free_states(checker, rng: np.random.Generator, drawn: int = 3000, kept: int = 500) -> np.ndarray:
+    """Up to `kept` collision-free states among `drawn` uniformly within the joint limits."""
+    model = checker.robot.model
+    states = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit, (drawn, model.nq))
+    return np.array([q for q in states if not checker.in_collision(q)][:kept])
 
 
 def measure() -> dict:
@@ -41,10 +48,8 @@ def measure() -> dict:
     out: dict = {}
     rng = np.random.default_rng(0)
     for name in ("ur5", "madar"):
-        robot = load_robot(name)
-        checker = CollisionChecker(robot)
-        drawn = rng.uniform(robot.model.lowerPositionLimit, robot.model.upperPositionLimit, (3000, robot.model.nq))
-        free = np.array([q for q in drawn if not checker.in_collision(q)][:500])
+        checker = CollisionChecker(load_robot(name))
+        free = free_states(checker, rng)
         out[f"{name} free state (us)"] = _per_state_us(checker, free)
     for scenario, seeds in PLANS.items():
         problem = load_problem(SCENARIOS / f"{UNCONSTRAINED.get(scenario, scenario)}.json")
@@ -73,12 +78,17 @@ def main() -> None:
     print(header)
     print("|---|---|" + ("---|---|" if compared else ""))
     for key in keys:
-        mine = float(np.median([r[key] for r in runs["this checkout"]]))
-        row = f"| {key} | {mine:.4g} |"
-        if compared:
-            theirs = float(np.median([r.get(key, np.nan) for r in runs["other"]]))
-            row += f" {theirs:.4g} | {mine / theirs:.2f} |"
-        print(row)
+        print(median_row(runs, key, compared))
+
+
+def median_row(runs: dict[str, list[dict]], key: str, compared: bool) -> str:
+    """A table row: the median of `key` over this checkout's rounds, and the other's and the ratio."""
+    mine = float(np.median([r[key] for r in runs["this checkout"]]))
+    row = f"| {key} | {mine:.4g} |"
+    if compared:
+        theirs = float(np.median([r.get(key, np.nan) for r in runs["other"]]))
+        row += f" {theirs:.4g} | {mine / theirs:.2f} |"
+    return row
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import coal
 import numpy as np
@@ -25,12 +26,16 @@ from hriplan import HriplanError
 from hriplan.recent import MadeFor, Recent
 from hriplan.robots.acm import MESH, load_acm
 from hriplan.robots.human import Human, HumanSpec
+from hriplan.robots.kernel_switch import kernels_on
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
 from hriplan.robots.part_spheres import PartSpheres
 from hriplan.robots.robot_geometry import ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
+
+if TYPE_CHECKING:
+    from hriplan.robots.free_certifier import FreeCertifier
 
 # How a separation zone is named in contacts and messages: "bob/left_upperleg (minimum separation 0.225 m)".
 ZONE_NAMING = "minimum separation"
@@ -104,6 +109,7 @@ _BUILT = (
     "_index",
     "_names",
     "_joints",
+    "_certifier",
 )
 _REMEMBERED_BUILDS = 8
 _PEOPLE_KEPT = 16  # the people a checker keeps a Human of (a service's session sees many)
@@ -275,6 +281,7 @@ class CollisionChecker:
             self._build_new()
         self._remember()
         self._stale = False
+        self._statics_moved = True
 
     @property
     def geom_model(self) -> pin.GeometryModel:
@@ -492,6 +499,7 @@ class CollisionChecker:
         self._tabled = [(table, ks) for table, ks in tabled if not table.free.all()]
         # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
         self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self._geom_data)
+        self._certifier: FreeCertifier | bool | None = None  # made when first asked, with the kernels on
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
@@ -514,6 +522,7 @@ class CollisionChecker:
                 ]
             }
         )
+        self._statics_moved = True
         if not self._stale and self._place_obstacle(self._index[name], pose):
             self._pair_up()
             self._remember()
@@ -549,6 +558,7 @@ class CollisionChecker:
         stands now, in the build. Builds are remembered without the people's poses (a person who
         moved changes no pair), so using one places them."""
         placements = self._placed(name)
+        self._statics_moved = True
         for slot, placement in zip(self._human_slots[name], placements):
             self._geom_model.geometryObjects[slot].placement = placement
         for slot, k in self._zone_slots.get(name, []):
@@ -568,9 +578,14 @@ class CollisionChecker:
     # -- queries --------------------------------------------------------------------------
     def in_collision(self, q: np.ndarray) -> bool:
         """True if any checked pair collides at planning configuration `q`. A tabled mesh pair is
-        checked on its meshes only where its table cannot certify it (the broad phase placed them)."""
+        checked on its meshes only where its table cannot certify it (the broad phase placed them).
+        With the kernels on, the certifier's verdict first: coal is asked only about what it
+        cannot clear (`_free_certifier`)."""
         if self._stale:
             self._ready()
+        certifier = self._free_certifier()
+        if certifier is not None and (verdict := certifier.verdict(q)) is not None:
+            return bool(verdict[0] or verdict[1]) and self._left_touch(q, *verdict)
         if pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True):
             return True
         if not self._tabled:
@@ -587,12 +602,50 @@ class CollisionChecker:
         model, data, broadphase = self.robot.model, self.robot.data, self._broadphase
         certified = np.array([table.certified_many(qs) for table, _ in self._tabled], dtype=bool)
         certified = certified.reshape(len(self._tabled), len(qs)).T
+        certifier = self._free_certifier()
+        verdicts = certifier.verdicts(qs) if certifier is not None else [None] * len(qs)
         for k, q in enumerate(qs):
+            if verdicts[k] is not None:
+                if (verdicts[k][0] or verdicts[k][1]) and self._left_touch(q, *verdicts[k]):
+                    return k
+                continue
             if pin.computeCollisions(model, data, broadphase, q, True):
                 return k
             if any(not free and self._meshes_touch(pairs) for (_, pairs), free in zip(self._tabled, certified[k])):
                 return k
         return None
+
+    def _free_certifier(self) -> FreeCertifier | None:
+        """The compiled certifier of this build's broad-phase pairs and tables, placed where the
+        scene stands now; None with the kernels off (`kernel_switch`) or for a robot it cannot
+        walk. It says free only where coal and the tables would, so answers are the same."""
+        if not kernels_on():
+            return None
+        if self._certifier is None:
+            from hriplan.robots.free_certifier import FreeCertifier
+
+            active = np.array(self._geom_data.activeCollisionPairs, dtype=bool)
+            pairs = np.array([(p.first, p.second) for p in self._geom_model.collisionPairs], dtype=np.int64)
+            tables = [table for table, _ in self._tabled]
+            people = [slots + [s for s, _ in self._zone_slots.get(n, [])] for n, slots in self._human_slots.items()]
+            ids = np.flatnonzero(active)
+            made = FreeCertifier.of(self.robot.model, self._geom_model, pairs.reshape(-1, 2)[ids], tables, people, ids)
+            self._certifier = made or False  # False: none for this robot, not asked again
+            self._statics_moved = False
+            self._remember()
+        elif self._statics_moved and self._certifier:
+            self._certifier.place(self._geom_model)
+            self._statics_moved = False
+        return self._certifier or None
+
+    def _left_touch(self, q: np.ndarray, uncertified: int, pairs: tuple[int, ...]) -> bool:
+        """With every other broad-phase pair clear at `q` (the certifier's word): does one of
+        `pairs` (ids in the collision model) or a mesh pair of a table that does not certify `q`
+        (bit k: `_tabled[k]`) touch? Each asked of coal as the broad phase would, placed here."""
+        pin.updateGeometryPlacements(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q)
+        if any(pin.computeCollision(self._geom_model, self._geom_data, k) for k in pairs):
+            return True
+        return any(uncertified >> k & 1 and self._meshes_touch(ks) for k, (_, ks) in enumerate(self._tabled))
 
     def _meshes_touch(self, pairs: list[int]) -> bool:
         """Does any of a table's mesh pairs collide, where the broad phase placed them?"""

@@ -1,0 +1,90 @@
+"""The compiled collision certifier (HRIPLAN_KERNELS=1) against another tree, in CPU time.
+
+Run: HRIPLAN_KERNELS=1 PYTHONPATH=src .venv/bin/python benchmarks/bench_kernels.py --src /tmp/base0/src --rounds 3
+Per scenario of benchmarks/scenarios (a without its constraints too): the median process CPU
+seconds of `PlanningSession.plan` over seeds, the solved count and a digest of every planned
+path (equal digests: the same paths, bit for bit); per robot and scene, the CPU microseconds of
+`in_collision` on the states of the planned paths and on free states drawn uniformly, and the
+share of those states the certifier passes without coal. Each round runs both trees in turn in
+fresh processes (benchmarks/trees.py); the kernels' compilation is cached, and the first call's
+load is made before timing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+
+import numpy as np
+from bench_collision import PLANS, SCENARIOS, UNCONSTRAINED, _per_state_us, free_states, median_row
+from trees import runs_by_tree
+
+
+def _cpu_us(checker, states: np.ndarray) -> float:
+    return _per_state_us(checker, states, time.process_time)
+
+
+def _certified(checker, states: np.ndarray) -> float:
+    """The share of `states` the certifier passes (nan without one)."""
+    certifier = getattr(checker, "_free_certifier", lambda: None)()
+    return float(certifier.free_many(states).mean()) if certifier else float("nan")
+
+
+def measure() -> dict:
+    """One tree's numbers (the code on sys.path)."""
+    from hriplan.planner.problem import load_problem
+    from hriplan.planner.session import PlanningSession
+    from hriplan.robots.collision import CollisionChecker
+    from hriplan.robots.model import load_robot
+
+    out: dict = {"kernels": os.environ.get("HRIPLAN_KERNELS", "")}
+    rng = np.random.default_rng(0)
+    for name in ("ur5", "madar"):
+        checker = CollisionChecker(load_robot(name))
+        free = free_states(checker, rng)
+        out[f"{name} free state (us)"] = _cpu_us(checker, free)
+        out[f"{name} free states certified"] = _certified(checker, free)
+    for scenario, seeds in PLANS.items():
+        problem = load_problem(SCENARIOS / f"{UNCONSTRAINED.get(scenario, scenario)}.json")
+        session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+        session.set_constraints([] if scenario in UNCONSTRAINED else problem.constraints)
+        seconds, solved, states, digest = [], 0, [], hashlib.sha256()
+        for seed in range(seeds):
+            options = problem.options.model_copy(update={"seed": seed})
+            start = time.process_time()
+            result = session.plan(problem.start, problem.goal, options, problem.group, safety=None)
+            seconds.append(time.process_time() - start)
+            solved += result.status == "solved"
+            if result.motion is not None:
+                digest.update(np.ascontiguousarray(result.motion.path).tobytes())
+                base = session.robot.configuration(problem.start)
+                states += [session.robot.configuration(x, problem.group, base=base) for x in result.motion.path]
+        out[f"{scenario} plan median (s)"] = float(np.median(seconds))
+        out[f"{scenario} solved"] = solved
+        out[f"{scenario} paths"] = digest.hexdigest()[:12]
+        if states:
+            out[f"{scenario} path state (us)"] = _cpu_us(session.checker, np.array(states))
+            out[f"{scenario} path states certified"] = _certified(session.checker, np.array(states))
+    return out
+
+
+def main() -> None:
+    runs, compared = runs_by_tree(__doc__.splitlines()[0], __file__, measure)
+    keys = list(runs["this checkout"][0])
+    print("| measure | this checkout |" + (" other | ratio |" if compared else ""))
+    print("|---|---|" + ("---|---|" if compared else ""))
+    for key in keys:
+        values = [r[key] for r in runs["this checkout"]]
+        if isinstance(values[0], str):  # digests: the same in every round, or say so
+            theirs = {r.get(key) for r in runs.get("other", [])}
+            print(
+                f"| {key} | {', '.join(sorted(set(values)))} |"
+                + (f" {', '.join(sorted(theirs))} | |" if compared else "")
+            )
+            continue
+        print(median_row(runs, key, compared))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,329 @@
+"""The certifier's compiled code (numba): forward kinematics, lower bounds on distances, and the
+per-state verdict over a certifier's packed arrays (`free_certifier.py` makes them).
+
+Every jitted function lives in this one file: numba's disk cache is keyed by the source file a
+function is defined in, not by its callees in other modules, nor by the globals it read, so a
+kernel calling into another file could run stale code after an upgrade. Constants that are
+data (the tolerance) travel in the arrays.
+
+The bounds are conservative: a capsule (or box) holds its geometry (`free_certifier._held_by`),
+a mesh's pieces hold its triangles (coal tests a mesh by its triangles), a group's sphere holds
+its members' spheres, and each
+distance below is a true lower bound in exact arithmetic; rounding errs by ~1e-15 m on metre
+sized scenes, far below the 1e-4 m tolerance.
+- Segments: the least distance is reached at an end of one of them (a point-to-segment
+  distance) or at points inside both, where it is the distance between their lines; the line
+  distance is never above the segments', so the least of the four end distances and the line
+  distance (when the lines' nearest points fall within the segments, 1e-3 of margin for
+  rounding) is a lower bound. Nearly parallel lines (sine below 1e-4) have an ill-conditioned
+  line distance: there the distance of the second segment's ends to the first's line, less the
+  second's length times 1e-4, bounds it instead (along a segment at angle t to a line, the
+  squared distance is the lines' squared distance plus (s sin t)^2).
+- Capsule to box: each piece of the segment lies in a sphere about its middle of radius half
+  its length (plus the capsule's), whose distance to the box is exact; a piece too near is
+  halved, down to `_DEPTH` levels, then the pair is left to coal.
+A pair not cleared is named to the caller, which asks coal about it alone (up to a few; more:
+the whole broad phase).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+REVOLUTE, CONTINUOUS, PRISMATIC = 0, 1, 2
+JOINT_ROW = 15  # a joint's row: placement rotation (9, row-major), translation (3), unit axis (3)
+_DEPTH = 6  # a capsule against a box: pieces of 1/64 of its segment at the finest
+_PARALLEL = 1e-4  # sine below which two segments' line distance is not used
+_INSIDE = 1e-3  # margin on the lines' nearest points falling within both segments
+# A geometry's row: capsule ends in its joint's frame (3 + 3) and radius; box rotation (9),
+# centre (3) and half sides (3) in the joint's frame (a box of infinite sides when it has none);
+# the radius of the sphere about the capsule's middle that holds it (half its length + radius).
+CAPSULE, BOX, REACH = 7, 15, 22
+ROW = REACH + 1
+
+
+@njit(cache=True, nogil=True)
+def place_joints(q: np.ndarray, rows: np.ndarray, ints: np.ndarray, rotation: np.ndarray, origin: np.ndarray) -> None:
+    """World frames of every joint at `q` into `rotation` (njoints, 3, 3) and `origin` (njoints, 3):
+    a joint's frame is its parent's, times its placement, times its own motion (as pinocchio).
+    Scalars throughout: an array made per joint cost more than the arithmetic."""
+    for r in range(3):  # the world (np.eye would allocate at every call)
+        origin[0, r] = 0.0
+        for c in range(3):
+            rotation[0, r, c] = 1.0 if r == c else 0.0
+    for j in range(1, rows.shape[0]):
+        p, kind, iq = ints[j, 0], ints[j, 1], ints[j, 2]
+        ax, ay, az = rows[j, 12], rows[j, 13], rows[j, 14]
+        if kind == PRISMATIC:
+            cos, sin, slide = 1.0, 0.0, q[iq]
+        elif kind == CONTINUOUS:
+            cos, sin, slide = q[iq], q[iq + 1], 0.0
+        else:
+            cos, sin, slide = math.cos(q[iq]), math.sin(q[iq]), 0.0
+        # The joint's own motion in its placement's frame, Rodrigues: cos I + sin [a]x + (1 - cos) a a^T.
+        v = 1.0 - cos
+        t00, t01, t02 = cos + v * ax * ax, v * ax * ay - sin * az, v * ax * az + sin * ay
+        t10, t11, t12 = v * ay * ax + sin * az, cos + v * ay * ay, v * ay * az - sin * ax
+        t20, t21, t22 = v * az * ax - sin * ay, v * az * ay + sin * ax, cos + v * az * az
+        # Placement times motion (rotation), and the placement's translation plus the slide.
+        m00 = rows[j, 0] * t00 + rows[j, 1] * t10 + rows[j, 2] * t20
+        m01 = rows[j, 0] * t01 + rows[j, 1] * t11 + rows[j, 2] * t21
+        m02 = rows[j, 0] * t02 + rows[j, 1] * t12 + rows[j, 2] * t22
+        m10 = rows[j, 3] * t00 + rows[j, 4] * t10 + rows[j, 5] * t20
+        m11 = rows[j, 3] * t01 + rows[j, 4] * t11 + rows[j, 5] * t21
+        m12 = rows[j, 3] * t02 + rows[j, 4] * t12 + rows[j, 5] * t22
+        m20 = rows[j, 6] * t00 + rows[j, 7] * t10 + rows[j, 8] * t20
+        m21 = rows[j, 6] * t01 + rows[j, 7] * t11 + rows[j, 8] * t21
+        m22 = rows[j, 6] * t02 + rows[j, 7] * t12 + rows[j, 8] * t22
+        x = rows[j, 9] + (rows[j, 0] * ax + rows[j, 1] * ay + rows[j, 2] * az) * slide
+        y = rows[j, 10] + (rows[j, 3] * ax + rows[j, 4] * ay + rows[j, 5] * az) * slide
+        z = rows[j, 11] + (rows[j, 6] * ax + rows[j, 7] * ay + rows[j, 8] * az) * slide
+        for r in range(3):
+            u0, u1, u2 = rotation[p, r, 0], rotation[p, r, 1], rotation[p, r, 2]
+            rotation[j, r, 0] = u0 * m00 + u1 * m10 + u2 * m20
+            rotation[j, r, 1] = u0 * m01 + u1 * m11 + u2 * m21
+            rotation[j, r, 2] = u0 * m02 + u1 * m12 + u2 * m22
+            origin[j, r] = origin[p, r] + u0 * x + u1 * y + u2 * z
+
+
+@njit(cache=True, nogil=True)
+def _uncertified_tables(q, tables, axis_ints, axis_floats, bits) -> int:
+    """The tables that do not certify `q`, bit k for table k: `ClearanceTable.certified`'s arithmetic."""
+    mask = 0
+    for k in range(tables.shape[0]):
+        first, count, flat, inside = tables[k, 0], tables[k, 1], 0, True
+        for a in range(first, first + count):
+            i, n, wrap = axis_ints[a, 0], axis_ints[a, 1], axis_ints[a, 2]
+            lower, step = axis_floats[a, 0], axis_floats[a, 1]
+            c = math.floor((q[i] - lower) / step)
+            if wrap:
+                c %= n
+            elif c == n and q[i] - lower <= step * n:
+                c = n - 1
+            elif not 0 <= c < n:
+                inside = False
+                break
+            flat = flat * n + c
+        if not inside or bits[tables[k, 2] + flat] != 1:
+            mask |= 1 << k
+    return mask
+
+
+@njit(cache=True, nogil=True)
+def _point_segment(px, py, pz, ax, ay, az, bx, by, bz) -> float:
+    """Distance from a point to the segment a-b."""
+    dx, dy, dz = bx - ax, by - ay, bz - az
+    length = dx * dx + dy * dy + dz * dz
+    t = 0.0
+    if length > 0.0:
+        t = min(max(((px - ax) * dx + (py - ay) * dy + (pz - az) * dz) / length, 0.0), 1.0)
+    ex, ey, ez = px - ax - t * dx, py - ay - t * dy, pz - az - t * dz
+    return math.sqrt(ex * ex + ey * ey + ez * ez)
+
+
+@njit(cache=True, nogil=True)
+def _point_line(px, py, pz, ax, ay, az, dx, dy, dz, length) -> float:
+    """Distance from a point to the line through a along d (|d|^2 = length > 0)."""
+    t = ((px - ax) * dx + (py - ay) * dy + (pz - az) * dz) / length
+    ex, ey, ez = px - ax - t * dx, py - ay - t * dy, pz - az - t * dz
+    return math.sqrt(ex * ex + ey * ey + ez * ez)
+
+
+@njit(cache=True, nogil=True)
+def segment_floor(rows, a, b) -> float:
+    """A lower bound on the distance between the segments of rows a and b (ends at 0:3 and 3:6;
+    module docstring: the ends' distances and, where it can hold the least, the lines' distance).
+    Rows and indices, not views: making a view costs more than the arithmetic."""
+    p0, p1, p2, p3, p4, p5 = rows[a, 0], rows[a, 1], rows[a, 2], rows[a, 3], rows[a, 4], rows[a, 5]
+    q0, q1, q2, q3, q4, q5 = rows[b, 0], rows[b, 1], rows[b, 2], rows[b, 3], rows[b, 4], rows[b, 5]
+    least = min(
+        _point_segment(p0, p1, p2, q0, q1, q2, q3, q4, q5),
+        _point_segment(p3, p4, p5, q0, q1, q2, q3, q4, q5),
+        _point_segment(q0, q1, q2, p0, p1, p2, p3, p4, p5),
+        _point_segment(q3, q4, q5, p0, p1, p2, p3, p4, p5),
+    )
+    ux, uy, uz = p3 - p0, p4 - p1, p5 - p2
+    vx, vy, vz = q3 - q0, q4 - q1, q5 - q2
+    a, e = ux * ux + uy * uy + uz * uz, vx * vx + vy * vy + vz * vz
+    if a == 0.0 or e == 0.0:  # a point: its distance is one of the ends'
+        return least
+    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    normal = nx * nx + ny * ny + nz * nz
+    if normal <= _PARALLEL * _PARALLEL * a * e:
+        across = min(
+            _point_line(q0, q1, q2, p0, p1, p2, ux, uy, uz, a),
+            _point_line(q3, q4, q5, p0, p1, p2, ux, uy, uz, a),
+        )
+        return min(least, across - math.sqrt(e) * _PARALLEL)
+    rx, ry, rz = p0 - q0, p1 - q1, p2 - q2
+    b, c, f = ux * vx + uy * vy + uz * vz, ux * rx + uy * ry + uz * rz, vx * rx + vy * ry + vz * rz
+    denominator = a * e - b * b
+    s, t = (b * f - c * e) / denominator, (a * f - b * c) / denominator
+    if s < -_INSIDE or s > 1.0 + _INSIDE or t < -_INSIDE or t > 1.0 + _INSIDE:
+        return least
+    return min(least, abs(rx * nx + ry * ny + rz * nz) / math.sqrt(normal))
+
+
+@njit(cache=True, nogil=True)
+def _box_gap(x, y, z, hx, hy, hz) -> float:
+    """Distance from a point in a box's frame to the box (0 inside)."""
+    dx, dy, dz = max(abs(x) - hx, 0.0), max(abs(y) - hy, 0.0), max(abs(z) - hz, 0.0)
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@njit(cache=True, nogil=True)
+def capsule_clears_box(rows, a, b, tolerance) -> bool:
+    """True if row a's capsule (ends, radius: 0:7) is more than `tolerance` from row b's box
+    (rotation 7:16, centre 16:19, half sides 19:22): its segment's pieces, halved where near,
+    each in a sphere clear of the box. The pieces are the nodes of a binary tree walked depth
+    first (piece i of level l spans [i, i + 1] / 2^l), with no stack."""
+    ox, oy, oz = rows[a, 0] - rows[b, 16], rows[a, 1] - rows[b, 17], rows[a, 2] - rows[b, 18]
+    x0 = rows[b, 7] * ox + rows[b, 10] * oy + rows[b, 13] * oz
+    y0 = rows[b, 8] * ox + rows[b, 11] * oy + rows[b, 14] * oz
+    z0 = rows[b, 9] * ox + rows[b, 12] * oy + rows[b, 15] * oz
+    ox, oy, oz = rows[a, 3] - rows[a, 0], rows[a, 4] - rows[a, 1], rows[a, 5] - rows[a, 2]
+    dx = rows[b, 7] * ox + rows[b, 10] * oy + rows[b, 13] * oz
+    dy = rows[b, 8] * ox + rows[b, 11] * oy + rows[b, 14] * oz
+    dz = rows[b, 9] * ox + rows[b, 12] * oy + rows[b, 15] * oz
+    hx, hy, hz, radius = rows[b, 19], rows[b, 20], rows[b, 21], rows[a, 6]
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    level, i = 0, 0
+    while True:
+        width = 1.0 / (1 << level)
+        middle = (i + 0.5) * width
+        gap = _box_gap(x0 + middle * dx, y0 + middle * dy, z0 + middle * dz, hx, hy, hz)
+        if gap - radius - width * length / 2.0 > tolerance:
+            while i % 2 == 1:  # the last of its siblings: up to the first ancestor with a next one
+                level, i = level - 1, i // 2
+            if level == 0:
+                return True
+            i += 1
+        elif level == _DEPTH:
+            return False
+        else:
+            level, i = level + 1, 2 * i
+
+
+@njit(cache=True, nogil=True)
+def _place(rows, g, rotation, origin, j, out) -> None:
+    """Row g (joint j's frame) in the world, into out[g]: capsule ends and radius, box rotation,
+    centre and sides, reach."""
+    for e in range(2):
+        x, y, z = rows[g, 3 * e], rows[g, 3 * e + 1], rows[g, 3 * e + 2]
+        for r in range(3):
+            out[g, 3 * e + r] = origin[j, r] + rotation[j, r, 0] * x + rotation[j, r, 1] * y + rotation[j, r, 2] * z
+    out[g, 6] = rows[g, 6]
+    out[g, 19], out[g, 20], out[g, 21], out[g, REACH] = rows[g, 19], rows[g, 20], rows[g, 21], rows[g, REACH]
+    if rows[g, 19] == np.inf:  # no box (a capsule or sphere): nothing more is read
+        return
+    for r in range(3):
+        u0, u1, u2 = rotation[j, r, 0], rotation[j, r, 1], rotation[j, r, 2]
+        for c in range(3):
+            out[g, 7 + 3 * r + c] = u0 * rows[g, 7 + c] + u1 * rows[g, 10 + c] + u2 * rows[g, 13 + c]
+        out[g, 16 + r] = origin[j, r] + u0 * rows[g, 16] + u1 * rows[g, 17] + u2 * rows[g, 18]
+
+
+@njit(cache=True, nogil=True)
+def pair_clear(rows, a, b, tolerance) -> bool:
+    """True if placed rows a and b (in the world) are more than `tolerance` apart: the spheres
+    about their capsules' middles, else their capsules, else a capsule against the other's box."""
+    cx = rows[a, 0] + rows[a, 3] - rows[b, 0] - rows[b, 3]
+    cy = rows[a, 1] + rows[a, 4] - rows[b, 1] - rows[b, 4]
+    cz = rows[a, 2] + rows[a, 5] - rows[b, 2] - rows[b, 5]
+    apart = 2.0 * (rows[a, REACH] + rows[b, REACH] + tolerance)  # |cx, cy, cz| is twice the centres' gap
+    if cx * cx + cy * cy + cz * cz > apart * apart:
+        return True
+    if segment_floor(rows, a, b) - rows[a, 6] - rows[b, 6] > tolerance:
+        return True
+    if rows[b, 19] < np.inf and capsule_clears_box(rows, a, b, tolerance):
+        return True
+    return rows[a, 19] < np.inf and capsule_clears_box(rows, b, a, tolerance)
+
+
+@njit(cache=True, nogil=True)
+def _unpack(floats, ints):
+    """The parts of `FreeCertifier._packed`, as views (the tolerance is floats[0])."""
+    nj, ng, npairs, ntables, naxes, nused = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5]
+    joint_rows = floats[ints[7] : ints[7] + nj * JOINT_ROW].reshape((nj, JOINT_ROW))
+    rows = floats[ints[8] : ints[8] + ng * ROW].reshape((ng, ROW))
+    axis_floats = floats[ints[9] : ints[9] + naxes * 2].reshape((naxes, 2))
+    joint_ints = ints[ints[10] : ints[10] + nj * 3].reshape((nj, 3))
+    carrier = ints[ints[11] : ints[11] + ng]
+    pairs = ints[ints[12] : ints[12] + npairs * 5].reshape((npairs, 5))
+    tables = ints[ints[13] : ints[13] + ntables * 3].reshape((ntables, 3))
+    axis_ints = ints[ints[14] : ints[14] + naxes * 3].reshape((naxes, 3))
+    children = ints[ints[15] : ints[15] + nused * 2].reshape((nused, 2))
+    bits = ints[ints[16] :]
+    return joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits
+
+
+@njit(cache=True, nogil=True)
+def _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b, tolerance) -> bool:
+    """True if geometries a and b are clear, each taken whole or, where that fails, as its
+    mesh's pieces (which hold all its triangles): the pieces are placed here, as few states
+    need them."""
+    for g in (a, b):
+        for piece in range(children[g, 0], children[g, 0] + children[g, 1]):
+            _place(rows, piece, rotation, origin, carrier[piece], placed)
+    first_a, count_a = children[a, 0], children[a, 1]
+    first_b, count_b = children[b, 0], children[b, 1]
+    for i in range(max(count_a, 1)):
+        x = a if count_a == 0 else first_a + i
+        if pair_clear(placed, x, b, tolerance):
+            continue
+        if count_b == 0:
+            return False
+        for j in range(count_b):
+            if not pair_clear(placed, x, first_b + j, tolerance):
+                return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _verdict(q, floats, ints, placed, left) -> int:
+    """-1 if more pairs may touch at `q` than `left` holds (stopped there); else the tables
+    that do not certify `q` (bit k for table k) plus 2^32 times the count of pairs that may
+    touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs with one group
+    passes at once when its sphere is clear. `placed` holds the rows on no joint already
+    (placed once, when packed)."""
+    joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = _unpack(floats, ints)
+    nj, tolerance = joint_rows.shape[0], floats[0]
+    rotation, origin = np.empty((nj, 3, 3)), np.empty((nj, 3))
+    place_joints(q, joint_rows, joint_ints, rotation, origin)
+    for g in range(children.shape[0]):
+        if carrier[g] != 0:
+            _place(rows, g, rotation, origin, carrier[g], placed)
+    count, k = 0, 0
+    while k < pairs.shape[0]:
+        a, b, group, end = pairs[k, 0], pairs[k, 1], pairs[k, 2], pairs[k, 3]
+        if end > 0 and pair_clear(placed, a, group, tolerance):
+            k = end
+            continue
+        if not pair_clear(placed, a, b, tolerance) and (
+            (children[a, 1] == 0 and children[b, 1] == 0)
+            or not _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b, tolerance)
+        ):
+            if count + 1 == left.shape[0]:
+                return -1
+            count += 1
+            left[count] = pairs[k, 4]
+        k += 1
+    return _uncertified_tables(q, tables, axis_ints, axis_floats, bits) + (count << 32)
+
+
+@njit(cache=True, nogil=True)
+def verdict_one(q, floats, ints, placed, left) -> int:
+    """`_verdict` of one state (a call from Python)."""
+    return _verdict(q, floats, ints, placed, left)
+
+
+@njit(cache=True, nogil=True)
+def verdicts(qs, floats, ints, placed, left) -> np.ndarray:
+    """Per state (row n of `left` its pairs that may touch)."""
+    out = np.empty(qs.shape[0], dtype=np.int64)
+    for n in range(qs.shape[0]):
+        out[n] = _verdict(qs[n], floats, ints, placed, left[n])
+    return out

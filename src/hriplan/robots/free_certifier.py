@@ -1,0 +1,279 @@
+"""A compiled certifier of "collision-free": lower bounds on every checked pair's distance.
+
+Why: coal's broad phase costs 6-60 us a state from Python, and almost every state a planner asks
+about is far from contact. Each geometry is held by a capsule (a segment and a radius) that
+contains it, and an obstacle also by its box; a pair's distance is bounded below by the
+segments' distance less both radii, or a capsule's distance to the other's box (the capsule cut
+into pieces, each in a sphere, refined where near). A state is certified free only when every
+pair the broad phase checks is bounded above `BOUND_TOLERANCE` and every clearance table of the
+mesh pairs certifies it: then coal would say free too, so skipping coal changes no answer. The
+pairs and tables it cannot clear are left to coal, unchanged. Forward kinematics, bounds and
+tables run in one call per state (or per batch), compiled by numba and cached on disk.
+
+The compiled code is in `certifier_kernels.py`; this module makes the arrays it reads.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from hriplan.robots.certifier_kernels import REACH, ROW, verdict_one, verdicts
+from hriplan.robots.kernel_fk import joint_tables
+from hriplan.robots.mesh_clearance import ClearanceTable
+from hriplan.robots.part_spheres import BOUND_TOLERANCE
+
+_LEAVES = 16  # spheres per mesh
+ASKED_OF_COAL = 8  # pairs a state may leave to coal one by one; more: the whole broad phase
+
+
+def _held_by(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
+    """A capsule (ends, radius) and a box (centre, half sides) holding `geometry`, in its own
+    frame. A capsule or sphere is its own capsule (no box); a cylinder lies in the capsule of
+    its radius and length; any other shape in its local bounding box, and the box in a capsule
+    along its longest side (radius the half diagonal of its cross-section) or in its sphere."""
+    if isinstance(geometry, coal.Capsule | coal.Cylinder):
+        half = geometry.halfLength
+        box = np.array([geometry.radius, geometry.radius, half]) if isinstance(geometry, coal.Cylinder) else None
+        ends = np.array([[0.0, 0.0, -half], [0.0, 0.0, half]])
+        return ends[0], ends[1], float(geometry.radius), np.zeros(3), box if box is not None else np.full(3, np.inf)
+    if isinstance(geometry, coal.Sphere):
+        return np.zeros(3), np.zeros(3), float(geometry.radius), np.zeros(3), np.full(3, np.inf)
+    if isinstance(geometry, coal.Box):
+        centre, half = np.zeros(3), np.asarray(geometry.halfSide, dtype=float)
+    else:
+        shape = geometry.clone()  # computing the box on the model's own shape would change it
+        shape.computeLocalAABB()
+        low, high = np.asarray(shape.aabb_local.min_, dtype=float), np.asarray(shape.aabb_local.max_, dtype=float)
+        centre, half = (low + high) / 2.0, (high - low) / 2.0
+    longest = int(np.argmax(half))
+    across = float(np.sqrt(np.sum(np.delete(half, longest) ** 2)))
+    along, sphere = half[longest], float(np.linalg.norm(half))
+    if math.pi * across**2 * 2.0 * along + 4.0 / 3.0 * math.pi * across**3 < 4.0 / 3.0 * math.pi * sphere**3:
+        axis = np.eye(3)[longest] * along
+        return centre - axis, centre + axis, across, centre, half
+    return centre, centre, sphere, centre, half
+
+
+def _geometry_row(geometry: pin.GeometryObject) -> np.ndarray:
+    """The row (23,) of a geometry: its capsule and box in its joint's frame."""
+    start, end, radius, centre, half = _held_by(geometry.geometry)
+    placement = geometry.placement
+    capsule = np.concatenate([placement.act(start), placement.act(end), [radius]])
+    box = np.concatenate([placement.rotation.reshape(9), placement.act(centre), half])
+    return np.concatenate([capsule, box, [np.linalg.norm(end - start) / 2.0 + radius]])
+
+
+def _mesh_pieces(geometry: pin.GeometryObject, leaves: int = _LEAVES) -> list[np.ndarray]:
+    """Spheres (centre in the joint's frame, radius: 4) holding every triangle of a mesh: the
+    widest group of triangles halved along its centres' widest spread until there are `leaves`,
+    each group in the sphere about its vertices' box. coal tests a mesh by its triangles, so
+    spheres clear of the other geometry mean coal finds no contact."""
+    shape = geometry.geometry
+    vertices = np.asarray(shape.vertices(), dtype=float)
+    triangles = np.array([[t[0], t[1], t[2]] for t in (shape.tri_indices(i) for i in range(shape.num_tris))])
+
+    def sphere(group: np.ndarray) -> tuple[np.ndarray, float]:
+        points = vertices[np.unique(group)]
+        centre = (points.min(axis=0) + points.max(axis=0)) / 2.0
+        return centre, float(np.sqrt(((points - centre) ** 2).sum(axis=1).max()))
+
+    groups = [(triangles, *sphere(triangles))]
+    while len(groups) < leaves:
+        widest = max(range(len(groups)), key=lambda k: groups[k][2] if len(groups[k][0]) > 1 else -1.0)
+        group = groups[widest][0]
+        if len(group) < 2:
+            break
+        groups.pop(widest)
+        centres = vertices[group].mean(axis=1)
+        order = np.argsort(centres[:, int(np.argmax(np.ptp(centres, axis=0)))], kind="stable")
+        halves = group[order[: len(group) // 2]], group[order[len(group) // 2 :]]
+        groups += [(half, *sphere(half)) for half in halves]
+    return [np.array([*geometry.placement.act(centre), radius]) for _, centre, radius in groups]
+
+
+_PIECES: dict[int, tuple[coal.CollisionGeometry, list[np.ndarray]]] = {}  # by mesh, kept alive with it
+
+
+def _pieces_of(geometry: pin.GeometryObject) -> list[np.ndarray]:
+    """`_mesh_pieces` of a mesh (made once per mesh and placement: ~10 ms), none for another shape."""
+    if not isinstance(geometry.geometry, coal.BVHModelBase):
+        return []
+    key = hash((id(geometry.geometry), geometry.placement.homogeneous.tobytes()))
+    if key not in _PIECES:
+        _PIECES[key] = (geometry.geometry, _mesh_pieces(geometry))
+    return _PIECES[key][1]
+
+
+def _sphere_row(centre: np.ndarray, radius: float) -> np.ndarray:
+    """A row holding only a sphere (a capsule of no length, no box)."""
+    return np.concatenate([centre, centre, [radius], np.eye(3).reshape(9), np.zeros(3), np.full(3, np.inf), [radius]])
+
+
+class FreeCertifier:
+    """Certifies states free of every checked pair of a collision model, or names the pairs and
+    tables left to check. Not for threads at once: its scratch arrays are its own (as the
+    checker's pinocchio data is)."""
+
+    @classmethod
+    def of(
+        cls,
+        model: pin.Model,
+        geom_model: pin.GeometryModel,
+        pairs: np.ndarray,
+        tables: Sequence[ClearanceTable],
+        groups: Sequence[Sequence[int]] = (),
+        ids: Sequence[int] | None = None,
+    ) -> FreeCertifier | None:
+        """The certifier of these pairs (k, 2) and tables (at most 31), or None for a robot whose
+        joints the kernel does not walk or with more tables. `groups`: geometries on no joint that stand together (a person's
+        capsules), against which a moving geometry is first tested as one sphere."""
+        joints = joint_tables(model)
+        if joints is None or len(tables) > 31:
+            return None
+        return cls(joints, geom_model, pairs, tables, groups, ids)
+
+    def __init__(
+        self,
+        joints: tuple[np.ndarray, np.ndarray],
+        geom_model: pin.GeometryModel,
+        pairs: np.ndarray,
+        tables: Sequence[ClearanceTable],
+        groups: Sequence[Sequence[int]] = (),
+        ids: Sequence[int] | None = None,
+    ) -> None:
+        self._joint_rows, self._joint_ints = joints
+        objects = geom_model.geometryObjects
+        pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        used = sorted(set(pairs.reshape(-1).tolist()))
+        self._used, slot = used, {g: k for k, g in enumerate(used)}
+        # Rows: the geometries, then the meshes' pieces, then one sphere per group.
+        rows = [_geometry_row(objects[i]) for i in used]
+        carrier = [objects[i].parentJoint for i in used]
+        self._children = np.zeros((len(used), 2), dtype=np.int64)  # per geometry: first piece, count
+        for k, g in enumerate(used):
+            pieces = _pieces_of(objects[g])
+            self._children[k] = (len(rows), len(pieces))
+            rows += [_sphere_row(p[:3], p[3]) for p in pieces]
+            carrier += [carrier[k]] * len(pieces)
+        self._groups = [[slot[g] for g in group if g in slot] for group in groups]
+        self._groups = [group for group in self._groups if group]
+        self._group_rows = list(range(len(rows), len(rows) + len(self._groups)))
+        rows += [np.zeros(ROW)] * len(self._groups)
+        carrier += [0] * len(self._groups)
+        self._rows, self._carrier = np.array(rows).reshape(-1, ROW), np.array(carrier, dtype=np.int64)
+        ids = np.arange(len(pairs)) if ids is None else np.asarray(ids, dtype=np.int64)
+        slots = np.vectorize(slot.get, otypes=[np.int64])(pairs).reshape(-1, 2)
+        self._pairs = self._ordered_pairs(np.column_stack([slots, ids]))
+        self._left = np.empty(ASKED_OF_COAL + 1, dtype=np.int64)
+        # The tables: per table its first axis, number of axes and first bit; per axis (q index,
+        # cells, periodic) and (lower, step); the cells' bits one after another.
+        axes = [axis for table in tables for axis in table._axes]
+        counts = np.cumsum([0] + [len(table._axes) for table in tables])
+        bits = np.cumsum([0] + [len(table.free) for table in tables])
+        self._tables = np.array([(counts[k], len(t._axes), bits[k]) for k, t in enumerate(tables)], dtype=np.int64)
+        self._tables = self._tables.reshape(-1, 3)
+        self._axis_ints = np.array([(i, n, wrap) for i, _, _, n, wrap in axes], dtype=np.int64).reshape(-1, 3)
+        self._axis_floats = np.array([(lower, step) for _, lower, step, _, _ in axes], dtype=float).reshape(-1, 2)
+        self._bits = np.concatenate([np.asarray(t.free, dtype=np.uint8) for t in tables] or [np.zeros(0, np.uint8)])
+        self._statics = [k for k, g in enumerate(used) if objects[g].parentJoint == 0]
+        self._where = {k: objects[used[k]].placement.homogeneous.tobytes() for k in self._statics}
+        self._place_groups()
+        self._floats, self._ints = self._packed()
+
+    def _ordered_pairs(self, pairs: np.ndarray) -> np.ndarray:
+        """Pairs (a, b, group's row or -1, end of the run or 0, id) from rows (a, b, id): a
+        moving geometry's pairs with the members of one group follow one another, the first
+        holding where the run ends, so that one test against the group's sphere passes them all."""
+        member = {g: k for k, group in enumerate(self._groups) for g in group}
+        grouped = sorted(
+            ((a, b, i) if b in member else (b, a, i) for a, b, i in pairs.tolist() if (a in member) != (b in member)),
+            key=lambda p: (p[0], member[p[1]]),
+        )
+        alone = [(a, b, -1, 0, i) for a, b, i in pairs.tolist() if (a in member) == (b in member)]
+        runs = [(a, member[b]) for a, b, _ in grouped]
+        out = list(alone)
+        for k, (a, b, i) in enumerate(grouped):
+            first = k == 0 or runs[k - 1] != runs[k]
+            end = len(alone) + next((j for j in range(k, len(grouped)) if runs[j] != runs[k]), len(grouped))
+            out.append((a, b, self._group_rows[member[b]], end if first else 0, i))
+        return np.array(out, dtype=np.int64).reshape(-1, 5)
+
+    def _place_groups(self) -> None:
+        """Each group's sphere: about the middle of its members' spheres' box, holding them all."""
+        for row, group in zip(self._group_rows, self._groups):
+            members = self._rows[group]
+            centres = (members[:, 0:3] + members[:, 3:6]) / 2.0
+            middle = (centres.min(axis=0) + centres.max(axis=0)) / 2.0
+            radius = float(np.max(np.linalg.norm(centres - middle, axis=1) + members[:, REACH]))
+            self._rows[row] = _sphere_row(middle, radius)
+
+    def place(self, geom_model: pin.GeometryModel) -> None:
+        """Read again where the geometries on no joint stand (an obstacle moved, a person
+        re-posed): only those that moved are made again (~30 us each), and nothing if none did
+        (planning sets scenes around every call, most of them where they were)."""
+        objects = geom_model.geometryObjects
+        moved = False
+        for k in self._statics:
+            where = objects[self._used[k]].placement.homogeneous.tobytes()
+            if where != self._where[k]:
+                self._rows[k], self._where[k], moved = _geometry_row(objects[self._used[k]]), where, True
+        if moved:
+            self._place_groups()
+            self._floats, self._ints = self._packed()
+
+    def _packed(self) -> tuple[np.ndarray, np.ndarray]:
+        """All of it in one float and one int array (a numba call costs ~0.1 us an array): the
+        int array starts with the sizes and where each part begins (`_unpack`)."""
+        floats = [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats]
+        ints = [self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children, self._bits]
+        sizes = [
+            len(self._joint_rows),
+            len(self._rows),
+            len(self._pairs),
+            len(self._tables),
+            len(self._axis_ints),
+            len(self._children),
+        ]
+        header = len(sizes) + len(floats) + len(ints)
+        float_starts = np.cumsum([0] + [a.size for a in floats])[:-1]
+        int_starts = header + np.cumsum([0] + [a.size for a in ints])[:-1]
+        head = np.array([*sizes, *float_starts, *int_starts], dtype=np.int64)
+        packed = np.concatenate([head, *(a.reshape(-1).astype(np.int64) for a in ints)])
+        # The rows in the world: those on no joint placed now, for good; the kernel places the others.
+        self._placed = self._rows.copy()
+        return np.concatenate([a.reshape(-1) for a in floats]), packed
+
+    def verdict(self, q: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
+        """(tables, pairs) at `q`: bit k of tables says table k (of those given) does not
+        certify it; pairs are the ids of the pairs that may touch; only those can. `FREE`
+        (the same object) if none; None if more than `ASKED_OF_COAL` pairs may touch."""
+        return _decoded(verdict_one(q, self._floats, self._ints, self._placed, self._left), self._left)
+
+    def verdicts(self, qs: np.ndarray) -> list[tuple[int, tuple[int, ...]] | None]:
+        """`verdict` of every state of `qs` (N, nq), in one call."""
+        if not len(qs):
+            return []
+        left = np.empty((len(qs), ASKED_OF_COAL + 1), dtype=np.int64)
+        codes = verdicts(np.ascontiguousarray(qs, dtype=float), self._floats, self._ints, self._placed, left)
+        return [_decoded(code, row) for code, row in zip(codes.tolist(), left)]
+
+    def free_many(self, qs: np.ndarray) -> np.ndarray:
+        """Per state of `qs`: free (no pair may touch, every table certifies it)."""
+        return np.array([verdict is FREE for verdict in self.verdicts(qs)], dtype=bool)
+
+
+FREE: tuple[int, tuple[int, ...]] = (0, ())
+
+
+def _decoded(code: int, left: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
+    """`verdict`'s answer from the kernel's code and the ids it left."""
+    if code == 0:
+        return FREE
+    if code < 0:
+        return None
+    return code & 0xFFFFFFFF, tuple(left[1 : (code >> 32) + 1].tolist())

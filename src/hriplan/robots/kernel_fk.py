@@ -1,0 +1,33 @@
+"""The robot's joints as the certifier's compiled forward kinematics reads them
+(`certifier_kernels.place_joints`).
+
+Why: the certifier (`free_certifier.py`) places every collision part at every state it is asked
+about; a call into pinocchio from Python and reading its placements back costs more than the
+whole check. The robot is data: each joint's parent, placement in its parent, axis, kind and
+place in q, read from the pinocchio model (any tree of one-axis revolute, continuous or
+prismatic joints, as `BatchKinematics` walks them), so no robot has code of its own.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from hriplan.robots.batch_kinematics import _joint
+from hriplan.robots.certifier_kernels import CONTINUOUS, JOINT_ROW, PRISMATIC, REVOLUTE
+
+
+def joint_tables(model: pin.Model) -> tuple[np.ndarray, np.ndarray] | None:
+    """Per joint (0: the world): its row (njoints, 15) and (parent, kind, idx_q) (njoints, 3);
+    None if the model holds a joint of another kind (free-flyer, spherical, ...: no kernel)."""
+    neutral = pin.neutral(model)
+    rows, ints = np.zeros((model.njoints, JOINT_ROW)), np.zeros((model.njoints, 3), dtype=np.int64)
+    rows[0, [0, 4, 8]] = 1.0
+    for j in range(1, model.njoints):
+        joint = _joint(model, j, model.parents[j], neutral)
+        if joint is None:
+            return None
+        rows[j] = np.concatenate([joint.rotation.reshape(9), joint.translation, joint.axis])
+        kind = PRISMATIC if not joint.turns else CONTINUOUS if joint.nq == 2 else REVOLUTE
+        ints[j] = (joint.parent, kind, joint.idx_q)
+    return rows, ints

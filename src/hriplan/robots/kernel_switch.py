@@ -1,0 +1,28 @@
+"""Whether the collision check uses its compiled kernels (`free_certifier.py`).
+
+Why a switch: importing numba and loading its cached kernels costs ~0.5 s in every new process,
+more than a short `hriplan plan` spends checking collisions; long runs (benchmarks, sweeps, a
+service) gain. Set HRIPLAN_KERNELS=1 (with numba installed: `pip install hriplan[fast]`) or call
+`use_kernels(True)`. Without numba the kernels stay off and everything works as before.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+
+_on: bool | None = None  # decided at the first check (asked at every one: kept)
+
+
+def use_kernels(on: bool) -> None:
+    """Turn the kernels on or off in this process (on needs numba). Checkers already built keep
+    the certifiers they made, but stop asking them when off."""
+    global _on
+    _on = on and importlib.util.find_spec("numba") is not None
+
+
+def kernels_on() -> bool:
+    """True if the kernels are wanted (use_kernels, else HRIPLAN_KERNELS=1) and numba is installed."""
+    if _on is None:
+        use_kernels(os.environ.get("HRIPLAN_KERNELS", "") == "1")
+    return bool(_on)

@@ -1,0 +1,239 @@
+"""The compiled certifier (robots/free_certifier.py, certifier_kernels.py, kernel_fk.py) against
+pinocchio and coal.
+
+Its forward kinematics is pinocchio's to 1e-9; its bounds are never above coal's distances; a
+state it certifies is free for coal (10 000 random states per robot, in scenes with boxes, a
+cylinder, a mesh and people close by); and the checker answers the same with and without it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+pytest.importorskip("numba")
+
+from hriplan.robots import kernel_switch
+from hriplan.robots.certifier_kernels import capsule_clears_box, place_joints, segment_floor
+from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import load_robot_file
+from hriplan.robots.free_certifier import FreeCertifier, _mesh_pieces
+from hriplan.robots.human import HumanSpec
+from hriplan.robots.kernel_fk import joint_tables
+from hriplan.robots.model import load_robot
+from hriplan.robots.scene import Box, Cone, Cylinder, Obstacle, Scene, Sphere
+from hriplan.robots.spatial import Pose
+
+BAXTER = Path(__file__).parents[1] / "data" / "robots" / "baxter.yaml"
+STATES = 10_000
+
+pytestmark = pytest.mark.usefixtures("module_robot_registry")
+
+
+@pytest.fixture(scope="module")
+def robots():
+    return {"ur5": load_robot("ur5"), "madar": load_robot("madar"), "baxter": load_robot(load_robot_file(BAXTER).name)}
+
+
+@pytest.fixture
+def kernels():
+    kernel_switch.use_kernels(True)
+    yield
+    kernel_switch.use_kernels(False)
+
+
+def _random_states(robot, n: int, seed: int) -> np.ndarray:
+    model = robot.model
+    return np.random.default_rng(seed).uniform(model.lowerPositionLimit, model.upperPositionLimit, (n, model.nq))
+
+
+@pytest.mark.parametrize("name", ["ur5", "madar", "baxter"])
+def test_forward_kinematics_is_pinocchios(robots, name):
+    model = robots[name].model
+    data = model.createData()
+    rows, ints = joint_tables(model)
+    rotation, origin = np.empty((model.njoints, 3, 3)), np.empty((model.njoints, 3))
+    worst = 0.0
+    for q in _random_states(robots[name], 500, 1):
+        pin.forwardKinematics(model, data, q)
+        place_joints(q, rows, ints, rotation, origin)
+        for j in range(model.njoints):
+            worst = max(worst, np.abs(data.oMi[j].rotation - rotation[j]).max())
+            worst = max(worst, np.abs(data.oMi[j].translation - origin[j]).max())
+    assert worst < 1e-9
+
+
+def _capsule_rows(rng, n: int, kind: str = "any") -> np.ndarray:
+    """Rows (n, 23) of random capsules (ends, radius) within a metre: in pairs (2k, 2k + 1) at
+    any angle, nearly parallel, or nearly parallel and crossing near their middles (where the
+    least distance is inside both and the ends' distances are above it)."""
+    rows = np.zeros((n, 23))
+    start = rng.uniform(-0.5, 0.5, (n, 3))
+    direction = rng.normal(size=(n, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    length = rng.uniform(0.0, 0.6, (n, 1)) * (rng.uniform(size=(n, 1)) > 0.1)
+    if kind != "any":
+        tilt = rng.normal(scale=10.0 ** rng.uniform(-7, -4, (n // 2, 1)), size=(n // 2, 3))
+        direction[1::2] = direction[::2] + tilt
+        direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    if kind == "crossing":
+        length[1::2] = length[::2] = np.maximum(length[::2], 0.3)
+        middle = start[::2] + direction[::2] * length[::2] / 2 + rng.normal(scale=1e-5, size=(n // 2, 3))
+        start[1::2] = middle - direction[1::2] * length[1::2] / 2
+    rows[:, 0:3], rows[:, 3:6] = start, start + direction * length
+    rows[:, 6] = rng.uniform(0.01, 0.15, n)
+    return rows
+
+
+def _coal_capsule(row: np.ndarray) -> tuple[coal.Capsule, coal.Transform3s]:
+    axis = row[3:6] - row[0:3]
+    length = float(np.linalg.norm(axis))
+    z = axis / length if length > 0 else np.array([0.0, 0.0, 1.0])
+    rotation = pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), z).matrix()
+    return coal.Capsule(row[6], length), coal.Transform3s(rotation, (row[0:3] + row[3:6]) / 2.0)
+
+
+@pytest.mark.parametrize("kind", ["any", "parallel", "crossing"])
+def test_segment_bound_is_never_above_coals_capsule_distance(kind):
+    rng = np.random.default_rng(3)
+    rows = _capsule_rows(rng, 4000, kind)
+    rows[:, 6] = rows[:, 6] * (kind == "any")  # bare segments: coal's distance is theirs
+    tight, apart = 0, 0
+    for k in range(0, len(rows), 2):
+        a, b = _coal_capsule(rows[k]), _coal_capsule(rows[k + 1])
+        result = coal.DistanceResult()
+        distance = coal.distance(a[0], a[1], b[0], b[1], coal.DistanceRequest(), result)
+        bound = segment_floor(rows, k, k + 1) - rows[k, 6] - rows[k + 1, 6]
+        assert bound <= distance + 1e-9
+        apart += distance > 0.0
+        tight += distance > 0.0 and distance - bound < 1e-6
+    # And it is the distance, not merely below it (nearly parallel ones: the lines' distance).
+    assert apart > 0 and tight >= {"any": 0.99, "parallel": 0.1, "crossing": 0.0}[kind] * apart
+
+
+def test_mesh_pieces_hold_every_triangle(robots):
+    """Each triangle of a mesh lies in one of its pieces' spheres (its three corners do)."""
+    checker = CollisionChecker(robots["madar"])
+    meshes = [g for g in checker.geom_model.geometryObjects if isinstance(g.geometry, coal.BVHModelBase)][:6]
+    assert meshes
+    for mesh in meshes:
+        pieces = np.array(_mesh_pieces(mesh))
+        shape = mesh.geometry
+        corners = np.asarray(shape.vertices())
+        triangles = np.array([[t[0], t[1], t[2]] for t in (shape.tri_indices(i) for i in range(shape.num_tris))])
+        placed = corners @ mesh.placement.rotation.T + mesh.placement.translation
+        gaps = np.linalg.norm(placed[triangles][:, :, None, :] - pieces[None, None, :, :3], axis=-1)  # (T, 3, P)
+        held = (gaps <= pieces[:, 3] + 1e-12).all(axis=1).any(axis=1)
+        assert held.all()
+        assert len(pieces) == 16 and pieces[:, 3].max() < 0.75 * np.linalg.norm(np.ptp(placed, axis=0))
+
+
+def test_capsule_clear_of_a_box_only_where_coal_keeps_them_apart():
+    rng = np.random.default_rng(4)
+    capsules = _capsule_rows(rng, 3000)
+    cleared = 0
+    for row in capsules:
+        half = rng.uniform(0.02, 0.4, 3)
+        rotation = pin.Quaternion(*rng.normal(size=4)).normalized().matrix()
+        centre = rng.uniform(-0.3, 0.3, 3)
+        placed = np.zeros((2, 23))
+        placed[0] = row
+        placed[1, 7:16], placed[1, 16:19], placed[1, 19:22] = rotation.reshape(9), centre, half
+        shape, where = _coal_capsule(row)
+        result = coal.DistanceResult()
+        distance = coal.distance(
+            shape, where, coal.Box(*(2 * half)), coal.Transform3s(rotation, centre), coal.DistanceRequest(), result
+        )
+        clear = capsule_clears_box(placed, 0, 1, 1e-4)
+        assert not clear or distance > 1e-4
+        cleared += clear
+        if distance > 0.05:  # far enough for the finest pieces (1/64 of the segment) to see it
+            assert clear
+    assert cleared > 0.3 * len(capsules)
+
+
+def test_tables_are_asked_as_clearance_table_asks_them(robots):
+    """The kernel's cell arithmetic is `ClearanceTable.certified`'s: at random states and on
+    every grid's lower and upper limits exactly, beyond them and whole turns away."""
+    robot = robots["madar"]
+    checker = CollisionChecker(robot)
+    tables = [table for table, _ in checker._tabled] if checker.geom_model else []
+    assert len(tables) >= 2
+    certifier = FreeCertifier.of(robot.model, checker.geom_model, np.zeros((0, 2), dtype=int), tables)
+    qs = _random_states(robot, 4000, 2)
+    for k, table in enumerate(tables):
+        for a, (i, lower, step, n) in enumerate(zip(table.q_index, table.lower, table.step, table.cells)):
+            edges = [lower, lower + step * n, lower - 1e-9, lower + step * n + 1e-9, lower + 2 * np.pi, lower + step]
+            rows = slice(100 * (2 * k + a), 100 * (2 * k + a) + 100)
+            qs[rows, i] = np.resize(edges, 100)
+    expected = [sum((not table.certified(q.tolist())) << k for k, table in enumerate(tables)) for q in qs]
+    assert [tables for tables, _ in certifier.verdicts(qs)] == expected  # no pairs: never None
+    assert 0.1 < np.mean(np.array(expected) == 0) < 0.9
+
+
+def _scene(robot, name: str) -> Scene:
+    """Boxes, a cylinder, a cone, a ball and two people about the robot's reach."""
+    near = {"ur5": (0.45, 0.0), "madar": (0.0, 1.0), "baxter": (0.8, 0.0)}[name]
+    x, y = near
+    return Scene(
+        obstacles=[
+            Obstacle(name="table", shape=Box(size=(0.6, 0.8, 0.05)), pose=Pose(xyz=(x, y, 0.35))),
+            Obstacle(name="crate", shape=Box(size=(0.2, 0.3, 0.25)), pose=Pose(xyz=(-x, -y, 0.6), rpy=(0, 0, 0.6))),
+            Obstacle(name="post", shape=Cylinder(radius=0.05, height=0.6), pose=Pose(xyz=(y, x, 0.9))),
+            Obstacle(name="funnel", shape=Cone(radius=0.08, height=0.2), pose=Pose(xyz=(-y, x, 1.1))),
+            Obstacle(name="ball", shape=Sphere(radius=0.07), pose=Pose(xyz=(x * 0.7, y * 0.7 + 0.3, 1.0))),
+        ],
+        humans=[
+            HumanSpec(name="bob", position=(x * 1.6, y * 1.6), yaw=np.pi),
+            HumanSpec(name="kim", position=(-y * 1.5 - 0.2, x * 1.5), yaw=0.0, margin=0.05),
+        ],
+    )
+
+
+# The share of random states certified at least: Baxter's torso mesh lies within a centimetre of
+# its shoulders' meshes in every state, which spheres about its triangles cannot tell apart.
+@pytest.mark.parametrize(("name", "share"), [("ur5", 0.05), ("madar", 0.03), ("baxter", 0.0)])
+def test_certified_states_are_free_for_coal_and_answers_are_the_same(robots, name, share, kernels):
+    robot = robots[name]
+    checker = CollisionChecker(robot, _scene(robot, name))
+    states = _random_states(robot, STATES, 5)
+    checker.in_collision(states[0])
+    certifier = checker._free_certifier()
+    certified = certifier.free_many(states)
+    kernel_switch.use_kernels(False)
+    collides = np.array([checker.in_collision(q) for q in states])
+    first = checker.first_collision(states[~certified][:50])
+    kernel_switch.use_kernels(True)
+    assert not (certified & collides).any()
+    assert certified.mean() >= share and collides.mean() > 0.05  # both sides are exercised
+    verdicts = certifier.verdicts(states)
+    # Some pairs or a table's meshes left to coal one by one (the rest clear): both answers occur.
+    tabled = np.array([k for k, v in enumerate(verdicts) if v is not None and v != (0, ())][:1000], dtype=int)
+    if name != "baxter":
+        assert collides[tabled].any() and not collides[tabled].all()
+    asked = np.concatenate([np.arange(2000), tabled])
+    assert [checker.in_collision(q) for q in states[asked]] == collides[asked].tolist()
+    assert [certifier.verdict(q) for q in states[:500]] == certifier.verdicts(states[:500])
+    assert checker.first_collision(states[~certified][:50]) == first
+
+
+def test_moved_people_and_obstacles_are_where_the_certifier_looks(robots, kernels):
+    """A person re-posed onto the arm, then an obstacle moved onto it: no longer certified."""
+    robot = robots["ur5"]
+    checker = CollisionChecker(robot, _scene(robot, "ur5"))
+    states = _random_states(robot, 200, 6)
+    checker.in_collision(states[0])
+    q = states[np.argmax(checker._free_certifier().free_many(states))]
+    assert not checker.in_collision(q) and checker._free_certifier().verdict(q) == (0, ())
+    pin.framesForwardKinematics(robot.model, robot.data, q)
+    tool = robot.data.oMf[robot.frame_id(robot.tool_frame(next(iter(robot.arms))))].translation
+    checker.pose_human(HumanSpec(name="bob", position=(tool[0], tool[1]), yaw=np.pi))
+    assert checker.in_collision(q) and not checker._free_certifier().verdict(q) == (0, ())
+    checker.pose_human(HumanSpec(name="bob", position=(3.0, 3.0), yaw=np.pi))
+    assert not checker.in_collision(q)
+    checker.move_obstacle("ball", Pose(xyz=tuple(tool)))
+    assert checker.in_collision(q) and not checker._free_certifier().verdict(q) == (0, ())
