@@ -18,6 +18,8 @@ from hriplan.cli.main import app
 where, extra, sys.argv = Path(sys.argv[1]), sys.argv[2], ["hriplan", *sys.argv[3:]]
 atexit.register(lambda: ((where / "atexit").write_text("ran"), ctypes.CDLL(None).printf(b"from C\\n")))
 print("from Python")
+if extra == "no_private":  # a Python without CPython's private atexit._run_exitfuncs
+    del atexit._run_exitfuncs
 if extra == "thread":
     threading.Thread(target=lambda: (time.sleep(0.3), (where / "thread").write_text("done"))).start()
 app()
@@ -51,6 +53,12 @@ def test_another_thread_finishes_first(tmp_path):
     code, out, _, ran = _process(tmp_path, "thread", "--version")
     assert code == 0 and ran == {"atexit": "ran", "thread": "done"}
     assert "from C" in out
+
+
+def test_without_cpythons_private_exit_runner_the_process_exits_as_python_does(tmp_path):
+    code, out, err, ran = _process(tmp_path, "no_private", "--version")
+    assert (code, err, ran) == (0, "", {"atexit": "ran"})
+    assert sorted(out.splitlines()) == ["from C", "from Python", "hriplan 0.1.0"]
 
 
 def test_in_process_calls_still_raise_system_exit():

@@ -23,8 +23,9 @@ from typing import NoReturn
 
 def exit_now(code: int) -> NoReturn:
     """End the process with `code` once the exit functions ran and the output is flushed."""
-    if threading.active_count() == 1:
-        atexit._run_exitfuncs()  # and forgets them: a fallback below does not run them twice
+    run_exit_functions = getattr(atexit, "_run_exitfuncs", None)  # CPython's own; elsewhere: exit as Python does
+    if threading.active_count() == 1 and run_exit_functions is not None:
+        run_exit_functions()  # and forgets them: a fallback below does not run them twice
         try:
             sys.stdout.flush()
             sys.stderr.flush()
