@@ -241,3 +241,35 @@ def test_init_writes_a_file_that_loads_when_the_guessed_gripper_does_not(tmp_pat
     assert "does not close along the tool's x or y axis; say which: closes_along: x or y" in lines[1]
     assert yaml.safe_load(out.read_text())["arms"]["arm"]["hand"] == "none"
     assert not any(line.startswith("posture ready: in self-collision") for line in lines)
+
+
+def test_an_srdf_state_of_a_joint_the_urdf_lacks_is_read_past_and_said(tmp_path):
+    # TALOS's SRDF sets pinocchio's floating base `root_joint` (7 numbers) in its half_sitting
+    # state; no URDF has it. srdfdom skips such a joint; so does hriplan, and says so.
+    urdf = (DATA / "fork" / "fork.urdf").read_text()
+    urdf = "\n".join(line for line in urdf.splitlines() if '"d"' not in line)  # its mesh is not one
+    box = '<link name="a"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>'
+    (tmp_path / "fork.urdf").write_text(urdf.replace('<link name="a"/>', box))  # a one-joint arm's IK too
+    (tmp_path / "fork.srdf").write_text(
+        '<robot name="fork"><group name="arm"><chain base_link="base" tip_link="c"/></group>'
+        '<group_state name="half" group="arm"><joint name="root_joint" value="0 0 1 0 0 0 1"/>'
+        '<joint name="ja" value="0.5"/></group_state></robot>'
+    )
+    path = tmp_path / "fork.yaml"
+    path.write_text("name: fork_state\nurdf: fork.urdf\nsrdf: fork.srdf\narms:\n  arm: {group: arm, tool: c}\n")
+    result = invoke("robot", "check", path)
+    assert result.exit_code == 0, result.output
+    assert "SRDF group state 'half': 'root_joint' not in the URDF, ignored" in result.stdout
+    assert "postures: half" in result.stdout
+    from hriplan.robots.descriptions.registry import description_of
+
+    assert description_of("fork_state").postures["half"] == {"ja": 0.5}
+
+
+def test_check_of_an_unreadable_mesh_is_one_line_and_exit_2(tmp_path):
+    shutil.copytree(DATA / "fork", tmp_path, dirs_exist_ok=True)  # meshes/d.stl: an STL with no facet
+    path = tmp_path / "fork.yaml"
+    path.write_text("name: fork_mesh\nurdf: fork.urdf\narms:\n  arm: {base: base, tip: c}\n")
+    result = invoke("robot", "check", path)
+    assert result.exit_code == 2 and result.stdout == "", result.output
+    assert result.stderr.count("\n") == 1 and "does not load" in result.stderr and "d.stl" in result.stderr

@@ -88,6 +88,7 @@ def check_report(path: str | Path) -> str:
         lines.append("SRDF: none (arms by base and tip links)")
     else:
         lines.append("SRDF groups: " + ", ".join(f"{g} ({len(j)} joints)" for g, j in srdf.groups.items()))
+        lines += srdf.ignored
     lines.append(describe(robot))
     for arm, a in description.arms.items():
         hand = "none" if a.hand is None else hand_model(a.hand).label
@@ -376,7 +377,7 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
     wrote = f"wrote {output}: robot {description.name}, arms " + ", ".join(
         f"{arm} ({len(a.joints)} joints, tool {a.tool_frame}, IK {a.ik})" for arm, a in description.arms.items()
     )
-    return "\n".join([wrote, *dropped, *_colliding_postures(checker, description.postures)])
+    return "\n".join([wrote, *semantic.ignored, *dropped, *_colliding_postures(checker, description.postures)])
 
 
 def _loaded_without_bad_grippers(
