@@ -246,10 +246,7 @@ def test_init_writes_a_file_that_loads_when_the_guessed_gripper_does_not(tmp_pat
 def test_an_srdf_state_of_a_joint_the_urdf_lacks_is_read_past_and_said(tmp_path):
     # TALOS's SRDF sets pinocchio's floating base `root_joint` (7 numbers) in its half_sitting
     # state; no URDF has it. srdfdom skips such a joint; so does hriplan, and says so.
-    urdf = (DATA / "fork" / "fork.urdf").read_text()
-    urdf = "\n".join(line for line in urdf.splitlines() if '"d"' not in line)  # its mesh is not one
-    box = '<link name="a"><collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>'
-    (tmp_path / "fork.urdf").write_text(urdf.replace('<link name="a"/>', box))  # a one-joint arm's IK too
+    _fork_of_boxes(tmp_path)  # a one-joint arm's IK too
     (tmp_path / "fork.srdf").write_text(
         '<robot name="fork"><group name="arm"><chain base_link="base" tip_link="c"/></group>'
         '<group_state name="half" group="arm"><joint name="root_joint" value="0 0 1 0 0 0 1"/>'
@@ -273,3 +270,31 @@ def test_check_of_an_unreadable_mesh_is_one_line_and_exit_2(tmp_path):
     result = invoke("robot", "check", path)
     assert result.exit_code == 2 and result.stdout == "", result.output
     assert result.stderr.count("\n") == 1 and "does not load" in result.stderr and "d.stl" in result.stderr
+
+
+def _fork_of_boxes(folder: Path) -> None:
+    """fork.urdf in `folder` with a box on links a and b and without the mesh link d."""
+    urdf = (DATA / "fork" / "fork.urdf").read_text()
+    urdf = "\n".join(line for line in urdf.splitlines() if '"d"' not in line)
+    for link, x in (("a", 0.3), ("b", -0.3)):
+        box = f'<link name="{link}"><collision><origin xyz="{x} 0 0"/><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>'
+        urdf = urdf.replace(f'<link name="{link}"/>', box)
+    (folder / "fork.urdf").write_text(urdf)
+
+
+def test_init_names_the_srdf_chains_it_did_not_take_as_arms(tmp_path):
+    # TALOS's SRDF has end effectors on its feet only: init takes the legs as arms, and the arms
+    # are groups the user must name. Here `leg` ends in an end effector and `arm` does not.
+    _fork_of_boxes(tmp_path)
+    (tmp_path / "fork.srdf").write_text(
+        '<robot name="fork"><group name="leg"><chain base_link="base" tip_link="c"/></group>'
+        '<group name="arm"><joint name="jb"/></group><group name="both"><group name="leg"/><group name="arm"/></group>'
+        '<end_effector name="foot" parent_link="c" group="leg"/></robot>'
+    )
+    out = tmp_path / "fork.yaml"
+    result = invoke("robot", "init", "--urdf", tmp_path / "fork.urdf", "--srdf", tmp_path / "fork.srdf", "-o", out)
+    assert result.exit_code == 0, result.output
+    assert yaml.safe_load(out.read_text())["arms"] == {
+        "leg": {"group": "leg", "tool": "c", "hand": "none", "ik": "numeric"}
+    }
+    assert "SRDF groups not taken as arms: arm (1 joints, to b); one is an arm as" in result.stdout

@@ -174,6 +174,31 @@ def _arms_from_srdf(tree: UrdfTree, srdf: Srdf) -> dict[str, dict]:
     return arms
 
 
+def _chains_not_taken(tree: UrdfTree, srdf: Srdf, arms: dict[str, dict]) -> list[str]:
+    """A line naming the SRDF's serial groups on no arm init took (nor below one: its hand), or none.
+    An SRDF's end effectors may be a humanoid's feet (TALOS's r_foot, l_foot on its legs) and its
+    arms plain groups; which chain is an arm is the user's word, so init names the candidates."""
+    taken = {j for arm in arms.values() for j in _arm_joints(tree, srdf, arm)}
+    found = []
+    for group, joints in srdf.groups.items():
+        moving = _driven([tree.joints[j] for j in tree.movable(joints)])
+        tip = max((tree.joints[j].child for j in joints), key=lambda link: len(tree.ancestors(link)), default=None)
+        above = {j.name for j in tree.ancestors(tip)} if tip is not None else set()
+        if moving and set(joints) <= above and not taken & above:  # a chain, neither on an arm nor a hand
+            found.append(f"{group} ({len(moving)} joints, to {tip})")
+    if not found:
+        return []
+    return [
+        "SRDF groups not taken as arms: " + ", ".join(found) + "; one is an arm as `NAME: {group: GROUP}` under arms"
+    ]
+
+
+def _arm_joints(tree: UrdfTree, srdf: Srdf, arm: dict) -> list[str]:
+    """The driven joints of an arm init writes (by its SRDF group, or its base and tip links)."""
+    joints = srdf.groups[arm["group"]] if "group" in arm else tree.chain(arm["base"], arm["tip"], "arm")
+    return _driven([tree.joints[j] for j in tree.movable(joints)])
+
+
 def _arm_from_urdf(tree: UrdfTree, shapeless: set[str]) -> dict[str, dict]:
     """The longest chain of moving joints from the root, by its base and tip links; where it ends
     in a hand (fingers branching off one link), the arm ends at that link (`_hand_root`), its tool
@@ -318,13 +343,9 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
     mid_range: dict[str, float] = {}  # ... this one, where that one touches itself
     ranges: dict[str, tuple[float, float]] = {}  # the arms' joints' ranges (continuous: two turns)
     turning: list[str] = []  # continuous arm joints: planned within TWO_TURNS (the file says so)
+    not_taken = _chains_not_taken(tree, semantic, arms)
     for arm in arms.values():
-        joints = (
-            tree.movable(semantic.groups[arm["group"]])
-            if "group" in arm
-            else tree.movable(tree.chain(arm["base"], arm["tip"], "arm"))
-        )
-        joints = [j for j in joints if tree.joints[j].mimic is None]
+        joints = _arm_joints(tree, semantic, arm)
         turning += [j for j in joints if tree.joints[j].type == "continuous"]
         tool = arm.get("tool", arm.get("tip"))
         arm["hand"] = _hand(tree, limits, tool, set(joints))
@@ -377,7 +398,9 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
     wrote = f"wrote {output}: robot {description.name}, arms " + ", ".join(
         f"{arm} ({len(a.joints)} joints, tool {a.tool_frame}, IK {a.ik})" for arm, a in description.arms.items()
     )
-    return "\n".join([wrote, *semantic.ignored, *dropped, *_colliding_postures(checker, description.postures)])
+    return "\n".join(
+        [wrote, *semantic.ignored, *not_taken, *dropped, *_colliding_postures(checker, description.postures)]
+    )
 
 
 def _loaded_without_bad_grippers(
