@@ -298,3 +298,22 @@ def test_init_names_the_srdf_chains_it_did_not_take_as_arms(tmp_path):
         "leg": {"group": "leg", "tool": "c", "hand": "none", "ik": "numeric"}
     }
     assert "SRDF groups not taken as arms: arm (1 joints, to b); one is an arm as" in result.stdout
+
+
+def test_init_takes_a_mimic_finger_with_mirrored_limits_into_the_gripper(tmp_path):
+    # The Panda's second finger written as TIAGo Pro writes its fingertips: the same motion as a
+    # mirror of the first (axis, limits and multiplier negated). Init wrote `hand: none` for it.
+    urdf = (PANDA / "urdf" / "panda.urdf").read_text()
+    finger = urdf.index('<joint name="panda_finger_joint2"')
+    head, tail = urdf[:finger], urdf[finger:]
+    tail = tail.replace('<axis xyz="0 -1 0"/>', '<axis xyz="0 1 0"/>', 1)
+    tail = tail.replace('lower="0.0" upper="0.04"', 'lower="-0.04" upper="0.0"', 1)
+    tail = tail.replace(
+        '<mimic joint="panda_finger_joint1"/>', '<mimic joint="panda_finger_joint1" multiplier="-1"/>', 1
+    )
+    (tmp_path / "panda.urdf").write_text(head + tail)
+    out = tmp_path / "panda.yaml"
+    result = invoke("robot", "init", "--urdf", tmp_path / "panda.urdf", "-o", out)
+    assert result.exit_code == 0, result.output
+    hand = yaml.safe_load(out.read_text())["arms"]["arm"]["hand"]
+    assert hand == {"gripper": ["panda_finger_joint1", "panda_finger_joint2"], "open": 0.04, "closed": 0.0}

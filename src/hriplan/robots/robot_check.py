@@ -262,7 +262,9 @@ def _moves(tree: UrdfTree, joint) -> bool:
 
 
 def _hand(tree: UrdfTree, limits: dict[str, tuple[float, float]], tool: str, arm_joints: set[str]) -> dict | str:
-    """A parallel gripper from the moving joints below the arm's tool that share their limits."""
+    """A parallel gripper from the moving joints below the arm's tool: the driven ones share their
+    limits, and the fingers that mimic them are listed too, whatever their own limits (TIAGo Pro's
+    fingertips mirror its finger joint: limits [-0.8, 0], multiplier -1)."""
     last = next(j for j in tree.ancestors(tool) if j.type in MOVABLE)
     below, stack = [], [last.child]
     while stack:
@@ -272,10 +274,11 @@ def _hand(tree: UrdfTree, limits: dict[str, tuple[float, float]], tool: str, arm
                 stack.append(joint.child)
                 if joint.type in MOVABLE and joint.name not in arm_joints:
                     below.append(joint.name)
-    if not below or len({limits.get(j) for j in below}) != 1:
+    driven = [j for j in below if tree.joints[j].mimic is None]
+    if not driven or len({limits.get(j) for j in driven}) != 1:
         return "none"
-    lower, upper = limits[below[0]]
-    return {"gripper": below, "open": upper, "closed": lower}
+    lower, upper = limits[driven[0]]
+    return {"gripper": driven + [j for j in below if tree.joints[j].mimic in driven], "open": upper, "closed": lower}
 
 
 def _ik_kind(text: str, base: str, tool: str, joints: list[str]) -> str:
