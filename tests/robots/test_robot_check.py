@@ -300,20 +300,38 @@ def test_init_names_the_srdf_chains_it_did_not_take_as_arms(tmp_path):
     assert "SRDF groups not taken as arms: arm (1 joints, to b); one is an arm as" in result.stdout
 
 
-def test_init_takes_a_mimic_finger_with_mirrored_limits_into_the_gripper(tmp_path):
-    # The Panda's second finger written as TIAGo Pro writes its fingertips: the same motion as a
-    # mirror of the first (axis, limits and multiplier negated). Init wrote `hand: none` for it.
+def _panda_fingers(folder: Path, finger1: tuple[str, str], finger2: tuple[str, str, str]) -> Path:
+    """The Panda's URDF in `folder` with its fingers' axes and limits rewritten: (axis, limits) of
+    finger 1, (axis, limits, mimic multiplier) of finger 2."""
     urdf = (PANDA / "urdf" / "panda.urdf").read_text()
-    finger = urdf.index('<joint name="panda_finger_joint2"')
-    head, tail = urdf[:finger], urdf[finger:]
-    tail = tail.replace('<axis xyz="0 -1 0"/>', '<axis xyz="0 1 0"/>', 1)
-    tail = tail.replace('lower="0.0" upper="0.04"', 'lower="-0.04" upper="0.0"', 1)
-    tail = tail.replace(
-        '<mimic joint="panda_finger_joint1"/>', '<mimic joint="panda_finger_joint1" multiplier="-1"/>', 1
-    )
-    (tmp_path / "panda.urdf").write_text(head + tail)
+    first, second = urdf.index('<joint name="panda_finger_joint1"'), urdf.index('<joint name="panda_finger_joint2"')
+    parts = [urdf[:first], urdf[first:second], urdf[second:]]
+    for k, (axis, limits) in ((1, finger1), (2, finger2[:2])):
+        old_axis = '<axis xyz="0 1 0"/>' if k == 1 else '<axis xyz="0 -1 0"/>'
+        parts[k] = parts[k].replace(old_axis, f'<axis xyz="{axis}"/>', 1)
+        parts[k] = parts[k].replace('lower="0.0" upper="0.04"', limits, 1)
+    mimic = f'<mimic joint="panda_finger_joint1" multiplier="{finger2[2]}"/>'
+    parts[2] = parts[2].replace('<mimic joint="panda_finger_joint1"/>', mimic, 1)
+    (folder / "panda.urdf").write_text("".join(parts))
+    return folder / "panda.urdf"
+
+
+@pytest.mark.parametrize(
+    ("finger1", "finger2", "open_closed"),
+    [
+        # The second finger written as TIAGo Pro writes its fingertips: the same motion as a
+        # mirror of the first (axis, limits and multiplier negated). Init wrote `hand: none`.
+        (("0 1 0", 'lower="0.0" upper="0.04"'), ("0 1 0", 'lower="-0.04" upper="0.0"', -1), (0.04, 0.0)),
+        # Both fingers closed at the upper end of their range, as TIAGo Pro's (0 open, 0.8
+        # closed): init wrote them open where they touch.
+        (("0 -1 0", 'lower="-0.04" upper="0.0"'), ("0 1 0", 'lower="-0.04" upper="0.0"', 1), (-0.04, 0.0)),
+    ],
+)
+def test_init_reads_a_grippers_fingers_from_their_urdf(tmp_path, finger1, finger2, open_closed):
+    urdf = _panda_fingers(tmp_path, finger1, finger2)
     out = tmp_path / "panda.yaml"
-    result = invoke("robot", "init", "--urdf", tmp_path / "panda.urdf", "-o", out)
+    result = invoke("robot", "init", "--urdf", urdf, "-o", out)
     assert result.exit_code == 0, result.output
     hand = yaml.safe_load(out.read_text())["arms"]["arm"]["hand"]
-    assert hand == {"gripper": ["panda_finger_joint1", "panda_finger_joint2"], "open": 0.04, "closed": 0.0}
+    assert hand["gripper"] == ["panda_finger_joint1", "panda_finger_joint2"]
+    assert (hand["open"], hand["closed"]) == open_closed

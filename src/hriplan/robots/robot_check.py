@@ -261,7 +261,39 @@ def _moves(tree: UrdfTree, joint) -> bool:
     return any(_moves(tree, child) for child in tree.joints.values() if child.parent == joint.child)
 
 
-def _hand(tree: UrdfTree, limits: dict[str, tuple[float, float]], tool: str, arm_joints: set[str]) -> dict | str:
+def _closed_at_lower(text: str, tree: UrdfTree, gripper: list[str], lower: float, upper: float) -> bool:
+    """Whether a gripper closes towards its joints' lower limit: its fingers' end links (those no
+    finger joint hangs from) are nearer each other there. A Panda's fingers touch at 0 of [0,
+    0.04]; TIAGo Pro's fingertips are 3 cm apart at 0.8 of [0, 0.8] and 10 cm at 0. One finger
+    gives no distance: its lower limit is taken as closed."""
+    ends = [
+        tree.joints[j].child for j in gripper if not any(tree.joints[k].parent == tree.joints[j].child for k in gripper)
+    ]
+    if len(ends) < 2:
+        return True
+    model = pin.buildModelFromXML(text)
+    data = model.createData()
+    follows = {
+        el.get("name"): (float(m.get("multiplier", 1.0)), float(m.get("offset", 0.0)))
+        for el in ET.fromstring(text).findall("joint")
+        if (m := el.find("mimic")) is not None
+    }
+
+    def spread(value: float) -> float:
+        q = pin.neutral(model)
+        for j in gripper:
+            multiplier, offset = follows.get(j, (1.0, 0.0))
+            q[model.joints[model.getJointId(j)].idx_q] = multiplier * value + offset
+        pin.framesForwardKinematics(model, data, q)
+        points = [data.oMf[model.getFrameId(link)].translation for link in ends]
+        return sum(float(np.linalg.norm(a - b)) for k, a in enumerate(points) for b in points[k + 1 :])
+
+    return spread(lower) <= spread(upper)
+
+
+def _hand(
+    text: str, tree: UrdfTree, limits: dict[str, tuple[float, float]], tool: str, arm_joints: set[str]
+) -> dict | str:
     """A parallel gripper from the moving joints below the arm's tool: the driven ones share their
     limits, and the fingers that mimic them are listed too, whatever their own limits (TIAGo Pro's
     fingertips mirror its finger joint: limits [-0.8, 0], multiplier -1)."""
@@ -278,7 +310,10 @@ def _hand(tree: UrdfTree, limits: dict[str, tuple[float, float]], tool: str, arm
     if not driven or len({limits.get(j) for j in driven}) != 1:
         return "none"
     lower, upper = limits[driven[0]]
-    return {"gripper": driven + [j for j in below if tree.joints[j].mimic in driven], "open": upper, "closed": lower}
+    gripper = driven + [j for j in below if tree.joints[j].mimic in driven]
+    if not _closed_at_lower(text, tree, gripper, lower, upper):
+        lower, upper = upper, lower
+    return {"gripper": gripper, "open": upper, "closed": lower}
 
 
 def _ik_kind(text: str, base: str, tool: str, joints: list[str]) -> str:
@@ -351,7 +386,7 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
         joints = _arm_joints(tree, semantic, arm)
         turning += [j for j in joints if tree.joints[j].type == "continuous"]
         tool = arm.get("tool", arm.get("tip"))
-        arm["hand"] = _hand(tree, limits, tool, set(joints))
+        arm["hand"] = _hand(text, tree, limits, tool, set(joints))
         arm["ik"] = _ik_kind(text, tree.joints[joints[0]].parent, tool, joints)
         arm_ranges = {j: (-TWO_TURNS, TWO_TURNS) if j in turning else limits.get(j, (0.0, 0.0)) for j in joints}
         ranges |= arm_ranges
