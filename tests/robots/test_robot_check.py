@@ -62,6 +62,10 @@ def test_init_from_the_panda_urdf_and_srdf_writes_a_file_that_checks(tmp_path):
     rate = next(line for line in lines if line.startswith("arm arm: IK numeric: "))
     assert int(rate.split()[4]) >= 99  # of 100 random reachable poses
     assert "postures: default, ready" in lines
+    # Its gripper closes along panda_hand_tcp's y: a cup held from the side stands along its x.
+    assert any(
+        line.endswith("hand parallel gripper, a side-grasped cup upright when tool +x points up") for line in lines
+    )
     assert any(line.startswith("SRDF disabled pairs: 35: ") for line in lines)
 
 
@@ -258,6 +262,7 @@ def test_an_srdf_state_of_a_joint_the_urdf_lacks_is_read_past_and_said(tmp_path)
     assert result.exit_code == 0, result.output
     assert "SRDF group state 'half': 'root_joint' not in the URDF, ignored" in result.stdout
     assert "postures: half" in result.stdout
+    assert "tool frame c; hand none, a held object upright when tool -z points up" in result.stdout
     from hriplan.robots.descriptions.registry import description_of
 
     assert description_of("fork_state").postures["half"] == {"ja": 0.5}

@@ -91,10 +91,14 @@ def check_report(path: str | Path) -> str:
         lines += srdf.ignored
     lines.append(describe(robot))
     for arm, a in description.arms.items():
-        hand = "none" if a.hand is None else hand_model(a.hand).label
-        lines.append(
-            f"arm {arm}: joints {', '.join(a.joints)} on {a.base_link}; tool frame {a.tool_frame}; hand {hand}"
+        # Which tool axis must point up for a held cup to stand upright: TALOS's right and left
+        # wrists are not mirror images, so one tool frame needs turning where the other does not.
+        held = (
+            f"hand none, a held object upright when tool {a.object_axis} points up"
+            if a.hand is None
+            else f"hand {hand_model(a.hand).label}, a side-grasped cup upright when tool {a.hand_axes[1]} points up"
         )
+        lines.append(f"arm {arm}: joints {', '.join(a.joints)} on {a.base_link}; tool frame {a.tool_frame}; {held}")
         solved, median = ik_rate(robot, arm)
         lines.append(
             f"arm {arm}: IK {a.ik}: {solved} of {CHECK_POSES} random reachable poses solved, median {median:.2f} ms"
