@@ -62,6 +62,10 @@ def test_init_from_the_panda_urdf_and_srdf_writes_a_file_that_checks(tmp_path):
     rate = next(line for line in lines if line.startswith("arm arm: IK numeric: "))
     assert int(rate.split()[4]) >= 99  # of 100 random reachable poses
     assert "postures: default, ready" in lines
+    # Its gripper closes along panda_hand_tcp's y: a cup held from the side stands along its x.
+    assert any(
+        line.endswith("hand parallel gripper, a side-grasped cup upright when tool +x points up") for line in lines
+    )
     assert any(line.startswith("SRDF disabled pairs: 35: ") for line in lines)
 
 
@@ -241,3 +245,98 @@ def test_init_writes_a_file_that_loads_when_the_guessed_gripper_does_not(tmp_pat
     assert "does not close along the tool's x or y axis; say which: closes_along: x or y" in lines[1]
     assert yaml.safe_load(out.read_text())["arms"]["arm"]["hand"] == "none"
     assert not any(line.startswith("posture ready: in self-collision") for line in lines)
+
+
+def test_an_srdf_state_of_a_joint_the_urdf_lacks_is_read_past_and_said(tmp_path):
+    # TALOS's SRDF sets pinocchio's floating base `root_joint` (7 numbers) in its half_sitting
+    # state; no URDF has it. srdfdom skips such a joint; so does hriplan, and says so.
+    _fork_of_boxes(tmp_path)  # a one-joint arm's IK too
+    (tmp_path / "fork.srdf").write_text(
+        '<robot name="fork"><group name="arm"><chain base_link="base" tip_link="c"/></group>'
+        '<group_state name="half" group="arm"><joint name="root_joint" value="0 0 1 0 0 0 1"/>'
+        '<joint name="ja" value="0.5"/></group_state></robot>'
+    )
+    path = tmp_path / "fork.yaml"
+    path.write_text("name: fork_state\nurdf: fork.urdf\nsrdf: fork.srdf\narms:\n  arm: {group: arm, tool: c}\n")
+    result = invoke("robot", "check", path)
+    assert result.exit_code == 0, result.output
+    assert "SRDF group state 'half': 'root_joint' not in the URDF, ignored" in result.stdout
+    assert "postures: half" in result.stdout
+    assert "tool frame c; hand none, a held object upright when tool -z points up" in result.stdout
+    from hriplan.robots.descriptions.registry import description_of
+
+    assert description_of("fork_state").postures["half"] == {"ja": 0.5}
+
+
+def test_check_of_an_unreadable_mesh_is_one_line_and_exit_2(tmp_path):
+    shutil.copytree(DATA / "fork", tmp_path, dirs_exist_ok=True)  # meshes/d.stl: an STL with no facet
+    path = tmp_path / "fork.yaml"
+    path.write_text("name: fork_mesh\nurdf: fork.urdf\narms:\n  arm: {base: base, tip: c}\n")
+    result = invoke("robot", "check", path)
+    assert result.exit_code == 2 and result.stdout == "", result.output
+    assert result.stderr.count("\n") == 1 and "does not load" in result.stderr and "d.stl" in result.stderr
+
+
+def _fork_of_boxes(folder: Path) -> None:
+    """fork.urdf in `folder` with a box on links a and b and without the mesh link d."""
+    urdf = (DATA / "fork" / "fork.urdf").read_text()
+    urdf = "\n".join(line for line in urdf.splitlines() if '"d"' not in line)
+    for link, x in (("a", 0.3), ("b", -0.3)):
+        box = f'<link name="{link}"><collision><origin xyz="{x} 0 0"/><geometry><box size="0.1 0.1 0.1"/></geometry></collision></link>'
+        urdf = urdf.replace(f'<link name="{link}"/>', box)
+    (folder / "fork.urdf").write_text(urdf)
+
+
+def test_init_names_the_srdf_chains_it_did_not_take_as_arms(tmp_path):
+    # TALOS's SRDF has end effectors on its feet only: init takes the legs as arms, and the arms
+    # are groups the user must name. Here `leg` ends in an end effector and `arm` does not.
+    _fork_of_boxes(tmp_path)
+    (tmp_path / "fork.srdf").write_text(
+        '<robot name="fork"><group name="leg"><chain base_link="base" tip_link="c"/></group>'
+        '<group name="arm"><joint name="jb"/></group><group name="both"><group name="leg"/><group name="arm"/></group>'
+        '<end_effector name="foot" parent_link="c" group="leg"/></robot>'
+    )
+    out = tmp_path / "fork.yaml"
+    result = invoke("robot", "init", "--urdf", tmp_path / "fork.urdf", "--srdf", tmp_path / "fork.srdf", "-o", out)
+    assert result.exit_code == 0, result.output
+    assert yaml.safe_load(out.read_text())["arms"] == {
+        "leg": {"group": "leg", "tool": "c", "hand": "none", "ik": "numeric"}
+    }
+    assert "SRDF groups not taken as arms: arm (1 joints, to b); one is an arm as" in result.stdout
+
+
+def _panda_fingers(folder: Path, finger1: tuple[str, str], finger2: tuple[str, str, str]) -> Path:
+    """The Panda's URDF in `folder` with its fingers' axes and limits rewritten: (axis, limits) of
+    finger 1, (axis, limits, mimic multiplier) of finger 2."""
+    urdf = (PANDA / "urdf" / "panda.urdf").read_text()
+    first, second = urdf.index('<joint name="panda_finger_joint1"'), urdf.index('<joint name="panda_finger_joint2"')
+    parts = [urdf[:first], urdf[first:second], urdf[second:]]
+    for k, (axis, limits) in ((1, finger1), (2, finger2[:2])):
+        old_axis = '<axis xyz="0 1 0"/>' if k == 1 else '<axis xyz="0 -1 0"/>'
+        parts[k] = parts[k].replace(old_axis, f'<axis xyz="{axis}"/>', 1)
+        parts[k] = parts[k].replace('lower="0.0" upper="0.04"', limits, 1)
+    mimic = f'<mimic joint="panda_finger_joint1" multiplier="{finger2[2]}"/>'
+    parts[2] = parts[2].replace('<mimic joint="panda_finger_joint1"/>', mimic, 1)
+    (folder / "panda.urdf").write_text("".join(parts))
+    return folder / "panda.urdf"
+
+
+@pytest.mark.parametrize(
+    ("finger1", "finger2", "open_closed"),
+    [
+        # The second finger written as TIAGo Pro writes its fingertips: the same motion as a
+        # mirror of the first (axis, limits and multiplier negated). Init wrote `hand: none`.
+        (("0 1 0", 'lower="0.0" upper="0.04"'), ("0 1 0", 'lower="-0.04" upper="0.0"', -1), (0.04, 0.0)),
+        # Both fingers closed at the upper end of their range, as TIAGo Pro's (0 open, 0.8
+        # closed): init wrote them open where they touch.
+        (("0 -1 0", 'lower="-0.04" upper="0.0"'), ("0 1 0", 'lower="-0.04" upper="0.0"', 1), (-0.04, 0.0)),
+    ],
+)
+def test_init_reads_a_grippers_fingers_from_their_urdf(tmp_path, finger1, finger2, open_closed):
+    urdf = _panda_fingers(tmp_path, finger1, finger2)
+    out = tmp_path / "panda.yaml"
+    result = invoke("robot", "init", "--urdf", urdf, "-o", out)
+    assert result.exit_code == 0, result.output
+    hand = yaml.safe_load(out.read_text())["arms"]["arm"]["hand"]
+    assert hand["gripper"] == ["panda_finger_joint1", "panda_finger_joint2"]
+    assert (hand["open"], hand["closed"]) == open_closed

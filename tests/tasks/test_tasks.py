@@ -99,6 +99,10 @@ def test_handover_task_plans_both_steps_and_every_trajectory_validates():
             "steps.0: grasp 'mug' is not among the objects",
         ),
         ("steps: [{goal: {joints: {}}, goals: [{joints: {}}]}]", "a step has either `goal` or `goals`"),
+        (
+            "steps: [{goal: {arms: [right, left], goals: [{posture: home}, {posture: home}]}}]",
+            "steps.0: `arms` and `goals` are keys of the step, beside its name, not of its `goal`",
+        ),
         ("steps: [{goal: {joints: {}}}\n", "line 2: not valid YAML"),
     ],
 )

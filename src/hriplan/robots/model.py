@@ -73,7 +73,13 @@ def _place_base(model: pin.Model, base: pin.SE3) -> None:
 def urdf_geometry(model: pin.Model, urdf: str, kind: pin.GeometryType) -> pin.GeometryModel:
     """A URDF's collision or visual shapes on `model`, each mesh file read once: MADAR's arms share
     their seven meshes (loading them once halves the 40-50 ms its collision meshes took)."""
-    return pin.buildGeomFromUrdfString(model, urdf, kind, mesh_loader=coal.CachedMeshLoader())
+    try:
+        return pin.buildGeomFromUrdfString(model, urdf, kind, mesh_loader=coal.CachedMeshLoader())
+    except ValueError as exc:  # coal's loader: a mesh file there but unreadable (an empty STL)
+        lines = [line.removeprefix("message: ") for line in str(exc).splitlines() if line.strip()]
+        reason = next((line for line in lines if line.startswith("Could not load")), lines[-1] if lines else "")
+        detail = lines[lines.index(reason) + 1] if reason in lines[:-1] else ""
+        raise HriplanError(f"a mesh of the URDF does not load: {reason}" + (f" ({detail})" if detail else "")) from None
 
 
 @functools.cache

@@ -43,7 +43,8 @@ class Chain:
 def _error(chain: Chain, q: np.ndarray, target: np.ndarray, axis: int | None) -> tuple[np.ndarray, np.ndarray]:
     """The 6-vector from the tool pose to the target (world axes) and its 6 x n Jacobian. With a
     free axis only that axis's direction counts: rotation about it is projected out."""
-    full = pin.computeFrameJacobian(chain.model, chain.data, q, chain.frame, pin.LOCAL_WORLD_ALIGNED)
+    # reshaped: a model with one velocity gets a 6-vector from eigenpy, not a 6 x 1 matrix
+    full = pin.computeFrameJacobian(chain.model, chain.data, q, chain.frame, pin.LOCAL_WORLD_ALIGNED).reshape(6, -1)
     jac = full[:, chain.idx_v]
     pose = chain.data.oMf[chain.frame]
     position = target[:3, 3] - pose.translation

@@ -88,12 +88,17 @@ def check_report(path: str | Path) -> str:
         lines.append("SRDF: none (arms by base and tip links)")
     else:
         lines.append("SRDF groups: " + ", ".join(f"{g} ({len(j)} joints)" for g, j in srdf.groups.items()))
+        lines += srdf.ignored
     lines.append(describe(robot))
     for arm, a in description.arms.items():
-        hand = "none" if a.hand is None else hand_model(a.hand).label
-        lines.append(
-            f"arm {arm}: joints {', '.join(a.joints)} on {a.base_link}; tool frame {a.tool_frame}; hand {hand}"
+        # Which tool axis must point up for a held cup to stand upright: TALOS's right and left
+        # wrists are not mirror images, so one tool frame needs turning where the other does not.
+        held = (
+            f"hand none, a held object upright when tool {a.object_axis} points up"
+            if a.hand is None
+            else f"hand {hand_model(a.hand).label}, a side-grasped cup upright when tool {a.hand_axes[1]} points up"
         )
+        lines.append(f"arm {arm}: joints {', '.join(a.joints)} on {a.base_link}; tool frame {a.tool_frame}; {held}")
         solved, median = ik_rate(robot, arm)
         lines.append(
             f"arm {arm}: IK {a.ik}: {solved} of {CHECK_POSES} random reachable poses solved, median {median:.2f} ms"
@@ -173,6 +178,31 @@ def _arms_from_srdf(tree: UrdfTree, srdf: Srdf) -> dict[str, dict]:
     return arms
 
 
+def _chains_not_taken(tree: UrdfTree, srdf: Srdf, arms: dict[str, dict]) -> list[str]:
+    """A line naming the SRDF's serial groups on no arm init took (nor below one: its hand), or none.
+    An SRDF's end effectors may be a humanoid's feet (TALOS's r_foot, l_foot on its legs) and its
+    arms plain groups; which chain is an arm is the user's word, so init names the candidates."""
+    taken = {j for arm in arms.values() for j in _arm_joints(tree, srdf, arm)}
+    found = []
+    for group, joints in srdf.groups.items():
+        moving = _driven([tree.joints[j] for j in tree.movable(joints)])
+        tip = max((tree.joints[j].child for j in joints), key=lambda link: len(tree.ancestors(link)), default=None)
+        above = {j.name for j in tree.ancestors(tip)} if tip is not None else set()
+        if moving and set(joints) <= above and not taken & above:  # a chain, neither on an arm nor a hand
+            found.append(f"{group} ({len(moving)} joints, to {tip})")
+    if not found:
+        return []
+    return [
+        "SRDF groups not taken as arms: " + ", ".join(found) + "; one is an arm as `NAME: {group: GROUP}` under arms"
+    ]
+
+
+def _arm_joints(tree: UrdfTree, srdf: Srdf, arm: dict) -> list[str]:
+    """The driven joints of an arm init writes (by its SRDF group, or its base and tip links)."""
+    joints = srdf.groups[arm["group"]] if "group" in arm else tree.chain(arm["base"], arm["tip"], "arm")
+    return _driven([tree.joints[j] for j in tree.movable(joints)])
+
+
 def _arm_from_urdf(tree: UrdfTree, shapeless: set[str]) -> dict[str, dict]:
     """The longest chain of moving joints from the root, by its base and tip links; where it ends
     in a hand (fingers branching off one link), the arm ends at that link (`_hand_root`), its tool
@@ -235,8 +265,42 @@ def _moves(tree: UrdfTree, joint) -> bool:
     return any(_moves(tree, child) for child in tree.joints.values() if child.parent == joint.child)
 
 
-def _hand(tree: UrdfTree, limits: dict[str, tuple[float, float]], tool: str, arm_joints: set[str]) -> dict | str:
-    """A parallel gripper from the moving joints below the arm's tool that share their limits."""
+def _closed_at_lower(text: str, tree: UrdfTree, gripper: list[str], lower: float, upper: float) -> bool:
+    """Whether a gripper closes towards its joints' lower limit: its fingers' end links (those no
+    finger joint hangs from) are nearer each other there. A Panda's fingers touch at 0 of [0,
+    0.04]; TIAGo Pro's fingertips are 3 cm apart at 0.8 of [0, 0.8] and 10 cm at 0. One finger
+    gives no distance: its lower limit is taken as closed."""
+    ends = [
+        tree.joints[j].child for j in gripper if not any(tree.joints[k].parent == tree.joints[j].child for k in gripper)
+    ]
+    if len(ends) < 2:
+        return True
+    model = pin.buildModelFromXML(text)
+    data = model.createData()
+    follows = {
+        el.get("name"): (float(m.get("multiplier", 1.0)), float(m.get("offset", 0.0)))
+        for el in ET.fromstring(text).findall("joint")
+        if (m := el.find("mimic")) is not None
+    }
+
+    def spread(value: float) -> float:
+        q = pin.neutral(model)
+        for j in gripper:
+            multiplier, offset = follows.get(j, (1.0, 0.0))
+            q[model.joints[model.getJointId(j)].idx_q] = multiplier * value + offset
+        pin.framesForwardKinematics(model, data, q)
+        points = [data.oMf[model.getFrameId(link)].translation for link in ends]
+        return sum(float(np.linalg.norm(a - b)) for k, a in enumerate(points) for b in points[k + 1 :])
+
+    return spread(lower) <= spread(upper)
+
+
+def _hand(
+    text: str, tree: UrdfTree, limits: dict[str, tuple[float, float]], tool: str, arm_joints: set[str]
+) -> dict | str:
+    """A parallel gripper from the moving joints below the arm's tool: the driven ones share their
+    limits, and the fingers that mimic them are listed too, whatever their own limits (TIAGo Pro's
+    fingertips mirror its finger joint: limits [-0.8, 0], multiplier -1)."""
     last = next(j for j in tree.ancestors(tool) if j.type in MOVABLE)
     below, stack = [], [last.child]
     while stack:
@@ -246,10 +310,14 @@ def _hand(tree: UrdfTree, limits: dict[str, tuple[float, float]], tool: str, arm
                 stack.append(joint.child)
                 if joint.type in MOVABLE and joint.name not in arm_joints:
                     below.append(joint.name)
-    if not below or len({limits.get(j) for j in below}) != 1:
+    driven = [j for j in below if tree.joints[j].mimic is None]
+    if not driven or len({limits.get(j) for j in driven}) != 1:
         return "none"
-    lower, upper = limits[below[0]]
-    return {"gripper": below, "open": upper, "closed": lower}
+    lower, upper = limits[driven[0]]
+    gripper = driven + [j for j in below if tree.joints[j].mimic in driven]
+    if not _closed_at_lower(text, tree, gripper, lower, upper):
+        lower, upper = upper, lower
+    return {"gripper": gripper, "open": upper, "closed": lower}
 
 
 def _ik_kind(text: str, base: str, tool: str, joints: list[str]) -> str:
@@ -317,16 +385,12 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
     mid_range: dict[str, float] = {}  # ... this one, where that one touches itself
     ranges: dict[str, tuple[float, float]] = {}  # the arms' joints' ranges (continuous: two turns)
     turning: list[str] = []  # continuous arm joints: planned within TWO_TURNS (the file says so)
+    not_taken = _chains_not_taken(tree, semantic, arms)
     for arm in arms.values():
-        joints = (
-            tree.movable(semantic.groups[arm["group"]])
-            if "group" in arm
-            else tree.movable(tree.chain(arm["base"], arm["tip"], "arm"))
-        )
-        joints = [j for j in joints if tree.joints[j].mimic is None]
+        joints = _arm_joints(tree, semantic, arm)
         turning += [j for j in joints if tree.joints[j].type == "continuous"]
         tool = arm.get("tool", arm.get("tip"))
-        arm["hand"] = _hand(tree, limits, tool, set(joints))
+        arm["hand"] = _hand(text, tree, limits, tool, set(joints))
         arm["ik"] = _ik_kind(text, tree.joints[joints[0]].parent, tool, joints)
         arm_ranges = {j: (-TWO_TURNS, TWO_TURNS) if j in turning else limits.get(j, (0.0, 0.0)) for j in joints}
         ranges |= arm_ranges
@@ -376,7 +440,9 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
     wrote = f"wrote {output}: robot {description.name}, arms " + ", ".join(
         f"{arm} ({len(a.joints)} joints, tool {a.tool_frame}, IK {a.ik})" for arm, a in description.arms.items()
     )
-    return "\n".join([wrote, *dropped, *_colliding_postures(checker, description.postures)])
+    return "\n".join(
+        [wrote, *semantic.ignored, *not_taken, *dropped, *_colliding_postures(checker, description.postures)]
+    )
 
 
 def _loaded_without_bad_grippers(

@@ -29,6 +29,7 @@ class Srdf:
     end_effectors: list[EndEffector] = field(default_factory=list)
     states: list[tuple[str, str, dict[str, float]]] = field(default_factory=list)  # (name, group, values)
     disabled: list[tuple[str, str, str]] = field(default_factory=list)  # (link, link, reason)
+    ignored: list[str] = field(default_factory=list)  # what was read past, one line each
 
 
 def _number(el: ET.Element, what: str) -> float:
@@ -77,7 +78,12 @@ def read_srdf(text: str, tree: UrdfTree) -> Srdf:
         srdf.end_effectors.append(EndEffector(el.get("name"), el.get("group"), link, el.get("parent_group")))
     for el in root.findall("group_state"):
         what = f"SRDF group state {el.get('name')!r}"
-        values = {tree.joint(j.get("name"), what).name: _number(j, what) for j in el.findall("joint")}
+        # A joint the URDF lacks is skipped, as srdfdom does: TALOS's half_sitting sets pinocchio's
+        # floating base `root_joint`, which no URDF declares; it places no joint of the URDF.
+        missing = [j.get("name") for j in el.findall("joint") if j.get("name") not in tree.joints]
+        if missing:
+            srdf.ignored.append(f"{what}: {', '.join(map(repr, missing))} not in the URDF, ignored")
+        values = {j.get("name"): _number(j, what) for j in el.findall("joint") if j.get("name") in tree.joints}
         srdf.states.append((el.get("name"), el.get("group"), values))
     for el in root.findall("disable_collisions"):
         what = "SRDF disable_collisions"

@@ -224,6 +224,8 @@ class Step(_Strict):
     def _goal_kinds(cls, data: object) -> object:
         """Name the keys of a goal that is none (or several) of the goal kinds."""
         if isinstance(data, dict):
+            if isinstance(data.get("goal"), dict) and {"arms", "goals"} & data["goal"].keys():
+                raise ValueError("`arms` and `goals` are keys of the step, beside its name, not of its `goal`")
             goals = [data.get("goal"), *(data.get("goals") or [])]
             for goal in [g for g in goals if isinstance(g, dict) and _goal_kind(g) is None]:
                 raise ValueError(
