@@ -43,6 +43,18 @@ def robot_registry():
         yield
 
 
+@pytest.fixture
+def arms_named_apart(tmp_path, robot_registry):
+    """The bare MADAR (examples/robots) with its arms named `a` and `b`: no link or joint name
+    starts with an arm's, as with TALOS (arm `right`, links `arm_right_7_link`), so whatever
+    reads an arm's parts by name instead of by its kinematics fails on it."""
+    examples = Path(__file__).parents[1] / "examples" / "robots"
+    text = (examples / "madar_bare.yaml").read_text().replace("name: madar_bare", "name: madar_ab")
+    text = text.replace("  right: {", "  a: {").replace("  left: {", "  b: {").replace("urdf: ", f"urdf: {examples}/")
+    (tmp_path / "madar_ab.yaml").write_text(text)
+    return load_robot(registry.load_robot_file(tmp_path / "madar_ab.yaml").name)
+
+
 @pytest.fixture(scope="module")
 def module_robot_registry():
     """The robots robot files register in a test module, for that module only."""

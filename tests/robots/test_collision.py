@@ -8,7 +8,9 @@ from hriplan import HriplanError
 from hriplan.robots.acm import load_acm
 from hriplan.robots.bounding import capsule_contains, fit_capsule
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import Human, HumanSpec
+from hriplan.robots.model import load_robot
 from hriplan.robots.robot_geometry import robot_parts
 from hriplan.robots.scene import AttachedObject, Box, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
@@ -138,6 +140,28 @@ def test_carried_object_is_checked_against_the_scene_but_not_its_hand(madar):
     assert any({c.a, c.b} == {"can", "plate"} for c in hits)
 
 
+def test_a_held_object_may_touch_its_own_wrist_whatever_the_arms_and_links_are_named(arms_named_apart):
+    """A carried object touches its hand and wrist by design, the other arm's never. Which parts
+    are its arm's is read from the kinematics: TALOS's and TIAGo Pro's arms are `right` and
+    `left` while their links are `arm_right_7_link`, `gripper_right_*` (their names do not start
+    with the arm's), and a check by name made their hands collide with what they held."""
+    robot = arms_named_apart
+    q = robot.configuration(posture(robot.name, "home"))
+    # A ball 2 cm out of arm a's flange: it overlaps a's wrist_3 link (on a's tool joint) alone.
+    ball = Sphere(radius=0.035)
+    held = CollisionChecker(robot, Scene(attached=[AttachedObject(name="ball", shape=ball, arm="a", grasp=CLOSE)]))
+    assert held.contacts(q) == []
+    # The same ball in the same place, held by arm b (a long reach): a's wrist collides with it.
+    at_a = robot.frame_pose(robot.tool_frame("a"), q) @ CLOSE.matrix()
+    in_b = np.linalg.inv(robot.frame_pose(robot.tool_frame("b"), q)) @ at_a
+    reach = Pose(xyz=tuple(in_b[:3, 3]))
+    by_b = CollisionChecker(robot, Scene(attached=[AttachedObject(name="ball", shape=ball, arm="b", grasp=reach)]))
+    assert [(c.a, c.b) for c in by_b.contacts(q)] == [("right_wrist_3_link", "ball")]
+
+
+CLOSE = Pose(xyz=(0.0, 0.0, 0.02))
+
+
 def test_scene_rejects_duplicate_names():
     with pytest.raises(ValueError, match="repeated: a"):
         Scene(obstacles=[Obstacle(name="a", shape=Sphere(radius=0.1)), Obstacle(name="a", shape=Sphere(radius=0.2))])
@@ -149,7 +173,6 @@ def test_the_fixed_base_is_checked_on_its_meshes_against_obstacles():
     """A UR5 standing 1 cm above a table (as Kautham's UR5 demos place it): the base mesh is
     clear, though the base capsule reaches 8 cm below the base. Moving the table up into the
     base makes every state collide, and back again clears it."""
-    from hriplan.robots.model import load_robot
 
     ur5 = load_robot("ur5")
     under = Pose(xyz=(0.0, 0.0, -0.39))  # top face at z = -0.01
@@ -330,7 +353,6 @@ def test_a_build_remembered_where_an_obstacle_stood_places_it_where_it_is_now(rn
     """Builds are remembered without obstacles' poses (a keep-out follows its person, a released
     object lands elsewhere): a reused build puts each obstacle where the scene has it, and a table
     moved up into the fixed base changes the pairs. Contacts equal a fresh checker's each time."""
-    from hriplan.robots.model import load_robot
 
     ur5 = load_robot("ur5")
     up = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])  # arm straight up: clear of a table under the base

@@ -426,3 +426,16 @@ def test_at_1024x700_the_legend_leaves_the_robot_and_the_objects_in_view(traject
     covered = [p for p in seen["robot"] if left <= p[0] <= right and top <= p[1] <= bottom]
     assert not covered, f"{len(covered)} of {len(seen['robot'])} robot parts under the legend"
     assert all(0 <= x <= 1024 and 0 <= y <= 700 for x, y in seen["robot"] + seen["scene"])
+
+
+def test_the_tool_of_each_moving_arm_is_traced_whatever_its_joints_are_named(arms_named_apart):
+    """An arm moves if the trajectory moves one of its joints (its group), not if a joint's name
+    starts with the arm's: arm `a`'s joints are `right_*`, as TALOS's `right` arm's are `arm_right_*`."""
+    from types import SimpleNamespace
+
+    from hriplan.viewer.scene import _traced_links
+
+    robot = arms_named_apart
+    a_joints = robot.group_joints(robot.arm_group("a"))
+    world = SimpleNamespace(robot=robot, trajectory=SimpleNamespace(joint_names=a_joints[:2], constraints=[]))
+    assert _traced_links(world) == [robot.tool_frame("a")]

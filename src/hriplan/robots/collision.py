@@ -453,8 +453,10 @@ class CollisionChecker:
         return True
 
     def _on_hand(self, part_index: int, arm: str) -> bool:
-        on_tool = self._joints[part_index] == self._tool_joint(arm)
-        return on_tool and self._names[part_index].startswith(self.robot.arms[arm][0])
+        """Is the part on `arm`'s hand or wrist: carried by the joint that carries its tool frame
+        (the hand's fingers are locked onto it)? By the kinematics, not by names: TALOS's
+        `gripper_right_*` links do not start with its arm's name."""
+        return self._joints[part_index] == self._tool_joint(arm)
 
     def _tool_joint(self, arm: str) -> int:
         return self.robot.model.frames[self.robot.frame_id(self.robot.tool_frame(arm))].parentJoint

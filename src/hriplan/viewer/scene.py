@@ -66,8 +66,11 @@ def build_drawing(world: PlannedWorld) -> Drawing:
 
 def _traced_links(world: PlannedWorld) -> list[str]:
     """Tools of the arms that move, and every constrained link."""
-    moving = world.trajectory.joint_names
-    tools = [tool for prefix, tool in world.robot.arms.values() if any(j.startswith(prefix) for j in moving)]
+    moving = set(world.trajectory.joint_names)
+    robot = world.robot
+    tools = [
+        robot.tool_frame(arm) for arm in robot.arms if moving.intersection(robot.group_joints(robot.arm_group(arm)))
+    ]
     targets = [c.spec.target_link for c in world.trajectory.constraints]
     return list(dict.fromkeys(tools + targets))
 
