@@ -277,6 +277,21 @@ def test_check_of_an_unreadable_mesh_is_one_line_and_exit_2(tmp_path):
     assert result.stderr.count("\n") == 1 and "does not load" in result.stderr and "d.stl" in result.stderr
 
 
+def test_a_robot_without_collision_shapes_is_one_line_and_init_writes_nothing(tmp_path):
+    """Every motion is checked against the robot's collision shapes: a URDF with visual shapes
+    alone (fork.urdf without its mesh link) gave a traceback from the collision checker."""
+    urdf = (DATA / "fork" / "fork.urdf").read_text()
+    (tmp_path / "fork.urdf").write_text("\n".join(line for line in urdf.splitlines() if '"d"' not in line))
+    out = tmp_path / "fork.yaml"
+    result = invoke("robot", "init", "--urdf", tmp_path / "fork.urdf", "-o", out)
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1 and not out.exists(), result.output
+    assert result.stderr.startswith(f"error: {tmp_path / 'fork.urdf'}: the URDF gives no link a <collision> shape")
+    out.write_text("name: fork_bare\nurdf: fork.urdf\narms:\n  arm: {base: base, tip: c}\n")
+    result = invoke("robot", "check", out)
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1, result.output
+    assert "robot 'fork_bare': the URDF gives no link a <collision> shape" in result.stderr
+
+
 def _fork_of_boxes(folder: Path) -> None:
     """fork.urdf in `folder` with a box on links a and b and without the mesh link d."""
     urdf = (DATA / "fork" / "fork.urdf").read_text()

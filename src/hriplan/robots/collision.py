@@ -30,7 +30,7 @@ from hriplan.robots.kernel_switch import kernels_on
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
 from hriplan.robots.part_spheres import PartSpheres
-from hriplan.robots.robot_geometry import ask_contacts, part_collision_shapes, robot_parts
+from hriplan.robots.robot_geometry import NO_COLLISION_SHAPES, ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
@@ -146,6 +146,8 @@ class CollisionChecker:
     def __init__(self, robot: Robot, scene: Scene | None = None, padding: float = 0.0) -> None:
         self.robot = robot
         self.parts = robot_parts(robot, padding)
+        if not self.parts:
+            raise HriplanError(f"robot {robot.name!r}: {NO_COLLISION_SHAPES}")
         key = (robot.spec, padding)
         if key not in _BY_ROBOT:
             self.acm = load_acm(robot, robot_parts(robot))

@@ -27,7 +27,7 @@ from hriplan.robots.ik import ANALYTIC_IK, fit_analytic, solve_ik
 from hriplan.robots.info import describe
 from hriplan.robots.model import Robot, load_robot
 from hriplan.robots.robot_file import package_search_path, resolve_file
-from hriplan.robots.robot_geometry import robot_parts
+from hriplan.robots.robot_geometry import NO_COLLISION_SHAPES, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.srdf import Srdf, read_srdf
 from hriplan.robots.urdf_tree import MOVABLE, UrdfTree
@@ -371,6 +371,8 @@ def write_starting_file(urdf_name: str, srdf_name: str | None, output: Path) -> 
     except ET.ParseError as exc:
         raise HriplanError(f"{urdf}: not valid URDF XML ({exc})") from None
     tree = UrdfTree(root)
+    if root.find("link/collision") is None:  # refused before a file is written for it
+        raise HriplanError(f"{urdf}: {NO_COLLISION_SHAPES}")
     semantic = read_srdf(read_text(srdf, "SRDF file"), tree) if srdf else Srdf()
     shapeless = {
         el.get("name") for el in root.findall("link") if el.find("visual") is None and el.find("collision") is None

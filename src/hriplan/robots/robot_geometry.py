@@ -146,6 +146,13 @@ def _fitted_parts(robot: Robot, padding: float) -> tuple[RobotPart, ...]:
     return tuple(parts)
 
 
+# Said where a robot has no collision part (`CollisionChecker`, `robot init`): nothing to check.
+NO_COLLISION_SHAPES = (
+    "the URDF gives no link a <collision> shape, and hriplan checks every motion against them"
+    " (people and the scene included): add them, as MoveIt needs them too"
+)
+
+
 def robot_parts(robot: Robot, padding: float = 0.0) -> tuple[RobotPart, ...]:
     """The robot's collision parts (cached per robot description, hand postures and padding)."""
     key = (robot.spec, padding)
