@@ -106,9 +106,7 @@ def test_a_failing_step_of_an_arm_without_a_hand_says_along_which_tool_axis_it_h
     the failure says so, not "by usual" (a grasp name no task file uses)."""
     examples = Path(__file__).parents[2] / "examples"
     task = (examples / "ur10_carry_upright_supervisor.yaml").read_text().replace("[0.0, 0.9, 0.77]", "[0.0, 3.0, 0.77]")
-    (tmp_path / "robots").mkdir()
-    (tmp_path / "robots" / "ur10.yaml").write_text((examples / "robots" / "ur10.yaml").read_text())
-    (tmp_path / "far.yaml").write_text(task)
+    (tmp_path / "far.yaml").write_text(task.replace("robot: robots/", f"robot: {examples}/robots/"))
     (step,) = TaskRunner(load_task(tmp_path / "far.yaml"), tmp_path).run().steps
     assert step.status == "unreachable_goal"
     assert step.message.endswith("(holding tray along the tool's -z)")
