@@ -38,10 +38,32 @@ def free_states(checker, rng: np.random.Generator, drawn: int = 3000, kept: int 
     return np.array([q for q in states if not checker.in_collision(q)][:kept])
 
 
-def measure() -> dict:
-    """One tree's numbers (the code on sys.path)."""
+def scenario_plans(scenario: str, seeds: int, clock=time.perf_counter):
+    """Plan `scenario` (benchmarks/scenarios, with its own options, CBiRRT) once a seed on one
+    session: the session, the path's states (full configurations), the seconds each plan took
+    by `clock`, the solved count and the results."""
     from hriplan.planner.problem import load_problem
     from hriplan.planner.session import PlanningSession
+
+    problem = load_problem(SCENARIOS / f"{UNCONSTRAINED.get(scenario, scenario)}.json")
+    session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+    session.set_constraints([] if scenario in UNCONSTRAINED else problem.constraints)
+    seconds, states, results = [], [], []
+    base = session.robot.configuration(problem.start)
+    for seed in range(seeds):
+        options = problem.options.model_copy(update={"seed": seed})
+        start = clock()
+        result = session.plan(problem.start, problem.goal, options, problem.group, safety=None)
+        seconds.append(clock() - start)
+        results.append(result)
+        if result.motion is not None:
+            states += [session.robot.configuration(x, problem.group, base=base) for x in result.motion.path]
+    solved = sum(r.status == "solved" for r in results)
+    return session, np.array(states), seconds, solved, results
+
+
+def measure() -> dict:
+    """One tree's numbers (the code on sys.path)."""
     from hriplan.robots.collision import CollisionChecker
     from hriplan.robots.model import load_robot
 
@@ -52,22 +74,11 @@ def measure() -> dict:
         free = free_states(checker, rng)
         out[f"{name} free state (us)"] = _per_state_us(checker, free)
     for scenario, seeds in PLANS.items():
-        problem = load_problem(SCENARIOS / f"{UNCONSTRAINED.get(scenario, scenario)}.json")
-        session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
-        session.set_constraints([] if scenario in UNCONSTRAINED else problem.constraints)
-        seconds, solved, states = [], 0, []
-        for seed in range(seeds):
-            options = problem.options.model_copy(update={"seed": seed})
-            start = time.perf_counter()
-            result = session.plan(problem.start, problem.goal, options, problem.group, safety=None)
-            seconds.append(time.perf_counter() - start)
-            solved += result.status == "solved"
-            base = session.robot.configuration(problem.start)
-            states += [session.robot.configuration(x, problem.group, base=base) for x in result.motion.path]
+        session, states, seconds, solved, _ = scenario_plans(scenario, seeds)
         out[f"{scenario} plan median (s)"] = float(np.median(seconds))
         out[f"{scenario} solved"] = solved
-        if states:
-            out[f"{scenario} path state (us)"] = _per_state_us(session.checker, np.array(states))
+        if len(states):
+            out[f"{scenario} path state (us)"] = _per_state_us(session.checker, states)
     return out
 
 

@@ -17,7 +17,7 @@ import os
 import time
 
 import numpy as np
-from bench_collision import PLANS, SCENARIOS, UNCONSTRAINED, _per_state_us, free_states, median_row
+from bench_collision import PLANS, _per_state_us, free_states, median_row, scenario_plans
 from trees import runs_by_tree
 
 
@@ -33,8 +33,6 @@ def _certified(checker, states: np.ndarray) -> float:
 
 def measure() -> dict:
     """One tree's numbers (the code on sys.path)."""
-    from hriplan.planner.problem import load_problem
-    from hriplan.planner.session import PlanningSession
     from hriplan.robots.collision import CollisionChecker
     from hriplan.robots.model import load_robot
 
@@ -46,26 +44,17 @@ def measure() -> dict:
         out[f"{name} free state (us)"] = _cpu_us(checker, free)
         out[f"{name} free states certified"] = _certified(checker, free)
     for scenario, seeds in PLANS.items():
-        problem = load_problem(SCENARIOS / f"{UNCONSTRAINED.get(scenario, scenario)}.json")
-        session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
-        session.set_constraints([] if scenario in UNCONSTRAINED else problem.constraints)
-        seconds, solved, states, digest = [], 0, [], hashlib.sha256()
-        for seed in range(seeds):
-            options = problem.options.model_copy(update={"seed": seed})
-            start = time.process_time()
-            result = session.plan(problem.start, problem.goal, options, problem.group, safety=None)
-            seconds.append(time.process_time() - start)
-            solved += result.status == "solved"
+        session, states, seconds, solved, results = scenario_plans(scenario, seeds, time.process_time)
+        digest = hashlib.sha256()
+        for result in results:
             if result.motion is not None:
                 digest.update(np.ascontiguousarray(result.motion.path).tobytes())
-                base = session.robot.configuration(problem.start)
-                states += [session.robot.configuration(x, problem.group, base=base) for x in result.motion.path]
         out[f"{scenario} plan median (s)"] = float(np.median(seconds))
         out[f"{scenario} solved"] = solved
         out[f"{scenario} paths"] = digest.hexdigest()[:12]
-        if states:
-            out[f"{scenario} path state (us)"] = _cpu_us(session.checker, np.array(states))
-            out[f"{scenario} path states certified"] = _certified(session.checker, np.array(states))
+        if len(states):
+            out[f"{scenario} path state (us)"] = _cpu_us(session.checker, states)
+            out[f"{scenario} path states certified"] = _certified(session.checker, states)
     return out
 
 
