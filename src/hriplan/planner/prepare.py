@@ -55,13 +55,13 @@ def preparatory_goal(
     for _, spec, bound in violated:
         if isinstance(spec, OrientationConstraint):
             target[:3, :3] = bound.frame.rotation @ spec.target.rotation()
+            # free with a cone too (a cone bounds the position only): the target's own turn about
+            # a free axis is arbitrary, and may be out of reach or collide
             free_axes = spec.free_axes
             what.append(f"turns the held object onto {spec.id}")
         else:
             target[:3, 3] = bound.frame.act(np.array([0.0, 0.0, ENTRY * spec.height]))
             what.append(f"brings the tool into {spec.id}")
-    if any(isinstance(spec, ConeConstraint) for _, spec, _ in violated):
-        free_axes = []  # a position and the orientation it has, or the one turned onto
     # A volume the tool must be inside for the step (the shared workspace) but starts outside of
     # is entered on the way, not kept from the start (no path could keep it); the step's own
     # motion then starts inside it, or says that its start is not.
