@@ -11,18 +11,22 @@ from __future__ import annotations
 import importlib.util
 import os
 
-_on: bool | None = None  # decided at the first check (asked at every one: kept)
+
+def _wanted(on: bool) -> bool:
+    return on and importlib.util.find_spec("numba") is not None
+
+
+# Decided once, at import (HRIPLAN_KERNELS=1), not at every check: `in_collision` asks it each state.
+_on = _wanted(os.environ.get("HRIPLAN_KERNELS", "") == "1")
 
 
 def use_kernels(on: bool) -> None:
     """Turn the kernels on or off in this process (on needs numba). Checkers already built keep
     the certifiers they made, but stop asking them when off."""
     global _on
-    _on = on and importlib.util.find_spec("numba") is not None
+    _on = _wanted(on)
 
 
 def kernels_on() -> bool:
     """True if the kernels are wanted (use_kernels, else HRIPLAN_KERNELS=1) and numba is installed."""
-    if _on is None:
-        use_kernels(os.environ.get("HRIPLAN_KERNELS", "") == "1")
-    return bool(_on)
+    return _on
