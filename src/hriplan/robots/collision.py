@@ -604,10 +604,15 @@ class CollisionChecker:
         if self._stale:
             self._ready()
         model, data, broadphase = self.robot.model, self.robot.data, self._broadphase
-        certified = np.array([table.certified_many(qs) for table, _ in self._tabled], dtype=bool)
-        certified = certified.reshape(len(self._tabled), len(qs)).T
         certifier = self._free_certifier()
         verdicts = certifier.verdicts(qs) if certifier is not None else [None] * len(qs)
+        # The tables are asked about the states the certifier left to coal (all, with it off).
+        undecided = np.array([verdict is None for verdict in verdicts], dtype=bool)
+        certified = np.ones((len(qs), len(self._tabled)), dtype=bool)
+        if undecided.any() and self._tabled:
+            asked = np.asarray(qs)[undecided]
+            answers = np.array([table.certified_many(asked) for table, _ in self._tabled], dtype=bool)
+            certified[undecided] = answers.reshape(len(self._tabled), len(asked)).T
         for k, q in enumerate(qs):
             if verdicts[k] is not None:
                 if (verdicts[k][0] or verdicts[k][1]) and self._left_touch(q, *verdicts[k]):
