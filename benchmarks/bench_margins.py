@@ -2,13 +2,16 @@
 
 Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_margins.py [--src /tmp/base/src] [--rounds 2]
 Per scenario (a, b, c of benchmarks/scenarios): the cost of `ConstraintEvaluator.margins` and
-`.gradients` per state (states drawn uniformly in the group's joint box, best of 5 passes) and the
+`.gradients` per state (states drawn uniformly in the group's joint box, best of 5 passes), of
+margins as dense validation asks them (2000 states at once: `margins_many`, compiled with
+HRIPLAN_KERNELS=1; state by state in a tree without it) and the
 plan median of `PlanningSession.plan` over seeds; the table gives the best round's per-state costs
 and the median round's plan medians. With --src, each round runs both trees in turn in fresh
 processes (alternating) and the table gives their ratio; the trees' numbers are compared
 too: the margins and gradient rows of every constraint kind (box, sphere, cylinder, cone inside
 and outside; orientation with 0, 1, 2 free axes and with a tolerance gradient) at 500 random
-MADAR states, and the planned paths of each seed.
+MADAR states, the kinds `margins_many` compiles (all but 0 and 2 free axes) asked at once, and
+the planned paths of each seed.
 """
 
 from __future__ import annotations
@@ -73,6 +76,13 @@ def every_kind(robot):
     return ConstraintEvaluator(robot, bound, "right_arm", np.zeros(robot.model.nq))
 
 
+def _at_once(evaluator):
+    """Margins of many configurations as dense validation asks them (a tree without
+    `margins_many` asked them state by state)."""
+    many = getattr(evaluator, "margins_many", None)
+    return many if many is not None else lambda qs: np.array([evaluator.margins(q) for q in qs])
+
+
 def measure() -> dict:
     """One tree's numbers (the code on sys.path)."""
     from hriplan.planner.constraints.binding import bind
@@ -86,8 +96,11 @@ def measure() -> dict:
     xs = np.random.default_rng(0).uniform(-3.0, 3.0, (500, evaluator.n))
     values = [evaluator.margins(evaluator.full(x)) for x in xs]
     grads = [evaluator.gradients(x) for x in xs]
+    covered = [c for c in evaluator.constraints if c.id not in ("o0", "o2")]
+    compiled = ConstraintEvaluator(evaluator.robot, covered, "right_arm", evaluator.q)
     out["numbers"] = {
         "margins": np.array(values).tolist(),
+        "margins at once": _at_once(compiled)(compiled.full_many(xs)).tolist(),
         "gradient pass margins": np.array([g[0] for g in grads]).tolist(),
         "gradients": np.array([g[1] for g in grads]).tolist(),
     }
@@ -103,6 +116,8 @@ def measure() -> dict:
         xs = np.random.default_rng(1).uniform(low, high, (2000, len(low)))
         out[f"{scenario} margins (us)"] = _per_state_us(evaluator.margins, np.array([evaluator.full(x) for x in xs]))
         out[f"{scenario} gradients (us)"] = _per_state_us(evaluator.gradients, xs)
+        at_once, qs = _at_once(evaluator), evaluator.full_many(xs)
+        out[f"{scenario} margins, 2000 states at once (us a state)"] = _per_state_us(at_once, qs[None]) / len(qs)
         seconds, paths = [], []
         for seed in range(seeds):
             options = problem.options.model_copy(update={"seed": seed})
@@ -134,7 +149,7 @@ def main() -> None:
     print("|---|---|" + ("---|---|" if compared else ""))
     for key in keys:
         # per state: the best round (the load of a shared machine only adds); plans: the median
-        pick = np.min if key.endswith("(us)") else np.median
+        pick = np.min if "(us" in key else np.median
         value = float(pick([r[key] for r in mine]))
         row = f"| {key} | {value:.4g} |"
         if compared:

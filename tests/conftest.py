@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from hriplan.planner.problem import load_problem
+from hriplan.robots import kernel_switch
 from hriplan.robots.descriptions import description, registry
 from hriplan.robots.model import load_robot
 
@@ -60,3 +61,12 @@ def module_robot_registry():
     """The robots robot files register in a test module, for that module only."""
     with _restored_robot_registry():
         yield
+
+
+@pytest.fixture(params=[False, True], ids=["python", "kernels"])
+def either_route(request) -> Iterator[bool]:
+    """The test twice: the compiled kernels (numba) off, then on; the switch as it was after."""
+    before = kernel_switch.kernels_on()
+    kernel_switch.use_kernels(request.param)
+    yield request.param
+    kernel_switch.use_kernels(before)

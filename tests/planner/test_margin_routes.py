@@ -10,6 +10,7 @@ import pinocchio as pin
 import pytest
 
 from hriplan.planner.constraints.binding import bind
+from hriplan.planner.constraints.compiled import CompiledMargins
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import (
     BoxConstraint,
@@ -129,3 +130,19 @@ def test_every_kind_is_met_on_both_sides(setup):
     """The random states reach both signs of every margin (no kind is checked on one side only)."""
     expected = np.array(setup[3])
     assert ((expected > 0.0).any(axis=0) & (expected < 0.0).any(axis=0)).all()
+
+
+def test_many_states_at_once_are_the_independent_margins(setup, madar, either_route):
+    """`margins_many`, with the kernels on compiled for every kind it covers (volumes; one free
+    axis, with and without a tolerance gradient) and state by state for an evaluator holding no
+    or two free axes; with them off state by state."""
+    evaluator, _, xs, expected = setup
+    qs, want = evaluator.full_many(xs), np.array(expected)
+    covered = [k for k, c in enumerate(evaluator.constraints) if c.id not in ("o0", "o2")]
+    compiled = ConstraintEvaluator(madar, [evaluator.constraints[k] for k in covered], "right_arm", evaluator.q)
+    assert CompiledMargins.of(compiled) is not None and CompiledMargins.of(evaluator) is None
+    assert np.allclose(compiled.margins_many(qs), want[:, covered], rtol=0.0, atol=1e-9)
+    assert np.allclose(evaluator.margins_many(qs), want, rtol=0.0, atol=1e-9)
+    # the two routes differ by the kinematics' rounding alone
+    per_state = np.array([compiled.margins(q) for q in qs])
+    assert np.abs(compiled.margins_many(qs) - per_state).max() < 1e-12

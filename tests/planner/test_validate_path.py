@@ -103,7 +103,19 @@ def problem(madar):
     return (constrained, free), checker, q0[madar.group_indices("right_arm")]
 
 
-def test_validate_path_is_the_state_by_state_check(problem, rng):
+def _same(found: PathValidation, expected: PathValidation) -> bool:
+    """Field for field, the largest margins to 1e-12: with the kernels on they come from one
+    compiled batch, whose kinematics round apart from pinocchio's by ~1e-16."""
+    worst = [(a.max_violation, b.max_violation) for a, b in zip(found.constraints, expected.constraints)]
+    if any(abs(a - b) > 1e-12 for a, b in worst):
+        return False
+    checks = [
+        c.model_copy(update={"max_violation": e.max_violation}) for c, e in zip(found.constraints, expected.constraints)
+    ]
+    return found.model_copy(update={"constraints": checks}) == expected
+
+
+def test_validate_path_is_the_state_by_state_check(problem, rng, either_route):
     evaluators, checker, x0 = problem
     kinds = {"valid": 0, "violated": 0, "collides": 0, "both": 0}
     for n in range(40):
@@ -111,7 +123,7 @@ def test_validate_path_is_the_state_by_state_check(problem, rng):
         waypoints[0] = x0
         for evaluator, human_distance in zip(evaluators * 2, (False, False, True, True)):
             found = validate_path(evaluator, checker, list(waypoints), 0.01, human_distance)
-            assert found == _one_state_at_a_time(evaluator, checker, list(waypoints), 0.01, human_distance)
+            assert _same(found, _one_state_at_a_time(evaluator, checker, list(waypoints), 0.01, human_distance))
             violated, collides = any(not c.satisfied for c in found.constraints), found.collision is not None
             kinds[{(0, 0): "valid", (1, 0): "violated", (0, 1): "collides", (1, 1): "both"}[violated, collides]] += 1
     assert all(kinds.values()), kinds  # every outcome was compared

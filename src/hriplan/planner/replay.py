@@ -140,9 +140,7 @@ class PlannedWorld:
         """Margin of every constraint (columns) at every timed point (rows): <= 0 kept."""
         q0 = self.planning_q(self.positions[0])
         evaluator = ConstraintEvaluator(self.robot, self.constraints, self.robot.default_group, q0)
-        return np.array([evaluator.margins(self.planning_q(row)) for row in self.positions]).reshape(
-            len(self.trajectory.points), len(self.constraints)
-        )
+        return evaluator.margins_many(np.array([self.planning_q(row) for row in self.positions]))
 
     def human_distances(self) -> list[tuple[float, str, str]]:
         """(distance, robot part, person part) of the closest robot-person pair at every point."""

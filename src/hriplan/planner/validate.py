@@ -67,7 +67,7 @@ def validate_path(
     the closest approach to a person (a report figure, costly: only the timed path's report asks)."""
     dense = densify(states, step)
     qs = evaluator.full_many(dense)
-    margins = np.array([evaluator.margins(q) for q in qs]) if evaluator.constraints else np.zeros((len(dense), 0))
+    margins = evaluator.margins_many(qs)
     worst = margins.max(axis=0, initial=-np.inf)
     violated_at = np.flatnonzero(margins.max(axis=1, initial=-np.inf) > VALIDATION_TOLERANCE)
     hit = checker.first_collision(qs)

@@ -10,9 +10,8 @@ Two formulations of the same constraints:
 
 from __future__ import annotations
 
-import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -21,33 +20,28 @@ import pinocchio as pin
 from hriplan.planner.constraints import geometry as G
 from hriplan.planner.constraints.binding import BoundConstraint
 from hriplan.planner.constraints.spec import BoxConstraint, ConeConstraint, CylinderConstraint, SphereConstraint
+from hriplan.robots.kernel_switch import kernels_on
 from hriplan.robots.model import Robot
 
 LWA = pin.LOCAL_WORLD_ALIGNED
 
 
-def shape_sd(spec: object) -> Callable[[Sequence[float]], tuple[float, G.Vec]]:
-    """The signed-distance function of a volume constraint's shape."""
+def shape_code(spec: object) -> tuple[int, G.Vec]:
+    """A volume constraint's shape as geometry's code and dimensions (`G.shape_distance`)."""
     if isinstance(spec, BoxConstraint):
-        return functools.partial(G.box_sd, size=spec.size)
+        return G.BOX, tuple(spec.size)
     if isinstance(spec, SphereConstraint):
-        return functools.partial(G.sphere_sd, radius=spec.radius)
+        return G.SPHERE, (spec.radius, 0.0, 0.0)
     if isinstance(spec, CylinderConstraint):
-        return functools.partial(G.cylinder_sd, radius=spec.radius, height=spec.height)
+        return G.CYLINDER, (spec.radius, spec.height, 0.0)
     if isinstance(spec, ConeConstraint):
-        return functools.partial(G.cone_sd, radius=spec.radius, height=spec.height)
+        return G.CONE, (spec.radius, spec.height, 0.0)
     raise TypeError(type(spec).__name__)
 
 
-Rows = tuple[Sequence[float], Sequence[float], Sequence[float]]  # a 3x3 matrix as rows of floats
+Rows = G.Rows
 Gradient6 = tuple[float, float, float, float, float, float]  # d margin / (linear, angular) velocity, world
-
-
-def _times(m: Rows, v: Sequence[float]) -> G.Vec:
-    """m v for a 3x3 matrix given by rows: scalars cost less than a numpy call here."""
-    (a, b, c), (d, e, f), (g, h, i) = m
-    x, y, z = v
-    return a * x + b * y + c * z, d * x + e * y + f * z, g * x + h * y + i * z
+_times = G.times
 
 
 def _rows(m: np.ndarray) -> Rows:
@@ -83,8 +77,7 @@ class _Term:
 
     def local(self, position: G.Vec) -> G.Vec:
         """A world point in the constraint frame."""
-        ox, oy, oz = self.origin_xyz
-        return _times(self.frame_t, (position[0] - ox, position[1] - oy, position[2] - oz))
+        return G.in_frame(self.frame_t, self.origin_xyz, position)
 
 
 class _Volume(_Term):
@@ -93,11 +86,11 @@ class _Volume(_Term):
 
     def __init__(self, c: BoundConstraint) -> None:
         super().__init__(c)
-        self.sd = shape_sd(c.spec)
+        self.shape, self.dims = shape_code(c.spec)
         self.sign = 1.0 if c.spec.region == "inside" else -1.0  # margin = sign * signed distance
 
     def margin(self, pose: _Pose, with_grad: bool) -> tuple[float, Gradient6 | None]:
-        value, grad = self.sd(self.local(pose.position))
+        value, grad = G.shape_distance(self.shape, self.dims, self.local(pose.position))
         if not with_grad:
             return self.sign * value, None
         s = self.sign
@@ -124,14 +117,8 @@ class _Orientation(_Term):
         margin, pull = angle - self.tolerance, (0.0, 0.0, 0.0)
         p_goal = self.bound.p_goal  # set once the goal is known, after the evaluator is made
         if self.gradient > 0.0 and p_goal is not None:  # the dynamic tolerance widens away from the goal
-            gx, gy, gz = p_goal.tolist()
-            x, y, z = pose.position
-            ox, oy, oz = x - gx, y - gy, z - gz
-            distance = math.sqrt(ox * ox + oy * oy + oz * oz)
-            margin -= self.gradient * distance
-            if distance > 1e-12:
-                k = -self.gradient / distance
-                pull = (k * ox, k * oy, k * oz)
+            widened, pull = G.widening(self.gradient, tuple(p_goal.tolist()), pose.position)
+            margin -= widened
         return margin, (pull + turn if with_grad else None)
 
     def _error_rotation(self, pose: _Pose) -> np.ndarray:
@@ -208,6 +195,7 @@ class ConstraintEvaluator:
         self._key: bytes | None = None  # the configuration self.data holds kinematics for
         self._has_jacobians = False
         self._poses: dict[int, _Pose] = {}
+        self._compiled = None  # the compiled route (`margins_many`), made when first asked; False: none
 
     # -- kinematics ------------------------------------------------------------------------
     def full(self, x: Sequence[float]) -> np.ndarray:
@@ -244,6 +232,20 @@ class ConstraintEvaluator:
         self._update(q, jacobians=False)
         poses = self._poses
         return np.array([t.margin(poses[t.link], False)[0] for t in self._terms])
+
+    def margins_many(self, qs: np.ndarray) -> np.ndarray:
+        """`margins` of every row of `qs` (N, nq), (N, constraints): with the kernels on in one
+        compiled call where it covers every term (`compiled.py`), else state by state."""
+        if not self._terms:
+            return np.zeros((len(qs), 0))
+        if kernels_on():
+            if self._compiled is None:
+                from hriplan.planner.constraints.compiled import CompiledMargins
+
+                self._compiled = CompiledMargins.of(self) or False
+            if self._compiled:
+                return self._compiled(qs)
+        return np.array([self.margins(q) for q in qs])
 
     def gradients(self, x: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
         """(margins, one gradient row per margin w.r.t. the planned joints), in one pass."""

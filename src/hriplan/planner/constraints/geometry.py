@@ -1,7 +1,9 @@
 """Constraint geometry: signed distances to the volumes and orientation errors, with gradients.
 
 Everything here is pure math on positions, vectors and rotations, so that it can be checked
-against finite differences in isolation. Conventions:
+against finite differences in isolation. The functions named in COMPILED are also numba's source
+(`compiled.py` compiles them unchanged, for many states in one call): they keep to scalars,
+tuples and `math`. Conventions:
 - `signed_distance(p) -> (d, grad)`: d > 0 outside the solid, d < 0 inside (minus the depth).
 - points and gradients are 3-sequences of floats, computed with scalars: numpy costs ~0.5-1 us
   per call on a 3-vector, more than these formulas (the planner evaluates them per state).
@@ -18,9 +20,24 @@ import numpy as np
 import pinocchio as pin
 
 _EPS = 1e-12
+# Volume shapes by code (`shape_distance`), and the code of a tilt (an orientation with one free axis).
+BOX, SPHERE, CYLINDER, CONE, TILT = 0, 1, 2, 3, 4
 
 
 Vec = tuple[float, float, float]
+Rows = tuple[Vec, Vec, Vec]  # a 3x3 matrix as rows of floats
+
+
+def times(m: Rows, v: Sequence[float]) -> Vec:
+    """m v for a 3x3 matrix given by rows: scalars cost less than a numpy call here."""
+    (a, b, c), (d, e, f), (g, h, i) = m
+    x, y, z = v
+    return a * x + b * y + c * z, d * x + e * y + f * z, g * x + h * y + i * z
+
+
+def in_frame(frame_t: Rows, origin: Vec, p: Vec) -> Vec:
+    """A world point in a constraint frame (frame_t: its rotation transposed, origin: its origin)."""
+    return times(frame_t, (p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]))
 
 
 def cross(a: Sequence[float], b: Sequence[float]) -> Vec:
@@ -108,6 +125,29 @@ def cone_sd(p: np.ndarray, radius: float, height: float) -> tuple[float, np.ndar
     return sign * dist, _lift(sign * (rho - best[0]) / dist, sign * (z - best[1]) / dist, cx, cy)
 
 
+def shape_distance(shape: int, dims: Vec, p: Vec) -> tuple[float, Vec]:
+    """Signed distance and gradient to a volume: BOX (sides dims), SPHERE (radius dims[0]),
+    CYLINDER or CONE (radius dims[0], height dims[1])."""
+    if shape == BOX:
+        return box_sd(p, dims)
+    if shape == SPHERE:
+        return sphere_sd(p, dims[0])
+    if shape == CYLINDER:
+        return cylinder_sd(p, dims[0], dims[1])
+    return cone_sd(p, dims[0], dims[1])
+
+
+def widening(gradient: float, goal: Vec, p: Vec) -> tuple[float, Vec]:
+    """A dynamic tolerance's widening at `p` (gradient times the distance from `goal`: the margin
+    is less by it) and the gradient of minus the widening with respect to p (the margin's pull)."""
+    ox, oy, oz = p[0] - goal[0], p[1] - goal[1], p[2] - goal[2]
+    distance = math.sqrt(ox * ox + oy * oy + oz * oz)
+    if distance <= 1e-12:
+        return gradient * distance, (0.0, 0.0, 0.0)
+    k = -gradient / distance
+    return gradient * distance, (k * ox, k * oy, k * oz)
+
+
 def rotation_angle(r_err: np.ndarray) -> tuple[float, Vec]:
     """Angle of a rotation and its gradient w.r.t. a local (right) angular velocity."""
     x, y, z = pin.log3(r_err).tolist()
@@ -143,3 +183,52 @@ def twist_angle(r_err: np.ndarray, axis: Sequence[float]) -> tuple[float, Vec]:
         (c * (c * ay + ky) + s * vy) / norm2,
         (c * (c * az + kz) + s * vz) / norm2,
     )
+
+
+# A term's row of floats for `term_margins`: its frame's rotation transposed (9, row-major) and
+# origin (3); a volume's dims (3) and sign (+1 inside, -1 outside); a tilt's target axis (3, at
+# the dims' place), tolerance, tolerance gradient and goal (3).
+FRAME_T, ORIGIN, DIMS, SIGN, TOLERANCE, GRADIENT, GOAL = 0, 9, 12, 15, 16, 17, 18
+TERM_ROW = 21
+
+
+def term_margins(
+    rotation: np.ndarray, position: np.ndarray, kinds: np.ndarray, links: np.ndarray, rows: np.ndarray, out: np.ndarray
+) -> None:
+    """out[n, k]: the margin of term k at state n, from its link's world rotation (N, L, 3, 3)
+    and position (N, L, 3); kinds[k] a shape code or TILT, links[k] (link, free axis of a tilt),
+    rows[k] its TERM_ROW floats. The evaluator's `_Volume` and `_Orientation` margins, formula
+    for formula, for many states in one call (compiled: `compiled.py`)."""
+    for n in range(rotation.shape[0]):
+        for k in range(kinds.shape[0]):
+            r, p, f = rotation[n, links[k, 0]], position[n, links[k, 0]], rows[k]
+            frame_t = ((f[0], f[1], f[2]), (f[3], f[4], f[5]), (f[6], f[7], f[8]))
+            at = (p[0], p[1], p[2])
+            if kinds[k] == TILT:
+                a = links[k, 1]
+                u = times(frame_t, (r[0, a], r[1, a], r[2, a]))
+                angle = axis_angle(u, (f[DIMS], f[DIMS + 1], f[DIMS + 2]))[0]
+                widened = widening(f[GRADIENT], (f[GOAL], f[GOAL + 1], f[GOAL + 2]), at)[0]
+                out[n, k] = angle - f[TOLERANCE] - widened
+            else:
+                local = in_frame(frame_t, (f[ORIGIN], f[ORIGIN + 1], f[ORIGIN + 2]), at)
+                out[n, k] = f[SIGN] * shape_distance(kinds[k], (f[DIMS], f[DIMS + 1], f[DIMS + 2]), local)[0]
+
+
+# What compiled.py compiles, callees before their callers: scalar code only (no numpy calls, no pinocchio).
+COMPILED = (
+    "times",
+    "in_frame",
+    "cross",
+    "box_sd",
+    "sphere_sd",
+    "_radial",
+    "_lift",
+    "cylinder_sd",
+    "_closest_on_segment",
+    "cone_sd",
+    "shape_distance",
+    "widening",
+    "axis_angle",
+    "term_margins",
+)
