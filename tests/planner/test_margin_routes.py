@@ -5,12 +5,17 @@ sphere, cylinder, cone inside and outside, orientation with 0, 1 and 2 free axes
 tolerance gradient. The gradient rows are checked against finite differences of the independent
 margins, so that no number here comes from the code under test."""
 
+from pathlib import Path
+
+import example_robot_data
 import numpy as np
 import pinocchio as pin
 import pytest
+from typer.testing import CliRunner
 
+from hriplan.cli.main import app
 from hriplan.planner.constraints.binding import bind
-from hriplan.planner.constraints.compiled import CompiledMargins
+from hriplan.planner.constraints.compiled import CompiledTerms
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import (
     BoxConstraint,
@@ -20,7 +25,10 @@ from hriplan.planner.constraints.spec import (
     OrientationConstraint,
     SphereConstraint,
 )
+from hriplan.robots import kernel_switch
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import load_robot_file
+from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from independent import UrdfRobot, orientation_error, signed_distance
@@ -100,29 +108,42 @@ def setup(madar):
     return evaluator, independent, xs, [independent(x) for x in xs]
 
 
-def test_margins_and_deadzone_are_the_independent_margins(setup):
-    evaluator, _, xs, expected = setup
-    for x, want in zip(xs, expected):
-        assert np.allclose(evaluator.margins(evaluator.full(x)), want, rtol=0.0, atol=1e-9), x
-        assert np.allclose(evaluator.deadzone(x, 0.05), np.maximum(want + 0.05, 0.0), rtol=0.0, atol=1e-9), x
+@pytest.fixture(scope="module")
+def evaluators(setup, madar):
+    """(evaluator, the columns of the independent margins it has): every kind, and every kind
+    the compiled route covers (all but no and two free axes), which it takes with the kernels on."""
+    evaluator = setup[0]
+    covered = [k for k, c in enumerate(evaluator.constraints) if c.id not in ("o0", "o2")]
+    compiled = ConstraintEvaluator(madar, [evaluator.constraints[k] for k in covered], "right_arm", evaluator.q)
+    assert CompiledTerms.of(compiled) is not None and CompiledTerms.of(evaluator) is None
+    return [(evaluator, list(range(len(evaluator.constraints)))), (compiled, covered)]
 
 
-def test_the_gradient_pass_gives_the_same_margins_and_their_derivatives(setup):
-    evaluator, independent, xs, expected = setup
+def test_margins_and_deadzone_are_the_independent_margins(setup, evaluators, either_route):
+    _, _, xs, expected = setup
+    for evaluator, columns in evaluators:
+        for x, want in zip(xs, np.array(expected)[:, columns]):
+            assert np.allclose(evaluator.margins(evaluator.full(x)), want, rtol=0.0, atol=1e-9), x
+            assert np.allclose(evaluator.deadzone(x, 0.05), np.maximum(want + 0.05, 0.0), rtol=0.0, atol=1e-9), x
+
+
+def test_the_gradient_pass_gives_the_same_margins_and_their_derivatives(setup, evaluators, either_route):
+    _, independent, xs, expected = setup
     compared = total = 0
-    for x, want in zip(xs, expected):
-        margins, rows = evaluator.gradients(x)
-        assert np.allclose(margins, want, rtol=0.0, atol=1e-9), x
-        forward = np.column_stack([independent(x + H * e) for e in np.eye(len(x))])
-        backward = np.column_stack([independent(x - H * e) for e in np.eye(len(x))])
-        numeric = (forward - backward) / (2 * H)
-        # rows at a kink (a box edge, a half turn) have one-sided slopes that differ: not compared
-        smooth = np.abs((forward - want[:, None]) - (want[:, None] - backward)).max(axis=1) / H < 1e-3
-        assert np.allclose(rows[smooth], numeric[smooth], rtol=0.0, atol=1e-5), (x, np.flatnonzero(smooth))
-        dead = evaluator.deadzone_jacobian(x, 0.05)
-        active = margins + 0.05 > 0.0
-        assert np.array_equal(dead[active], rows[active]) and not dead[~active].any()
-        compared, total = compared + smooth.sum(), total + len(smooth)
+    for evaluator, columns in evaluators:
+        for x, want in zip(xs, np.array(expected)[:, columns]):
+            margins, rows = evaluator.gradients(x)
+            assert np.allclose(margins, want, rtol=0.0, atol=1e-9), x
+            forward = np.column_stack([independent(x + H * e)[columns] for e in np.eye(len(x))])
+            backward = np.column_stack([independent(x - H * e)[columns] for e in np.eye(len(x))])
+            numeric = (forward - backward) / (2 * H)
+            # rows at a kink (a box edge, a half turn) have one-sided slopes that differ: not compared
+            smooth = np.abs((forward - want[:, None]) - (want[:, None] - backward)).max(axis=1) / H < 1e-3
+            assert np.allclose(rows[smooth], numeric[smooth], rtol=0.0, atol=1e-5), (x, np.flatnonzero(smooth))
+            dead = evaluator.deadzone_jacobian(x, 0.05)
+            active = margins + 0.05 > 0.0
+            assert np.array_equal(dead[active], rows[active]) and not dead[~active].any()
+            compared, total = compared + smooth.sum(), total + len(smooth)
     assert compared >= 0.9 * total
 
 
@@ -132,17 +153,71 @@ def test_every_kind_is_met_on_both_sides(setup):
     assert ((expected > 0.0).any(axis=0) & (expected < 0.0).any(axis=0)).all()
 
 
-def test_many_states_at_once_are_the_independent_margins(setup, madar, either_route):
-    """`margins_many`, with the kernels on compiled for every kind it covers (volumes; one free
-    axis, with and without a tolerance gradient) and state by state for an evaluator holding no
-    or two free axes; with them off state by state."""
-    evaluator, _, xs, expected = setup
-    qs, want = evaluator.full_many(xs), np.array(expected)
-    covered = [k for k, c in enumerate(evaluator.constraints) if c.id not in ("o0", "o2")]
-    compiled = ConstraintEvaluator(madar, [evaluator.constraints[k] for k in covered], "right_arm", evaluator.q)
-    assert CompiledMargins.of(compiled) is not None and CompiledMargins.of(evaluator) is None
-    assert np.allclose(compiled.margins_many(qs), want[:, covered], rtol=0.0, atol=1e-9)
-    assert np.allclose(evaluator.margins_many(qs), want, rtol=0.0, atol=1e-9)
-    # the two routes differ by the kinematics' rounding alone
-    per_state = np.array([compiled.margins(q) for q in qs])
-    assert np.abs(compiled.margins_many(qs) - per_state).max() < 1e-12
+def test_many_states_at_once_are_the_independent_margins(setup, evaluators, either_route):
+    """`margins_many`: with the kernels on one compiled call where the route covers every term,
+    else state by state."""
+    _, _, xs, expected = setup
+    for evaluator, columns in evaluators:
+        qs = evaluator.full_many(xs)
+        assert np.allclose(evaluator.margins_many(qs), np.array(expected)[:, columns], rtol=0.0, atol=1e-9)
+        # a batch is its states one by one, to the rounding of the kinematics
+        assert np.abs(evaluator.margins_many(qs) - [evaluator.margins(q) for q in qs]).max() < 1e-12
+
+
+def test_the_compiled_route_is_the_python_route_to_rounding(evaluators, setup):
+    """Margins and gradient rows of the covered kinds, compiled against Python, at every state."""
+    evaluator, xs, before = evaluators[1][0], setup[2], kernel_switch.kernels_on()
+    try:
+        kernel_switch.use_kernels(True)
+        compiled = [evaluator.gradients(x) for x in xs]
+        kernel_switch.use_kernels(False)
+        python = [evaluator.gradients(x) for x in xs]
+    finally:
+        kernel_switch.use_kernels(before)
+    assert max(np.abs(a[0] - b[0]).max() for a, b in zip(compiled, python)) < 1e-12
+    assert max(np.abs(a[1] - b[1]).max() for a, b in zip(compiled, python)) < 1e-9
+
+
+def test_the_compiled_gradients_of_a_sliding_joint_and_of_a_joint_off_the_chain(madar, tmp_path, robot_registry):
+    """The branches MADAR's arm does not take, compiled against Python: TIAGo's torso lift slides
+    (its column moves the tool along the joint's axis), and with both of MADAR's arms planned
+    under constraints on the right tool the left arm's joints do not move it (zero columns)."""
+    urdf = (
+        Path(example_robot_data.getModelPath("tiago_description/robots/tiago.urdf"))
+        / "tiago_description/robots/tiago.urdf"
+    )
+    out = tmp_path / "tiago.yaml"
+    assert CliRunner().invoke(app, ["robot", "init", "--urdf", str(urdf), "-o", str(out)]).exit_code == 0
+    tiago = load_robot(load_robot_file(out).name)
+    cases = [(tiago, "arm", "arm", tiago.tool_frame("arm")), (madar, "both_arms", "right_arm", TOOL)]
+    for robot, group, chain, tool in cases:
+        joints = robot.group_joints(chain)
+        specs = [
+            OrientationConstraint(id="up", joints=joints, target_link=tool, free_axes=["z"], tolerance=0.2),
+            BoxConstraint(
+                id="box",
+                joints=joints,
+                target_link=tool,
+                size=(0.4, 0.5, 0.6),
+                frame=FrameRef(offset=Pose(xyz=(0.3, 0.2, 0.9))),
+            ),
+        ]
+        evaluator = ConstraintEvaluator(
+            robot, bind(specs, robot, CollisionChecker(robot, Scene())), group, robot.configuration({})
+        )
+        low, high = robot.limits(group)
+        xs = np.random.default_rng(5).uniform(low, high, (40, len(low)))
+        assert CompiledTerms.of(evaluator) is not None
+        before = kernel_switch.kernels_on()
+        try:
+            kernel_switch.use_kernels(True)
+            compiled = [evaluator.gradients(x) for x in xs]
+            kernel_switch.use_kernels(False)
+            python = [evaluator.gradients(x) for x in xs]
+        finally:
+            kernel_switch.use_kernels(before)
+        for (m, rows), (want_m, want_rows) in zip(compiled, python):
+            assert np.abs(m - want_m).max() < 1e-12 and np.abs(rows - want_rows).max() < 1e-9
+        carrier = robot.model.supports[robot.model.frames[robot.frame_id(tool)].parentJoint]
+        moved = np.array([robot.model.getJointId(j) in carrier for j in robot.group_joints(group)])
+        assert (~moved).any() == (group == "both_arms") and all(not rows[:, ~moved].any() for _, rows in compiled)

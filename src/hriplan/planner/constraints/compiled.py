@@ -1,17 +1,21 @@
-"""Constraint margins of many states in one compiled call (numba), from the Python route's own
-source: geometry.py's scalar functions (`geometry.COMPILED`), compiled unchanged.
+"""Constraint margins and gradients compiled (numba), from the Python route's own source:
+geometry.py's scalar functions (`geometry.COMPILED`), compiled unchanged.
 
-Why: dense validation asks the margins of hundreds of states at a time, one Python call per
-state and term (~6-9 us a state); compiled, a batch costs well under 1 us a state. Why the same
-source: a second copy of every formula for the compiled route would drift from the first. Each
-function is re-made with globals in which its callees are their compiled versions, then handed
-to numba; numba caches them on disk keyed by geometry.py, the one file they all come from (its
-cache is keyed by a function's own file, not by its callees'), so an edit there recompiles.
+Why: the planner asks the margins of one state thousands of times a plan (~6-10 us each in
+Python) and their gradients hundreds of times (~11-25 us); dense validation asks the margins of
+hundreds of states at once. Compiled, with the robot's joints placed by the certifier's compiled
+forward kinematics (`certifier_kernels.place_joints`), a state costs ~2 us. Why the same source:
+a second copy of every formula would drift from the first. Each function is re-made with
+globals in which its callees are their compiled versions, then handed to numba, which caches
+them on disk keyed by geometry.py, the one file they all come from (its cache is keyed by a
+function's own file, not by its callees'), so an edit there recompiles.
 
 Covered: every volume kind, inside and outside, and orientations with one free axis, with or
-without a tolerance gradient: everything the rules derive. An evaluator holding an orientation
-with no or two free axes (Kautham files, hand-written problems) gets None: its margins are
-computed state by state.
+without a tolerance gradient (everything the rules derive), on robots of one-axis joints. An
+evaluator holding an orientation with no or two free axes (Kautham files, hand-written problems)
+gets None and keeps the Python route. The numbers are the Python route's to ~1e-15 (the
+kinematics round differently from pinocchio's), so paths planned with the kernels on may differ
+from those planned with them off in the last bits.
 """
 
 from __future__ import annotations
@@ -23,7 +27,8 @@ import numpy as np
 from numba import njit
 
 from hriplan.planner.constraints import geometry as G
-from hriplan.robots.batch_kinematics import BatchKinematics
+from hriplan.robots.certifier_kernels import PRISMATIC, place_joints
+from hriplan.robots.kernel_fk import joint_tables
 
 
 def _compiled(names: tuple[str, ...]) -> dict[str, Callable]:
@@ -37,58 +42,111 @@ def _compiled(names: tuple[str, ...]) -> dict[str, Callable]:
     return scope
 
 
-_term_margins = _compiled(G.COMPILED)["term_margins"]
+_KERNELS = _compiled(G.COMPILED)
+_term_margins, _term_gradients = _KERNELS["term_margins"], _KERNELS["term_gradients"]
 
 
-class CompiledMargins:
-    """An evaluator's terms packed for `geometry.term_margins`, with the batched kinematics of
-    the links they constrain. Terms are read again at every call: a dynamic tolerance's goal is
-    set after the evaluator is made."""
+class CompiledTerms:
+    """An evaluator's terms packed for geometry's `term_margins` and `term_gradients`. A dynamic
+    tolerance's goal is read again whenever its constraint's `p_goal` is replaced (it is set
+    after the evaluator is made)."""
 
-    def __init__(self, evaluator: object) -> None:
-        model = evaluator.model
-        frames = [model.frames[link] for link in evaluator.links]
-        joints = sorted({frame.parentJoint for frame in frames})
-        self._evaluator = evaluator
-        self._kinematics = BatchKinematics(model, joints)
-        self._joint_of = np.array([joints.index(frame.parentJoint) for frame in frames], dtype=int)
-        self._frame_rotation = np.array([frame.placement.rotation for frame in frames])
-        self._frame_translation = np.array([frame.placement.translation for frame in frames])
-        self._links = np.array(
-            [(evaluator.links.index(t.link), t.free[0] if t.free else 0) for t in evaluator._terms], dtype=np.int64
+    def __init__(self, evaluator: object, tables: tuple[np.ndarray, np.ndarray]) -> None:
+        model, terms = evaluator.model, evaluator._terms
+        self._evaluator, (self._joint_rows, self._joint_ints) = evaluator, tables
+        frames = [model.frames[t.link] for t in terms]
+        self._ints = np.array(
+            [(_kind(t), frame.parentJoint, t.free[0] if t.free else 0) for t, frame in zip(terms, frames)],
+            dtype=np.int64,
+        ).reshape(-1, 3)
+        self._floats = np.array([_floats(t, frame) for t, frame in zip(terms, frames)]).reshape(-1, G.TERM_ROW)
+        self._dynamic = [k for k, t in enumerate(terms) if t.target is not None and t.gradient > 0.0]
+        self._goals: list[object] = [None] * len(self._dynamic)
+        joints = [model.getJointId(j) for j in evaluator.robot.group_joints(evaluator.group)]
+        self._columns = np.array(
+            [(j, int(self._joint_ints[j, 1] == PRISMATIC)) for j in joints], dtype=np.int64
         ).reshape(-1, 2)
+        self._axes = np.ascontiguousarray(self._joint_rows[joints, 12:15]).reshape(-1, 3)
+        self._carries = np.array(
+            [[int(j in model.supports[frame.parentJoint]) for j in joints] for frame in frames], dtype=np.int64
+        ).reshape(len(terms), len(joints))
+        self._rotation, self._origin = np.empty((1, model.njoints, 3, 3)), np.empty((1, model.njoints, 3))
+        self._out = np.empty((1, len(terms)))
 
     @classmethod
-    def of(cls, evaluator: object) -> CompiledMargins | None:
-        """The compiled route for `evaluator`, or None if one of its terms is not covered."""
-        covered = all(t.target is None or len(t.free) == 1 for t in evaluator._terms)
-        return cls(evaluator) if covered else None
+    def of(cls, evaluator: object) -> CompiledTerms | None:
+        """The compiled route for `evaluator`, or None if one of its terms or joints is not covered."""
+        if not all(t.target is None or len(t.free) == 1 for t in evaluator._terms):
+            return None
+        tables = joint_tables(evaluator.model)
+        return None if tables is None else cls(evaluator, tables)
 
-    def __call__(self, qs: np.ndarray) -> np.ndarray:
+    def margins(self, q: np.ndarray) -> np.ndarray:
+        """Every term's margin at configuration `q`."""
+        self._place(q)
+        _term_margins(self._rotation, self._origin, self._ints, self._current(), self._out)
+        return self._out[0].copy()
+
+    def margins_many(self, qs: np.ndarray) -> np.ndarray:
         """Every term's margin (N, terms) at configurations `qs` (N, nq)."""
         qs = np.ascontiguousarray(qs, dtype=float)
-        joint_rotation, joint_origin = self._kinematics.placements(qs)
-        at = joint_rotation[:, self._joint_of]
-        rotation = np.ascontiguousarray(at @ self._frame_rotation)
-        position = np.ascontiguousarray(
-            (at @ self._frame_translation[..., None])[..., 0] + joint_origin[:, self._joint_of]
-        )
-        kinds, rows = self._packed()
-        out = np.empty((len(qs), len(kinds)))
-        _term_margins(rotation, position, kinds, self._links, rows, out)
+        rotation, origin = np.empty((len(qs), *self._rotation.shape[1:])), np.empty((len(qs), *self._origin.shape[1:]))
+        for q, r, o in zip(qs, rotation, origin):
+            place_joints(q, self._joint_rows, self._joint_ints, r, o)
+        out = np.empty((len(qs), len(self._ints)))
+        _term_margins(rotation, origin, self._ints, self._current(), out)
         return out
 
-    def _packed(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per term: its kind (a shape code or TILT) and its TERM_ROW floats."""
+    def gradients(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(margins, one gradient row per margin w.r.t. the planned joints) at configuration `q`."""
+        self._place(q)
+        margins, rows = np.empty(len(self._ints)), np.empty((len(self._ints), len(self._columns)))
+        floats = self._current()
+        _term_gradients(
+            self._rotation[0],
+            self._origin[0],
+            self._ints,
+            floats,
+            self._columns,
+            self._axes,
+            self._carries,
+            margins,
+            rows,
+        )
+        return margins, rows
+
+    def _place(self, q: np.ndarray) -> None:
+        place_joints(
+            np.ascontiguousarray(q, dtype=float), self._joint_rows, self._joint_ints, self._rotation[0], self._origin[0]
+        )
+
+    def _current(self) -> np.ndarray:
+        """The terms' floats with every dynamic tolerance's goal as its constraint holds it now."""
         terms = self._evaluator._terms
-        kinds, rows = np.empty(len(terms), dtype=np.int64), np.zeros((len(terms), G.TERM_ROW))
-        for k, t in enumerate(terms):
-            rows[k, G.FRAME_T : G.ORIGIN] = t.rf_t.reshape(9)
-            rows[k, G.ORIGIN : G.DIMS] = t.origin
-            if t.target is None:
-                kinds[k], rows[k, G.DIMS : G.SIGN], rows[k, G.SIGN] = t.shape, t.dims, t.sign
-                continue
-            kinds[k], rows[k, G.DIMS : G.SIGN], rows[k, G.TOLERANCE] = G.TILT, t.axis_target, t.tolerance
-            if t.gradient > 0.0 and t.bound.p_goal is not None:
-                rows[k, G.GRADIENT], rows[k, G.GOAL : G.TERM_ROW] = t.gradient, t.bound.p_goal
-        return kinds, rows
+        for n, k in enumerate(self._dynamic):
+            goal = terms[k].bound.p_goal
+            if goal is not self._goals[n]:
+                self._goals[n] = goal
+                self._floats[k, G.GRADIENT] = 0.0 if goal is None else terms[k].gradient
+                self._floats[k, G.GOAL : G.LINK_R] = 0.0 if goal is None else goal
+        return self._floats
+
+
+def _kind(term: object) -> int:
+    return G.TILT if term.target is not None else term.shape
+
+
+def _floats(term: object, frame: object) -> np.ndarray:
+    """A term's TERM_ROW floats (a dynamic tolerance's gradient and goal left at 0: `_current`)."""
+    row = np.zeros(G.TERM_ROW)
+    row[G.FRAME : G.FRAME_T], row[G.FRAME_T : G.ORIGIN] = term.rf.reshape(9), term.rf_t.reshape(9)
+    row[G.ORIGIN : G.DIMS] = term.origin
+    if term.target is None:
+        row[G.DIMS : G.SIGN], row[G.SIGN] = term.dims, term.sign
+    else:
+        row[G.DIMS : G.SIGN], row[G.TOLERANCE] = term.axis_target, term.tolerance
+    row[G.LINK_R : G.LINK_T], row[G.LINK_T : G.TERM_ROW] = (
+        frame.placement.rotation.reshape(9),
+        frame.placement.translation,
+    )
+    return row

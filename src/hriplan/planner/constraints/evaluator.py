@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -22,6 +22,9 @@ from hriplan.planner.constraints.binding import BoundConstraint
 from hriplan.planner.constraints.spec import BoxConstraint, ConeConstraint, CylinderConstraint, SphereConstraint
 from hriplan.robots.kernel_switch import kernels_on
 from hriplan.robots.model import Robot
+
+if TYPE_CHECKING:
+    from hriplan.planner.constraints.compiled import CompiledTerms
 
 LWA = pin.LOCAL_WORLD_ALIGNED
 
@@ -42,6 +45,7 @@ def shape_code(spec: object) -> tuple[int, G.Vec]:
 Rows = G.Rows
 Gradient6 = tuple[float, float, float, float, float, float]  # d margin / (linear, angular) velocity, world
 _times = G.times
+_NOWHERE = (0.0, 0.0, 0.0)  # the goal of a fixed tolerance (`G.beyond_tolerance` reads it only to widen)
 
 
 def _rows(m: np.ndarray) -> Rows:
@@ -75,10 +79,6 @@ class _Term:
         self.free: tuple[int, ...] = ()
         self.target: np.ndarray | None = None
 
-    def local(self, position: G.Vec) -> G.Vec:
-        """A world point in the constraint frame."""
-        return G.in_frame(self.frame_t, self.origin_xyz, position)
-
 
 class _Volume(_Term):
     """A volume: margin(pose, with_grad) is the signed distance, inside or outside, and its
@@ -90,12 +90,11 @@ class _Volume(_Term):
         self.sign = 1.0 if c.spec.region == "inside" else -1.0  # margin = sign * signed distance
 
     def margin(self, pose: _Pose, with_grad: bool) -> tuple[float, Gradient6 | None]:
-        value, grad = G.shape_distance(self.shape, self.dims, self.local(pose.position))
-        if not with_grad:
-            return self.sign * value, None
-        s = self.sign
-        x, y, z = _times(self.frame, grad)
-        return s * value, (s * x, s * y, s * z, 0.0, 0.0, 0.0)
+        frame, frame_t, origin = self.frame, self.frame_t, self.origin_xyz
+        value, linear = G.volume_term(
+            self.shape, self.dims, self.sign, frame, frame_t, origin, pose.position, with_grad
+        )
+        return value, (linear + (0.0, 0.0, 0.0) if with_grad else None)
 
 
 class _Orientation(_Term):
@@ -114,11 +113,10 @@ class _Orientation(_Term):
 
     def margin(self, pose: _Pose, with_grad: bool) -> tuple[float, Gradient6 | None]:
         angle, turn = self.error(pose, with_grad)
-        margin, pull = angle - self.tolerance, (0.0, 0.0, 0.0)
         p_goal = self.bound.p_goal  # set once the goal is known, after the evaluator is made
-        if self.gradient > 0.0 and p_goal is not None:  # the dynamic tolerance widens away from the goal
-            widened, pull = G.widening(self.gradient, tuple(p_goal.tolist()), pose.position)
-            margin -= widened
+        widens = self.gradient > 0.0 and p_goal is not None  # the dynamic tolerance widens away from the goal
+        gradient, goal = (self.gradient, tuple(p_goal.tolist())) if widens else (0.0, _NOWHERE)
+        margin, pull = G.beyond_tolerance(angle, self.tolerance, gradient, goal, pose.position)
         return margin, (pull + turn if with_grad else None)
 
     def _error_rotation(self, pose: _Pose) -> np.ndarray:
@@ -171,7 +169,7 @@ class ConstraintEvaluator:
     """Evaluates bound constraints for ambient vectors `x` (values of the planned group's joints)."""
 
     def __init__(self, robot: Robot, constraints: Sequence[BoundConstraint], group: str, base_q: np.ndarray) -> None:
-        self.robot = robot
+        self.robot, self.group = robot, group
         self.model = robot.model
         self.data = robot.model.createData()  # own workspace: evaluators never share pinocchio data
         self.constraints = list(constraints)
@@ -195,7 +193,7 @@ class ConstraintEvaluator:
         self._key: bytes | None = None  # the configuration self.data holds kinematics for
         self._has_jacobians = False
         self._poses: dict[int, _Pose] = {}
-        self._compiled = None  # the compiled route (`margins_many`), made when first asked; False: none
+        self._compiled: CompiledTerms | bool | None = None  # made when first asked (`_route`); False: none
 
     # -- kinematics ------------------------------------------------------------------------
     def full(self, x: Sequence[float]) -> np.ndarray:
@@ -229,26 +227,24 @@ class ConstraintEvaluator:
     # -- margins ---------------------------------------------------------------------------
     def margins(self, q: np.ndarray) -> np.ndarray:
         """Per constraint: > 0 means violated by that much (m or rad), <= 0 satisfied."""
+        if (route := self._route()) is not None:
+            return route.margins(q)
         self._update(q, jacobians=False)
         poses = self._poses
         return np.array([t.margin(poses[t.link], False)[0] for t in self._terms])
 
     def margins_many(self, qs: np.ndarray) -> np.ndarray:
-        """`margins` of every row of `qs` (N, nq), (N, constraints): with the kernels on in one
-        compiled call where it covers every term (`compiled.py`), else state by state."""
+        """`margins` of every row of `qs` (N, nq): (N, constraints)."""
         if not self._terms:
             return np.zeros((len(qs), 0))
-        if kernels_on():
-            if self._compiled is None:
-                from hriplan.planner.constraints.compiled import CompiledMargins
-
-                self._compiled = CompiledMargins.of(self) or False
-            if self._compiled:
-                return self._compiled(qs)
+        if (route := self._route()) is not None:
+            return route.margins_many(qs)
         return np.array([self.margins(q) for q in qs])
 
     def gradients(self, x: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
         """(margins, one gradient row per margin w.r.t. the planned joints), in one pass."""
+        if (route := self._route()) is not None:
+            return route.gradients(self.full(x))
         self._update(self.full(x), jacobians=True)
         poses = self._poses
         values, velocities = zip(*(t.margin(poses[t.link], True) for t in self._terms))
@@ -257,6 +253,16 @@ class ConstraintEvaluator:
         for link, which in self._rows_of_link:  # d margin / d x = (d margin / d velocity) J
             rows[which] = velocities[which] @ self._jac(link)
         return np.array(values), rows
+
+    def _route(self) -> CompiledTerms | None:
+        """The compiled route (`compiled.py`) with the kernels on, where it covers every term."""
+        if not kernels_on() or not self._terms:
+            return None
+        if self._compiled is None:
+            from hriplan.planner.constraints.compiled import CompiledTerms
+
+            self._compiled = CompiledTerms.of(self) or False
+        return self._compiled or None
 
     def deadzone(self, x: Sequence[float], offset: float = 0.0) -> np.ndarray:
         """One row per constraint: max(margin + offset, 0)."""

@@ -185,34 +185,131 @@ def twist_angle(r_err: np.ndarray, axis: Sequence[float]) -> tuple[float, Vec]:
     )
 
 
-# A term's row of floats for `term_margins`: its frame's rotation transposed (9, row-major) and
-# origin (3); a volume's dims (3) and sign (+1 inside, -1 outside); a tilt's target axis (3, at
-# the dims' place), tolerance, tolerance gradient and goal (3).
-FRAME_T, ORIGIN, DIMS, SIGN, TOLERANCE, GRADIENT, GOAL = 0, 9, 12, 15, 16, 17, 18
-TERM_ROW = 21
+# A term's ints: its kind (a shape code or TILT), the joint carrying its link, a tilt's free axis.
+KIND, JOINT, AXIS = 0, 1, 2
+# A term's floats: its frame's rotation and that transposed (9 each, row-major) and origin (3); a
+# volume's dims (3) and sign, or a tilt's target axis (3, in the dims' place), tolerance,
+# tolerance gradient (0: none) and goal (3); its link's placement on its joint: rotation (9,
+# row-major) and translation (3).
+FRAME, FRAME_T, ORIGIN, DIMS, SIGN, TOLERANCE, GRADIENT, GOAL, LINK_R, LINK_T = 0, 9, 18, 21, 24, 25, 26, 27, 30, 39
+TERM_ROW = 42
+
+
+def volume_term(
+    shape: int, dims: Vec, sign: float, frame: Rows, frame_t: Rows, origin: Vec, p: Vec, with_grad: bool
+) -> tuple[float, Vec]:
+    """A volume's margin (sign: +1 inside, -1 outside) with its link at world point p, and (if
+    `with_grad`) its gradient with respect to p."""
+    value, grad = shape_distance(shape, dims, in_frame(frame_t, origin, p))
+    if not with_grad:
+        return sign * value, (0.0, 0.0, 0.0)
+    x, y, z = times(frame, grad)
+    return sign * value, (sign * x, sign * y, sign * z)
+
+
+def beyond_tolerance(angle: float, tolerance: float, gradient: float, goal: Vec, p: Vec) -> tuple[float, Vec]:
+    """An orientation's margin: its error angle beyond the tolerance, widened by `gradient` per
+    metre of its link (at p) from `goal` (0: a fixed tolerance); with its gradient w.r.t. p."""
+    if gradient > 0.0:
+        widened, pull = widening(gradient, goal, p)
+        return angle - tolerance - widened, pull
+    return angle - tolerance, (0.0, 0.0, 0.0)
+
+
+def _rows3(f: np.ndarray, at: int) -> Rows:
+    return (f[at], f[at + 1], f[at + 2]), (f[at + 3], f[at + 4], f[at + 5]), (f[at + 6], f[at + 7], f[at + 8])
+
+
+def _vec3(f: np.ndarray, at: int) -> Vec:
+    return f[at], f[at + 1], f[at + 2]
+
+
+def _row_times(row: Vec, m: Rows) -> Vec:
+    """A row vector times a 3x3 matrix given by rows (a row of a matrix product)."""
+    return (
+        row[0] * m[0][0] + row[1] * m[1][0] + row[2] * m[2][0],
+        row[0] * m[0][1] + row[1] * m[1][1] + row[2] * m[2][1],
+        row[0] * m[0][2] + row[1] * m[1][2] + row[2] * m[2][2],
+    )
+
+
+def _link_pose(r: np.ndarray, o: np.ndarray, f: np.ndarray) -> tuple[Rows, Vec]:
+    """A term's link in the world: its joint's world rotation r (3x3) and origin o times the
+    link's placement on the joint (the term's LINK_R, LINK_T)."""
+    joint = (r[0, 0], r[0, 1], r[0, 2]), (r[1, 0], r[1, 1], r[1, 2]), (r[2, 0], r[2, 1], r[2, 2])
+    m = _rows3(f, LINK_R)
+    x, y, z = times(joint, _vec3(f, LINK_T))
+    return (_row_times(joint[0], m), _row_times(joint[1], m), _row_times(joint[2], m)), (o[0] + x, o[1] + y, o[2] + z)
+
+
+def _term(kind: int, axis: int, f: np.ndarray, rotation: Rows, p: Vec, with_grad: bool) -> tuple[float, Vec, Vec]:
+    """A term's margin with its link at (rotation, p), and (if `with_grad`) its gradient w.r.t.
+    the link's world linear and angular velocity: the evaluator's `_Volume` and one-free-axis
+    `_Orientation`, formula for formula."""
+    frame_t = _rows3(f, FRAME_T)
+    if kind == TILT:
+        angle, grad = axis_angle(
+            times(frame_t, (rotation[0][axis], rotation[1][axis], rotation[2][axis])), _vec3(f, DIMS)
+        )
+        margin, pull = beyond_tolerance(angle, f[TOLERANCE], f[GRADIENT], _vec3(f, GOAL), p)
+        return margin, pull, (times(_rows3(f, FRAME), grad) if with_grad else (0.0, 0.0, 0.0))
+    margin, linear = volume_term(
+        kind, _vec3(f, DIMS), f[SIGN], _rows3(f, FRAME), frame_t, _vec3(f, ORIGIN), p, with_grad
+    )
+    return margin, linear, (0.0, 0.0, 0.0)
 
 
 def term_margins(
-    rotation: np.ndarray, position: np.ndarray, kinds: np.ndarray, links: np.ndarray, rows: np.ndarray, out: np.ndarray
+    joint_rotation: np.ndarray, joint_origin: np.ndarray, ints: np.ndarray, floats: np.ndarray, out: np.ndarray
 ) -> None:
-    """out[n, k]: the margin of term k at state n, from its link's world rotation (N, L, 3, 3)
-    and position (N, L, 3); kinds[k] a shape code or TILT, links[k] (link, free axis of a tilt),
-    rows[k] its TERM_ROW floats. The evaluator's `_Volume` and `_Orientation` margins, formula
-    for formula, for many states in one call (compiled: `compiled.py`)."""
-    for n in range(rotation.shape[0]):
-        for k in range(kinds.shape[0]):
-            r, p, f = rotation[n, links[k, 0]], position[n, links[k, 0]], rows[k]
-            frame_t = ((f[0], f[1], f[2]), (f[3], f[4], f[5]), (f[6], f[7], f[8]))
-            at = (p[0], p[1], p[2])
-            if kinds[k] == TILT:
-                a = links[k, 1]
-                u = times(frame_t, (r[0, a], r[1, a], r[2, a]))
-                angle = axis_angle(u, (f[DIMS], f[DIMS + 1], f[DIMS + 2]))[0]
-                widened = widening(f[GRADIENT], (f[GOAL], f[GOAL + 1], f[GOAL + 2]), at)[0]
-                out[n, k] = angle - f[TOLERANCE] - widened
-            else:
-                local = in_frame(frame_t, (f[ORIGIN], f[ORIGIN + 1], f[ORIGIN + 2]), at)
-                out[n, k] = f[SIGN] * shape_distance(kinds[k], (f[DIMS], f[DIMS + 1], f[DIMS + 2]), local)[0]
+    """out[n, k]: term k's margin at state n, given every joint's world rotation (N, J, 3, 3) and
+    origin (N, J, 3) there; the terms' KIND, JOINT, AXIS ints and TERM_ROW floats."""
+    for n in range(out.shape[0]):
+        for k in range(ints.shape[0]):
+            j = ints[k, JOINT]
+            rotation, p = _link_pose(joint_rotation[n, j], joint_origin[n, j], floats[k])
+            out[n, k] = _term(ints[k, KIND], ints[k, AXIS], floats[k], rotation, p, False)[0]
+
+
+def term_gradients(
+    joint_rotation: np.ndarray,
+    joint_origin: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    columns: np.ndarray,
+    axes: np.ndarray,
+    carries: np.ndarray,
+    margins: np.ndarray,
+    gradients: np.ndarray,
+) -> None:
+    """At one state (joints' world rotations (J, 3, 3) and origins (J, 3)): margins[k] and
+    gradients[k, c], term k's derivative along planned joint c: its velocity gradient times the
+    link's Jacobian column (world axis a, lever a x (p - joint origin); a sliding joint moves it
+    along a). columns[c]: the joint and 1 if it slides; axes[c]: its axis in its own frame;
+    carries[k, c]: 1 if joint c moves term k's link."""
+    for k in range(ints.shape[0]):
+        j = ints[k, JOINT]
+        rotation, p = _link_pose(joint_rotation[j], joint_origin[j], floats[k])
+        margin, linear, angular = _term(ints[k, KIND], ints[k, AXIS], floats[k], rotation, p, True)
+        margins[k] = margin
+        for c in range(columns.shape[0]):
+            if carries[k, c] == 0:
+                gradients[k, c] = 0.0
+                continue
+            r, o = joint_rotation[columns[c, 0]], joint_origin[columns[c, 0]]
+            a = times(_rows3(r.reshape(9), 0), _vec3(axes[c], 0))
+            if columns[c, 1] == 1:
+                gradients[k, c] = linear[0] * a[0] + linear[1] * a[1] + linear[2] * a[2]
+                continue
+            lever = cross(a, (p[0] - o[0], p[1] - o[1], p[2] - o[2]))
+            gradients[k, c] = (
+                linear[0] * lever[0]
+                + linear[1] * lever[1]
+                + linear[2] * lever[2]
+                + angular[0] * a[0]
+                + angular[1] * a[1]
+                + angular[2] * a[2]
+            )
 
 
 # What compiled.py compiles, callees before their callers: scalar code only (no numpy calls, no pinocchio).
@@ -230,5 +327,13 @@ COMPILED = (
     "shape_distance",
     "widening",
     "axis_angle",
+    "volume_term",
+    "beyond_tolerance",
+    "_rows3",
+    "_vec3",
+    "_row_times",
+    "_link_pose",
+    "_term",
     "term_margins",
+    "term_gradients",
 )
