@@ -164,16 +164,21 @@ def test_many_states_at_once_are_the_independent_margins(setup, evaluators, eith
         assert np.abs(evaluator.margins_many(qs) - [evaluator.margins(q) for q in qs]).max() < 1e-12
 
 
-def test_the_compiled_route_is_the_python_route_to_rounding(evaluators, setup):
-    """Margins and gradient rows of the covered kinds, compiled against Python, at every state."""
-    evaluator, xs, before = evaluators[1][0], setup[2], kernel_switch.kernels_on()
+def _both_routes(evaluator: ConstraintEvaluator, xs: np.ndarray) -> tuple[list, list]:
+    """`gradients` (margins and rows) at every row of xs with the kernels on, then off."""
+    before = kernel_switch.kernels_on()
     try:
         kernel_switch.use_kernels(True)
         compiled = [evaluator.gradients(x) for x in xs]
         kernel_switch.use_kernels(False)
-        python = [evaluator.gradients(x) for x in xs]
+        return compiled, [evaluator.gradients(x) for x in xs]
     finally:
         kernel_switch.use_kernels(before)
+
+
+def test_the_compiled_route_is_the_python_route_to_rounding(evaluators, setup):
+    """Margins and gradient rows of the covered kinds, compiled against Python, at every state."""
+    compiled, python = _both_routes(evaluators[1][0], setup[2])
     assert max(np.abs(a[0] - b[0]).max() for a, b in zip(compiled, python)) < 1e-12
     assert max(np.abs(a[1] - b[1]).max() for a, b in zip(compiled, python)) < 1e-9
 
@@ -182,10 +187,8 @@ def test_the_compiled_gradients_of_a_sliding_joint_and_of_a_joint_off_the_chain(
     """The branches MADAR's arm does not take, compiled against Python: TIAGo's torso lift slides
     (its column moves the tool along the joint's axis), and with both of MADAR's arms planned
     under constraints on the right tool the left arm's joints do not move it (zero columns)."""
-    urdf = (
-        Path(example_robot_data.getModelPath("tiago_description/robots/tiago.urdf"))
-        / "tiago_description/robots/tiago.urdf"
-    )
+    robots = Path(example_robot_data.getModelPath("tiago_description/robots/tiago.urdf"))
+    urdf = robots / "tiago_description" / "robots" / "tiago.urdf"
     out = tmp_path / "tiago.yaml"
     assert CliRunner().invoke(app, ["robot", "init", "--urdf", str(urdf), "-o", str(out)]).exit_code == 0
     tiago = load_robot(load_robot_file(out).name)
@@ -208,14 +211,7 @@ def test_the_compiled_gradients_of_a_sliding_joint_and_of_a_joint_off_the_chain(
         low, high = robot.limits(group)
         xs = np.random.default_rng(5).uniform(low, high, (40, len(low)))
         assert CompiledTerms.of(evaluator) is not None
-        before = kernel_switch.kernels_on()
-        try:
-            kernel_switch.use_kernels(True)
-            compiled = [evaluator.gradients(x) for x in xs]
-            kernel_switch.use_kernels(False)
-            python = [evaluator.gradients(x) for x in xs]
-        finally:
-            kernel_switch.use_kernels(before)
+        compiled, python = _both_routes(evaluator, xs)
         for (m, rows), (want_m, want_rows) in zip(compiled, python):
             assert np.abs(m - want_m).max() < 1e-12 and np.abs(rows - want_rows).max() < 1e-9
         carrier = robot.model.supports[robot.model.frames[robot.frame_id(tool)].parentJoint]
