@@ -156,3 +156,16 @@ def test_an_arm_is_solved_to_the_same_joint_values_as_before(human, monkeypatch,
     human.pose(spec)
     solved = [human.q[human._iq(f"{side}_{joint}")] for side in spec.reach for joint in REACH_JOINTS]
     assert np.allclose(solved, arms, rtol=0.0, atol=1e-14)
+
+
+def test_a_spec_that_cannot_be_posed_leaves_the_person_as_they_were(human):
+    """Solving a reach out of range moves the body model through many postures: refused, the
+    person's frames and capsules are where they stood before it was asked (a checker keeps a
+    person posed as before without posing them again)."""
+    human.pose(HumanSpec(position=(1.5, 0.3), yaw=np.pi, reach={"right": (1.1, 0.4, 1.1)}))
+    frames = {name: human.frame(name).homogeneous for name in Human.FRAMES}
+    capsules = [p.homogeneous for p in human.capsule_placements()]
+    with pytest.raises(HriplanError, match="cannot reach"):
+        human.pose(HumanSpec(position=(0.2, 0.3), yaw=1.0, reach={"left": (-2.0, 0.0, 1.0)}))
+    assert all(np.array_equal(human.frame(name).homogeneous, frames[name]) for name in Human.FRAMES)
+    assert all(np.array_equal(p.homogeneous, c) for p, c in zip(human.capsule_placements(), capsules))

@@ -167,7 +167,8 @@ class CollisionChecker:
         # before it), one is the checker's own already and needs no copy (~0.1 ms each).
         self._copies: Recent[int, Scene] = Recent(_REMEMBERED_BUILDS)
         # Per person: where their capsules are as posed now (made once a posing; every build and
-        # every remembered build placed anew asks: ~40 us each, a dozen a re-plan).
+        # every remembered build placed anew asks: ~40 us each, a dozen a re-plan). Forgotten
+        # when the person is posed anew or is another Human (`_posed`, `pose_human`).
         self._placements: dict[str, list[pin.SE3]] = {}
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
@@ -227,7 +228,6 @@ class CollisionChecker:
             self.robot.tool_frame(obj.arm)
         # The caller may change theirs in place later (not one of the checker's own).
         copy = scene if self._copies.get(id(scene)) is scene else scene.model_copy(deep=True)
-        self._placements = {}  # posing anew, whether or not it succeeds
         try:
             humans = {spec.name: self._posed(spec) for spec in copy.humans}
         except HriplanError:  # a reach out of range: the people stay where the scene has them
@@ -240,13 +240,19 @@ class CollisionChecker:
         self._stale = self._people_stale = True
 
     def _posed(self, spec: HumanSpec) -> Human:
-        """The checker's Human of this person and body, posed as `spec` (made once: ~2 ms)."""
+        """The checker's Human of this person and body, posed as `spec` (made once: ~2 ms). The
+        Human in the scene already, posed as `spec`, is left as it is, with its capsules'
+        placements (a re-plan sets a dozen scenes on its checkers, most with the same people);
+        any other forgets them."""
         human = self._people.get((spec.name, spec.height))
         if human is None:
             human = Human(spec)
             self._people.put((spec.name, spec.height), human)
-        else:
+        elif human.spec != spec:
             human.pose(spec)
+        elif self.humans.get(spec.name) is human:
+            return human
+        self._placements.pop(spec.name, None)
         return human
 
     def _placed(self, name: str) -> list[pin.SE3]:
@@ -544,9 +550,11 @@ class CollisionChecker:
         return {p for p in fixed if self._fixed_part_touches(p, i)} != before
 
     def pose_human(self, spec: HumanSpec) -> None:
-        """Re-pose a person already in the scene: only capsule placements change (and the scene)."""
+        """Re-pose a person already in the scene: only capsule placements change (and the scene).
+        The checker keeps a copy of `spec`, as of a scene: its caller may change theirs later."""
         if spec.name not in self.humans:
             raise HriplanError(f"the scene has no person {spec.name!r}")
+        spec = spec.model_copy(deep=True)
         self._placements.pop(spec.name, None)
         self.humans[spec.name].pose(spec)
         self.scene = self.scene.model_copy(

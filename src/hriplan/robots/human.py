@@ -236,7 +236,8 @@ class Human:
     def pose(self, spec: HumanSpec) -> None:
         """Re-pose the person (posture, base pose, reaching arms) without reloading the model.
         Configurations are remembered per spec: posing solves the arms' IK (~20 ms), and every
-        stage of a re-plan poses the same people again."""
+        stage of a re-plan poses the same people again. A spec that cannot be posed (a reach out
+        of range) leaves the person as they were."""
         if spec.height != self.spec.height:
             raise HriplanError("a person's height is fixed when the Human is created")
         key = spec.model_dump_json()  # the height in it fixes the body model
@@ -245,6 +246,9 @@ class Human:
             posed, self.spec = self.spec, spec
             try:
                 q = self._solved(spec)
+            except HriplanError:  # solving moved the kinematics: back where the person stands
+                pin.forwardKinematics(self.model, self.data, self.q)
+                raise
             finally:
                 self.spec = posed
             _CONFIGURATIONS.put(key, q)
