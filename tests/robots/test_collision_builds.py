@@ -272,3 +272,21 @@ def test_a_scene_copied_for_a_checker_shares_only_what_no_one_can_change(madar):
         mine.obstacles[0].pose.xyz = (0.0, 0.0, 0.0)
     with pytest.raises(ValidationError, match="frozen"):
         mine.obstacles[0].shape.size = (1.0, 1.0, 1.0)
+
+
+def test_person_distances_are_person_pairs_without_their_points(madar, rng):
+    """Two checkers of one scene asked about the same states in the same order (coal's distances
+    depend on the queries before): `person_distances` gives `person_pairs`'s parts, joints,
+    capsules and distances, to the bit, at every state; only the latter reads the points."""
+    scene = Scene(obstacles=[TABLE], attached=[CAN], humans=[BOB])
+    lean, full = CollisionChecker(madar, scene), CollisionChecker(madar, scene)
+    q0 = madar.configuration(CLEAR)
+    for q in [q0, *(q0 + rng.normal(0.0, 0.5, q0.size) for _ in range(8))]:
+        mine, theirs = lean.person_distances(q, "bob"), full.person_pairs(q, "bob")
+        assert mine.parts == theirs.parts and mine.capsules == theirs.capsules
+        assert np.array_equal(mine.joints, theirs.joints) and np.array_equal(mine.distance, theirs.distance)
+        assert len(mine.distance) == len(theirs.robot_point) == (len(robot_parts(madar)) + 1) * 16
+        assert not hasattr(mine, "robot_point")
+    assert np.ptp(mine.distance) > 0.1
+    with pytest.raises(HriplanError, match="no person 'eve'"):
+        lean.person_distances(q0, "eve")
