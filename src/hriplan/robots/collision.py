@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
 
@@ -31,7 +31,7 @@ from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
 from hriplan.robots.part_spheres import PartSpheres
 from hriplan.robots.robot_geometry import NO_COLLISION_SHAPES, ask_contacts, part_collision_shapes, robot_parts
-from hriplan.robots.scene import Mesh, Scene, Shape
+from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
 if TYPE_CHECKING:
@@ -111,7 +111,6 @@ _BUILT = (
     "_tabled_pairs",
     "_tabled",
     "_fixed_contacts",
-    "_obstacle_shapes",
     "_index",
     "_names",
     "_joints",
@@ -141,10 +140,6 @@ class _RobotGeometry:
     # every mesh of the robot, ~0.2 ms for a MADAR arm's base: a re-plan asked ~90 times).
     fixed_shapes: dict[int, list[tuple[coal.CollisionGeometry, coal.Transform3s]]]
     internal_pairs: list[tuple[int, int]] | None = None  # made by the first checker's first build
-    # Whether such a part touches an obstacle shape placed so, by (part, shape, placement's bytes):
-    # every build and every remembered build placed anew asks again about the obstacles that
-    # moved (a re-plan's released object and keep-out: ~60 questions, ~27 of them repeats).
-    fixed_touches: Recent[tuple[int, Shape, bytes], bool] = field(default_factory=lambda: Recent(256))
 
 
 _BY_ROBOT: dict[tuple[object, float], _RobotGeometry] = {}  # by robot spec and padding, as robot_parts
@@ -337,10 +332,8 @@ class CollisionChecker:
             self._kind.append(f"attached:{obj.arm}")
         self._touched_by = {o.name: o.touched_by for o in scene.obstacles if o.touched_by is not None}
         self._resting = {(a.name, support) for a in scene.attached for support in a.resting_on}
-        self._obstacle_shapes: dict[int, Shape] = {}
         for obstacle in scene.obstacles:
-            geometry = pin.GeometryObject(obstacle.name, 0, obstacle.pose.se3(), obstacle.shape.geometry())
-            self._obstacle_shapes[gm.addGeometryObject(geometry)] = obstacle.shape
+            gm.addGeometryObject(pin.GeometryObject(obstacle.name, 0, obstacle.pose.se3(), obstacle.shape.geometry()))
             self._kind.append("obstacle")
         self._human_slots: dict[str, list[int]] = {}
         for spec in scene.humans:
@@ -524,23 +517,14 @@ class CollisionChecker:
         self._certifier: FreeCertifier | bool | None = None  # made when first asked, with the kernels on
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
-        """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?
-        Answered once per part, shape and placement (`_RobotGeometry.fixed_touches`): the part's
-        shapes are the robot's, coal is asked afresh (no state carried from one question to
-        the next), and a shape model fixes its geometry; but for a mesh, whose file may change."""
-        other, shape = self._geom_model.geometryObjects[obstacle], self._obstacle_shapes[obstacle]
-        key = (part, shape, other.placement.homogeneous.tobytes())
-        touches = None if isinstance(shape, Mesh) else self._robot.fixed_touches.get(key)
-        if touches is None:
-            where = coal.Transform3s(other.placement.rotation, other.placement.translation)
-            touches = any(
-                coal.collide(mine, placement, other.geometry, where, coal.CollisionRequest(), coal.CollisionResult())
-                for mine, placement in self._robot.fixed_shapes[part]
-            )
-            self._robot.fixed_touches.put(key, touches)
-        if touches:
-            self._fixed_contacts.add((part, obstacle))
-        return touches
+        """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
+        other = self._geom_model.geometryObjects[obstacle]
+        where = coal.Transform3s(other.placement.rotation, other.placement.translation)
+        for shape, placement in self._robot.fixed_shapes[part]:
+            if coal.collide(shape, placement, other.geometry, where, coal.CollisionRequest(), coal.CollisionResult()):
+                self._fixed_contacts.add((part, obstacle))
+                return True
+        return False
 
     # -- updates (no rebuild of the robot) -------------------------------------------------------------
     def move_obstacle(self, name: str, pose: Pose) -> None:
