@@ -272,6 +272,8 @@ def test_a_scene_copied_for_a_checker_shares_only_what_no_one_can_change(madar):
         mine.obstacles[0].pose.xyz = (0.0, 0.0, 0.0)
     with pytest.raises(ValidationError, match="frozen"):
         mine.obstacles[0].shape.size = (1.0, 1.0, 1.0)
+    moved = mine.obstacles[0].pose.model_copy(update={"xyz": (9.0, 9.0, 9.0)}, deep=True)  # a copy, not the shared
+    assert moved.xyz == (9.0, 9.0, 9.0) and TABLE.pose.xyz != moved.xyz and checker.scene == scene
 
 
 def test_person_distances_are_person_pairs_without_their_points(madar, rng):
