@@ -382,3 +382,26 @@ def test_a_build_remembered_where_an_obstacle_stood_places_it_where_it_is_now(rn
     checker.set_scene(other)
     checker.set_scene(Scene(obstacles=[table_at(-0.39), ball_at(0.6)]))  # table back under
     assert not checker.in_collision(up) and checker.contacts(up) == []
+
+
+def test_the_fixed_base_is_asked_again_about_another_shape_where_an_obstacle_stood():
+    """Whether the fixed base touches an obstacle is remembered per shape and placement: another
+    shape where the first stood (a taller table, a larger ball) is asked anew, the first again
+    answers as before. A table top 1 cm under the UR5's base does not touch it, 1 cm into it does."""
+    ur5 = load_robot("ur5")
+    up = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
+    low, tall = Box(size=(0.5, 0.7, 0.76)), Box(size=(0.5, 0.7, 0.80))
+    checker = CollisionChecker(ur5)
+    for shape, touches in (
+        (low, False),
+        (tall, True),
+        (low, False),
+        (Sphere(radius=0.38), False),
+        (Sphere(radius=0.42), True),
+        (tall, True),
+    ):
+        for where in ((0.0, 0.0, -0.39), (0.0, 0.0, -0.39), (0.3, 2.0, -0.39)):
+            checker.set_scene(Scene(obstacles=[Obstacle(name="table", shape=shape, pose=Pose(xyz=where))]))
+            into_base = ("base_link", "table") in [(c.a, c.b) for c in checker.contacts(up)]
+            assert into_base == (touches and where[1] == 0.0), (shape, where)
+            assert checker.in_collision(up) == into_base

@@ -5,6 +5,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
+from pydantic import ValidationError
 
 from hriplan import HriplanError
 from hriplan.robots.collision import CollisionChecker, SeparationZones
@@ -173,3 +174,121 @@ def test_a_scene_the_checker_cannot_build_is_refused_when_set(madar):
     assert not checker.in_collision(q) and list(checker.humans) == ["bob"]
     assert np.allclose(checker.person_pairs(q, "bob").distance, fresh.person_pairs(q, "bob").distance, atol=1e-5)
     assert checker.humans["bob"].frame("right_hand") == fresh.humans["bob"].frame("right_hand")
+
+
+def _capsules_where(checker: CollisionChecker) -> dict[str, np.ndarray]:
+    """Where bob's capsules (and zones) stand in the checker's collision, distance and person models, by name."""
+    q = np.zeros(checker.robot.model.nq)
+    checker.in_collision(q)
+    checker.person_pairs(q, "bob")
+    placed = {
+        f"{model} {g.name}": g.placement.homogeneous
+        for model, objects in (
+            ("collision", checker.geom_model.geometryObjects),
+            ("distance", checker._distance_model.geometryObjects),
+        )
+        for g in objects
+        if g.name.startswith("bob/")
+    }
+    person = list(checker.person_model("bob").geometryObjects)[-16:]
+    return placed | {f"person {g.name}": g.placement.homogeneous for g in person}
+
+
+def _placed_alike(checker: CollisionChecker, other: CollisionChecker) -> bool:
+    """Do the two checkers place bob's capsules and zones the same, to the bit, in every model?"""
+    mine, theirs = _capsules_where(checker), _capsules_where(other)
+    return mine.keys() == theirs.keys() and all(np.array_equal(mine[k], theirs[k]) for k in mine)
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"position": (0.3, 1.2)},
+        {"yaw": -np.pi / 2 + 0.4},
+        {"reach": {"right": (0.1, 1.0, 1.1)}},
+        {"reach": {"right": (0.1, 1.0, 1.1)}, "position": (0.05, 1.45)},
+        {"posture": "seated"},
+    ],
+)
+def test_a_person_posed_anew_is_placed_anew_and_one_posed_as_before_keeps_their_placements(madar, change):
+    """A person who moved, turned or reaches elsewhere has every capsule and zone where a checker
+    made for that scene puts them, in every model; the same person again is not posed again and
+    keeps the placements made for them."""
+    zones = SeparationZones(distances={"bob": {"middle_thorax": 0.2}}, moving_joints=madar.moved_joints("right_arm"))
+    checker = CollisionChecker(madar)
+    checker.set_world(Scene(obstacles=[TABLE], humans=[BOB]), zones)
+    before = _capsules_where(checker)
+    kept = checker._placed("bob")
+    checker.set_world(Scene(obstacles=[TABLE, KEEP_OUT], humans=[BOB]), zones)  # a new build, the same person
+    assert checker._placed("bob") is kept
+    assert all(np.array_equal(placement, before[name]) for name, placement in _capsules_where(checker).items())
+    moved = Scene(obstacles=[TABLE], humans=[BOB.model_copy(update=change)])
+    checker.set_world(moved, zones)
+    fresh = CollisionChecker(madar)
+    fresh.set_world(moved, zones)
+    expected = _capsules_where(fresh)
+    assert _placed_alike(checker, fresh) and len(expected) == 3 * 16 + 1  # and the thorax's zone
+    assert any(not np.array_equal(before[name], expected[name]) for name in expected)
+
+
+def test_what_a_caller_changes_in_place_after_giving_it_reaches_no_checker(madar):
+    """A checker holds its own scene and people: a scene or a person's spec changed in place by
+    whoever gave it (a person moved, their reach changed, an obstacle added) changes nothing it
+    answers, until given again: then it answers as a checker given that scene at once."""
+    q = madar.configuration(CLEAR)
+    scene = Scene(obstacles=[TABLE], humans=[BOB.model_copy(deep=True)])
+    checker = CollisionChecker(madar, scene)
+    spec = BOB.model_copy(update={"position": (0.1, 1.4)}, deep=True)
+    checker.pose_human(spec)
+    answers = _capsules_where(checker)
+    assert _placed_alike(checker, CollisionChecker(madar, checker.scene.model_copy(deep=True)))
+    spec.position = (0.9, 0.3)  # in place, after it was given
+    spec.reach["right"] = (0.6, 0.4, 1.0)
+    scene.humans[0].position = (0.9, 0.3)
+    scene.obstacles.append(Obstacle(name="slab", shape=Sphere(radius=0.2), pose=Pose(xyz=(0.5, -0.4, 0.9))))
+    for name, placement in _capsules_where(checker).items():
+        assert np.array_equal(placement, answers[name]), name
+    assert [o.name for o in checker.scene.obstacles] == ["table"] and checker.scene.humans[0].position == (0.1, 1.4)
+    for given in (Scene(obstacles=scene.obstacles, humans=[spec]), scene):
+        checker.set_scene(given)
+        fresh = CollisionChecker(madar, given.model_copy(deep=True))
+        assert _placed_alike(checker, fresh)
+        assert checker.in_collision(q) == fresh.in_collision(q)
+        assert {(c.a, c.b) for c in checker.contacts(q)} == {(c.a, c.b) for c in fresh.contacts(q)}
+
+
+def test_a_scene_copied_for_a_checker_shares_only_what_no_one_can_change(madar):
+    """A checker's copy of a scene shares its poses and shapes (frozen, of numbers and tuples:
+    assigning to one is refused) and nothing else: lists, obstacles and people are its own."""
+    scene = Scene(obstacles=[TABLE], attached=[CAN], humans=[BOB])
+    checker = CollisionChecker(madar, scene)
+    mine = checker.scene
+    assert mine == scene and mine is not scene
+    assert mine.obstacles[0].pose is TABLE.pose and mine.obstacles[0].shape is TABLE.shape
+    assert mine.attached[0].grasp is CAN.grasp
+    assert mine.obstacles is not scene.obstacles and mine.obstacles[0] is not TABLE
+    assert mine.humans[0] is not BOB and mine.attached[0] is not CAN
+    with pytest.raises(ValidationError, match="frozen"):
+        mine.obstacles[0].pose.xyz = (0.0, 0.0, 0.0)
+    with pytest.raises(ValidationError, match="frozen"):
+        mine.obstacles[0].shape.size = (1.0, 1.0, 1.0)
+    moved = mine.obstacles[0].pose.model_copy(update={"xyz": (9.0, 9.0, 9.0)}, deep=True)  # a copy, not the shared
+    assert moved.xyz == (9.0, 9.0, 9.0) and TABLE.pose.xyz != moved.xyz and checker.scene == scene
+
+
+def test_person_distances_are_person_pairs_without_their_points(madar, rng):
+    """Two checkers of one scene asked about the same states in the same order (coal's distances
+    depend on the queries before): `person_distances` gives `person_pairs`'s parts, joints,
+    capsules and distances, to the bit, at every state; only the latter reads the points."""
+    scene = Scene(obstacles=[TABLE], attached=[CAN], humans=[BOB])
+    lean, full = CollisionChecker(madar, scene), CollisionChecker(madar, scene)
+    q0 = madar.configuration(CLEAR)
+    for q in [q0, *(q0 + rng.normal(0.0, 0.5, q0.size) for _ in range(8))]:
+        mine, theirs = lean.person_distances(q, "bob"), full.person_pairs(q, "bob")
+        assert mine.parts == theirs.parts and mine.capsules == theirs.capsules
+        assert np.array_equal(mine.joints, theirs.joints) and np.array_equal(mine.distance, theirs.distance)
+        assert len(mine.distance) == len(theirs.robot_point) == (len(robot_parts(madar)) + 1) * 16
+        assert not hasattr(mine, "robot_point")
+    assert np.ptp(mine.distance) > 0.1
+    with pytest.raises(HriplanError, match="no person 'eve'"):
+        lean.person_distances(q0, "eve")

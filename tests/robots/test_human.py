@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 from hriplan import HriplanError
-from hriplan.robots.human import Human, HumanSpec, person_frame
+from hriplan.recent import Recent
+from hriplan.robots import human as human_module
+from hriplan.robots.human import REACH_JOINTS, Human, HumanSpec, person_frame
 
 
 @pytest.fixture(scope="module")
@@ -116,3 +118,54 @@ def test_person_frame_is_a_fresh_humans_frame_whatever_was_asked_before():
                     person_frame(spec, name)
                 continue
             assert np.allclose(person_frame(spec, name).homogeneous, expected, atol=1e-12), (spec, name)
+
+
+# Arm joints (REACH_JOINTS, per reaching side) as the posing code of 42ad56b solved them: the
+# loop's arithmetic must stay the same (re-plans compare their trajectories bit for bit).
+SOLVED_ARMS = [
+    (
+        {"position": (1.5, 0.3), "yaw": np.pi, "reach": {"right": (1.1, 0.4, 1.1)}},
+        [0.14508875724778825, -0.1991569697708643, 0.11967117131005393, 1.3403990586407641, 0.003922034741184318],
+    ),
+    (
+        {
+            "position": (0.0, 1.45),
+            "yaw": -1.5708,
+            "posture": "seated",
+            "reach": {
+                "left": {"forward": 0.35, "left": 0.2, "up": 0.9},
+                "right": {"forward": 0.5, "left": -0.1, "up": 1.3},
+            },
+        },
+        [-0.6075942762116736, 2.4798363744018452, -0.3387931739581277, 1.991074997731668, -0.025246422936960455]
+        + [1.956459492991581, -0.1627964062236491, 0.08509685397660469, 0.40229188127287313, 0.004466865756630979],
+    ),
+    (
+        {"position": (0.2, -0.3), "yaw": 0.7, "reach": {"right": {"forward": -0.3, "left": -0.3, "up": 1.9}}},
+        [-2.702601791242841, -0.13830981744772922, -1.2451402702964587, 0.5064336283166347, -0.0634456279514944],
+    ),
+]
+
+
+@pytest.mark.parametrize(("spec", "arms"), SOLVED_ARMS)
+def test_an_arm_is_solved_to_the_same_joint_values_as_before(human, monkeypatch, spec, arms):
+    """Solved afresh (no configuration remembered), the reaching arms' joints are the ones the
+    earlier posing code found, to the last bits."""
+    monkeypatch.setattr(human_module, "_CONFIGURATIONS", Recent(4))
+    spec = HumanSpec.model_validate(spec)
+    human.pose(spec)
+    solved = [human.q[human._iq(f"{side}_{joint}")] for side in spec.reach for joint in REACH_JOINTS]
+    assert np.allclose(solved, arms, rtol=0.0, atol=1e-14)
+
+
+def test_a_spec_that_cannot_be_posed_leaves_the_person_as_they_were(human):
+    """Solving a reach out of range moves the body model through many postures: refused, the
+    person's frames and capsules are where they stood before it was asked (a checker keeps a
+    person posed as before without posing them again)."""
+    human.pose(HumanSpec(position=(1.5, 0.3), yaw=np.pi, reach={"right": (1.1, 0.4, 1.1)}))
+    frames = {name: human.frame(name).homogeneous for name in Human.FRAMES}
+    capsules = [p.homogeneous for p in human.capsule_placements()]
+    with pytest.raises(HriplanError, match="cannot reach"):
+        human.pose(HumanSpec(position=(0.2, 0.3), yaw=1.0, reach={"left": (-2.0, 0.0, 1.0)}))
+    assert all(np.array_equal(human.frame(name).homogeneous, frames[name]) for name in Human.FRAMES)
+    assert all(np.array_equal(p.homogeneous, c) for p, c in zip(human.capsule_placements(), capsules))

@@ -55,7 +55,7 @@ def straight_tool_path(
     waypoints, why = tool_line(robot, checker, arm, q_start, move, what, {})
     if waypoints is None:
         return None, why
-    why = off_line(robot, arm, q_start, move, densify(waypoints, STEP), what)
+    why = off_line(robot, arm, move, dense_states(robot, arm, q_start, waypoints), what)
     return (None, why) if why else (waypoints, "")
 
 
@@ -104,15 +104,25 @@ def tool_line(
     return waypoints, ""
 
 
-def off_line(robot: Robot, arm: str, q_start: np.ndarray, move: np.ndarray, dense: np.ndarray, what: str) -> str:
-    """Why the arm's `dense` states (from `q_start`'s) do not move the tool straight along `move`
-    (it must advance at every state and stay within SIDEWAYS of the line), or ""."""
-    group, frame = robot.arm_group(arm), robot.tool_frame(arm)
-    tool = robot.frame_pose(frame, q_start)[:3, 3]
+def dense_states(robot: Robot, arm: str, q_start: np.ndarray, waypoints: list[np.ndarray]) -> np.ndarray:
+    """The configurations (N, nq) of the joint lines between the arm's `waypoints` (STEP apart),
+    the other joints where `q_start` has them: the first is `q_start`'s."""
+    dense = densify(waypoints, STEP)
+    states = np.repeat(q_start[None], len(dense), axis=0)
+    states[:, robot.group_indices(robot.arm_group(arm))] = dense
+    return states
+
+
+def off_line(robot: Robot, arm: str, move: np.ndarray, states: np.ndarray, what: str) -> str:
+    """Why the `states` of a straight tool motion (`dense_states`) do not move the tool straight
+    along `move` from the first (it must advance at every state and stay within SIDEWAYS of the
+    line), or ""."""
+    frame = robot.tool_frame(arm)
+    tool = robot.frame_pose(frame, states[0])[:3, 3]
     direction = move / np.linalg.norm(move)
     along, drift = [], 0.0
-    for x in dense:
-        at = robot.frame_pose(frame, robot.configuration(x, group, base=q_start))[:3, 3] - tool
+    for q in states:
+        at = robot.frame_pose(frame, q)[:3, 3] - tool
         along.append(float(at @ direction))
         drift = max(drift, float(np.linalg.norm(at - along[-1] * direction)))
     if np.diff(along).min(initial=0.0) < ADVANCE or drift > SIDEWAYS:
@@ -225,13 +235,11 @@ def _retreat_along(
         if next_start.in_collision(end):
             told = (f"{what} the next step would start in collision: ", next_start, end)
             continue
-        dense = densify(waypoints, STEP)
-        why = off_line(opened, arm, q_release, move, dense, what)
+        states = dense_states(opened, arm, q_release, waypoints)
+        why = off_line(opened, arm, move, states, what)
         if why:
             told = told or (why, None, end)
             continue
-        states = np.repeat(q_release[None], len(dense), axis=0)
-        states[:, opened.group_indices(group)] = dense
         hit = checker.first_collision(states)  # the first colliding state, the tables asked all at once
         if hit is not None:
             told = (f"{what} it collides: ", checker, states[hit])

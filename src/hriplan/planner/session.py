@@ -159,7 +159,7 @@ class PlanningSession:
         deepest pair), and how many pairs do."""
         q = self.robot.configuration(start)
         for person in self.checker.humans:
-            pairs = self.checker.person_pairs(q, person)
+            pairs = self.checker.person_distances(q, person)
             overlapping = np.flatnonzero(pairs.distance <= 0.0)
             if overlapping.size:
                 k = overlapping[np.argmin(pairs.distance[overlapping])]

@@ -80,14 +80,19 @@ class SeparationZones:
 
 
 @dataclass(frozen=True)
-class PersonPairs:
-    """Every robot part (and carried object) against every capsule of one person: row k is one
-    pair, with its closest points."""
+class PersonDistances:
+    """Every robot part (and carried object) against every capsule of one person: row k is one pair."""
 
     parts: list[str]
     joints: np.ndarray  # the robot joint that carries each part
     capsules: list[str]  # the person's body-model segment, e.g. right_hand
     distance: np.ndarray  # between the bare capsule (no safety margin) and the part, m
+
+
+@dataclass(frozen=True)
+class PersonPairs(PersonDistances):
+    """The same, with each pair's closest points."""
+
     robot_point: np.ndarray  # (k, 3) world
     person_point: np.ndarray  # (k, 3) world
 
@@ -167,7 +172,8 @@ class CollisionChecker:
         # before it), one is the checker's own already and needs no copy (~0.1 ms each).
         self._copies: Recent[int, Scene] = Recent(_REMEMBERED_BUILDS)
         # Per person: where their capsules are as posed now (made once a posing; every build and
-        # every remembered build placed anew asks: ~40 us each, a dozen a re-plan).
+        # every remembered build placed anew asks: ~40 us each, a dozen a re-plan). Forgotten
+        # when the person is posed anew or is another Human (`_posed`, `pose_human`).
         self._placements: dict[str, list[pin.SE3]] = {}
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
@@ -227,7 +233,6 @@ class CollisionChecker:
             self.robot.tool_frame(obj.arm)
         # The caller may change theirs in place later (not one of the checker's own).
         copy = scene if self._copies.get(id(scene)) is scene else scene.model_copy(deep=True)
-        self._placements = {}  # posing anew, whether or not it succeeds
         try:
             humans = {spec.name: self._posed(spec) for spec in copy.humans}
         except HriplanError:  # a reach out of range: the people stay where the scene has them
@@ -240,13 +245,19 @@ class CollisionChecker:
         self._stale = self._people_stale = True
 
     def _posed(self, spec: HumanSpec) -> Human:
-        """The checker's Human of this person and body, posed as `spec` (made once: ~2 ms)."""
+        """The checker's Human of this person and body, posed as `spec` (made once: ~2 ms). The
+        Human in the scene already, posed as `spec`, is left as it is, with its capsules'
+        placements (a re-plan sets a dozen scenes on its checkers, most with the same people);
+        any other forgets them."""
         human = self._people.get((spec.name, spec.height))
         if human is None:
             human = Human(spec)
             self._people.put((spec.name, spec.height), human)
-        else:
+        elif human.spec != spec:
             human.pose(spec)
+        elif self.humans.get(spec.name) is human:
+            return human
+        self._placements.pop(spec.name, None)
         return human
 
     def _placed(self, name: str) -> list[pin.SE3]:
@@ -544,9 +555,11 @@ class CollisionChecker:
         return {p for p in fixed if self._fixed_part_touches(p, i)} != before
 
     def pose_human(self, spec: HumanSpec) -> None:
-        """Re-pose a person already in the scene: only capsule placements change (and the scene)."""
+        """Re-pose a person already in the scene: only capsule placements change (and the scene).
+        The checker keeps a copy of `spec`, as of a scene: its caller may change theirs later."""
         if spec.name not in self.humans:
             raise HriplanError(f"the scene has no person {spec.name!r}")
+        spec = spec.model_copy(deep=True)
         self._placements.pop(spec.name, None)
         self.humans[spec.name].pose(spec)
         self.scene = self.scene.model_copy(
@@ -838,21 +851,26 @@ class CollisionChecker:
 
     def person_pairs(self, q: np.ndarray, person: str) -> PersonPairs:
         """Every robot part and carried object against every capsule of `person`, at `q`."""
+        measured = self.person_distances(q, person)
+        results = self._person_models[person][1].distanceResults
+        return PersonPairs(
+            **vars(measured),
+            robot_point=np.array([r.getNearestPoint1() for r in results]).reshape(-1, 3),
+            person_point=np.array([r.getNearestPoint2() for r in results]).reshape(-1, 3),
+        )
+
+    def person_distances(self, q: np.ndarray, person: str) -> PersonDistances:
+        """`person_pairs` without the closest points, which cost ten times coal's distances to
+        read back (~0.65 ms for MADAR's ~500 pairs): what a start check and the separation zones
+        ask. The same one coal query, so the distances are the same."""
         if self._people_stale:
             self._people_ready()
         if person not in self._person_models:
             raise HriplanError(f"the scene has no person {person!r}")
         model, data, parts, joints, capsules = self._person_models[person]
         pin.computeDistances(self.robot.model, self.robot.data, model, data, q)
-        results = data.distanceResults
-        return PersonPairs(
-            parts=parts,
-            joints=joints,
-            capsules=capsules,
-            distance=np.array([r.min_distance for r in results]),
-            robot_point=np.array([r.getNearestPoint1() for r in results]).reshape(-1, 3),
-            person_point=np.array([r.getNearestPoint2() for r in results]).reshape(-1, 3),
-        )
+        distance = np.array([r.min_distance for r in data.distanceResults])
+        return PersonDistances(parts=parts, joints=joints, capsules=capsules, distance=distance)
 
     def person_model(self, person: str) -> pin.GeometryModel:
         """The model `person_pairs` measures: robot parts and carried objects against `person`'s

@@ -14,12 +14,12 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from hriplan import HriplanError
 from hriplan.robots.human import HumanSpec
-from hriplan.robots.spatial import Pose
+from hriplan.robots.spatial import Immutable, Pose
 
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 
 
-class _Shape(BaseModel):
+class _Shape(Immutable):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 

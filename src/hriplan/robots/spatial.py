@@ -24,7 +24,19 @@ def _finite(values: tuple[float, ...], what: str) -> tuple[float, ...]:
     return values
 
 
-class Pose(BaseModel):
+class Immutable(BaseModel):
+    """A frozen model of immutable values only (numbers, strings, tuples of them): a deep copy of
+    a model holding it shares it, since no one can change it in place. A scene is deep-copied
+    whenever a checker is given it (its caller may change theirs later), a dozen times a
+    re-plan: copying its poses and shapes was half of each copy (~50 us of ~85)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    def __deepcopy__(self, memo: dict[int, object] | None = None) -> Immutable:
+        return self
+
+
+class Pose(Immutable):
     """A rigid transform: translation `xyz` (m) and orientation `quat_xyzw` or `rpy` (rad)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)

@@ -40,7 +40,7 @@ def separation_zones(
         s0 = kept_separation(policy, person)  # S_0 and the policy's padding
         at_start: dict[str, float] = {}
         if q_start is not None:
-            pairs = checker.person_pairs(q_start, name)
+            pairs = checker.person_distances(q_start, name)
             moved = np.array([int(j) in moving for j in pairs.joints], dtype=bool)
             for capsule, distance in zip(np.array(pairs.capsules)[moved], pairs.distance[moved]):
                 at_start[capsule] = min(at_start.get(capsule, np.inf), float(distance))
