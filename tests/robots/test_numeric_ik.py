@@ -1,0 +1,139 @@
+"""Numeric IK near the joint limits and when it fails: mirror-image arms (example-robot-data's
+TIAGo Pro) solve the same poses, a joint at a limit is left out of the step that would push it
+past, the restarts spread over the limits, and a failure says what is true (which limit, the
+orientation, or the distance)."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from hriplan.robots import ik, numeric_ik
+from hriplan.robots.descriptions.registry import load_robot_file
+from hriplan.robots.ik import solve_ik
+from hriplan.robots.model import load_robot
+
+DATA = Path(__file__).parents[1] / "data" / "robots"
+FORWARD_X_UP = np.column_stack([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])  # tool z ahead, x up
+
+pytestmark = pytest.mark.usefixtures("module_robot_registry")
+
+
+@pytest.fixture(scope="module")
+def tiago_pro():
+    return load_robot(load_robot_file(DATA / "tiago_pro.yaml").name)
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return load_robot(load_robot_file(DATA / "panda.yaml").name)
+
+
+def ahead(x: float, y: float, z: float) -> np.ndarray:
+    target = np.eye(4)
+    target[:3, :3], target[:3, 3] = FORWARD_X_UP, (x, y, z)
+    return target
+
+
+def assert_reaches(robot, arm, target, result):
+    assert result.success, result.message
+    values = np.array(result.q)
+    lower, upper = robot.limits(robot.arm_group(arm))
+    assert np.all(values >= lower) and np.all(values <= upper)
+    reached = robot.frame_pose(robot.tool_frame(arm), values, robot.arm_group(arm))
+    assert np.abs(reached - target).max() < 1e-5
+
+
+def test_tiago_pros_right_arm_reaches_what_its_left_arm_reaches(tiago_pro):
+    # The new-user trial's pose: 0.55 m ahead at 0.9 m, every solution with the elbow (joint 4)
+    # within 0.03 rad of its limit. The left arm solved it and the right arm did not.
+    for arm, y in (("right", -0.2), ("left", 0.2)):
+        target = ahead(0.55, y, 0.9)
+        assert_reaches(tiago_pro, arm, target, solve_ik(tiago_pro, arm, target))
+
+
+def test_mirror_image_arms_solve_the_same_poses(tiago_pro):
+    solved = {}
+    for x, y, z in itertools.product((0.45, 0.55, 0.65), (0.1, 0.2, 0.3), (0.85, 0.9, 0.95, 1.0)):
+        solved[x, y, z] = [
+            solve_ik(tiago_pro, arm, ahead(x, s * y, z)).success for arm, s in (("right", -1), ("left", 1))
+        ]
+    differ = [pose for pose, (right, left) in solved.items() if right != left]
+    assert differ == [] and sum(right for right, _ in solved.values()) >= 20
+
+
+def test_a_joint_at_a_limit_is_left_out_of_the_step_that_pushes_it_past(panda):
+    chain = numeric_ik.Chain(panda.model, panda.data, 0, np.arange(3), np.arange(3), -np.ones(3), np.ones(3))
+    jac = np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 1.0]])  # three joints, two error rows: one to spare
+    error = np.array([-0.1, 0.05])
+    free = numeric_ik._step(chain, np.zeros(3), jac, error, 0.0)
+    at_limit = numeric_ik._step(chain, np.array([-1.0, 0.0, 0.0]), jac, error, 0.0)
+    assert free[0] < 0.0  # the first joint would move down ...
+    assert at_limit[0] == 0.0  # ... but it sits at its lower limit: the others take its share
+    assert np.abs(jac @ at_limit - error).max() < 1e-4
+    pulled_in = numeric_ik._step(chain, np.array([-1.0, 0.0, 0.0]), jac, -error, 0.0)
+    assert np.allclose(pulled_in, numeric_ik._step(chain, np.zeros(3), jac, -error, 0.0))  # away from it: free
+
+
+def test_each_target_draws_its_own_restarts(tiago_pro, monkeypatch):
+    # One draw shared by every target missed a region near the limits for one arm only; drawn
+    # from the target, the same target still gives the same answer.
+    chain = ik._chain(tiago_pro, ik._Arm(tiago_pro, "right", None))
+    middle = (chain.lower + chain.upper) / 2.0
+    drawn = []
+    monkeypatch.setattr(numeric_ik, "_descend", lambda c, q, *rest: drawn.append(q[c.idx_q].copy()))
+
+    def starts(target):
+        drawn.clear()
+        list(numeric_ik.solutions(chain, tiago_pro.q_neutral, target, None, middle, 1e-6, restarts=5))
+        return np.array(drawn)
+
+    first, again, other = (
+        starts(ahead(0.55, -0.2, 0.9)),
+        starts(ahead(0.55, -0.2, 0.9)),
+        starts(ahead(0.55, -0.2, 0.95)),
+    )
+    assert first.shape == (6, 7) and np.allclose(first[0], middle)
+    assert np.array_equal(first, again) and np.abs(first[1:] - other[1:]).min() > 0.0
+    assert np.all((first >= chain.lower) & (first <= chain.upper))
+
+
+def test_an_orientation_out_of_reach_is_named_not_the_distance(panda):
+    stretched = panda.frame_pose("panda_hand_tcp", np.array([0.0, 1.5, 0.0, -0.1, 0.0, 1.6, 0.0]), "arm")
+    back = stretched.copy()
+    back[:3, :3] = pin.exp3(np.array([0.0, math.pi, 0.0])) @ stretched[:3, :3]  # pointing back at the base
+    result = solve_ik(panda, "arm", back)
+    assert not result.success
+    assert result.message == (
+        "no numeric solution from 31 starts: the position is within reach but not in this orientation: "
+        "turn the goal, or free the tool's turn about one axis"
+    )
+    free_z = solve_ik(panda, "arm", back, free_axes=["z"])
+    assert free_z.message.endswith(
+        "the position is within reach but not with the tool's z axis this way: turn the goal"
+    )
+
+
+def test_a_pose_beyond_a_joint_limit_names_the_joint_and_its_limits(panda):
+    target = panda.frame_pose("panda_hand_tcp", np.array([0.0, 2.2, 0.0, -0.1, 0.0, 1.6, 0.0]), "arm")
+    result = solve_ik(panda, "arm", target)
+    assert not result.success
+    assert result.message.startswith(
+        "no numeric solution from 31 starts: none within the joint limits of arm 'arm'; beyond them the pose "
+        "is reached with panda_joint2 at 1.7"
+    )
+    assert result.message.endswith("(limits -1.763 to 1.763)")
+
+
+def test_a_position_beyond_the_arms_length_says_how_far_it_reaches(panda):
+    target = np.eye(4)
+    target[:3, 3] = (2.0, 0.0, 0.5)
+    assert solve_ik(panda, "arm", target).message == (
+        "no numeric solution from 31 starts: the position is out of reach: 2.007 m from the shoulder of arm 'arm', "
+        "which reaches at most 1.090 m"  # the Panda's links, joint to joint to the tool, added up
+    )
