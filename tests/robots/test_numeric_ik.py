@@ -13,7 +13,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from hriplan.robots import ik, numeric_ik
+from hriplan.robots import ik, numeric_ik, numeric_ik_search
 from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.ik import solve_ik
 from hriplan.robots.model import load_robot
@@ -83,14 +83,14 @@ def test_a_joint_at_a_limit_is_left_out_of_the_step_that_pushes_it_past(panda):
 def test_each_target_draws_its_own_restarts(tiago_pro, monkeypatch):
     # One draw shared by every target missed a region near the limits for one arm only; drawn
     # from the target, the same target still gives the same answer.
-    chain = ik._chain(tiago_pro, ik._Arm(tiago_pro, "right", None))
+    chain = numeric_ik_search.chain(tiago_pro, ik._Arm(tiago_pro, "right", None))
     middle = (chain.lower + chain.upper) / 2.0
     drawn = []
     monkeypatch.setattr(numeric_ik, "_descend", lambda c, q, *rest: drawn.append(q[c.idx_q].copy()))
 
     def starts(target):
         drawn.clear()
-        list(numeric_ik.solutions(chain, tiago_pro.q_neutral, target, None, middle, 1e-6, restarts=5))
+        list(numeric_ik.attempts(chain, tiago_pro.q_neutral, target, None, middle, 1e-6, restarts=5))
         return np.array(drawn)
 
     first, again, other = (
@@ -134,6 +134,73 @@ def test_a_position_beyond_the_arms_length_says_how_far_it_reaches(panda):
     target = np.eye(4)
     target[:3, 3] = (2.0, 0.0, 0.5)
     assert solve_ik(panda, "arm", target).message == (
-        "no numeric solution from 31 starts: the position is out of reach: 2.007 m from the shoulder of arm 'arm', "
+        "no numeric solution: the position is out of reach: 2.007 m from the shoulder of arm 'arm', "
         "which reaches at most 1.090 m"  # the Panda's links, joint to joint to the tool, added up
     )
+
+
+@pytest.mark.parametrize("arm", ["right", "left"])
+def test_the_arms_reach_bounds_every_configuration(tiago_pro, panda, arm):
+    # the early failure's bound, against pinocchio's forward kinematics on random configurations
+    for robot, name in ((tiago_pro, arm), (panda, "arm")):
+        info = ik._Arm(robot, name, None)
+        group, tool = robot.arm_group(name), robot.tool_frame(name)
+        lower, upper = robot.limits(group)
+        length = numeric_ik_search.reach(robot, info, name)
+        values = np.random.default_rng(3).uniform(lower - 1.0, upper + 1.0, (500, len(lower)))
+        farthest = max(float(np.linalg.norm(robot.frame_pose(tool, v, group)[:3, 3] - info.shoulder)) for v in values)
+        assert farthest <= length and farthest > 0.7 * length  # a bound, and not a loose one
+
+
+def test_a_target_beyond_the_arms_length_is_refused_before_any_start(panda, monkeypatch):
+    info = ik._Arm(panda, "arm", None)
+    length = numeric_ik_search.reach(panda, info, "arm")
+    assert length == pytest.approx(1.0897, abs=1e-4)  # the Panda's links, joint to joint to the tool
+    monkeypatch.setattr(numeric_ik, "attempts", lambda *a, **k: pytest.fail("a start was paid for"))
+    target = np.eye(4)
+    target[:3, 3] = info.shoulder + (0.0, 0.0, length + 0.0011)  # just beyond, by more than the tolerance
+    assert solve_ik(panda, "arm", target, tolerance=1e-3).message == (
+        "no numeric solution: the position is out of reach: 1.091 m from the shoulder of arm 'arm', "
+        "which reaches at most 1.090 m"
+    )
+    monkeypatch.setattr(numeric_ik, "attempts", lambda *a, **k: iter([None]))  # a start that fails
+    target[:3, 3] = info.shoulder + (0.0, 0.0, length + 0.0009)  # a solution within the tolerance is not excluded
+    assert solve_ik(panda, "arm", target, tolerance=1e-3).message.startswith("no numeric solution from 1 start: ")
+
+
+def test_a_position_out_of_reach_fails_after_the_first_start(panda, monkeypatch):
+    # within the links' sum (1.090 m) but beyond where the Panda's offsets let it reach
+    descents = []
+    descend = numeric_ik._descend
+    monkeypatch.setattr(numeric_ik, "_descend", lambda *a: descents.append(a[4]) or descend(*a))
+    target = np.eye(4)
+    target[:3, 3] = (1.0, 0.0, 0.4)
+    result = solve_ik(panda, "arm", target)
+    assert result.message == (
+        "no numeric solution from 1 start: the position is out of reach: 1.002 m from the shoulder of arm 'arm'"
+    )
+    assert len(descents) == 1 + numeric_ik_search.DIAGNOSIS_RESTARTS + 1  # the start, the position alone's starts
+
+
+def test_among_the_first_starts_the_solution_nearest_the_reference_is_tried_first(panda, monkeypatch):
+    reference = np.zeros(7)
+    far, near, middle, late = (np.full(7, d) for d in (0.9, 0.1, 0.5, 0.05))
+    monkeypatch.setattr(numeric_ik, "attempts", lambda *a, **k: iter([far, None, near, middle, late]))
+    search = numeric_ik_search.Search(panda, ik._Arm(panda, "arm", None), "arm", np.eye(4), None, reference, 1e-6)
+    order = list(search.candidates())
+    assert [v[0] for v in order] == [0.1, 0.5, 0.9, 0.05]  # the first four starts ranked, the rest as found
+    close = np.full(7, 0.15)  # within NEAR of the reference: taken without paying for more starts
+    monkeypatch.setattr(numeric_ik, "attempts", lambda *a, **k: iter([close, near, late]))
+    search = numeric_ik_search.Search(panda, ik._Arm(panda, "arm", None), "arm", np.eye(4), None, reference, 1e-6)
+    assert next(search.candidates())[0] == 0.15 and search.starts == 1
+
+
+def test_solve_ik_returns_the_nearer_of_two_solutions(panda, monkeypatch):
+    # two real solutions of one pose: the first start's far one, a restart's near one
+    near = np.array([0.1, -0.4, 0.0, -2.0, 0.0, 1.8, 0.7])
+    target = panda.frame_pose("panda_hand_tcp", near, "arm")
+    other = next(v for v in ik.ik_solutions(panda, "arm", target) if np.linalg.norm(v - near) > 1.0)
+    monkeypatch.setattr(numeric_ik, "attempts", lambda *a, **k: iter([other.copy(), None, near.copy()]))
+    result = solve_ik(panda, "arm", target, reference=near + 0.05)
+    assert result.success and np.allclose(result.q, near, atol=1e-6)
+    assert result.message == "the first valid of 1 numeric solutions"

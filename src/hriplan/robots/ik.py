@@ -15,7 +15,7 @@ from __future__ import annotations
 import functools
 import math
 from collections import Counter
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -23,7 +23,7 @@ import ur_analytic_ik
 from pydantic import BaseModel
 
 from hriplan import HriplanError
-from hriplan.robots import numeric_ik
+from hriplan.robots import numeric_ik_search
 from hriplan.robots.collision import ZONE_NAMING
 from hriplan.robots.descriptions.description import IK_KINDS, NUMERIC_IK, UR_MODELS
 from hriplan.robots.model import Robot
@@ -236,73 +236,6 @@ def _ranked(
     return len(solutions), shifted[order], poses[order]
 
 
-def _chain(robot: Robot, arm: _Arm, widen: float = 0.0) -> numeric_ik.Chain:
-    """The arm as numeric IK sees it; `widen` moves each joint limit out by that much."""
-    lower, upper = robot.limits(arm.group)
-    return numeric_ik.Chain(
-        robot.model,
-        robot.data,
-        robot.frame_id(arm.tool),
-        robot.group_indices(arm.group),
-        robot.velocity_indices(arm.group),
-        lower - widen,
-        upper + widen,
-    )
-
-
-def _numeric(
-    robot: Robot,
-    arm: _Arm,
-    target: np.ndarray,
-    axis: int | None,
-    reference: np.ndarray | None,
-    tolerance: float,
-    widen: float = 0.0,
-    position_only: bool = False,
-) -> Iterator[np.ndarray]:
-    """Numeric solutions (group order) as they are found, the first from the reference (or the
-    middle of the limits), then from random starts drawn from the target (`numeric_ik.solutions`)."""
-    chain = _chain(robot, arm, widen)
-    lower, upper = robot.limits(arm.group)
-    seed = (lower + upper) / 2.0 if reference is None else reference
-    return numeric_ik.solutions(chain, arm.base_q, target, axis, seed, tolerance, position_only=position_only)
-
-
-def _unreached(
-    robot: Robot, arm: _Arm, name: str, target: np.ndarray, axis: int | None, reference: np.ndarray | None
-) -> str:
-    """Why no start reached the target, found by asking less of the arm: the distance if it is
-    beyond the sum of the arm's link lengths, or the position alone is out of reach with the
-    joint limits widened; else the joints a solution of the whole pose needs
-    beyond the limits; else, the position alone being within them, the orientation. So that a
-    user knows what to change, instead of a guess between "out of reach" and "singular"."""
-    distance = np.linalg.norm(target[:3, 3] - arm.shoulder)
-    joints = robot.description.arms[name].joints
-    points = [robot.frame_pose(frame, arm.base_q)[:3, 3] for frame in [*joints, arm.tool]]
-    reach = sum(float(np.linalg.norm(b - a)) for a, b in zip(points, points[1:]))  # links are rigid
-    out = f"the position is out of reach: {distance:.3f} m from the shoulder of arm {name!r}"
-    if distance > reach:
-        return f"{out}, which reaches at most {reach:.3f} m"
-    if next(_numeric(robot, arm, target, axis, reference, DEFAULT_TOLERANCE, TWO_PI, True), None) is None:
-        return out
-    beyond = next(_numeric(robot, arm, target, axis, reference, DEFAULT_TOLERANCE, widen=TWO_PI), None)
-    if beyond is not None:
-        lower, upper = robot.limits(arm.group)
-        joints = robot.group_joints(arm.group)
-        needs = ", ".join(
-            f"{joints[i]} at {beyond[i]:.3f} (limits {lower[i]:.3f} to {upper[i]:.3f})"
-            for i in np.flatnonzero((beyond < lower) | (beyond > upper))
-        )
-        if not needs:  # the wider search's start happened to lead inside the limits
-            return f"its starts missed a solution within the limits, {np.round(beyond, 3).tolist()}: give it as the reference"
-        return f"none within the joint limits of arm {name!r}; beyond them the pose is reached with {needs}"
-    if next(_numeric(robot, arm, target, axis, reference, DEFAULT_TOLERANCE, position_only=True), None) is None:
-        return f"the position is reached only beyond the joint limits of arm {name!r}, and not in this orientation"
-    if axis is None:
-        return "the position is within reach but not in this orientation: turn the goal, or free the tool's turn about one axis"
-    return f"the position is within reach but not with the tool's {'xyz'[axis]} axis this way: turn the goal"
-
-
 def ik_solutions(
     robot: Robot,
     arm: str,
@@ -322,7 +255,8 @@ def ik_solutions(
     info = _Arm(robot, arm, base_q)
     if info.kind == NUMERIC_IK:
         found: list[np.ndarray] = []
-        for values in _numeric(robot, info, target, axis, reference, DEFAULT_TOLERANCE):
+        search = numeric_ik_search.Search(robot, info, arm, target, axis, reference, DEFAULT_TOLERANCE)
+        for values in filter(lambda v: v is not None, search.attempts()):
             if all(np.abs(values - other).max() > DISTINCT for other in found):
                 found.append(values)
         nearest = _reference(info, reference)
@@ -358,8 +292,13 @@ def solve_ik(
     info = _Arm(robot, arm, base_q)
     distance = np.linalg.norm(target[:3, 3] - info.shoulder)
     if info.kind == NUMERIC_IK:
-        found = _numeric(robot, info, target, axis, reference, tolerance)
-        candidates = ((values, _reached(robot, info, values)) for values in found)
+        length = numeric_ik_search.reach(robot, info, arm)
+        if length is not None and distance > length + tolerance:
+            return IKResult(
+                success=False, message=f"no numeric solution: {numeric_ik_search.beyond_reach(distance, arm, length)}"
+            )
+        search = numeric_ik_search.Search(robot, info, arm, target, axis, reference, tolerance)
+        candidates = ((values, _reached(robot, info, values)) for values in search.candidates())
     else:
         n_analytic, solutions, poses = _ranked(
             robot, info, target, axis, _reference(info, reference), samples_per_free_axis
@@ -394,9 +333,10 @@ def solve_ik(
         if why_invalid is not None:
             reasons.update(why_invalid(q))
     if n_tried == 0:
-        starts = numeric_ik.RESTARTS + 1
-        why = _unreached(robot, info, arm, target, axis, reference)
-        return IKResult(success=False, message=f"no numeric solution from {starts} starts: {why}")
+        return IKResult(
+            success=False,
+            message=f"no numeric solution from {search.starts} start{'s' * (search.starts != 1)}: {search.failure()}",
+        )
     if n_accurate == 0:
         return IKResult(success=False, message=f"no solution reached the tolerance of {tolerance:g} (singular target?)")
     return IKResult(success=False, message=rejection_message(n_accurate, reasons))

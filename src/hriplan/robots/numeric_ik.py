@@ -23,7 +23,6 @@ MAX_ITERATIONS = 80
 RESTARTS = 30  # after the first start; most targets need none (REPORT-ik.md)
 STALL_RATIO = 0.999  # an iteration that does not shrink the error by this factor counts as a stall
 STALLS = 8
-IDENTITY = np.eye(6)
 
 
 @dataclass
@@ -96,22 +95,25 @@ def _step(chain: Chain, values: np.ndarray, jac: np.ndarray, error: np.ndarray, 
     """The damped least-squares step, solved again without each joint that it pushes past a limit
     it sits at: clamped afterwards, such a joint's share of the step would be lost (the descent
     then crawls along the limit, as TIAGo Pro's elbow did), so the free joints take it up."""
-    damping = (DAMPING + squared) * IDENTITY[: len(error), : len(error)]
-    free = np.ones(len(values), dtype=bool)
+    diagonal = slice(None, None, len(error) + 1)
+    at_lower, at_upper = values <= chain.lower, values >= chain.upper
+    moving = jac
     for _ in range(len(values)):
-        moving = jac * free
-        step = moving.T @ np.linalg.solve(moving @ moving.T + damping, error)
+        normal = moving @ moving.T
+        normal.flat[diagonal] += DAMPING + squared  # the damping, without building an identity
+        step = moving.T @ np.linalg.solve(normal, error)
         largest = np.abs(step).max()
         if largest > MAX_STEP:
             step *= MAX_STEP / largest
-        blocked = free & (((values <= chain.lower) & (step < 0.0)) | ((values >= chain.upper) & (step > 0.0)))
+        # a joint already left out has a zero column, so a step of exactly 0: never blocked again
+        blocked = (at_lower & (step < 0.0)) | (at_upper & (step > 0.0))
         if not blocked.any():
             break
-        free &= ~blocked
+        moving = moving * ~blocked
     return step
 
 
-def solutions(
+def attempts(
     chain: Chain,
     base_q: np.ndarray,
     target: np.ndarray,
@@ -120,9 +122,10 @@ def solutions(
     tolerance: float,
     restarts: int = RESTARTS,
     position_only: bool = False,
-) -> Iterator[np.ndarray]:
-    """Arm values (group order) reaching the target (or only its position), from `seed` and then
-    from random starts within the limits, as they are found: a caller stops when one suits it.
+) -> Iterator[np.ndarray | None]:
+    """For each start in turn, `seed` and then random ones within the limits, the arm values
+    (group order) it reaches the target (or only its position) with, or None: a caller counts
+    the starts it pays for, and stops when a solution suits it (or when none can come).
 
     The starts are drawn from the target's own bytes: the same target gives the same answer, and
     one draw is not shared by every target (a draw that missed a region of poses near the limits
@@ -134,5 +137,4 @@ def solutions(
         q = base_q.copy()
         q[chain.idx_q] = start
         reached = _descend(chain, q, target, axis, tolerance, 3 if position_only else 6)
-        if reached is not None:
-            yield reached[chain.idx_q].copy()
+        yield None if reached is None else reached[chain.idx_q].copy()
