@@ -75,7 +75,7 @@ class Search:
         self.robot, self.arm, self.name, self.target, self.axis = robot, arm, name, target, axis
         self.reference, self.tolerance = reference, tolerance
         self.starts = 0
-        self.position_reachable: bool | None = None  # asked only once the seed's start fails
+        self._asked: dict[tuple[float, bool], np.ndarray | None] = {}  # `_found`'s answers
 
     def attempts(
         self, widen: float = 0.0, position_only: bool = False, restarts: int = numeric_ik.RESTARTS
@@ -91,20 +91,23 @@ class Search:
 
     def _found(self, widen: float = 0.0, position_only: bool = False) -> np.ndarray | None:
         """The first solution of a search asking less of the arm (wider limits, the position
-        only), within `DIAGNOSIS_RESTARTS` restarts."""
-        return next((v for v in self.attempts(widen, position_only, DIAGNOSIS_RESTARTS) if v is not None), None)
+        only), within `DIAGNOSIS_RESTARTS` restarts; each search runs once per solve."""
+        if (widen, position_only) not in self._asked:
+            attempts = self.attempts(widen, position_only, DIAGNOSIS_RESTARTS)
+            self._asked[widen, position_only] = next((v for v in attempts if v is not None), None)
+        return self._asked[widen, position_only]
 
     def candidates(self) -> Iterator[np.ndarray]:
         """Solutions to try in turn. With a reference, those of the first `PREFERRED_STARTS`
         starts nearest it first (analytic IK picks its nearest branch; a far goal is a long path),
         unless the seed's own is within `NEAR`; then the rest as found. After the seed's start
-        fails, none if the position alone is out of reach even with the limits widened (the
-        restarts could not succeed: the failure is decided after a few cheap starts)."""
+        fails, none if the position alone is out of reach even with the limits widened: no restart
+        could succeed (the failure is decided after a few cheap starts, which its message needs
+        anyway; no reachable pose of bench_ik lost, REPORT-ik.md)."""
         attempts = self._counted(self.attempts())
         first = next(attempts)
-        if first is None:
-            if not self._position_reachable():
-                return
+        if first is None and self._found(WIDE, position_only=True) is None:
+            return
         if self.reference is None or (first is not None and np.linalg.norm(first - self.reference) <= NEAR):
             head = [first]
         else:
@@ -112,13 +115,6 @@ class Search:
             head.sort(key=lambda v: np.inf if v is None else float(np.linalg.norm(v - self.reference)))
         yield from (v for v in head if v is not None)
         yield from (v for v in attempts if v is not None)
-
-    def _position_reachable(self) -> bool:
-        """Whether the position alone is reached with the limits widened (asked once)."""
-        if self.position_reachable is None:
-            found = self._found(WIDE, position_only=True)
-            self.position_reachable = found is not None
-        return self.position_reachable
 
     def _counted(self, attempts: Iterator[np.ndarray | None]) -> Iterator[np.ndarray | None]:
         for values in attempts:
@@ -133,7 +129,7 @@ class Search:
         reach" and "singular"."""
         robot, arm, name, axis = self.robot, self.arm, self.name, self.axis
         distance = np.linalg.norm(self.target[:3, 3] - arm.shoulder)
-        if not self._position_reachable():
+        if self._found(WIDE, position_only=True) is None:
             return f"the position is out of reach: {distance:.3f} m from the shoulder of arm {name!r}"
         beyond = self._found(WIDE)
         if beyond is not None:
