@@ -195,12 +195,15 @@ def test_among_the_first_starts_the_solution_nearest_the_reference_is_tried_firs
     assert next(search.candidates())[0] == 0.15 and search.starts == 1
 
 
-def test_solve_ik_returns_the_nearer_of_two_solutions(panda, monkeypatch):
-    # two real solutions of one pose: the first start's far one, a restart's near one
-    near = np.array([0.1, -0.4, 0.0, -2.0, 0.0, 1.8, 0.7])
-    target = panda.frame_pose("panda_hand_tcp", near, "arm")
-    other = next(v for v in ik.ik_solutions(panda, "arm", target) if np.linalg.norm(v - near) > 1.0)
-    monkeypatch.setattr(numeric_ik, "attempts", lambda *a, **k: iter([other.copy(), None, near.copy()]))
-    result = solve_ik(panda, "arm", target, reference=near + 0.05)
-    assert result.success and np.allclose(result.q, near, atol=1e-6)
-    assert result.message == "the first valid of 1 numeric solutions"
+def test_solve_ik_returns_the_nearest_of_the_first_starts_solutions_not_the_seeds(panda):
+    # a planner's start far from the goal: the seed's own descent ends 5 rad away, a restart nearer
+    q = np.array([1.0, -0.7, 2.17, -1.08, -2.13, 3.17, 2.58])
+    reference = np.array([2.34, 0.25, -2.05, -2.49, 2.48, 2.06, -1.85])
+    target = panda.frame_pose("panda_hand_tcp", q, "arm")
+    search = numeric_ik_search.Search(panda, ik._Arm(panda, "arm", None), "arm", target, None, reference, 1e-6)
+    first = [v for v in itertools.islice(search.attempts(), numeric_ik_search.PREFERRED_STARTS) if v is not None]
+    distances = [float(np.linalg.norm(v - reference)) for v in first]
+    result = solve_ik(panda, "arm", target, reference=reference)
+    assert_reaches(panda, "arm", target, result)
+    assert distances[0] > 5.0 and min(distances) < 3.6  # the seed's solution, and a nearer one
+    assert np.linalg.norm(np.array(result.q) - reference) == pytest.approx(min(distances), abs=1e-5)
