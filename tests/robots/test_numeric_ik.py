@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -150,6 +151,14 @@ def test_the_arms_reach_bounds_every_configuration(tiago_pro, panda, arm):
         values = np.random.default_rng(3).uniform(lower - 1.0, upper + 1.0, (500, len(lower)))
         farthest = max(float(np.linalg.norm(robot.frame_pose(tool, v, group)[:3, 3] - info.shoulder)) for v in values)
         assert farthest <= length and farthest > 0.7 * length  # a bound, and not a loose one
+
+
+def test_no_reach_bound_for_joints_out_of_chain_order(panda, monkeypatch):
+    # the sum of the distances between joints that are not neighbours in the chain bounds nothing
+    arm = panda.description.arms["arm"]
+    shuffled = replace(arm, joints=(arm.joints[0], arm.joints[2], arm.joints[1], *arm.joints[3:]))
+    monkeypatch.setattr(panda, "description", replace(panda.description, arms={"arm": shuffled}))
+    assert numeric_ik_search.reach(panda, ik._Arm(panda, "arm", None), "arm") is None
 
 
 def test_a_target_beyond_the_arms_length_is_refused_before_any_start(panda, monkeypatch):

@@ -14,6 +14,7 @@ from itertools import islice
 from typing import TYPE_CHECKING
 
 import numpy as np
+import pinocchio as pin
 
 from hriplan.robots import numeric_ik
 from hriplan.robots.model import Robot
@@ -43,19 +44,32 @@ def chain(robot: Robot, arm: _Arm, widen: float = 0.0) -> numeric_ik.Chain:
 
 def reach(robot: Robot, arm: _Arm, name: str) -> float | None:
     """An upper bound on how far the tool gets from the shoulder (the first joint's origin): the
-    lengths joint to joint to the tool, added up; None if a joint is not revolute.
+    lengths joint to joint to the tool, added up; None if a joint is not revolute or the joints
+    are not listed from the base to the tool, each below the one before.
 
     Conservative: a revolute joint turns its child about an axis through its own origin, so the
     next joint's origin (and the tool, rigid on the last link) keeps its distance from it at every
     value; joints outside the arm stay at `base_q` during a solve. By the triangle inequality no
     configuration puts the tool farther than the sum, so a target beyond it (plus the tolerance)
     has no solution and needs no start."""
-    joints = robot.description.arms[name].joints
     model = robot.model
-    if not all(model.joints[model.getJointId(j)].shortname().startswith("JointModelR") for j in joints):
+    joints = robot.description.arms[name].joints
+    ids = [model.getJointId(j) for j in joints] + [model.frames[robot.frame_id(arm.tool)].parentJoint]
+    if not all(model.joints[i].shortname().startswith("JointModelR") for i in ids[:-1]):
+        return None
+    if not all(above in _ancestors(model, below) for above, below in zip(ids, ids[1:])):
         return None
     points = [robot.frame_pose(frame, arm.base_q)[:3, 3] for frame in [*joints, arm.tool]]
     return sum(float(np.linalg.norm(b - a)) for a, b in zip(points, points[1:]))
+
+
+def _ancestors(model: pin.Model, joint: int) -> set[int]:
+    """The joint and every joint between it and the root."""
+    found = set()
+    while joint:
+        found.add(joint)
+        joint = model.parents[joint]
+    return found
 
 
 class Search:
