@@ -15,7 +15,7 @@ from __future__ import annotations
 import functools
 import math
 from collections import Counter
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -23,7 +23,7 @@ import ur_analytic_ik
 from pydantic import BaseModel
 
 from hriplan import HriplanError
-from hriplan.robots import numeric_ik
+from hriplan.robots import numeric_ik_search
 from hriplan.robots.collision import ZONE_NAMING
 from hriplan.robots.descriptions.description import IK_KINDS, NUMERIC_IK, UR_MODELS
 from hriplan.robots.model import Robot
@@ -236,25 +236,6 @@ def _ranked(
     return len(solutions), shifted[order], poses[order]
 
 
-def _numeric(
-    robot: Robot, arm: _Arm, target: np.ndarray, axis: int | None, reference: np.ndarray | None, tolerance: float
-) -> Iterator[np.ndarray]:
-    """Numeric solutions (group order) as they are found, the first from the reference (or the
-    middle of the limits), then from random starts (seeded: the same target gives the same answer)."""
-    lower, upper = robot.limits(arm.group)
-    chain = numeric_ik.Chain(
-        robot.model,
-        robot.data,
-        robot.frame_id(arm.tool),
-        robot.group_indices(arm.group),
-        robot.velocity_indices(arm.group),
-        lower,
-        upper,
-    )
-    seed = (lower + upper) / 2.0 if reference is None else reference
-    return numeric_ik.solutions(chain, arm.base_q, target, axis, seed, tolerance, np.random.default_rng(0))
-
-
 def ik_solutions(
     robot: Robot,
     arm: str,
@@ -274,7 +255,8 @@ def ik_solutions(
     info = _Arm(robot, arm, base_q)
     if info.kind == NUMERIC_IK:
         found: list[np.ndarray] = []
-        for values in _numeric(robot, info, target, axis, reference, DEFAULT_TOLERANCE):
+        search = numeric_ik_search.Search(robot, info, arm, target, axis, reference, DEFAULT_TOLERANCE)
+        for values in filter(lambda v: v is not None, search.attempts()):
             if all(np.abs(values - other).max() > DISTINCT for other in found):
                 found.append(values)
         nearest = _reference(info, reference)
@@ -310,8 +292,13 @@ def solve_ik(
     info = _Arm(robot, arm, base_q)
     distance = np.linalg.norm(target[:3, 3] - info.shoulder)
     if info.kind == NUMERIC_IK:
-        found = _numeric(robot, info, target, axis, reference, tolerance)
-        candidates = ((values, _reached(robot, info, values)) for values in found)
+        length = numeric_ik_search.reach(robot, info, arm)
+        if length is not None and distance > length + tolerance:
+            return IKResult(
+                success=False, message=f"no numeric solution: {numeric_ik_search.beyond_reach(distance, arm, length)}"
+            )
+        search = numeric_ik_search.Search(robot, info, arm, target, axis, reference, tolerance)
+        candidates = ((values, _reached(robot, info, values)) for values in search.candidates())
     else:
         n_analytic, solutions, poses = _ranked(
             robot, info, target, axis, _reference(info, reference), samples_per_free_axis
@@ -346,11 +333,9 @@ def solve_ik(
         if why_invalid is not None:
             reasons.update(why_invalid(q))
     if n_tried == 0:
-        starts = numeric_ik.RESTARTS + 1
         return IKResult(
             success=False,
-            message=f"no numeric solution from {starts} starts: out of reach of the {arm} arm or singular "
-            f"({distance:.3f} m from the shoulder)",
+            message=f"no numeric solution from {search.starts} start{'s' * (search.starts != 1)}: {search.failure()}",
         )
     if n_accurate == 0:
         return IKResult(success=False, message=f"no solution reached the tolerance of {tolerance:g} (singular target?)")

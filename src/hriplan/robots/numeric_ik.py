@@ -1,13 +1,12 @@
-"""Numeric IK for any serial arm: damped least squares on pinocchio, with random restarts.
+"""Numeric IK for any serial arm: damped least squares on pinocchio, with restarts.
 
 A closed form exists only for a few arms (the UR family, robots/ik.py); every other arm is
 solved here. Levenberg-Marquardt steps (damping grows with the squared error, as in Sugihara's
 method: long steps far away are tamed, and near a solution it converges quadratically), no joint
-moving more than a radian per step, clamped to the joint limits; a start that stalls (a limit,
-a singularity, a far branch) is replaced by a random one within the limits. Measured on
-example-robot-data's Panda and UR10 (benchmarks/REPORT-ik.md): >= 99 % of reachable poses,
-in a median of about a millisecond.
-"""
+moving more than a radian per step, a joint at a limit the step would push it past left out of
+the step (`_step`); a start that stalls (a local minimum at the limits, a singularity, a far
+branch) is replaced by a random one within the limits, drawn from the target. Measured on
+example-robot-data's Panda, UR10, UR5, TALOS's and TIAGo Pro's arms (benchmarks/REPORT-ik.md)."""
 
 from __future__ import annotations
 
@@ -24,7 +23,6 @@ MAX_ITERATIONS = 80
 RESTARTS = 30  # after the first start; most targets need none (REPORT-ik.md)
 STALL_RATIO = 0.999  # an iteration that does not shrink the error by this factor counts as a stall
 STALLS = 8
-IDENTITY = np.eye(6)
 
 
 @dataclass
@@ -50,23 +48,35 @@ def _error(chain: Chain, q: np.ndarray, target: np.ndarray, axis: int | None) ->
     position = target[:3, 3] - pose.translation
     if axis is None:
         return np.concatenate([position, pin.log3(target[:3, :3] @ pose.rotation.T)]), jac
-    a, goal = pose.rotation[:, axis], target[:3, axis]
+    a = pose.rotation[:, axis]
+    projected = jac.copy()
+    projected[3:] -= np.outer(a, a @ jac[3:])
+    return np.concatenate([position, swing(a, target[:3, axis])]), projected
+
+
+def swing(a: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """The shortest turn (a rotation vector) taking unit direction `a` onto unit direction `goal`:
+    no spin about either, so a frame turned by it keeps its rotation about that axis."""
     cross = np.cross(a, goal)
     sine = np.linalg.norm(cross)
     angle = math.atan2(sine, float(a @ goal))
-    rotation = cross * (angle / sine) if sine > 1e-12 else np.zeros(3)
-    if sine <= 1e-12 and angle > 1.0:  # exactly opposite: turn about any perpendicular axis
-        rotation = np.cross(a, np.eye(3)[np.argmin(np.abs(a))]) * angle
-    projected = jac.copy()
-    projected[3:] -= np.outer(a, a @ jac[3:])
-    return np.concatenate([position, rotation]), projected
+    if sine > 1e-12:
+        return cross * (angle / sine)
+    if angle > 1.0:  # exactly opposite: turn about any perpendicular axis
+        perpendicular = np.cross(a, np.eye(3)[np.argmin(np.abs(a))])
+        return perpendicular / np.linalg.norm(perpendicular) * angle
+    return np.zeros(3)
 
 
-def _descend(chain: Chain, q: np.ndarray, target: np.ndarray, axis: int | None, tolerance: float) -> np.ndarray | None:
-    """Damped least squares from `q` (a full configuration, changed in place) to the target."""
+def _descend(
+    chain: Chain, q: np.ndarray, target: np.ndarray, axis: int | None, tolerance: float, rows: int
+) -> np.ndarray | None:
+    """Damped least squares from `q` (a full configuration, changed in place) to the target (its
+    first `rows` error rows: 3 asks for the position alone)."""
     best, stalls = math.inf, 0
     for _ in range(MAX_ITERATIONS):
         error, jac = _error(chain, q, target, axis)
+        error, jac = error[:rows], jac[:rows]
         squared = float(error @ error)
         if squared < tolerance**2:
             return q
@@ -74,31 +84,57 @@ def _descend(chain: Chain, q: np.ndarray, target: np.ndarray, axis: int | None, 
         if stalls >= STALLS:
             return None
         best = min(best, squared)
-        step = jac.T @ np.linalg.solve(jac @ jac.T + (DAMPING + squared) * IDENTITY, error)
-        largest = np.abs(step).max()
-        if largest > MAX_STEP:
-            step *= MAX_STEP / largest
-        q[chain.idx_q] = np.minimum(np.maximum(q[chain.idx_q] + step, chain.lower), chain.upper)
+        values = q[chain.idx_q]
+        q[chain.idx_q] = np.minimum(
+            np.maximum(values + _step(chain, values, jac, error, squared), chain.lower), chain.upper
+        )
     return None
 
 
-def solutions(
+def _step(chain: Chain, values: np.ndarray, jac: np.ndarray, error: np.ndarray, squared: float) -> np.ndarray:
+    """The damped least-squares step, solved again without each joint that it pushes past a limit
+    it sits at: clamped afterwards, such a joint's share of the step would be lost (the descent
+    then crawls along the limit, as TIAGo Pro's elbow did), so the free joints take it up."""
+    diagonal = slice(None, None, len(error) + 1)
+    at_lower, at_upper = values <= chain.lower, values >= chain.upper
+    moving = jac
+    for _ in range(len(values)):
+        normal = moving @ moving.T
+        normal.flat[diagonal] += DAMPING + squared  # the damping, without building an identity
+        step = moving.T @ np.linalg.solve(normal, error)
+        largest = np.abs(step).max()
+        if largest > MAX_STEP:
+            step *= MAX_STEP / largest
+        # a joint already left out has a zero column, so a step of exactly 0: never blocked again
+        blocked = (at_lower & (step < 0.0)) | (at_upper & (step > 0.0))
+        if not blocked.any():
+            break
+        moving = moving * ~blocked
+    return step
+
+
+def attempts(
     chain: Chain,
     base_q: np.ndarray,
     target: np.ndarray,
     axis: int | None,
     seed: np.ndarray,
     tolerance: float,
-    rng: np.random.Generator,
     restarts: int = RESTARTS,
-) -> Iterator[np.ndarray]:
-    """Arm values (group order) reaching the target, from `seed` and then from random starts within
-    the limits, as they are found: a caller stops when one suits it (a collision check)."""
-    starts = [np.clip(seed, chain.lower, chain.upper)]
-    for k in range(restarts + 1):
-        start = starts[k] if k < len(starts) else rng.uniform(chain.lower, chain.upper)
+    position_only: bool = False,
+) -> Iterator[np.ndarray | None]:
+    """For each start in turn, `seed` and then random ones within the limits, the arm values
+    (group order) it reaches the target (or only its position) with, or None: a caller counts
+    the starts it pays for, and stops when a solution suits it (or when none can come).
+
+    The starts are drawn from the target's own bytes: the same target gives the same answer, and
+    one draw is not shared by every target (a draw that missed a region of poses near the limits
+    failed all of them for one arm and none for its mirror image: TIAGo Pro, 9 of 90 mirrored
+    poses solved by the left arm only, 1 by the right)."""
+    rng = np.random.default_rng(np.frombuffer(np.ascontiguousarray(target, dtype=float).tobytes(), dtype=np.uint32))
+    spread = rng.uniform(chain.lower, chain.upper, (restarts, len(seed)))
+    for start in [np.clip(seed, chain.lower, chain.upper), *spread]:
         q = base_q.copy()
         q[chain.idx_q] = start
-        reached = _descend(chain, q, target, axis, tolerance)
-        if reached is not None:
-            yield reached[chain.idx_q].copy()
+        reached = _descend(chain, q, target, axis, tolerance, 3 if position_only else 6)
+        yield None if reached is None else reached[chain.idx_q].copy()
