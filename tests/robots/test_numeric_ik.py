@@ -14,10 +14,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from data_robots import data_robot
 from hriplan.robots import ik, numeric_ik, numeric_ik_search
-from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.ik import solve_ik
-from hriplan.robots.model import load_robot
 
 DATA = Path(__file__).parents[1] / "data" / "robots"
 FORWARD_X_UP = np.column_stack([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])  # tool z ahead, x up
@@ -27,12 +26,12 @@ pytestmark = pytest.mark.usefixtures("module_robot_registry")
 
 @pytest.fixture(scope="module")
 def tiago_pro():
-    return load_robot(load_robot_file(DATA / "tiago_pro.yaml").name)
+    return data_robot("tiago_pro")
 
 
 @pytest.fixture(scope="module")
 def panda():
-    return load_robot(load_robot_file(DATA / "panda.yaml").name)
+    return data_robot("panda")
 
 
 def ahead(x: float, y: float, z: float) -> np.ndarray:

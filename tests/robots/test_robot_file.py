@@ -14,6 +14,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from data_robots import data_robot
 from hriplan import HriplanError
 from hriplan.planner.motion import JointTarget
 from hriplan.planner.session import PlanningSession
@@ -34,12 +35,12 @@ pytestmark = pytest.mark.usefixtures("module_robot_registry")
 
 @pytest.fixture(scope="module")
 def panda():
-    return load_robot(load_robot_file(DATA / "panda.yaml").name)
+    return data_robot("panda")
 
 
 @pytest.fixture(scope="module")
 def ur10():
-    return load_robot(load_robot_file(DATA / "ur10.yaml").name)
+    return data_robot("ur10")
 
 
 def random_values(robot, rng, n):
