@@ -320,6 +320,36 @@ def test_init_names_the_srdf_chains_it_did_not_take_as_arms(tmp_path):
     assert "SRDF groups not taken as arms: arm (1 joints, to b); one is an arm as" in result.stdout
 
 
+def test_init_names_an_srdf_arm_that_shares_the_torso_joint_of_the_arm_it_took(tmp_path):
+    """Centauro's SRDF has arm groups and no end effectors: init takes the longest chain, torso
+    joint and right arm, and must still name the left arm, which turns with that torso joint (it
+    was left out: its chain shares a joint with the arm taken). The torso group, part of the arm
+    taken, and the right arm, the arm itself, are not named."""
+    box = '<collision><geometry><box size="0.05 0.05 0.05"/></geometry></collision>'
+    joints = [("jt", "base", "t", "0 0 0.5"), ("jl", "t", "l1", "0 0.2 0"), ("jl2", "l1", "l2", "0.3 0 0")]
+    joints += [("jr", "t", "r1", "0 -0.2 0"), ("jr2", "r1", "r2", "0.3 0 0")]
+    links = "".join(f'<link name="{n}">{box}</link>' for n in ("base", "t", "l1", "l2", "r1", "r2"))
+    chain = "".join(
+        f'<joint name="{j}" type="revolute"><parent link="{a}"/><child link="{b}"/><origin xyz="{xyz}"/>'
+        '<axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>'
+        for j, a, b, xyz in joints
+    )
+    (tmp_path / "centaur.urdf").write_text(f'<robot name="centaur">{links}{chain}</robot>')
+    (tmp_path / "centaur.srdf").write_text(
+        '<robot name="centaur"><group name="torso"><chain base_link="base" tip_link="t"/></group>'
+        '<group name="left_arm"><chain base_link="t" tip_link="l2"/></group>'
+        '<group name="right_arm"><chain base_link="t" tip_link="r2"/></group>'
+        '<disable_collisions link1="base" link2="t" reason="Adjacent"/></robot>'
+    )
+    out = tmp_path / "centaur.yaml"
+    result = invoke(
+        "robot", "init", "--urdf", tmp_path / "centaur.urdf", "--srdf", tmp_path / "centaur.srdf", "-o", out
+    )
+    assert result.exit_code == 0, result.output
+    assert yaml.safe_load(out.read_text())["arms"]["arm"]["tip"] == "r2"
+    assert "SRDF groups not taken as arms: left_arm (2 joints, to l2); one is an arm as" in result.stdout
+
+
 def _panda_fingers(folder: Path, finger1: tuple[str, str], finger2: tuple[str, str, str]) -> Path:
     """The Panda's URDF in `folder` with its fingers' axes and limits rewritten: (axis, limits) of
     finger 1, (axis, limits, mimic multiplier) of finger 2."""

@@ -181,14 +181,17 @@ def _arms_from_srdf(tree: UrdfTree, srdf: Srdf) -> dict[str, dict]:
 def _chains_not_taken(tree: UrdfTree, srdf: Srdf, arms: dict[str, dict]) -> list[str]:
     """A line naming the SRDF's serial groups on no arm init took (nor below one: its hand), or none.
     An SRDF's end effectors may be a humanoid's feet (TALOS's r_foot, l_foot on its legs) and its
-    arms plain groups; which chain is an arm is the user's word, so init names the candidates."""
-    taken = {j for arm in arms.values() for j in _arm_joints(tree, srdf, arm)}
+    arms plain groups; which chain is an arm is the user's word, so init names the candidates. A
+    chain sharing joints with an arm is still one (Centauro's left arm turns with the torso joint
+    of the arm init took: the right one)."""
+    taken = [set(_arm_joints(tree, srdf, arm)) for arm in arms.values()]
     found = []
     for group, joints in srdf.groups.items():
         moving = _driven([tree.joints[j] for j in tree.movable(joints)])
         tip = max((tree.joints[j].child for j in joints), key=lambda link: len(tree.ancestors(link)), default=None)
         above = {j.name for j in tree.ancestors(tip)} if tip is not None else set()
-        if moving and set(joints) <= above and not taken & above:  # a chain, neither on an arm nor a hand
+        on_arm = any(set(moving) <= arm or arm <= above for arm in taken)  # part of an arm, or its hand
+        if moving and set(joints) <= above and not on_arm:
             found.append(f"{group} ({len(moving)} joints, to {tip})")
     if not found:
         return []
