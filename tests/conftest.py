@@ -63,10 +63,25 @@ def module_robot_registry():
         yield
 
 
+@contextlib.contextmanager
+def _kernels(on: bool) -> Iterator[bool]:
+    before = kernel_switch.kernels_on()
+    kernel_switch.use_kernels(on)
+    try:
+        yield on
+    finally:
+        kernel_switch.use_kernels(before)
+
+
 @pytest.fixture(params=[False, True], ids=["python", "kernels"])
 def either_route(request) -> Iterator[bool]:
     """The test twice: the compiled kernels (numba) off, then on; the switch as it was after."""
-    before = kernel_switch.kernels_on()
-    kernel_switch.use_kernels(request.param)
-    yield request.param
-    kernel_switch.use_kernels(before)
+    with _kernels(request.param) as on:
+        yield on
+
+
+@pytest.fixture
+def python_route() -> Iterator[None]:
+    """The kernels off for a test of the Python route (HRIPLAN_KERNELS=1 may have turned them on)."""
+    with _kernels(False):
+        yield

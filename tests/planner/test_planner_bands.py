@@ -176,7 +176,7 @@ def test_projection_moves_only_states_outside_a_band(post):
     )  # to the band's edge, just inside
 
 
-def test_kinematics_are_computed_once_per_state(post, monkeypatch):
+def test_kinematics_are_computed_once_per_state(post, monkeypatch, python_route):
     problem, session = post
     _, evaluator = _band_search(session, problem)
     counts = {"fk": 0, "jac": 0}

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import types
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
@@ -29,6 +30,9 @@ from numba import njit
 from hriplan.planner.constraints import geometry as G
 from hriplan.robots.certifier_kernels import PRISMATIC, place_joints
 from hriplan.robots.kernel_fk import joint_tables
+
+if TYPE_CHECKING:
+    from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 
 
 def _compiled(names: tuple[str, ...]) -> dict[str, Callable]:
@@ -51,8 +55,8 @@ class CompiledTerms:
     tolerance's goal is read again whenever its constraint's `p_goal` is replaced (it is set
     after the evaluator is made)."""
 
-    def __init__(self, evaluator: object, tables: tuple[np.ndarray, np.ndarray]) -> None:
-        model, terms = evaluator.model, evaluator._terms
+    def __init__(self, evaluator: ConstraintEvaluator, tables: tuple[np.ndarray, np.ndarray]) -> None:
+        model, terms = evaluator.model, evaluator.terms
         self._evaluator, (self._joint_rows, self._joint_ints) = evaluator, tables
         frames = [model.frames[t.link] for t in terms]
         self._ints = np.array(
@@ -74,9 +78,9 @@ class CompiledTerms:
         self._out = np.empty((1, len(terms)))
 
     @classmethod
-    def of(cls, evaluator: object) -> CompiledTerms | None:
+    def of(cls, evaluator: ConstraintEvaluator) -> CompiledTerms | None:
         """The compiled route for `evaluator`, or None if one of its terms or joints is not covered."""
-        if not all(t.target is None or len(t.free) == 1 for t in evaluator._terms):
+        if not all(t.target is None or len(t.free) == 1 for t in evaluator.terms):
             return None
         tables = joint_tables(evaluator.model)
         return None if tables is None else cls(evaluator, tables)
@@ -122,7 +126,7 @@ class CompiledTerms:
 
     def _current(self) -> np.ndarray:
         """The terms' floats with every dynamic tolerance's goal as its constraint holds it now."""
-        terms = self._evaluator._terms
+        terms = self._evaluator.terms
         for n, k in enumerate(self._dynamic):
             goal = terms[k].bound.p_goal
             if goal is not self._goals[n]:

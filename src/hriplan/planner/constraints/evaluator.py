@@ -195,6 +195,11 @@ class ConstraintEvaluator:
         self._poses: dict[int, _Pose] = {}
         self._compiled: CompiledTerms | bool | None = None  # made when first asked (`_route`); False: none
 
+    @property
+    def terms(self) -> list[_Term]:
+        """Each constraint's precomputed term, in order (`compiled.py` packs them)."""
+        return self._terms
+
     # -- kinematics ------------------------------------------------------------------------
     def full(self, x: Sequence[float]) -> np.ndarray:
         """The full configuration for ambient values `x` (the other joints stay at base_q)."""
