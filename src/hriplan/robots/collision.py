@@ -80,7 +80,7 @@ class SeparationZones:
 
 
 @dataclass(frozen=True)
-class PersonDistances:
+class PairDistances:
     """Every robot part (and carried object) against every capsule of one person: row k is one pair."""
 
     parts: list[str]
@@ -90,7 +90,7 @@ class PersonDistances:
 
 
 @dataclass(frozen=True)
-class PersonPairs(PersonDistances):
+class PersonPairs(PairDistances):
     """The same, with each pair's closest points."""
 
     robot_point: np.ndarray  # (k, 3) world
@@ -859,7 +859,7 @@ class CollisionChecker:
             person_point=np.array([r.getNearestPoint2() for r in results]).reshape(-1, 3),
         )
 
-    def person_distances(self, q: np.ndarray, person: str) -> PersonDistances:
+    def person_distances(self, q: np.ndarray, person: str) -> PairDistances:
         """`person_pairs` without the closest points, which cost ten times coal's distances to
         read back (~0.65 ms for MADAR's ~500 pairs): what a start check and the separation zones
         ask. The same one coal query, so the distances are the same."""
@@ -870,7 +870,7 @@ class CollisionChecker:
         model, data, parts, joints, capsules = self._person_models[person]
         pin.computeDistances(self.robot.model, self.robot.data, model, data, q)
         distance = np.array([r.min_distance for r in data.distanceResults])
-        return PersonDistances(parts=parts, joints=joints, capsules=capsules, distance=distance)
+        return PairDistances(parts=parts, joints=joints, capsules=capsules, distance=distance)
 
     def person_model(self, person: str) -> pin.GeometryModel:
         """The model `person_pairs` measures: robot parts and carried objects against `person`'s
