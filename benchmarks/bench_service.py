@@ -1,7 +1,7 @@
 """The HTTP service under load, and the SPARQL engine choice (rdflib vs pyoxigraph).
 
 Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_service.py [--requests 200] [--concurrency 8] [--workers 2] [--reps 20]
-     [--before CHECKOUT] [--only-hostile]
+     [--before CHECKOUT] [--only-hostile] [--only-kernels] [--solves 12]
 - engines: the same queries on the ontology and on a task step's reasoned graph, by rdflib as
   hriplan runs it (with its deadline and row guards), by plain rdflib, and by pyoxigraph (if
   installed); median over --reps. rdflib-endpoint evaluates with one of these two engines.
@@ -13,12 +13,18 @@ Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_service.py [--requests 200
   `git worktree add /tmp/svc-before main`), in the same run: cheap-query and solve latency alone,
   then while the issue-22 bombs (regex, VALUES join, nested REPLACE, 4-way cross join) are in
   flight; and each bomb's status and time (--query-time-limit 2, --request-time-limit 30).
+- kernels: two servers of this checkout with one planning worker each, `--no-kernels` and the
+  default (compiled kernels loaded as a worker starts): the time each took to start, then
+  --solves problems of benchmarks/scenarios (a, b, c; seeds 0, 1, ...) sent to both, alternating
+  which goes first: median latency per scenario, and how many answers planned the same motion
+  (positions within 1e-9 rad).
 """
 
 from __future__ import annotations
 
 import argparse
 import concurrent.futures
+import contextlib
 import copy
 import json
 import statistics
@@ -191,6 +197,62 @@ def hostile(url: str, label: str) -> list[str]:
     ]
 
 
+KERNEL_SCENARIOS = ("a_ur5_upright_box", "b_madar_handover", "c_madar_peg_in_hole")
+
+
+def _solved_positions(client: httpx.Client, problem: dict) -> tuple[float, list | None]:
+    began = time.perf_counter()
+    body = client.post("/solve", json=problem).json()
+    positions = [p["positions"] for p in body["trajectory"]["points"]] if body.get("solved") else None
+    return time.perf_counter() - began, positions
+
+
+def kernels(solves: int) -> list[str]:
+    """The same problems solved by a server without the kernels and by one with them."""
+    servers, started = {}, {}
+    with contextlib.ExitStack() as stack:
+        for label, extra in (("no kernels", ("--no-kernels",)), ("kernels", ())):
+            began = time.perf_counter()
+            servers[label] = stack.enter_context(running_server("--workers", "1", *extra))
+            started[label] = time.perf_counter() - began
+        clients = {
+            label: stack.enter_context(httpx.Client(base_url=url, timeout=300)) for label, url in servers.items()
+        }
+        lines = [
+            f"start-up (until /health answers, workers ready): no kernels {started['no kernels']:.1f} s, "
+            f"kernels {started['kernels']:.1f} s",
+            "| scenario | no kernels, median s | kernels, median s | ratio | same motion | solved (each) |",
+            "|---|---|---|---|---|---|",
+        ]
+        for name in KERNEL_SCENARIOS:
+            problem = json.loads((ROOT / "benchmarks" / "scenarios" / f"{name}.json").read_text())
+            for client in clients.values():  # each worker's session for this robot made before timing
+                _solved_positions(client, problem)
+            times: dict[str, list[float]] = {label: [] for label in clients}
+            solved, same = dict.fromkeys(clients, 0), 0
+            for seed in range(solves):
+                problem["options"]["seed"] = seed
+                order = list(clients) if seed % 2 == 0 else list(clients)[::-1]
+                found = {}
+                for label in order:
+                    seconds, found[label] = _solved_positions(clients[label], problem)
+                    times[label].append(seconds)
+                    solved[label] += found[label] is not None
+                a, b = found.values()
+                same += (
+                    a is not None
+                    and b is not None
+                    and len(a) == len(b)
+                    and max(abs(x - y) for p, r in zip(a, b) for x, y in zip(p, r)) <= 1e-9
+                )
+            off, on = (statistics.median(times[label]) for label in ("no kernels", "kernels"))
+            lines.append(
+                f"| {name} | {off:.3f} | {on:.3f} | {on / off:.2f} | {same}/{solves} | "
+                f"{solved['no kernels']}/{solved['kernels']} of {solves} |"
+            )
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--requests", type=int, default=200)
@@ -199,7 +261,12 @@ def main() -> None:
     parser.add_argument("--reps", type=int, default=20)
     parser.add_argument("--before", type=Path, help="another checkout to compare with (its src/ is served)")
     parser.add_argument("--only-hostile", action="store_true", help="skip the engine and load parts")
+    parser.add_argument("--only-kernels", action="store_true", help="only the kernels part")
+    parser.add_argument("--solves", type=int, default=12, help="problems per scenario in the kernels part")
     args = parser.parse_args()
+    print("\n".join(kernels(args.solves)), flush=True)
+    if args.only_kernels:
+        return
     if not args.only_hostile:
         print("\n".join(engines(args.reps)), flush=True)
         with running_server("--workers", str(args.workers), "--query-time-limit", "2") as url:

@@ -85,3 +85,10 @@ def python_route() -> Iterator[None]:
     """The kernels off for a test of the Python route (HRIPLAN_KERNELS=1 may have turned them on)."""
     with _kernels(False):
         yield
+
+
+@pytest.fixture
+def compiled_route() -> Iterator[None]:
+    """The kernels on for a test (a service's planning workers plan with them)."""
+    with _kernels(True):
+        yield

@@ -16,7 +16,9 @@ import pytest
 import yaml
 from service_server import shared_server, wait_for_workers
 
+from hriplan.planner.problem import PlanningProblem
 from hriplan.planner.replay import PlannedWorld
+from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import TrajectoryFile
 from independent import constraint_violations
 
@@ -217,6 +219,27 @@ def test_a_worker_killed_mid_plan_fails_only_its_request_and_is_replaced(server,
     after = wait_for_workers(server, 2)
     assert busy[0] not in after and set(before) - {busy[0]} <= set(after)
     assert client.post("/solve", json=PROBLEM).json()["solved"]
+    health = client.get("/health").json()  # the replacement loaded the compiled kernels too; query workers never
+    assert [w["kernels"] for w in health["workers"]] == [True, True]
+    assert [w["kernels"] for w in health["query_workers"]] == [False]
+
+
+def test_a_served_plan_is_the_plan_made_here_with_the_compiled_kernels(client, compiled_route):
+    """The workers plan with the kernels on (the default), so a plan is reproduced in-process with them
+    on (HRIPLAN_KERNELS=1 for the CLI). This UR5 problem plans another motion with them off: margins
+    rounded ~1e-16 apart from the Python route's steer its projections elsewhere."""
+    raw = json.loads((ROOT / "benchmarks" / "scenarios" / "a_ur5_upright_box.json").read_text())
+    raw["options"]["seed"] = 3
+    served = client.post("/solve", json=raw).json()
+    problem = PlanningProblem.model_validate(raw)
+    session = PlanningSession(problem.robot, problem.scene, hands=problem.hands, roles=dict(problem.roles))
+    session.set_constraints(problem.constraints)
+    here = session.plan(problem.start, problem.goal, problem.options, problem.group)
+    assert served["solved"] and here.solved
+    positions = [p.positions for p in here.trajectory.points]
+    assert np.array(positions) == pytest.approx(
+        np.array([p["positions"] for p in served["trajectory"]["points"]]), abs=1e-12
+    )
 
 
 def test_a_client_that_goes_away_cancels_its_plan(server, client):

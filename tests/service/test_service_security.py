@@ -53,6 +53,7 @@ def server(rules_dir):
         str(rules_dir),
         "--robot-file",
         str(PANDA),
+        "--no-kernels",
     )
     with running_server(*args, token=TOKEN) as url:
         yield url
@@ -90,6 +91,10 @@ def test_binding_off_loopback_needs_a_token():
     assert short.returncode == 2 and short.stderr.startswith(
         "error: --token: String should have at least 16 characters"
     )
+
+
+def test_with_no_kernels_the_planning_workers_plan_without_them(client):
+    assert [w["kernels"] for w in client.get("/health").json()["workers"]] == [False]
 
 
 def test_every_route_needs_the_token(server, client):

@@ -16,6 +16,12 @@ def serve(
     port: Annotated[int, typer.Option(help="Port to listen on.")] = 8000,
     workers: Annotated[int, typer.Option(help="Planning worker processes (requests planned at once).")] = 2,
     query_workers: Annotated[int, typer.Option(help="SPARQL worker processes, apart from planning.")] = 1,
+    kernels: Annotated[
+        bool,
+        typer.Option(
+            help="Plan with the compiled kernels (numba, the `fast` extra), loaded as each planning worker starts."
+        ),
+    ] = True,
     token: Annotated[
         str | None,
         typer.Option(
@@ -78,6 +84,7 @@ def serve(
             port=port,
             workers=workers,
             query_workers=query_workers,
+            kernels=kernels,
             query_memory=query_memory,
             token=token,
             queue_limit=queue,

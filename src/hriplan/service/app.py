@@ -126,7 +126,7 @@ def docs_page(schema: dict[str, Any]) -> str:
 
 def create_app(config: ServiceConfig | None = None) -> FastAPI:
     config = config or ServiceConfig()
-    pool = WorkerPool(config.workers, config.queue_limit)
+    pool = WorkerPool(config.workers, config.queue_limit, kernels=config.kernels)
     queries = WorkerPool(config.query_workers, config.queue_limit, config.query_memory << 20, "queries")
     sessions: dict[str, SessionState] = {}
     tasks: dict[str, dict[str, Any]] = {}
@@ -213,8 +213,8 @@ def create_app(config: ServiceConfig | None = None) -> FastAPI:
     # -- tasks and problems ----------------------------------------------------------------
     @app.get("/health", tags=["service"])
     async def health() -> dict[str, Any]:
-        """Liveness, the planning and query workers (pid, ready, busy) and how many requests wait;
-        "degraded" while a dead worker is being replaced."""
+        """Liveness, the planning and query workers (pid, ready, busy, compiled kernels on) and how
+        many requests wait; "degraded" while a dead worker is being replaced."""
         lanes = pool.status()
         return {
             "status": "ok" if pool.healthy() and queries.healthy() else "degraded",

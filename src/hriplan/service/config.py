@@ -15,6 +15,11 @@ class ServiceConfig(BaseModel):
     host: str = "127.0.0.1"
     port: int = Field(default=8000, ge=0, le=65535)
     workers: int = Field(default=2, ge=1, le=64)
+    kernels: bool = Field(
+        default=True,
+        description="Planning workers plan with the compiled kernels (numba, the `fast` extra; off without it), "
+        "loaded when a worker starts: ~1 s more a start, ~7 s the first after installing; constrained plans x0.7.",
+    )
     query_workers: int = Field(
         default=1, ge=1, le=64, description="Worker processes for SPARQL queries, apart from planning."
     )

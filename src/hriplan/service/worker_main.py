@@ -74,8 +74,12 @@ def bounded_memory() -> Iterator[None]:
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
-def serve(conn: Connection, parent: int, memory_limit: int | None = None, lane: str = "planning") -> None:
-    """Answer requests until the server closes the pipe: planning jobs, or queries (`lane`)."""
+def serve(
+    conn: Connection, parent: int, memory_limit: int | None = None, lane: str = "planning", kernels: bool = False
+) -> None:
+    """Answer requests until the server closes the pipe: planning jobs, or queries (`lane`). A
+    planning worker with `kernels` turns the compiled kernels on and loads them before it says it
+    is ready (planner/kernels.py); its "ready" says whether they are on (numba installed)."""
     die_with(parent)
     _Serving.pipe, _Serving.memory_limit = conn, memory_limit
     from hriplan import HriplanError
@@ -88,7 +92,12 @@ def serve(conn: Connection, parent: int, memory_limit: int | None = None, lane: 
         from hriplan.service.jobs import JOBS
     from hriplan.service.negotiation import NotAcceptable
 
-    conn.send(("ready", os.getpid()))
+    loaded = False
+    if kernels and lane == "planning":
+        from hriplan.planner.kernels import load_kernels
+
+        loaded = load_kernels()
+    conn.send(("ready", os.getpid(), loaded))
     while True:
         try:
             kind, payload = conn.recv()

@@ -56,19 +56,19 @@ class WorkerCrashed(PoolError):
 class _Worker:
     """One process and the pipe to it; `call` blocks (it runs in a thread)."""
 
-    def __init__(self, memory_limit: int | None, lane: str) -> None:
+    def __init__(self, memory_limit: int | None, lane: str, kernels: bool) -> None:
         self.conn, child = SPAWN.Pipe()
         self.process = SPAWN.Process(
-            target=serve, args=(child, os.getpid(), memory_limit, lane), daemon=True, name=f"hriplan-{lane}"
+            target=serve, args=(child, os.getpid(), memory_limit, lane, kernels), daemon=True, name=f"hriplan-{lane}"
         )
         self.process.start()
         child.close()
-        self.busy = self.ready = self.dead = False
+        self.busy = self.ready = self.dead = self.kernels = False
         self.accepted = False  # the current job reached the worker
         self.hard_deadline: tuple[float, str] | None = None  # (monotonic time, why) announced by the worker
 
     def wait_ready(self) -> None:
-        self.conn.recv()
+        _, _, self.kernels = self.conn.recv()
         self.ready = True
 
     def call(self, job: tuple[str, dict[str, Any]]) -> tuple:
@@ -93,10 +93,19 @@ class _Worker:
 
 
 class WorkerPool:
-    def __init__(self, size: int, queue_limit: int, memory_limit: int | None = None, lane: str = "planning") -> None:
+    def __init__(
+        self,
+        size: int,
+        queue_limit: int,
+        memory_limit: int | None = None,
+        lane: str = "planning",
+        kernels: bool = False,
+    ) -> None:
         """`memory_limit`: bytes of address space a worker's bounded job may add (None: unbounded);
-        `lane`: "planning" or "queries", the jobs its workers do (worker_main.serve)."""
+        `lane`: "planning" or "queries", the jobs its workers do (worker_main.serve); `kernels`:
+        planning workers load the compiled kernels at start and plan with them."""
         self.size, self.queue_limit, self.memory_limit, self.lane = size, queue_limit, memory_limit, lane
+        self.kernels = kernels
         self.workers: list[_Worker] = []
         self._idle: asyncio.Queue[_Worker] = asyncio.Queue()
         self._in_flight = 0  # running + waiting
@@ -107,7 +116,7 @@ class WorkerPool:
         await asyncio.gather(*(self._add() for _ in range(self.size)))
 
     async def _add(self) -> None:
-        worker = _Worker(self.memory_limit, self.lane)
+        worker = _Worker(self.memory_limit, self.lane, self.kernels)
         self.workers.append(worker)
         loop = asyncio.get_running_loop()
         try:
@@ -136,7 +145,10 @@ class WorkerPool:
 
     def status(self) -> dict[str, Any]:
         return {
-            "workers": [{"pid": w.process.pid, "ready": w.ready and w.alive(), "busy": w.busy} for w in self.workers],
+            "workers": [
+                {"pid": w.process.pid, "ready": w.ready and w.alive(), "busy": w.busy, "kernels": w.kernels}
+                for w in self.workers
+            ],
             "in_flight": self._in_flight,
         }
 

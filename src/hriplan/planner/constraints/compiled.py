@@ -14,8 +14,9 @@ Covered: every volume kind, inside and outside, and orientations with one free a
 without a tolerance gradient (everything the rules derive), on robots of one-axis joints. An
 evaluator holding an orientation with no or two free axes (Kautham files, hand-written problems)
 gets None and keeps the Python route. The numbers are the Python route's to ~1e-15 (the
-kinematics round differently from pinocchio's), so paths planned with the kernels on may differ
-from those planned with them off in the last bits.
+kinematics round differently from pinocchio's), which can be enough for a projection's stopping
+test to fall the other way: a seed then plans another (equally validated) path than with the
+kernels off, and reproduces a plan only with the same switch.
 """
 
 from __future__ import annotations

@@ -1,0 +1,45 @@
+"""Turning the compiled kernels on in a long-running process, loaded before its first request.
+
+Why: a process pays ~1 s to import numba and load the cached kernels (~7 s to compile them on the
+first use after installation), more than a one-off `hriplan plan` spends where they help, so the
+CLI leaves them off (`robots/kernel_switch.py`). A service's planning workers and a sweep's
+workers plan for minutes or hours; they turn them on (constrained plans x0.7,
+benchmarks/REPORT-kernels.md) and load them here, at start, so that no request pays the load.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hriplan.planner.constraints.binding import bind
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.planner.constraints.spec import BoxConstraint, FrameRef, OrientationConstraint
+from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import posture
+from hriplan.robots.kernel_switch import kernels_on, use_kernels
+from hriplan.robots.model import load_robot
+from hriplan.robots.scene import Scene
+from hriplan.robots.spatial import Pose
+
+
+def load_kernels() -> bool:
+    """Turn the kernels on in this process and load every one of them (compiling any not yet
+    cached): the collision certifier's and the constraint terms', called once each on the
+    built-in UR5. False (and the kernels stay off) without numba, the `fast` extra."""
+    use_kernels(True)
+    if not kernels_on():
+        return False
+    robot = load_robot("ur5")
+    checker = CollisionChecker(robot, Scene())
+    q = robot.configuration(posture("ur5", "ready"))
+    joints, tool = robot.group_joints("arm"), robot.tool_frame("arm")
+    upright = OrientationConstraint(id="upright", joints=joints, target_link=tool, free_axes=["z"], tolerance=0.2)
+    box = BoxConstraint(id="box", joints=joints, target_link=tool, frame=FrameRef(offset=Pose()), size=(2, 2, 2))
+    evaluator = ConstraintEvaluator(robot, bind([upright, box], robot, checker), "arm", q)
+    x = q[robot.group_indices("arm")]
+    checker.in_collision(q)
+    checker.first_collision(q[None])
+    evaluator.margins(q)
+    evaluator.gradients(x)
+    evaluator.margins_many(np.repeat(q[None], 2, axis=0))
+    return True

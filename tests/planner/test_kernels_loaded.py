@@ -1,0 +1,58 @@
+"""planner/kernels.py: a long-running process loads every compiled kernel at start, so that no
+request pays numba's load (or compile): after `load_kernels` on the UR5, whole tasks of other
+robots (MADAR's handover and peg-in-hole, the UR10 carry: people, carried objects, dynamic
+tolerances) make numba load or compile nothing more. Without numba it leaves the kernels off."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from hriplan.planner.kernels import load_kernels
+from hriplan.robots import kernel_switch
+
+ROOT = Path(__file__).resolve().parents[2]
+TASKS = ["handover_full_can.yaml", "peg_in_hole_supervised.yaml", "ur10_carry_upright_supervisor.yaml"]
+
+# In a fresh process: the signatures numba holds after loading, and after planning the tasks.
+PROBE = """
+import json, sys
+from pathlib import Path
+from numba.core.registry import CPUDispatcher
+from hriplan.planner.kernels import load_kernels
+from hriplan.robots import certifier_kernels
+from hriplan.planner.constraints import compiled
+from hriplan.api import PlanningSession, load_task, run_task
+
+def signatures():
+    kernels = {**vars(certifier_kernels), **compiled._KERNELS}
+    return {name: len(f.signatures) for name, f in kernels.items() if isinstance(f, CPUDispatcher)}
+
+loaded = load_kernels()
+before = signatures()
+solved = []
+for path in sys.argv[1:]:
+    task = load_task(Path(path))
+    solved.append(run_task(task, PlanningSession(task.robot, hands=task.hands), advance=False).solved)
+print(json.dumps({"loaded": loaded, "before": before, "after": signatures(), "solved": solved}))
+"""
+
+
+def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
+    tasks = [str(ROOT / "examples" / name) for name in TASKS]
+    run = subprocess.run([sys.executable, "-c", PROBE, *tasks], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-2000:]
+    found = json.loads(run.stdout.splitlines()[-1])
+    assert found["loaded"] is True and found["solved"] == [True, True, True]
+    entries = ("verdict_one", "verdicts", "place_joints", "term_margins", "term_gradients")
+    assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
+    assert found["after"] == found["before"]
+
+
+def test_without_numba_the_kernels_stay_off(monkeypatch):
+    before = kernel_switch.kernels_on()
+    monkeypatch.setitem(sys.modules, "numba", None)  # find_spec answers None: not installed
+    try:
+        assert load_kernels() is False and kernel_switch.kernels_on() is False
+    finally:
+        kernel_switch.use_kernels(before)
