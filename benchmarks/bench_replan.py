@@ -2,7 +2,7 @@
 perception"): the receiver of examples/handover_full_can_receiver.yaml moves 10 cm, and the
 motion manager derives and plans the handover again on the same session.
 
-Run: .venv/bin/python benchmarks/bench_replan.py [--updates 10]
+Run: .venv/bin/python benchmarks/bench_replan.py [--updates 10] [--switch-kernels]
 Prints, per update, the wall time of `run_task` (derive + plan + time, warm session and
 reasoner) and of its parts, then the medians, and the median CPU time per re-plan of each stage
 (STAGES: inclusive, a stage inside another is indented under it). Times are seconds on this
@@ -32,8 +32,10 @@ from cpu_spent import outermost_cpu
 
 from hriplan.api import PlanningSession, load_task, run_task
 from hriplan.planner import session as session_module
+from hriplan.planner.kernels import load_kernels
 from hriplan.planner.session import PlanningSession as Session
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.kernel_switch import kernels_on, use_kernels
 from hriplan.safety.approach import CLOSING, ApproachMonitor
 from hriplan.safety.separation import kept_speeds
 from hriplan.tasks import pipeline
@@ -63,7 +65,14 @@ def main() -> None:
     parser.add_argument("--updates", type=int, default=10)
     parser.add_argument("--save", type=Path, help="write each update's outcome here (JSON lines)")
     parser.add_argument("--against", type=Path, help="compare each update's outcome with this --save file")
+    parser.add_argument(
+        "--switch-kernels",
+        action="store_true",
+        help="the compiled kernels on for two updates, off for two, and so on: median CPU of each",
+    )
     args = parser.parse_args()
+    if args.switch_kernels:
+        load_kernels()
     task = load_task(EXAMPLE)
     session = PlanningSession(task.robot, hands=task.hands)
     timing = {"time": 0.0}
@@ -90,7 +99,7 @@ def main() -> None:
 
     ApproachMonitor.speed_scale = comparing
     run_task(task, session, advance=False)  # warm: robot, collision model, reasoner's schema
-    totals, cpu, stages, by_stage, outcomes = [], [], [], [], []
+    totals, cpu, stages, by_stage, outcomes, kernels = [], [], [], [], [], []
     bob = task.humans[0]
     for k in range(args.updates):
         # 10 cm to and fro, plus 1 mm more each time: every update is a place she has not been
@@ -100,6 +109,9 @@ def main() -> None:
         variant = task.model_copy(update={"humans": [moved]})
         timing["time"] = 0.0
         spent.clear()
+        if args.switch_kernels:
+            use_kernels(k // 2 % 2 == 0)
+        kernels.append(kernels_on())
         started, started_cpu = time.perf_counter(), time.process_time()
         outcome = run_task(variant, session, advance=False)  # each re-plan from the task's start
         totals.append(time.perf_counter() - started)
@@ -114,6 +126,12 @@ def main() -> None:
         f"median: {statistics.median(totals):.3f} s per re-plan (CPU {statistics.median(cpu):.3f} s), "
         f"of which the timing stage {statistics.median(stages):.3f} s"
     )
+    if args.switch_kernels:
+        on, off = ([t for t, k in zip(cpu, kernels) if k == side] for side in (True, False))
+        print(
+            f"median CPU per re-plan: kernels on {1e3 * statistics.median(on):.1f} ms ({len(on)} updates), "
+            f"off {1e3 * statistics.median(off):.1f} ms ({len(off)})"
+        )
     print("median CPU per re-plan by stage (inclusive):")
     for label, _, _ in STAGES:
         print(f"  {label:44s} {1e3 * statistics.median(s.get(label, 0.0) for s in by_stage):6.1f} ms")
