@@ -68,11 +68,12 @@ def main() -> None:
     parser.add_argument(
         "--switch-kernels",
         action="store_true",
-        help="the compiled kernels on for two updates, off for two, and so on: median CPU of each",
+        help="the compiled kernels on for two updates, off for two, and so on: median CPU of each (--save and "
+        "--against then hold both routes' outcomes; use a multiple of 4 updates for equal shares)",
     )
     args = parser.parse_args()
-    if args.switch_kernels:
-        load_kernels()
+    if args.switch_kernels and not load_kernels():
+        parser.error("--switch-kernels needs numba (pip install 'hriplan[fast]')")
     task = load_task(EXAMPLE)
     session = PlanningSession(task.robot, hands=task.hands)
     timing = {"time": 0.0}

@@ -5,14 +5,16 @@ Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_service.py [--requests 200
 - engines: the same queries on the ontology and on a task step's reasoned graph, by rdflib as
   hriplan runs it (with its deadline and row guards), by plain rdflib, and by pyoxigraph (if
   installed); median over --reps. rdflib-endpoint evaluates with one of these two engines.
-- load: a real server (`hriplan serve`, loopback, a free port) gets --requests mixed requests
-  (task plan, problem solve, constraints, SPARQL) from --concurrency clients; every answer is
+- load: a real server (`hriplan serve`, loopback, a free port, the compiled kernels on: its
+  default) gets --requests mixed requests (task plan, problem solve, constraints, SPARQL) from
+  --concurrency clients; every answer is
   checked against a marker of its own request (a task name, a start value, a literal), and
   latency p50/p95 per kind is printed. The loop is bounded by count and stops by itself.
 - hostile: a server from this checkout and, with --before, one from another checkout (e.g.
   `git worktree add /tmp/svc-before main`), in the same run: cheap-query and solve latency alone,
   then while the issue-22 bombs (regex, VALUES join, nested REPLACE, 4-way cross join) are in
-  flight; and each bomb's status and time (--query-time-limit 2, --request-time-limit 30).
+  flight; and each bomb's status and time (--query-time-limit 2, --request-time-limit 30). With
+  --before, this checkout's server plans without the compiled kernels, as an older one does.
 - kernels: two servers of this checkout with one planning worker each, `--no-kernels` and the
   default (compiled kernels loaded as a worker starts): the time each took to start, then
   --solves problems of benchmarks/scenarios (a, b, c; seeds 0, 1, ...) sent to both, alternating
@@ -260,11 +262,12 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--reps", type=int, default=20)
     parser.add_argument("--before", type=Path, help="another checkout to compare with (its src/ is served)")
-    parser.add_argument("--only-hostile", action="store_true", help="skip the engine and load parts")
+    parser.add_argument("--only-hostile", action="store_true", help="skip the engine, load and kernels parts")
     parser.add_argument("--only-kernels", action="store_true", help="only the kernels part")
     parser.add_argument("--solves", type=int, default=12, help="problems per scenario in the kernels part")
     args = parser.parse_args()
-    print("\n".join(kernels(args.solves)), flush=True)
+    if not args.only_hostile:
+        print("\n".join(kernels(args.solves)), flush=True)
     if args.only_kernels:
         return
     if not args.only_hostile:
@@ -278,9 +281,14 @@ def main() -> None:
         sep="\n",
     )
     hostile_args = ("--workers", str(args.workers), "--query-time-limit", "2", "--request-time-limit", "30")
-    for label, src in [("before", args.before / "src" if args.before else None), ("after", ROOT / "src")]:
+    # Against a checkout from before the compiled kernels, this one's solves go without them too.
+    after_args = ("--no-kernels",) if args.before else ()
+    for label, src, extra in [
+        ("before", args.before / "src" if args.before else None, ()),
+        ("after", ROOT / "src", after_args),
+    ]:
         if src is not None:
-            with running_server(*hostile_args, src=src) as url:
+            with running_server(*hostile_args, *extra, src=src) as url:
                 print("\n".join(hostile(url, f"{label} ({src.parent.name})")), flush=True)
 
 

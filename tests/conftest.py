@@ -89,6 +89,7 @@ def python_route() -> Iterator[None]:
 
 @pytest.fixture
 def compiled_route() -> Iterator[None]:
-    """The kernels on for a test (a service's planning workers plan with them)."""
+    """The kernels on for a test (a service's planning workers plan with them); skipped without numba."""
+    pytest.importorskip("numba")
     with _kernels(True):
         yield

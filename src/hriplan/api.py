@@ -27,8 +27,9 @@ with `PERSON_FRAMES` the frame names every person has. Any robot from its URDF a
 `PlanningSession("robots/panda.yaml")` takes a robot file (`load_robot_file` registers it by name).
 
 A long-running process (a motion manager re-planning as people move): `load_kernels()` once at
-start plans with the compiled kernels (numba, the `fast` extra): ~0.8 s then, constrained plans
-x0.6-0.9 after (`hriplan serve` does it; a seed then reproduces with them on only).
+start plans with the compiled kernels (numba, the `fast` extra): ~1 s then, re-plans x0.92-0.93
+and constrained solves x0.59-0.86 after (`hriplan serve` does it; a seed then reproduces with
+them on only).
 
 Threads: a session is not thread-safe, and neither are two sessions of the same robot in two
 threads (robots are shared per description, OMPL's seed is global). Plan from one thread, or

@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from hriplan.planner.kernels import load_kernels
 from hriplan.robots import kernel_switch
 
@@ -23,6 +25,19 @@ from hriplan.planner.kernels import load_kernels
 from hriplan.robots import certifier_kernels
 from hriplan.planner.constraints import compiled
 from hriplan.api import PlanningSession, load_task, run_task
+from hriplan.robots.free_certifier import FreeCertifier
+
+calls = {}
+def counted(owner, name):
+    method = getattr(owner, name)
+    def wrapper(*args, **kwargs):
+        calls[name] = calls.get(name, 0) + 1
+        return method(*args, **kwargs)
+    setattr(owner, name, wrapper)
+for owner, name in [(compiled.CompiledTerms, n) for n in ("margins", "gradients", "margins_many")] + [
+    (FreeCertifier, n) for n in ("verdict", "verdicts")
+]:
+    counted(owner, name)
 
 def signatures():
     kernels = {**vars(certifier_kernels), **compiled._KERNELS}
@@ -30,15 +45,17 @@ def signatures():
 
 loaded = load_kernels()
 before = signatures()
+calls.clear()
 solved = []
 for path in sys.argv[1:]:
     task = load_task(Path(path))
     solved.append(run_task(task, PlanningSession(task.robot, hands=task.hands), advance=False).solved)
-print(json.dumps({"loaded": loaded, "before": before, "after": signatures(), "solved": solved}))
+print(json.dumps({"loaded": loaded, "before": before, "after": signatures(), "solved": solved, "calls": calls}))
 """
 
 
 def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
+    pytest.importorskip("numba")
     tasks = [str(ROOT / "examples" / name) for name in TASKS]
     run = subprocess.run([sys.executable, "-c", PROBE, *tasks], capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr[-2000:]
@@ -46,13 +63,16 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
     assert found["loaded"] is True and found["solved"] == [True, True, True]
     entries = ("verdict_one", "verdicts", "place_joints", "term_margins", "term_gradients")
     assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
+    # the tasks took the compiled routes (planning, validation, collision), and numba loaded nothing for them
+    assert sorted(found["calls"]) == ["gradients", "margins", "margins_many", "verdict", "verdicts"], found["calls"]
     assert found["after"] == found["before"]
 
 
 def test_without_numba_the_kernels_stay_off(monkeypatch):
     before = kernel_switch.kernels_on()
-    monkeypatch.setitem(sys.modules, "numba", None)  # find_spec answers None: not installed
     try:
-        assert load_kernels() is False and kernel_switch.kernels_on() is False
+        with monkeypatch.context() as patched:
+            patched.setitem(sys.modules, "numba", None)  # find_spec answers None: not installed
+            assert load_kernels() is False and kernel_switch.kernels_on() is False
     finally:
-        kernel_switch.use_kernels(before)
+        kernel_switch.use_kernels(before)  # numba back first: else the switch could not go on again

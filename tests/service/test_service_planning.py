@@ -20,6 +20,7 @@ from hriplan.planner.problem import PlanningProblem
 from hriplan.planner.replay import PlannedWorld
 from hriplan.planner.session import PlanningSession
 from hriplan.planner.trajectory import TrajectoryFile
+from hriplan.robots import kernel_switch
 from independent import constraint_violations
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -235,11 +236,13 @@ def test_a_served_plan_is_the_plan_made_here_with_the_compiled_kernels(client, c
     session = PlanningSession(problem.robot, problem.scene, hands=problem.hands, roles=dict(problem.roles))
     session.set_constraints(problem.constraints)
     here = session.plan(problem.start, problem.goal, problem.options, problem.group)
-    assert served["solved"] and here.solved
-    positions = [p.positions for p in here.trajectory.points]
-    assert np.array(positions) == pytest.approx(
-        np.array([p["positions"] for p in served["trajectory"]["points"]]), abs=1e-12
-    )
+    kernel_switch.use_kernels(False)  # the fixture turns them back on, then restores the switch
+    without = session.plan(problem.start, problem.goal, problem.options, problem.group)
+    assert served["solved"] and here.solved and without.solved
+    positions = np.array([p.positions for p in here.trajectory.points])
+    assert positions == pytest.approx(np.array([p["positions"] for p in served["trajectory"]["points"]]), abs=1e-12)
+    other = np.array([p.positions for p in without.trajectory.points])  # so the test tells the two apart
+    assert other.shape != positions.shape or np.abs(other - positions).max() > 1e-6
 
 
 def test_a_client_that_goes_away_cancels_its_plan(server, client):

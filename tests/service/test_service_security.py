@@ -55,7 +55,8 @@ def server(rules_dir):
         str(PANDA),
         "--no-kernels",
     )
-    with running_server(*args, token=TOKEN) as url:
+    # --no-kernels wins over the HRIPLAN_KERNELS=1 its workers inherit
+    with running_server(*args, token=TOKEN, environment={"HRIPLAN_KERNELS": "1"}) as url:
         yield url
 
 
@@ -93,7 +94,7 @@ def test_binding_off_loopback_needs_a_token():
     )
 
 
-def test_with_no_kernels_the_planning_workers_plan_without_them(client):
+def test_with_no_kernels_the_planning_workers_have_them_off_despite_the_environment(client):
     assert [w["kernels"] for w in client.get("/health").json()["workers"]] == [False]
 
 

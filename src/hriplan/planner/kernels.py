@@ -2,8 +2,8 @@
 
 Why: a process pays ~1 s to import numba and load the cached kernels (~7 s to compile them on the
 first use after installation), more than a one-off `hriplan plan` spends where they help, so the
-CLI leaves them off (`robots/kernel_switch.py`). A service's planning workers and a sweep's
-workers plan for minutes or hours; they turn them on (constrained plans x0.7,
+CLI leaves them off (`robots/kernel_switch.py`). A service's planning workers and a motion
+manager plan for hours; they turn them on (constrained solves x0.59-0.86, re-plans x0.92-0.93:
 benchmarks/REPORT-kernels.md) and load them here, at start, so that no request pays the load.
 """
 
@@ -23,9 +23,10 @@ from hriplan.robots.spatial import Pose
 
 
 def load_kernels() -> bool:
-    """Turn the kernels on in this process and load every one of them (compiling any not yet
+    """Turn the kernels on in this process, and load every one of them (compiling any not yet
     cached): the collision certifier's and the constraint terms', called once each on the
-    built-in UR5. False (and the kernels stay off) without numba, the `fast` extra."""
+    built-in UR5 (its robot and checker stay cached, as any robot's). False (and the kernels
+    stay off) without numba, the `fast` extra."""
     use_kernels(True)
     if not kernels_on():
         return False
@@ -39,7 +40,7 @@ def load_kernels() -> bool:
     x = q[robot.group_indices("arm")]
     checker.in_collision(q)
     checker.first_collision(q[None])
-    evaluator.margins(q)
+    evaluator.margins(q)  # a whole configuration; gradients take the planned joints' values
     evaluator.gradients(x)
     evaluator.margins_many(np.repeat(q[None], 2, axis=0))
     return True

@@ -1,9 +1,11 @@
-"""Whether the collision check uses its compiled kernels (`free_certifier.py`).
+"""Whether hriplan uses its compiled kernels: the collision certifier (`free_certifier.py`) and
+the constraint terms (`planner/constraints/compiled.py`).
 
-Why a switch: importing numba and loading its cached kernels costs ~0.5 s in every new process,
-more than a short `hriplan plan` spends checking collisions; long runs (benchmarks, sweeps, a
-service) gain. Set HRIPLAN_KERNELS=1 (with numba installed: `pip install hriplan[fast]`) or call
-`use_kernels(True)`. Without numba the kernels stay off and everything works as before.
+Why a switch: importing numba and loading its cached kernels costs ~1 s in every new process,
+more than a short `hriplan plan` spends where they help; long runs (benchmarks, a service, a
+motion manager) gain. Set HRIPLAN_KERNELS=1 (with numba installed: `pip install hriplan[fast]`),
+call `use_kernels(True)`, or `planner.kernels.load_kernels()` to load them at once (`hriplan
+serve` does). Without numba the kernels stay off and everything works as before.
 """
 
 from __future__ import annotations

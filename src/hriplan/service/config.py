@@ -17,8 +17,9 @@ class ServiceConfig(BaseModel):
     workers: int = Field(default=2, ge=1, le=64)
     kernels: bool = Field(
         default=True,
-        description="Planning workers plan with the compiled kernels (numba, the `fast` extra; off without it), "
-        "loaded when a worker starts: ~1 s more a start, ~7 s the first after installing; constrained plans x0.7.",
+        description="Planning workers plan with the compiled kernels (numba; off without it), loaded when a "
+        "worker starts: ~1 s and ~130 MB more a worker, ~7 s the first start after installing; constrained "
+        "solves x0.59-0.86 (benchmarks/REPORT-kernels.md).",
     )
     query_workers: int = Field(
         default=1, ge=1, le=64, description="Worker processes for SPARQL queries, apart from planning."

@@ -11,7 +11,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import IO
 
@@ -46,13 +46,20 @@ def free_port() -> int:
 
 @contextlib.contextmanager
 def running_server(
-    *args: str, token: str | None = None, startup: float = 120.0, log: IO[str] | None = None, src: Path = SRC
+    *args: str,
+    token: str | None = None,
+    startup: float = 120.0,
+    log: IO[str] | None = None,
+    src: Path = SRC,
+    environment: Mapping[str, str] | None = None,
 ) -> Iterator[str]:
     """The base URL of a server started with `args` from the sources in `src` (another checkout's,
-    for a before/after benchmark); stopped (workers included) afterwards. Its log goes to `log` or
-    a temporary file (a pipe nobody reads would fill up and stall the server)."""
+    for a before/after benchmark), with `environment` added to this process's; stopped (workers
+    included) afterwards. Its log goes to `log` or a temporary file (a pipe nobody reads would
+    fill up and stall the server)."""
     port = free_port()
-    env = dict(os.environ, PYTHONPATH=f"{src}{os.pathsep}{os.environ.get('PYTHONPATH', '')}")
+    env = dict(os.environ, **(environment or {}))
+    env["PYTHONPATH"] = f"{src}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"
     env.pop("HRIPLAN_TOKEN", None)
     command = [sys.executable, "-m", "hriplan.cli", "serve", "--port", str(port), *args]
     own_log = log is None

@@ -1,7 +1,8 @@
 """The body of a worker process (started with the spawn context by workers.py).
 
 BLAS thread pools are capped before numpy loads: a planning worker uses one core, and the pool
-size says how many cores planning may take. Each request is a (kind, payload) pair on the pipe;
+size says how many cores planning may take. Once set up the worker sends ("ready", pid, kernels
+on). Each request is a (kind, payload) pair on the pipe;
 the worker first answers ("accepted",) (a job never accepted is retried elsewhere), may announce
 ("deadline", seconds, why) (past it the server kills it), and ends with ("ok", body, media type)
 or ("error", status, one-line message). A traceback goes to the server's log, never into an
@@ -74,12 +75,31 @@ def bounded_memory() -> Iterator[None]:
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
+def kernels_for_worker(wanted: bool) -> bool:
+    """Set this worker's compiled-kernel switch to `wanted` (not the environment's HRIPLAN_KERNELS
+    it inherited) and, on, load them now (planner/kernels.py); whether they are on. A load that
+    fails (numba broken, its cache not writable) leaves them off, the traceback in the server's
+    log: a worker without them still plans."""
+    from hriplan.robots.kernel_switch import kernels_on, use_kernels
+
+    use_kernels(False)
+    if wanted:
+        from hriplan.planner.kernels import load_kernels
+
+        try:
+            load_kernels()
+        except Exception:
+            traceback.print_exc(file=sys.stderr)
+            use_kernels(False)
+    return kernels_on()
+
+
 def serve(
     conn: Connection, parent: int, memory_limit: int | None = None, lane: str = "planning", kernels: bool = False
 ) -> None:
-    """Answer requests until the server closes the pipe: planning jobs, or queries (`lane`). A
-    planning worker with `kernels` turns the compiled kernels on and loads them before it says it
-    is ready (planner/kernels.py); its "ready" says whether they are on (numba installed)."""
+    """Answer requests until the server closes the pipe: planning jobs, or queries (`lane`). It
+    first sends ("ready", its pid, whether it plans with the compiled kernels: `kernels` asks
+    for them, kernels_for_worker)."""
     die_with(parent)
     _Serving.pipe, _Serving.memory_limit = conn, memory_limit
     from hriplan import HriplanError
@@ -92,12 +112,7 @@ def serve(
         from hriplan.service.jobs import JOBS
     from hriplan.service.negotiation import NotAcceptable
 
-    loaded = False
-    if kernels and lane == "planning":
-        from hriplan.planner.kernels import load_kernels
-
-        loaded = load_kernels()
-    conn.send(("ready", os.getpid(), loaded))
+    conn.send(("ready", os.getpid(), kernels_for_worker(kernels)))
     while True:
         try:
             kind, payload = conn.recv()

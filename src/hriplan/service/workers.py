@@ -63,11 +63,13 @@ class _Worker:
         )
         self.process.start()
         child.close()
-        self.busy = self.ready = self.dead = self.kernels = False
+        self.busy = self.ready = self.dead = False
+        self.kernels: bool | None = None  # planning with the compiled kernels: known once ready
         self.accepted = False  # the current job reached the worker
         self.hard_deadline: tuple[float, str] | None = None  # (monotonic time, why) announced by the worker
 
     def wait_ready(self) -> None:
+        """Until the worker sends ("ready", pid, kernels on) (worker_main.serve)."""
         _, _, self.kernels = self.conn.recv()
         self.ready = True
 
@@ -103,7 +105,7 @@ class WorkerPool:
     ) -> None:
         """`memory_limit`: bytes of address space a worker's bounded job may add (None: unbounded);
         `lane`: "planning" or "queries", the jobs its workers do (worker_main.serve); `kernels`:
-        planning workers load the compiled kernels at start and plan with them."""
+        the workers plan with the compiled kernels, loaded as each starts (planning workers)."""
         self.size, self.queue_limit, self.memory_limit, self.lane = size, queue_limit, memory_limit, lane
         self.kernels = kernels
         self.workers: list[_Worker] = []
