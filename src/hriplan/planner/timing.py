@@ -250,7 +250,7 @@ def _retimed(
         constraints.append(_PathSpeedLimit(path, vmax, at, factor * sd_max))
     grid = _gridpoints(path, s, vmax, amax)
     for refinement in range(_REFINEMENTS + 1):
-        algorithm = toppra.algorithm.TOPPRA(
+        algorithm = _TOPPRA(
             constraints,
             path,
             gridpoints=grid,
@@ -268,6 +268,80 @@ def _retimed(
             break
         grid = _subdivided(grid, np.where(overshooting, 4, 1))
     return trajectory
+
+
+_NOT_FOUND = np.array([np.nan, np.nan])
+
+
+class _TOPPRA(toppra.algorithm.TOPPRA):
+    """TOPP-RA with its two passes (controllable sets backwards, then the greedy forward pass)
+    driving its own seidel solver with the same calls, in the same order, on the same numbers as
+    toppra 0.6's `compute_parameterization`, so the same bits; without the per-stage arrays,
+    NaN scans and logging around each call, which cost about as much as the solver itself
+    (~4 us a call, two calls a stage per pass)."""
+
+    def compute_parameterization(self, sd_start, sd_end, return_data=False):
+        if sd_end < 0 or sd_start < 0:
+            raise toppra.exceptions.BadInputVelocities(f"negative path velocities: ({sd_start}, {sd_end})")
+        data, solver, stages = self._problem_data, self.solver_wrapper, self._N
+        controllable = self._controllable(sd_end**2)
+        x, small, controlled = sd_start**2, toppra.constants.SMALL, not np.isnan(controllable).any()
+        if controlled:
+            data.K = controllable
+        if not controlled or x + small < controllable[0, 0] or controllable[0, 1] + small < x:
+            data.return_code = toppra.algorithm.ParameterizationReturnCode.FailUncontrollable
+            return (None, None, None, controllable) if return_data else (None, None, None)
+        deltas = solver.get_deltas()
+        xs, us = np.zeros(stages + 1), np.zeros(stages)
+        v_vec = np.zeros((stages, solver.get_no_vars() - 2))
+        objective = np.zeros(solver.get_no_vars())
+        objective[1] = -1.0
+        xs[0], tries, i = x, 0, 0
+        solver.setup_solver()
+        while i < stages:
+            low, high = controllable[i + 1]
+            objective[0] = -2 * deltas[i]
+            found = (
+                _NOT_FOUND
+                if np.isnan(xs[i])
+                else solver.solve_stagewise_optim(i, None, objective, xs[i], xs[i], low, high)
+            )
+            if np.isnan(found[0]):  # toppra lowers x slightly and tries again
+                if tries == toppra.constants.MAX_TRIES:
+                    xs[i + 1 :] = np.nan
+                    break
+                xs[i], tries = max(xs[i] - toppra.constants.TINY, 0.999 * xs[i]), tries + 1
+                continue
+            us[i], tries = found[0], 0
+            reached = xs[i] + 2 * deltas[i] * us[i]
+            xs[i + 1] = min(high, max(low, max(reached - toppra.constants.TINY, 0.9999 * reached)))
+            v_vec[i] = found[2:]
+            i += 1
+        solver.close_solver()
+        data.sd_vec, data.sdd_vec = np.sqrt(xs), us.copy()
+        codes = toppra.algorithm.ParameterizationReturnCode
+        data.return_code = codes.ErrUnknown if np.isnan(data.sd_vec).any() else codes.Ok
+        return (data.sdd_vec, data.sd_vec, v_vec, controllable) if return_data else (data.sdd_vec, data.sd_vec, v_vec)
+
+    def _controllable(self, x_end: float) -> np.ndarray:
+        """The controllable sets of squared path speed (stages + 1, 2), ending at `x_end`; filled
+        from the end back to the first NaN (not controllable, or badly conditioned), as toppra's."""
+        solver, stages = self.solver_wrapper, self._N
+        sets = np.zeros((stages + 1, 2))
+        sets[stages] = x_end
+        upward = np.zeros(solver.get_no_vars())
+        upward[0], upward[1] = 1e-9, -1.0
+        downward = -upward
+        solver.setup_solver()
+        for i in range(stages - 1, -1, -1):
+            low, high = sets[i + 1]
+            upper = solver.solve_stagewise_optim(i, None, upward, np.nan, np.nan, low, high)[1]
+            lower = solver.solve_stagewise_optim(i, None, downward, np.nan, np.nan, low, high)[1]
+            sets[i] = 0.0 if lower < 0 else lower, upper
+            if np.isnan(lower) or np.isnan(upper):
+                return sets
+        solver.close_solver()
+        return sets
 
 
 # The joint-limit constraints made lately, by limits (`_joint_limits`).
