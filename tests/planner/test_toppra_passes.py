@@ -1,14 +1,15 @@
 """hriplan's lean TOPP-RA passes (`timing._TOPPRA`) give toppra's own answers, bit for bit: the
 same controllable sets, path speeds, accelerations and return codes, on joint limits, on the
 varying path-speed limit near people, from and to non-zero speeds, when the start is not
-controllable, and when the forward pass has to retry (toppra lowers the speed and tries again)."""
+controllable, and when the forward pass has to retry (toppra lowers the speed and tries again);
+and its trajectory (`timing._ConstantAcceleration`) is toppra's ParametrizeConstAccel's."""
 
 import numpy as np
 import pytest
 import toppra
 import toppra.algorithm
 
-from hriplan.planner.timing import _TOPPRA, _joint_limits, _PathSpeedLimit
+from hriplan.planner.timing import _TOPPRA, _ConstantAcceleration, _joint_limits, _PathSpeedLimit
 
 VMAX = np.array([1.0, 1.5, 2.0, 2.0, 3.0, 3.0])
 AMAX = np.array([3.0, 4.0, 6.0, 6.0, 8.0, 8.0])
@@ -124,3 +125,40 @@ def test_an_uncontrollable_path_fails_as_toppra_does():
     theirs, ours = _both(path, constraints, grid, sd_end=2.0)
     assert theirs[1] == toppra.algorithm.ParameterizationReturnCode.FailUncontrollable
     _same(theirs, ours)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_trajectory_is_toppras_bit_for_bit(seed):
+    """Times before the start, at every gridpoint's time, between them, at the end and past it."""
+    path = _path(seed)
+    grid = np.linspace(0.0, path.path_interval[1], 90 + 20 * seed)
+    algorithm = toppra.algorithm.TOPPRA(
+        _constraints(path, seed % 2 == 1), path, gridpoints=grid, solver_wrapper="seidel"
+    )
+    speeds = algorithm.compute_parameterization(0.0, 0.0)[1]
+    theirs = toppra.parametrizer.ParametrizeConstAccel(path, grid, speeds)
+    ours = _ConstantAcceleration(path, grid, speeds)
+    np.testing.assert_array_equal(ours.path_interval, theirs.path_interval)
+    end = float(theirs.path_interval[1])
+    rng = np.random.default_rng(seed)
+    times = np.concatenate([[-0.01, 0.0], theirs._ts, rng.uniform(0.0, end, 300), [end, end + 0.02]])
+    for order in (0, 1, 2):
+        np.testing.assert_array_equal(ours(times, order), theirs(times, order))
+    for a, b in zip(ours._eval_params(times), theirs._eval_params(times)):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_time_parameterize_takes_the_lean_passes_and_trajectory(monkeypatch):
+    """The timing uses both (else the tests above would prove nothing about hriplan's motions)."""
+    from hriplan.planner import timing
+
+    made = []
+
+    class Seen(_TOPPRA):
+        def __init__(self, *args, **kwargs) -> None:
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(timing, "_TOPPRA", Seen)
+    timing.time_parameterize(np.cumsum(np.full((20, 6), 0.03), axis=0), VMAX, AMAX)
+    assert made and all(a.parametrizer is _ConstantAcceleration for a in made)
