@@ -922,6 +922,22 @@ CASES: list[Case] = [
         t__yaml=task(),
         afile="x",
     ),
+    # An output option's value missing: the next option is taken as its name (a page was once
+    # written to a file named --plots).
+    C(
+        "plan_html_takes_an_option",
+        "plan {d}/t.yaml -q -o {d}/x.json --html --plots",
+        "--html --plots: looks like an option",
+        absent=("x.json",),
+        t__yaml=task(),
+    ),
+    C(
+        "plan_plots_takes_an_option",
+        "plan {d}/t.yaml -o {d}/x.json --plots -q",
+        "--plots -q: looks like an option",
+        absent=("x.json",),
+        t__yaml=task(),
+    ),
     C("constraints_extra_arg", "constraints {d}/t.yaml extra", "extra", t__yaml=task()),
     C("robot_info_unknown", "robot info pr2", "pr2"),
     C("robot_info_bad_hand", "robot info madar --hand right", "SIDE=POSTURE"),

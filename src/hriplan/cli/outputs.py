@@ -31,8 +31,15 @@ def _writable_folder(path: Path, option: str) -> None:
             return
 
 
+def _not_an_option(path: Path, option: str) -> None:
+    """`--html --plots out/p` gives --html the value --plots: refuse a name an option would have."""
+    if path.name.startswith("-"):
+        raise HriplanError(f"{option} {path}: looks like an option, not a name (is the value before it missing?)")
+
+
 def file_output(path: Path, option: str = "--output") -> Path:
     """A file the command will write (its folders are made when it is written)."""
+    _not_an_option(path, option)
     if path.is_dir():
         raise HriplanError(f"{option} {path}: is a directory; give a file name")
     _writable_folder(path, option)
@@ -42,6 +49,7 @@ def file_output(path: Path, option: str = "--output") -> Path:
 
 def directory_output(path: Path, option: str = "--output") -> Path:
     """A directory the command will write files into."""
+    _not_an_option(path, option)
     if path.exists() and not path.is_dir():
         raise HriplanError(f"{option} {path}: is a file; give a directory")
     _writable_folder(path / "-", option)
