@@ -31,6 +31,12 @@ start plans with the compiled kernels (numba, the `fast` extra): ~1 s then, re-p
 and constrained solves x0.59-0.86 after (`hriplan serve` does it; a seed then reproduces with
 them on only).
 
+BLAS: importing this module before numpy asks one BLAS thread (`blas_threads.py`, as the
+command line does), unless the environment names a number (OPENBLAS_NUM_THREADS and the like).
+TOPP-RA's set-up multiplies (gridpoints x 2n) by (2n x 4n) matrices; for MADAR's two arms
+OpenBLAS threads them, and a timing cost 2-3 times the CPU on two busy cores
+(`benchmarks/bench_toppra.py` with OPENBLAS_NUM_THREADS=2 against 1).
+
 Threads: a session is not thread-safe, and neither are two sessions of the same robot in two
 threads (robots are shared per description, OMPL's seed is global). Plan from one thread, or
 use one process per planner (OMPL's solve holds the GIL, so threads would not run in parallel
@@ -38,6 +44,10 @@ anyway).
 """
 
 from __future__ import annotations
+
+from hriplan.blas_threads import single_threaded_blas
+
+single_threaded_blas()  # before numpy loads (see the docstring)
 
 from pathlib import Path
 
