@@ -8,6 +8,7 @@ cylinder, a mesh and people close by); and the checker answers the same with and
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
 import coal
@@ -18,7 +19,14 @@ import pytest
 pytest.importorskip("numba")
 
 from hriplan.robots import kernel_switch
-from hriplan.robots.certifier_kernels import capsule_clears_box, place_joints, segment_floor
+from hriplan.robots.certifier_kernels import (
+    INNER_END,
+    OUTER_END,
+    REACH,
+    capsule_clears_box,
+    place_joints,
+    segment_floor,
+)
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.free_certifier import FreeCertifier, _mesh_pieces
@@ -265,3 +273,54 @@ def test_moved_people_and_obstacles_are_where_the_certifier_looks(robots, kernel
     assert not checker.in_collision(q)
     checker.move_obstacle("ball", Pose(xyz=tuple(tool)))
     assert checker.in_collision(q) and not checker._free_certifier().verdict(q) == (0, ())
+
+
+def _placed_rows(certifier: FreeCertifier) -> np.ndarray:
+    """The rows as the kernel placed them at the last state it was asked about."""
+    return certifier._work[len(certifier._joint_rows) * 12 :].reshape(certifier._rows.shape)
+
+
+@pytest.mark.parametrize("name", ["ur5", "madar"])
+def test_node_spheres_hold_their_members_where_the_kernel_places_them(robots, name, kernels):
+    """Each link's sphere (placed at every state) and person's holds its members' spheres."""
+    robot = robots[name]
+    checker = CollisionChecker(robot, _scene(robot, name))
+    states = _random_states(robot, 300, 8)
+    checker.in_collision(states[0])
+    certifier = checker._free_certifier()
+    nodes = list(zip(certifier._link_rows, certifier._links)) + list(zip(certifier._group_rows, certifier._groups))
+    assert len(certifier._links) >= 5 and len(certifier._groups) == 2
+    worst = -np.inf
+    for q in states:
+        certifier.verdict(q)
+        rows = _placed_rows(certifier)
+        for node, members in nodes:
+            centres = (rows[members, 0:3] + rows[members, 3:6]) / 2.0
+            reach = np.linalg.norm(centres - rows[node, 0:3], axis=1) + rows[members, REACH]
+            worst = max(worst, float(np.max(reach - rows[node, REACH])))
+    assert -0.01 < worst < 1e-12  # held, and not by far
+
+
+def _flat(certifier: FreeCertifier) -> FreeCertifier:
+    """The same certifier testing every pair alone (no node's sphere skips a run)."""
+    flat = copy.copy(certifier)
+    flat._pairs = certifier._pairs.copy()
+    flat._pairs[:, [OUTER_END, INNER_END]] = 0
+    flat._floats, flat._ints = flat._packed()
+    return flat
+
+
+@pytest.mark.parametrize("name", ["ur5", "madar"])
+def test_node_spheres_skip_only_pairs_clear_alone(robots, name, kernels):
+    """Runs of pairs passed by their nodes' spheres leave to coal exactly the pairs that testing
+    each pair alone leaves, and skip most pairs of the states near the robot."""
+    robot = robots[name]
+    checker = CollisionChecker(robot, _scene(robot, name))
+    states = _random_states(robot, STATES, 9)
+    checker.in_collision(states[0])
+    certifier = checker._free_certifier()
+    assert (certifier._pairs[:, OUTER_END] > 0).sum() >= 5 and (certifier._pairs[:, INNER_END] > 0).sum() >= 5
+    left = [None if v is None else (v[0], sorted(v[1])) for v in certifier.verdicts(states)]
+    alone = [None if v is None else (v[0], sorted(v[1])) for v in _flat(certifier).verdicts(states)]
+    assert left == alone
+    assert 0.1 < np.mean([v is not None and v[1] != [] for v in left]) < 0.9  # pairs left to coal, or not

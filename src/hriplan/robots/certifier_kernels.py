@@ -7,10 +7,10 @@ kernel calling into another file could run stale code after an upgrade. Constant
 data (the tolerance) travel in the arrays.
 
 The bounds are conservative: a capsule (or box) holds its geometry (`free_certifier._held_by`),
-a mesh's pieces hold its triangles (coal tests a mesh by its triangles), a group's sphere holds
-its members' spheres, and each
-distance below is a true lower bound in exact arithmetic; rounding errs by ~1e-15 m on metre
-sized scenes, far below the 1e-4 m tolerance.
+a mesh's pieces hold its triangles (coal tests a mesh by its triangles), a node's sphere (a
+link's geometries, a person's capsules) holds its members' spheres, and each distance below is
+a true lower bound in exact arithmetic; rounding errs by ~1e-15 m on metre sized scenes, far
+below the 1e-4 m tolerance.
 - Segments: the least distance is reached at an end of one of them (a point-to-segment
   distance) or at points inside both, where it is the distance between their lines; the line
   distance is never above the segments', so the least of the four end distances and the line
@@ -43,6 +43,11 @@ _INSIDE = 1e-3  # margin on the lines' nearest points falling within both segmen
 # the radius of the sphere about the capsule's middle that holds it (half its length + radius).
 CAPSULE, BOX, REACH = 7, 15, 22
 ROW = REACH + 1
+# A pair's row: its geometries' rows a, b, its id, the nodes (spheres) holding a and b, where the
+# run of pairs between those nodes ends (on its first pair, else 0) and where the run of a's
+# pairs with b's node ends (likewise); a geometry alone is its own node.
+PAIR_ID, NODE_A, NODE_B, OUTER_END, INNER_END = 2, 3, 4, 5, 6
+PAIR = INNER_END + 1
 
 
 @njit(cache=True, nogil=True)
@@ -227,14 +232,21 @@ def _place(rows, g, rotation, origin, j, out) -> None:
 
 
 @njit(cache=True, nogil=True)
-def pair_clear(rows, a, b, tolerance) -> bool:
-    """True if placed rows a and b (in the world) are more than `tolerance` apart: the spheres
-    about their capsules' middles, else their capsules, else a capsule against the other's box."""
+def spheres_apart(rows, a, b, tolerance) -> bool:
+    """True if the spheres about placed rows a and b (about their capsules' middles, radius their
+    reach) are more than `tolerance` apart: the cheapest test, first for every pair and group."""
     cx = rows[a, 0] + rows[a, 3] - rows[b, 0] - rows[b, 3]
     cy = rows[a, 1] + rows[a, 4] - rows[b, 1] - rows[b, 4]
     cz = rows[a, 2] + rows[a, 5] - rows[b, 2] - rows[b, 5]
     apart = 2.0 * (rows[a, REACH] + rows[b, REACH] + tolerance)  # |cx, cy, cz| is twice the centres' gap
-    if cx * cx + cy * cy + cz * cz > apart * apart:
+    return cx * cx + cy * cy + cz * cz > apart * apart
+
+
+@njit(cache=True, nogil=True)
+def pair_clear(rows, a, b, tolerance) -> bool:
+    """True if placed rows a and b (in the world) are more than `tolerance` apart: the spheres
+    about their capsules' middles, else their capsules, else a capsule against the other's box."""
+    if spheres_apart(rows, a, b, tolerance):
         return True
     if segment_floor(rows, a, b) - rows[a, 6] - rows[b, 6] > tolerance:
         return True
@@ -247,17 +259,26 @@ def pair_clear(rows, a, b, tolerance) -> bool:
 def _unpack(floats, ints):
     """The parts of `FreeCertifier._packed`, as views (the tolerance is floats[0])."""
     nj, ng, npairs, ntables, naxes, nused = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5]
-    joint_rows = floats[ints[7] : ints[7] + nj * JOINT_ROW].reshape((nj, JOINT_ROW))
-    rows = floats[ints[8] : ints[8] + ng * ROW].reshape((ng, ROW))
-    axis_floats = floats[ints[9] : ints[9] + naxes * 2].reshape((naxes, 2))
-    joint_ints = ints[ints[10] : ints[10] + nj * 3].reshape((nj, 3))
-    carrier = ints[ints[11] : ints[11] + ng]
-    pairs = ints[ints[12] : ints[12] + npairs * 5].reshape((npairs, 5))
-    tables = ints[ints[13] : ints[13] + ntables * 3].reshape((ntables, 3))
-    axis_ints = ints[ints[14] : ints[14] + naxes * 3].reshape((naxes, 3))
-    children = ints[ints[15] : ints[15] + nused * 2].reshape((nused, 2))
-    bits = ints[ints[16] :]
+    joint_rows = floats[ints[8] : ints[8] + nj * JOINT_ROW].reshape((nj, JOINT_ROW))
+    rows = floats[ints[9] : ints[9] + ng * ROW].reshape((ng, ROW))
+    axis_floats = floats[ints[10] : ints[10] + naxes * 2].reshape((naxes, 2))
+    joint_ints = ints[ints[11] : ints[11] + nj * 3].reshape((nj, 3))
+    carrier = ints[ints[12] : ints[12] + ng]
+    pairs = ints[ints[13] : ints[13] + npairs * PAIR].reshape((npairs, PAIR))
+    tables = ints[ints[14] : ints[14] + ntables * 3].reshape((ntables, 3))
+    axis_ints = ints[ints[15] : ints[15] + naxes * 3].reshape((naxes, 3))
+    children = ints[ints[16] : ints[16] + nused * 2].reshape((nused, 2))
+    bits = ints[ints[17] :]
     return joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits
+
+
+@njit(cache=True, nogil=True)
+def _scratch(work, nj):
+    """The joints' frames and the placed rows, as views of `work` (made once: an array made at
+    every state cost ~0.15 us)."""
+    rotation = work[: nj * 9].reshape((nj, 3, 3))
+    origin = work[nj * 9 : nj * 12].reshape((nj, 3))
+    return rotation, origin, work[nj * 12 :].reshape((-1, ROW))
 
 
 @njit(cache=True, nogil=True)
@@ -283,24 +304,28 @@ def _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b, toler
 
 
 @njit(cache=True, nogil=True)
-def _verdict(q, floats, ints, placed, left) -> int:
+def _verdict(q, floats, ints, work, left) -> int:
     """-1 if more pairs may touch at `q` than `left` holds (stopped there); else the tables
     that do not certify `q` (bit k for table k) plus 2^32 times the count of pairs that may
-    touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs with one group
-    passes at once when its sphere is clear. `placed` holds the rows on no joint already
+    touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs between two nodes
+    passes at once when the nodes' spheres are apart, a run of one geometry's pairs with a node
+    when the geometry is clear of its sphere. `work` holds the rows on no joint already placed
     (placed once, when packed)."""
     joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = _unpack(floats, ints)
-    nj, tolerance = joint_rows.shape[0], floats[0]
-    rotation, origin = np.empty((nj, 3, 3)), np.empty((nj, 3))
+    tolerance = floats[0]
+    rotation, origin, placed = _scratch(work, joint_rows.shape[0])
     place_joints(q, joint_rows, joint_ints, rotation, origin)
-    for g in range(children.shape[0]):
+    for g in range(ints[6]):  # the geometries and the links' spheres
         if carrier[g] != 0:
             _place(rows, g, rotation, origin, carrier[g], placed)
     count, k = 0, 0
     while k < pairs.shape[0]:
-        a, b, group, end = pairs[k, 0], pairs[k, 1], pairs[k, 2], pairs[k, 3]
-        if end > 0 and pair_clear(placed, a, group, tolerance):
-            k = end
+        a, b = pairs[k, 0], pairs[k, 1]
+        if pairs[k, OUTER_END] > 0 and spheres_apart(placed, pairs[k, NODE_A], pairs[k, NODE_B], tolerance):
+            k = pairs[k, OUTER_END]
+            continue
+        if pairs[k, INNER_END] > 0 and pair_clear(placed, a, pairs[k, NODE_B], tolerance):
+            k = pairs[k, INNER_END]
             continue
         if not pair_clear(placed, a, b, tolerance) and (
             (children[a, 1] == 0 and children[b, 1] == 0)
@@ -309,21 +334,21 @@ def _verdict(q, floats, ints, placed, left) -> int:
             if count + 1 == left.shape[0]:
                 return -1
             count += 1
-            left[count] = pairs[k, 4]
+            left[count] = pairs[k, PAIR_ID]
         k += 1
     return _uncertified_tables(q, tables, axis_ints, axis_floats, bits) + (count << 32)
 
 
 @njit(cache=True, nogil=True)
-def verdict_one(q, floats, ints, placed, left) -> int:
+def verdict_one(q, floats, ints, work, left) -> int:
     """`_verdict` of one state (a call from Python)."""
-    return _verdict(q, floats, ints, placed, left)
+    return _verdict(q, floats, ints, work, left)
 
 
 @njit(cache=True, nogil=True)
-def verdicts(qs, floats, ints, placed, left) -> np.ndarray:
+def verdicts(qs, floats, ints, work, left) -> np.ndarray:
     """Per state (row n of `left` its pairs that may touch)."""
     out = np.empty(qs.shape[0], dtype=np.int64)
     for n in range(qs.shape[0]):
-        out[n] = _verdict(qs[n], floats, ints, placed, left[n])
+        out[n] = _verdict(qs[n], floats, ints, work, left[n])
     return out

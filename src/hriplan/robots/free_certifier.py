@@ -22,7 +22,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from hriplan.robots.certifier_kernels import REACH, ROW, verdict_one, verdicts
+from hriplan.robots.certifier_kernels import PAIR, REACH, ROW, verdict_one, verdicts
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.mesh_clearance import ClearanceTable
 from hriplan.robots.part_spheres import BOUND_TOLERANCE
@@ -114,6 +114,14 @@ def _sphere_row(centre: np.ndarray, radius: float) -> np.ndarray:
     return np.concatenate([centre, centre, [radius], np.eye(3).reshape(9), np.zeros(3), np.full(3, np.inf), [radius]])
 
 
+def _sphere_about(members: np.ndarray) -> np.ndarray:
+    """A sphere row holding the spheres of `members` (rows in one frame): about the middle of
+    their centres' box."""
+    centres = (members[:, 0:3] + members[:, 3:6]) / 2.0
+    middle = (centres.min(axis=0) + centres.max(axis=0)) / 2.0
+    return _sphere_row(middle, float(np.max(np.linalg.norm(centres - middle, axis=1) + members[:, REACH])))
+
+
 class FreeCertifier:
     """Certifies states free of every checked pair of a collision model, or names the pairs and
     tables left to check. Not for threads at once: its scratch arrays are its own (as the
@@ -151,9 +159,13 @@ class FreeCertifier:
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         used = sorted(set(pairs.reshape(-1).tolist()))
         self._used, slot = used, {g: k for k, g in enumerate(used)}
-        # Rows: the geometries, then the meshes' pieces, then one sphere per group.
+        # Rows: the geometries, one sphere per link of several, the meshes' pieces, one sphere per group.
         rows = [_geometry_row(objects[i]) for i in used]
         carrier = [objects[i].parentJoint for i in used]
+        self._links = _links_of(carrier)
+        self._link_rows = list(range(len(rows), len(rows) + len(self._links)))
+        rows += [_sphere_about(np.array(rows)[members]) for members in self._links]
+        carrier += [carrier[members[0]] for members in self._links]
         self._children = np.zeros((len(used), 2), dtype=np.int64)  # per geometry: first piece, count
         for k, g in enumerate(used):
             pieces = _pieces_of(objects[g])
@@ -186,31 +198,34 @@ class FreeCertifier:
         self._floats, self._ints = self._packed()
 
     def _ordered_pairs(self, pairs: np.ndarray) -> np.ndarray:
-        """Pairs (a, b, group's row or -1, end of the run or 0, id) from rows (a, b, id): a
-        moving geometry's pairs with the members of one group follow one another, the first
-        holding where the run ends, so that one test against the group's sphere passes them all."""
-        member = {g: k for k, group in enumerate(self._groups) for g in group}
-        grouped = sorted(
-            ((a, b, i) if b in member else (b, a, i) for a, b, i in pairs.tolist() if (a in member) != (b in member)),
-            key=lambda p: (p[0], member[p[1]]),
-        )
-        alone = [(a, b, -1, 0, i) for a, b, i in pairs.tolist() if (a in member) == (b in member)]
-        runs = [(a, member[b]) for a, b, _ in grouped]
-        out = list(alone)
-        for k, (a, b, i) in enumerate(grouped):
-            first = k == 0 or runs[k - 1] != runs[k]
-            end = len(alone) + next((j for j in range(k, len(grouped)) if runs[j] != runs[k]), len(grouped))
-            out.append((a, b, self._group_rows[member[b]], end if first else 0, i))
-        return np.array(out, dtype=np.int64).reshape(-1, 5)
+        """Pairs (a, b, id, a's node, b's node, end of the nodes' run or 0, end of a's run with
+        b's node or 0; `certifier_kernels.PAIR_ID`...) from rows (a, b, id). A node is the sphere
+        of a link's geometries or of a person's, else the geometry alone. The pairs between two
+        nodes follow one another, a's pairs with b's node within them (b the larger node), the
+        first of a run holding where it ends: one test of the nodes' spheres passes the run (if
+        a's node is not a alone), one of a against b's node passes a's run (if b's is not b)."""
+        node = {g: row for row, group in zip(self._group_rows, self._groups) for g in group}
+        node |= {g: row for row, members in zip(self._link_rows, self._links) for g in members}
+        size = dict(zip(self._group_rows, map(len, self._groups))) | dict(zip(self._link_rows, map(len, self._links)))
+
+        def oriented(a: int, b: int, i: int) -> tuple[int, int, int, int, int]:
+            na, nb = node.get(a, a), node.get(b, b)
+            if (size.get(na, 1), na) > (size.get(nb, 1), nb):
+                a, b, na, nb = b, a, nb, na
+            return a, b, i, na, nb
+
+        rows = sorted((oriented(a, b, i) for a, b, i in pairs.tolist()), key=lambda p: (p[3], p[4], p[0]))
+        out = []
+        for k, (a, b, i, na, nb) in enumerate(rows):
+            outer = _run_end(rows, k, lambda p: (p[3], p[4])) if na not in (a, nb) else 0
+            inner = _run_end(rows, k, lambda p: (p[0], p[4])) if nb not in (b, na) else 0
+            out.append((a, b, i, na, nb, outer, inner))
+        return np.array(out, dtype=np.int64).reshape(-1, PAIR)
 
     def _place_groups(self) -> None:
-        """Each group's sphere: about the middle of its members' spheres' box, holding them all."""
+        """Each group's sphere, where its members stand now."""
         for row, group in zip(self._group_rows, self._groups):
-            members = self._rows[group]
-            centres = (members[:, 0:3] + members[:, 3:6]) / 2.0
-            middle = (centres.min(axis=0) + centres.max(axis=0)) / 2.0
-            radius = float(np.max(np.linalg.norm(centres - middle, axis=1) + members[:, REACH]))
-            self._rows[row] = _sphere_row(middle, radius)
+            self._rows[row] = _sphere_about(self._rows[group])
 
     def place(self, geom_model: pin.GeometryModel) -> None:
         """Read again where the geometries on no joint stand (an obstacle moved, a person
@@ -238,28 +253,30 @@ class FreeCertifier:
             len(self._tables),
             len(self._axis_ints),
             len(self._children),
+            len(self._children) + len(self._links),  # rows placed at each state (those on a joint)
         ]
         header = len(sizes) + len(floats) + len(ints)
         float_starts = np.cumsum([0] + [a.size for a in floats])[:-1]
         int_starts = header + np.cumsum([0] + [a.size for a in ints])[:-1]
         head = np.array([*sizes, *float_starts, *int_starts], dtype=np.int64)
         packed = np.concatenate([head, *(a.reshape(-1).astype(np.int64) for a in ints)])
-        # The rows in the world: those on no joint placed now, for good; the kernel places the others.
-        self._placed = self._rows.copy()
+        # The joints' frames, then the rows in the world: those on no joint placed now, for good;
+        # the kernel places the others.
+        self._work = np.concatenate([np.zeros(len(self._joint_rows) * 12), self._rows.reshape(-1)])
         return np.concatenate([a.reshape(-1) for a in floats]), packed
 
     def verdict(self, q: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
         """(tables, pairs) at `q`: bit k of tables says table k (of those given) does not
         certify it; pairs are the ids of the pairs that may touch; only those can. `FREE`
         (the same object) if none; None if more than `ASKED_OF_COAL` pairs may touch."""
-        return _decoded(verdict_one(q, self._floats, self._ints, self._placed, self._left), self._left)
+        return _decoded(verdict_one(q, self._floats, self._ints, self._work, self._left), self._left)
 
     def verdicts(self, qs: np.ndarray) -> list[tuple[int, tuple[int, ...]] | None]:
         """`verdict` of every state of `qs` (N, nq), in one call."""
         if not len(qs):
             return []
         left = np.empty((len(qs), ASKED_OF_COAL + 1), dtype=np.int64)
-        codes = verdicts(np.ascontiguousarray(qs, dtype=float), self._floats, self._ints, self._placed, left)
+        codes = verdicts(np.ascontiguousarray(qs, dtype=float), self._floats, self._ints, self._work, left)
         return [_decoded(code, row) for code, row in zip(codes.tolist(), left)]
 
     def free_many(self, qs: np.ndarray) -> np.ndarray:
@@ -277,3 +294,21 @@ def _decoded(code: int, left: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
     if code < 0:
         return None
     return code & 0xFFFFFFFF, tuple(left[1 : (code >> 32) + 1].tolist())
+
+
+def _links_of(carrier: list[int]) -> list[list[int]]:
+    """The geometries (slots) of each joint that carries two or more: a node each, whose sphere
+    stays put in the joint's frame."""
+    by_joint: dict[int, list[int]] = {}
+    for k, joint in enumerate(carrier):
+        by_joint.setdefault(joint, []).append(k)
+    return [members for joint, members in by_joint.items() if joint != 0 and len(members) > 1]
+
+
+def _run_end(rows: list[tuple[int, ...]], k: int, key) -> int:
+    """Where the run of rows with row k's key ends, if k is its first and it holds two or more;
+    else 0 (one pair is tested alone)."""
+    if k > 0 and key(rows[k - 1]) == key(rows[k]):
+        return 0
+    end = next((j for j in range(k, len(rows)) if key(rows[j]) != key(rows[k])), len(rows))
+    return end if end - k > 1 else 0
