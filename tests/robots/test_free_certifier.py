@@ -23,6 +23,7 @@ from hriplan.robots.certifier_kernels import (
     INNER_END,
     OUTER_END,
     REACH,
+    capsule_beyond_face,
     capsule_clears_box,
     place_joints,
     segment_floor,
@@ -168,28 +169,51 @@ def test_mesh_pieces_hold_every_triangle(robots):
         assert len(pieces) == 16 and pieces[:, 3].max() < 0.75 * np.linalg.norm(np.ptp(placed, axis=0))
 
 
+def _capsule_and_box(rng, row: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    """Rows (2, 23): the capsule `row` and a random box turned anywhere near it; coal's distance
+    between them; the box's rotation, centre and half sides (3 + 3 + 3, 3)."""
+    half = rng.uniform(0.02, 0.4, 3)
+    rotation = pin.Quaternion(*rng.normal(size=4)).normalized().matrix()
+    centre = rng.uniform(-0.3, 0.3, 3)
+    placed = np.zeros((2, 23))
+    placed[0] = row
+    placed[1, 7:16], placed[1, 16:19], placed[1, 19:22] = rotation.reshape(9), centre, half
+    shape, where = _coal_capsule(row)
+    result = coal.DistanceResult()
+    distance = coal.distance(
+        shape, where, coal.Box(*(2 * half)), coal.Transform3s(rotation, centre), coal.DistanceRequest(), result
+    )
+    return placed, distance, np.vstack([rotation, centre, half])
+
+
 def test_capsule_clear_of_a_box_only_where_coal_keeps_them_apart():
     rng = np.random.default_rng(4)
     capsules = _capsule_rows(rng, 3000)
     cleared = 0
     for row in capsules:
-        half = rng.uniform(0.02, 0.4, 3)
-        rotation = pin.Quaternion(*rng.normal(size=4)).normalized().matrix()
-        centre = rng.uniform(-0.3, 0.3, 3)
-        placed = np.zeros((2, 23))
-        placed[0] = row
-        placed[1, 7:16], placed[1, 16:19], placed[1, 19:22] = rotation.reshape(9), centre, half
-        shape, where = _coal_capsule(row)
-        result = coal.DistanceResult()
-        distance = coal.distance(
-            shape, where, coal.Box(*(2 * half)), coal.Transform3s(rotation, centre), coal.DistanceRequest(), result
-        )
+        placed, distance, _ = _capsule_and_box(rng, row)
         clear = capsule_clears_box(placed, 0, 1, 1e-4)
         assert not clear or distance > 1e-4
         cleared += clear
         if distance > 0.05:  # far enough for the finest pieces (1/64 of the segment) to see it
             assert clear
     assert cleared > 0.3 * len(capsules)
+
+
+def test_capsule_beyond_a_face_only_where_a_plane_and_coal_keep_them_apart():
+    """Clear exactly where both ends of the segment lie past one face's plane by more than the
+    radius (here in the box's frame, by numpy), and coal finds them apart there."""
+    rng = np.random.default_rng(7)
+    beyond = 0
+    for row in _capsule_rows(rng, 3000):
+        placed, distance, box = _capsule_and_box(rng, row)
+        ends = (np.array([row[0:3], row[3:6]]) - box[3]) @ box[:3]  # (2, 3) in the box's frame
+        reach = box[4] + row[6] + 1e-4
+        expected = bool(((ends > reach).all(axis=0) | (ends < -reach).all(axis=0)).any())
+        assert capsule_beyond_face(placed, 0, 1, 1e-4) == expected
+        assert not expected or distance > 1e-4
+        beyond += expected
+    assert 0.2 < beyond / 3000 < 0.9
 
 
 def test_tables_are_asked_as_clearance_table_asks_them(robots):
