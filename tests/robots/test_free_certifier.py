@@ -20,8 +20,7 @@ pytest.importorskip("numba")
 
 from hriplan.robots import kernel_switch
 from hriplan.robots.certifier_kernels import (
-    INNER_END,
-    OUTER_END,
+    PAIR,
     REACH,
     capsule_beyond_face,
     capsule_clears_box,
@@ -306,14 +305,16 @@ def _placed_rows(certifier: FreeCertifier) -> np.ndarray:
 
 @pytest.mark.parametrize("name", ["ur5", "madar"])
 def test_node_spheres_hold_their_members_where_the_kernel_places_them(robots, name, kernels):
-    """Each link's sphere (placed at every state) and person's holds its members' spheres."""
+    """Each link's sphere (placed at every state), person's and part of a person's holds its
+    members' spheres."""
     robot = robots[name]
     checker = CollisionChecker(robot, _scene(robot, name))
     states = _random_states(robot, 300, 8)
     checker.in_collision(states[0])
     certifier = checker._free_certifier()
-    nodes = list(zip(certifier._link_rows, certifier._links)) + list(zip(certifier._group_rows, certifier._groups))
-    assert len(certifier._links) >= 5 and len(certifier._groups) == 2
+    rows = certifier._link_rows + certifier._group_rows + certifier._part_rows
+    nodes = list(zip(rows, certifier._links + certifier._groups + certifier._parts))
+    assert len(certifier._links) >= 5 and len(certifier._groups) == 2 and len(certifier._parts) == 8
     worst = -np.inf
     for q in states:
         certifier.verdict(q)
@@ -329,7 +330,7 @@ def _flat(certifier: FreeCertifier) -> FreeCertifier:
     """The same certifier testing every pair alone (no node's sphere skips a run)."""
     flat = copy.copy(certifier)
     flat._pairs = certifier._pairs.copy()
-    flat._pairs[:, [OUTER_END, INNER_END]] = 0
+    flat._pairs[:, 5:PAIR:3] = 0  # every level's run ends
     flat._floats, flat._ints = flat._packed()
     return flat
 
@@ -343,8 +344,31 @@ def test_node_spheres_skip_only_pairs_clear_alone(robots, name, kernels):
     states = _random_states(robot, STATES, 9)
     checker.in_collision(states[0])
     certifier = checker._free_certifier()
-    assert (certifier._pairs[:, OUTER_END] > 0).sum() >= 5 and (certifier._pairs[:, INNER_END] > 0).sum() >= 5
+    assert ((certifier._pairs[:, 5:PAIR:3] > 0).sum(axis=0) >= 5).all()  # runs at every level
     left = [None if v is None else (v[0], sorted(v[1])) for v in certifier.verdicts(states)]
     alone = [None if v is None else (v[0], sorted(v[1])) for v in _flat(certifier).verdicts(states)]
     assert left == alone
     assert 0.1 < np.mean([v is not None and v[1] != [] for v in left]) < 0.9  # pairs left to coal, or not
+
+
+@pytest.mark.parametrize("name", ["ur5", "madar"])
+def test_every_pair_of_a_run_lies_in_the_rows_that_pass_it(robots, name, kernels):
+    """The spheres that pass a run hold its pairs: at each level, a (or a's node) and b's node or
+    part hold the pair's geometries, over the whole run; and each person's parts split it."""
+    robot = robots[name]
+    checker = CollisionChecker(robot, _scene(robot, name))
+    checker.in_collision(_random_states(robot, 1, 10)[0])
+    certifier = checker._free_certifier()
+    rows = certifier._link_rows + certifier._group_rows + certifier._part_rows
+    members = dict(zip(rows, certifier._links + certifier._groups + certifier._parts))
+    for group in certifier._groups:
+        parts = [part for part in certifier._parts if set(part) <= set(group)]
+        assert sorted(g for part in parts for g in part) == sorted(group) and len(parts) == 4
+    pairs, runs = certifier._pairs, 0
+    for k in range(len(pairs)):
+        for column in range(3, PAIR, 3):
+            x, y, end = pairs[k, column : column + 3]
+            for a, b in pairs[k:end, :2]:
+                assert a in members.get(x, [x]) and b in members.get(y, [y])
+                runs += 1
+    assert runs > len(pairs)

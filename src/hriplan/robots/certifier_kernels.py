@@ -44,11 +44,11 @@ _INSIDE = 1e-3  # margin on the lines' nearest points falling within both segmen
 # the radius of the sphere about the capsule's middle that holds it (half its length + radius).
 CAPSULE, BOX, REACH = 7, 15, 22
 ROW = REACH + 1
-# A pair's row: its geometries' rows a, b, its id, the nodes (spheres) holding a and b, where the
-# run of pairs between those nodes ends (on its first pair, else 0) and where the run of a's
-# pairs with b's node ends (likewise); a geometry alone is its own node.
-PAIR_ID, NODE_A, NODE_B, OUTER_END, INNER_END = 2, 3, 4, 5, 6
-PAIR = INNER_END + 1
+# A pair's row: its geometries' rows a, b, its id, then per level (coarse to fine: a's node and
+# b's, a and b's node, a and b's part) the two rows tested and where the run of pairs they pass
+# ends (on its first pair; 0 elsewhere and where the level tests nothing).
+PAIR_ID, NODES, NODE, PART = 2, 3, 6, 9
+LEVELS, PAIR = 3, 12
 
 
 @njit(cache=True, nogil=True)
@@ -333,9 +333,9 @@ def _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b, toler
 def _verdict(q, floats, ints, work, left) -> int:
     """-1 if more pairs may touch at `q` than `left` holds (stopped there); else the tables
     that do not certify `q` (bit k for table k) plus 2^32 times the count of pairs that may
-    touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs between two nodes
-    passes at once when the nodes' spheres are apart, a run of one geometry's pairs with a node
-    when the geometry is clear of its sphere. `work` holds the rows on no joint already placed
+    touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs passes at once when
+    its level's rows are clear: two nodes' spheres, a geometry and a node's sphere as a pair, a
+    geometry and a part's. `work` holds the rows on no joint already placed
     (placed once, when packed)."""
     joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = _unpack(floats, ints)
     tolerance = floats[0]
@@ -347,11 +347,14 @@ def _verdict(q, floats, ints, work, left) -> int:
     count, k = 0, 0
     while k < pairs.shape[0]:
         a, b = pairs[k, 0], pairs[k, 1]
-        if pairs[k, OUTER_END] > 0 and spheres_apart(placed, pairs[k, NODE_A], pairs[k, NODE_B], tolerance):
-            k = pairs[k, OUTER_END]
+        if pairs[k, NODES + 2] > 0 and spheres_apart(placed, pairs[k, NODES], pairs[k, NODES + 1], tolerance):
+            k = pairs[k, NODES + 2]
             continue
-        if pairs[k, INNER_END] > 0 and pair_clear(placed, a, pairs[k, NODE_B], tolerance):
-            k = pairs[k, INNER_END]
+        if pairs[k, NODE + 2] > 0 and pair_clear(placed, a, pairs[k, NODE + 1], tolerance):
+            k = pairs[k, NODE + 2]
+            continue
+        if pairs[k, PART + 2] > 0 and pair_clear(placed, a, pairs[k, PART + 1], tolerance):
+            k = pairs[k, PART + 2]
             continue
         if not pair_clear(placed, a, b, tolerance) and (
             (children[a, 1] == 0 and children[b, 1] == 0)

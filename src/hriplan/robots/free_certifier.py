@@ -22,12 +22,13 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from hriplan.robots.certifier_kernels import PAIR, REACH, ROW, verdict_one, verdicts
+from hriplan.robots.certifier_kernels import LEVELS, PAIR, REACH, ROW, verdict_one, verdicts
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.mesh_clearance import ClearanceTable
 from hriplan.robots.part_spheres import BOUND_TOLERANCE
 
 _LEAVES = 16  # spheres per mesh
+_PARTS = 4  # parts of a person, each a node of the capsules near one another
 ASKED_OF_COAL = 8  # pairs a state may leave to coal one by one; more: the whole broad phase
 
 
@@ -159,7 +160,8 @@ class FreeCertifier:
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         used = sorted(set(pairs.reshape(-1).tolist()))
         self._used, slot = used, {g: k for k, g in enumerate(used)}
-        # Rows: the geometries, one sphere per link of several, the meshes' pieces, one sphere per group.
+        # Rows: the geometries, one sphere per link of several, the meshes' pieces, one sphere per
+        # group (a person) and per part of a group.
         rows = [_geometry_row(objects[i]) for i in used]
         carrier = [objects[i].parentJoint for i in used]
         self._links = _links_of(carrier)
@@ -174,9 +176,11 @@ class FreeCertifier:
             carrier += [carrier[k]] * len(pieces)
         self._groups = [[slot[g] for g in group if g in slot] for group in groups]
         self._groups = [group for group in self._groups if group]
+        self._parts = [part for group in self._groups for part in _parts_of(np.array(rows), group)]
         self._group_rows = list(range(len(rows), len(rows) + len(self._groups)))
-        rows += [np.zeros(ROW)] * len(self._groups)
-        carrier += [0] * len(self._groups)
+        self._part_rows = list(range(len(rows) + len(self._groups), len(rows) + len(self._groups) + len(self._parts)))
+        rows += [np.zeros(ROW)] * (len(self._groups) + len(self._parts))
+        carrier += [0] * (len(self._groups) + len(self._parts))
         self._rows, self._carrier = np.array(rows).reshape(-1, ROW), np.array(carrier, dtype=np.int64)
         ids = np.arange(len(pairs)) if ids is None else np.asarray(ids, dtype=np.int64)
         slots = np.vectorize(slot.get, otypes=[np.int64])(pairs).reshape(-1, 2)
@@ -198,33 +202,35 @@ class FreeCertifier:
         self._floats, self._ints = self._packed()
 
     def _ordered_pairs(self, pairs: np.ndarray) -> np.ndarray:
-        """Pairs (a, b, id, a's node, b's node, end of the nodes' run or 0, end of a's run with
-        b's node or 0; `certifier_kernels.PAIR_ID`...) from rows (a, b, id). A node is the sphere
-        of a link's geometries or of a person's, else the geometry alone. The pairs between two
-        nodes follow one another, a's pairs with b's node within them (b the larger node), the
-        first of a run holding where it ends: one test of the nodes' spheres passes the run (if
-        a's node is not a alone), one of a against b's node passes a's run (if b's is not b)."""
-        node = {g: row for row, group in zip(self._group_rows, self._groups) for g in group}
-        node |= {g: row for row, members in zip(self._link_rows, self._links) for g in members}
-        size = dict(zip(self._group_rows, map(len, self._groups))) | dict(zip(self._link_rows, map(len, self._links)))
+        """Pairs (a, b, id, then per level, coarse to fine, the rows tested and where their run
+        ends or 0: `certifier_kernels.PAIR`) from rows (a, b, id). A geometry's node is its
+        link's sphere or its person's, else itself; a person's capsule is also in a part of the
+        person. The pairs between two nodes follow one another, a's pairs with b's node within
+        them (b the larger node), and a's with each part of b's node within those; the first of
+        a run holds where it ends, so that one test passes it: the nodes' spheres, then a against
+        b's node, then a against the part."""
+        top = dict(zip(self._group_rows + self._link_rows, self._groups + self._links))
+        size = {row: len(members) for row, members in top.items()}
+        node = {g: row for row, members in top.items() for g in members}
+        part = {g: row for row, members in zip(self._part_rows, self._parts) for g in members}
 
-        def oriented(a: int, b: int, i: int) -> tuple[int, int, int, int, int]:
+        def oriented(a: int, b: int, i: int) -> tuple[int, int, int, int, int, int]:
             na, nb = node.get(a, a), node.get(b, b)
             if (size.get(na, 1), na) > (size.get(nb, 1), nb):
                 a, b, na, nb = b, a, nb, na
-            return a, b, i, na, nb
+            return a, b, i, na, nb, part.get(b, nb)
 
-        rows = sorted((oriented(a, b, i) for a, b, i in pairs.tolist()), key=lambda p: (p[3], p[4], p[0]))
+        rows = sorted((oriented(*p) for p in pairs.tolist()), key=lambda r: (r[3], r[4], r[0], r[5]))
+        levels = [[_level(level, *r[:2], *r[3:]) for r in rows] for level in range(LEVELS)]
         out = []
-        for k, (a, b, i, na, nb) in enumerate(rows):
-            outer = _run_end(rows, k, lambda p: (p[3], p[4])) if na not in (a, nb) else 0
-            inner = _run_end(rows, k, lambda p: (p[0], p[4])) if nb not in (b, na) else 0
-            out.append((a, b, i, na, nb, outer, inner))
+        for k, (a, b, i, *_) in enumerate(rows):
+            tests = [(*(keys[k] or (0, 0)), _run_end(keys, k)) for keys in levels]
+            out.append((a, b, i, *(x for test in tests for x in test)))
         return np.array(out, dtype=np.int64).reshape(-1, PAIR)
 
     def _place_groups(self) -> None:
         """Each group's sphere, where its members stand now."""
-        for row, group in zip(self._group_rows, self._groups):
+        for row, group in zip(self._group_rows + self._part_rows, self._groups + self._parts):
             self._rows[row] = _sphere_about(self._rows[group])
 
     def place(self, geom_model: pin.GeometryModel) -> None:
@@ -305,10 +311,33 @@ def _links_of(carrier: list[int]) -> list[list[int]]:
     return [members for joint, members in by_joint.items() if joint != 0 and len(members) > 1]
 
 
-def _run_end(rows: list[tuple[int, ...]], k: int, key) -> int:
-    """Where the run of rows with row k's key ends, if k is its first and it holds two or more;
+def _parts_of(rows: np.ndarray, members: list[int], count: int = _PARTS) -> list[list[int]]:
+    """`members` (slots of `rows`) in `count` parts of members near one another (none if they do
+    not split): the part whose centres spread widest halved along that spread."""
+    centres = (rows[:, 0:3] + rows[:, 3:6]) / 2.0
+    parts = [sorted(members)]
+    while len(parts) < count and max(map(len, parts)) > 1:
+        widest = max((p for p in parts if len(p) > 1), key=lambda p: np.ptp(centres[p], axis=0).max())
+        parts.remove(widest)
+        order = sorted(widest, key=lambda g: centres[g, int(np.argmax(np.ptp(centres[widest], axis=0)))])
+        parts += [order[: len(order) // 2], order[len(order) // 2 :]]
+    return parts if len(parts) > 1 else []
+
+
+def _level(level: int, a: int, b: int, na: int, nb: int, pb: int) -> tuple[int, int] | None:
+    """The rows that test a pair's run at `level` (its nodes na, nb; pb: b's part, else nb), or
+    None where that is no test (a geometry alone, its own node, or a coarser level's rows)."""
+    if level == 0:
+        return (na, nb) if na not in (a, nb) else None
+    if level == 1:
+        return (a, nb) if nb not in (b, na) else None
+    return (a, pb) if pb not in (b, nb) else None
+
+
+def _run_end(keys: list[tuple[int, int] | None], k: int) -> int:
+    """Where the run of pairs with key k's ends, if k is its first and it holds two or more;
     else 0 (one pair is tested alone)."""
-    if k > 0 and key(rows[k - 1]) == key(rows[k]):
+    if keys[k] is None or (k > 0 and keys[k - 1] == keys[k]):
         return 0
-    end = next((j for j in range(k, len(rows)) if key(rows[j]) != key(rows[k])), len(rows))
+    end = next((j for j in range(k, len(keys)) if keys[j] != keys[k]), len(keys))
     return end if end - k > 1 else 0
