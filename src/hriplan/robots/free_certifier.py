@@ -185,7 +185,6 @@ class FreeCertifier:
         ids = np.arange(len(pairs)) if ids is None else np.asarray(ids, dtype=np.int64)
         slots = np.vectorize(slot.get, otypes=[np.int64])(pairs).reshape(-1, 2)
         self._pairs = self._ordered_pairs(np.column_stack([slots, ids]))
-        self._left = np.empty(ASKED_OF_COAL + 1, dtype=np.int64)
         # The tables: per table its first axis, number of axes and first bit; per axis (q index,
         # cells, periodic) and (lower, step); the cells' bits one after another.
         axes = [axis for table in tables for axis in table._axes]
@@ -248,10 +247,16 @@ class FreeCertifier:
             self._floats, self._ints = self._packed()
 
     def _packed(self) -> tuple[np.ndarray, np.ndarray]:
-        """All of it in one float and one int array (a numba call costs ~0.1 us an array): the
-        int array starts with the sizes and where each part begins (`_unpack`)."""
-        floats = [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats]
-        ints = [self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children, self._bits]
+        """All of it in one float and one int array (a numba call costs ~0.05 us an array): the
+        int array starts with the sizes and where each part begins (`_unpack`). The kernel's
+        scratch ends the float array: the joints' frames, then the rows in the world (those on
+        no joint placed now, for good; the kernel places the others); the ids of the pairs left
+        end the int array."""
+        work = np.concatenate([np.zeros(len(self._joint_rows) * 12), self._rows.reshape(-1)])
+        floats = [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats, work]
+        left = np.zeros(ASKED_OF_COAL + 1)
+        ints = [self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children]
+        ints += [self._bits, left]
         sizes = [
             len(self._joint_rows),
             len(self._rows),
@@ -266,23 +271,23 @@ class FreeCertifier:
         int_starts = header + np.cumsum([0] + [a.size for a in ints])[:-1]
         head = np.array([*sizes, *float_starts, *int_starts], dtype=np.int64)
         packed = np.concatenate([head, *(a.reshape(-1).astype(np.int64) for a in ints)])
-        # The joints' frames, then the rows in the world: those on no joint placed now, for good;
-        # the kernel places the others.
-        self._work = np.concatenate([np.zeros(len(self._joint_rows) * 12), self._rows.reshape(-1)])
-        return np.concatenate([a.reshape(-1) for a in floats]), packed
+        flat = np.concatenate([a.reshape(-1) for a in floats])
+        self._work, self._left = flat[-work.size :], packed[-left.size :]  # views the kernel writes
+        return flat, packed
 
     def verdict(self, q: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
         """(tables, pairs) at `q`: bit k of tables says table k (of those given) does not
         certify it; pairs are the ids of the pairs that may touch; only those can. `FREE`
         (the same object) if none; None if more than `ASKED_OF_COAL` pairs may touch."""
-        return _decoded(verdict_one(q, self._floats, self._ints, self._work, self._left), self._left)
+        code = verdict_one(q, self._floats, self._ints)
+        return FREE if code == 0 else _decoded(code, self._left)
 
     def verdicts(self, qs: np.ndarray) -> list[tuple[int, tuple[int, ...]] | None]:
         """`verdict` of every state of `qs` (N, nq), in one call."""
         if not len(qs):
             return []
         left = np.empty((len(qs), ASKED_OF_COAL + 1), dtype=np.int64)
-        codes = verdicts(np.ascontiguousarray(qs, dtype=float), self._floats, self._ints, self._work, left)
+        codes = verdicts(np.ascontiguousarray(qs, dtype=float), self._floats, self._ints, left)
         return [_decoded(code, row) for code, row in zip(codes.tolist(), left)]
 
     def free_many(self, qs: np.ndarray) -> np.ndarray:
