@@ -375,3 +375,18 @@ def test_every_pair_of_a_run_lies_in_the_rows_that_pass_it(robots, name, kernels
                 assert a in members.get(x, [x]) and b in members.get(y, [y])
                 runs += 1
     assert runs > len(pairs)
+
+
+def test_a_checker_stops_asking_its_certifier_when_the_kernels_are_turned_off(robots, kernels, monkeypatch):
+    """`use_kernels(False)`: the certifier a checker made is no longer asked (coal answers)."""
+    checker = CollisionChecker(robots["ur5"])
+    q = _random_states(robots["ur5"], 1, 11)[0]
+    expected = checker.in_collision(q)
+    asked, certifier = [], checker._free_certifier()
+    verdict = certifier.verdict
+    monkeypatch.setattr(certifier, "verdict", lambda q: asked.append(q) or verdict(q))
+    kernel_switch.use_kernels(False)
+    assert checker.in_collision(q) == expected and not asked
+    kernel_switch.use_kernels(True)
+    checker.in_collision(q)
+    assert len(asked) == 1
