@@ -321,7 +321,8 @@ def test_node_spheres_hold_their_members_where_the_kernel_places_them(robots, na
     worst, reach = -np.inf, certifier._rows[:, REACH]
     for q in states:
         certifier.verdict(q)
-        placed = certifier._work[len(certifier._joint_rows) * 12 :].reshape(certifier._rows.shape)
+        scratch = len(certifier._joint_rows) * 15  # the joints' frames, state and moves first
+        placed = certifier._work[scratch:].reshape(certifier._rows.shape)
         centres = _centres(certifier, robot.model, q)
         for node, members in nodes:
             held = np.linalg.norm(centres[members] - placed[node, 0:3], axis=1) + reach[members]
@@ -336,6 +337,30 @@ def _flat(certifier: FreeCertifier) -> FreeCertifier:
     flat._pairs[:, 5:PAIR:3] = 0  # every level's run ends
     flat._floats, flat._ints = flat._packed()
     return flat
+
+
+def test_frames_kept_from_the_last_state_are_those_placed_anew(robots, kernels):
+    """A joint whose coordinate and ancestors' are those of the last state keeps its frame and
+    its rows: the same verdicts, frames and placed rows, to the bit, as placing all anew, over
+    states that keep none, some, most or all of the last one's coordinates."""
+    robot = robots["madar"]
+    checker = CollisionChecker(robot, _scene(robot, "madar"))
+    qs, rng = _random_states(robot, 1000, 12), np.random.default_rng(12)
+    for k in range(1, len(qs)):
+        keep = rng.uniform(size=qs.shape[1]) < rng.choice([0.0, 0.5, 0.9, 1.0])
+        qs[k, keep] = qs[k - 1, keep]
+    checker.in_collision(qs[0])
+    certifier = checker._free_certifier()
+    anew = copy.copy(certifier)
+    anew._floats, anew._ints = anew._packed()
+    nj = len(certifier._joint_rows)
+    frames, placed = slice(0, nj * 12), slice(nj * 15, None)  # between them: the state and which moved
+    for q in qs:
+        anew._work[nj * 12 : nj * 14] = np.nan  # no state placed: every joint placed anew
+        assert certifier.verdict(q) == anew.verdict(q)
+        assert np.array_equal(certifier._work[frames], anew._work[frames])
+        assert np.array_equal(certifier._work[placed], anew._work[placed])
+    assert certifier._work[nj * 12 + 1] == qs[-1, 1]  # the last state is kept
 
 
 @pytest.mark.parametrize("name", ["ur5", "madar"])

@@ -59,43 +59,73 @@ def place_joints(q: np.ndarray, rows: np.ndarray, ints: np.ndarray, rotation: np
     """World frames of every joint at `q` into `rotation` (njoints, 3, 3) and `origin` (njoints, 3):
     a joint's frame is its parent's, times its placement, times its own motion (as pinocchio).
     Scalars throughout: an array made per joint cost more than the arithmetic."""
-    for r in range(3):  # the world (np.eye would allocate at every call)
+    _world(rotation, origin)
+    for j in range(1, rows.shape[0]):
+        _place_joint(q, rows, ints, rotation, origin, j)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _world(rotation, origin) -> None:
+    """Joint 0's frame, the world's (np.eye would allocate at every call)."""
+    for r in range(3):
         origin[0, r] = 0.0
         for c in range(3):
             rotation[0, r, c] = 1.0 if r == c else 0.0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def place_moved_joints(q, rows, ints, rotation, origin, last, moved) -> None:
+    """`place_joints`, keeping the frames of the joints neither whose coordinates nor whose
+    ancestors' changed since `last` (the state they were placed at, NaN for none): a planner moves
+    one arm at a time, and a frame costs ~40 ns (its sine and cosine). `moved[j]` says which."""
+    _world(rotation, origin)
+    moved[0] = 0.0
     for j in range(1, rows.shape[0]):
         p, kind, iq = ints[j, 0], ints[j, 1], ints[j, 2]
-        ax, ay, az = rows[j, 12], rows[j, 13], rows[j, 14]
-        if kind == PRISMATIC:
-            cos, sin, slide = 1.0, 0.0, q[iq]
-        elif kind == CONTINUOUS:
-            cos, sin, slide = q[iq], q[iq + 1], 0.0
+        if moved[p] != 0.0 or q[iq] != last[iq] or (kind == CONTINUOUS and q[iq + 1] != last[iq + 1]):
+            moved[j] = 1.0
+            _place_joint(q, rows, ints, rotation, origin, j)
         else:
-            cos, sin, slide = math.cos(q[iq]), math.sin(q[iq]), 0.0
-        # The joint's own motion in its placement's frame, Rodrigues: cos I + sin [a]x + (1 - cos) a a^T.
-        v = 1.0 - cos
-        t00, t01, t02 = cos + v * ax * ax, v * ax * ay - sin * az, v * ax * az + sin * ay
-        t10, t11, t12 = v * ay * ax + sin * az, cos + v * ay * ay, v * ay * az - sin * ax
-        t20, t21, t22 = v * az * ax - sin * ay, v * az * ay + sin * ax, cos + v * az * az
-        # Placement times motion (rotation), and the placement's translation plus the slide.
-        m00 = rows[j, 0] * t00 + rows[j, 1] * t10 + rows[j, 2] * t20
-        m01 = rows[j, 0] * t01 + rows[j, 1] * t11 + rows[j, 2] * t21
-        m02 = rows[j, 0] * t02 + rows[j, 1] * t12 + rows[j, 2] * t22
-        m10 = rows[j, 3] * t00 + rows[j, 4] * t10 + rows[j, 5] * t20
-        m11 = rows[j, 3] * t01 + rows[j, 4] * t11 + rows[j, 5] * t21
-        m12 = rows[j, 3] * t02 + rows[j, 4] * t12 + rows[j, 5] * t22
-        m20 = rows[j, 6] * t00 + rows[j, 7] * t10 + rows[j, 8] * t20
-        m21 = rows[j, 6] * t01 + rows[j, 7] * t11 + rows[j, 8] * t21
-        m22 = rows[j, 6] * t02 + rows[j, 7] * t12 + rows[j, 8] * t22
-        x = rows[j, 9] + (rows[j, 0] * ax + rows[j, 1] * ay + rows[j, 2] * az) * slide
-        y = rows[j, 10] + (rows[j, 3] * ax + rows[j, 4] * ay + rows[j, 5] * az) * slide
-        z = rows[j, 11] + (rows[j, 6] * ax + rows[j, 7] * ay + rows[j, 8] * az) * slide
-        for r in range(3):
-            u0, u1, u2 = rotation[p, r, 0], rotation[p, r, 1], rotation[p, r, 2]
-            rotation[j, r, 0] = u0 * m00 + u1 * m10 + u2 * m20
-            rotation[j, r, 1] = u0 * m01 + u1 * m11 + u2 * m21
-            rotation[j, r, 2] = u0 * m02 + u1 * m12 + u2 * m22
-            origin[j, r] = origin[p, r] + u0 * x + u1 * y + u2 * z
+            moved[j] = 0.0
+    for i in range(q.shape[0]):
+        last[i] = q[i]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _place_joint(q, rows, ints, rotation, origin, j) -> None:
+    """Joint j's frame: its parent's (placed before it), times its placement, times its motion."""
+    p, kind, iq = ints[j, 0], ints[j, 1], ints[j, 2]
+    ax, ay, az = rows[j, 12], rows[j, 13], rows[j, 14]
+    if kind == PRISMATIC:
+        cos, sin, slide = 1.0, 0.0, q[iq]
+    elif kind == CONTINUOUS:
+        cos, sin, slide = q[iq], q[iq + 1], 0.0
+    else:
+        cos, sin, slide = math.cos(q[iq]), math.sin(q[iq]), 0.0
+    # The joint's own motion in its placement's frame, Rodrigues: cos I + sin [a]x + (1 - cos) a a^T.
+    v = 1.0 - cos
+    t00, t01, t02 = cos + v * ax * ax, v * ax * ay - sin * az, v * ax * az + sin * ay
+    t10, t11, t12 = v * ay * ax + sin * az, cos + v * ay * ay, v * ay * az - sin * ax
+    t20, t21, t22 = v * az * ax - sin * ay, v * az * ay + sin * ax, cos + v * az * az
+    # Placement times motion (rotation), and the placement's translation plus the slide.
+    m00 = rows[j, 0] * t00 + rows[j, 1] * t10 + rows[j, 2] * t20
+    m01 = rows[j, 0] * t01 + rows[j, 1] * t11 + rows[j, 2] * t21
+    m02 = rows[j, 0] * t02 + rows[j, 1] * t12 + rows[j, 2] * t22
+    m10 = rows[j, 3] * t00 + rows[j, 4] * t10 + rows[j, 5] * t20
+    m11 = rows[j, 3] * t01 + rows[j, 4] * t11 + rows[j, 5] * t21
+    m12 = rows[j, 3] * t02 + rows[j, 4] * t12 + rows[j, 5] * t22
+    m20 = rows[j, 6] * t00 + rows[j, 7] * t10 + rows[j, 8] * t20
+    m21 = rows[j, 6] * t01 + rows[j, 7] * t11 + rows[j, 8] * t21
+    m22 = rows[j, 6] * t02 + rows[j, 7] * t12 + rows[j, 8] * t22
+    x = rows[j, 9] + (rows[j, 0] * ax + rows[j, 1] * ay + rows[j, 2] * az) * slide
+    y = rows[j, 10] + (rows[j, 3] * ax + rows[j, 4] * ay + rows[j, 5] * az) * slide
+    z = rows[j, 11] + (rows[j, 6] * ax + rows[j, 7] * ay + rows[j, 8] * az) * slide
+    for r in range(3):
+        u0, u1, u2 = rotation[p, r, 0], rotation[p, r, 1], rotation[p, r, 2]
+        rotation[j, r, 0] = u0 * m00 + u1 * m10 + u2 * m20
+        rotation[j, r, 1] = u0 * m01 + u1 * m11 + u2 * m21
+        rotation[j, r, 2] = u0 * m02 + u1 * m12 + u2 * m22
+        origin[j, r] = origin[p, r] + u0 * x + u1 * y + u2 * z
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -303,11 +333,13 @@ def _unpack(floats, ints):
 
 @njit(cache=True, nogil=True, inline="always")
 def _scratch(work, nj):
-    """The joints' frames and the placed rows, as views of `work` (made once: an array made at
-    every state cost ~0.15 us)."""
+    """The joints' frames, the state they were placed at (up to 2 nj coordinates) and which moved
+    then, and the placed rows, as views of `work` (made once: an array made at every state cost
+    ~0.15 us)."""
     rotation = work[: nj * 9].reshape((nj, 3, 3))
     origin = work[nj * 9 : nj * 12].reshape((nj, 3))
-    return rotation, origin, work[nj * 12 :].reshape((-1, ROW))
+    last, moved = work[nj * 12 : nj * 14], work[nj * 14 : nj * 15]
+    return rotation, origin, last, moved, work[nj * 15 :].reshape((-1, ROW))
 
 
 @njit(cache=True, nogil=True)
@@ -342,10 +374,10 @@ def _verdict(q, floats, ints, work, left) -> int:
     (placed once, when packed)."""
     joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = _unpack(floats, ints)
     tolerance = floats[0]
-    rotation, origin, placed = _scratch(work, joint_rows.shape[0])
-    place_joints(q, joint_rows, joint_ints, rotation, origin)
-    for g in range(ints[6]):  # the geometries and the links' spheres
-        if carrier[g] != 0:
+    rotation, origin, last, moved, placed = _scratch(work, joint_rows.shape[0])
+    place_moved_joints(q, joint_rows, joint_ints, rotation, origin, last, moved)
+    for g in range(ints[6]):  # the geometries and the links' spheres on a joint that moved
+        if carrier[g] != 0 and moved[carrier[g]] != 0.0:
             _place(rows, g, rotation, origin, carrier[g], placed)
     count, k = 0, 0
     while k < pairs.shape[0]:

@@ -249,10 +249,12 @@ class FreeCertifier:
     def _packed(self) -> tuple[np.ndarray, np.ndarray]:
         """All of it in one float and one int array (a numba call costs ~0.05 us an array): the
         int array starts with the sizes and where each part begins (`_unpack`). The kernel's
-        scratch ends the float array: the joints' frames, then the rows in the world (those on
+        scratch ends the float array: the joints' frames, the state they were placed at (none
+        yet) and which moved, then the rows in the world (those on
         no joint placed now, for good; the kernel places the others); the ids of the pairs left
         end the int array."""
-        work = np.concatenate([np.zeros(len(self._joint_rows) * 12), self._rows.reshape(-1)])
+        nj = len(self._joint_rows)
+        work = np.concatenate([np.zeros(nj * 12), np.full(nj * 2, np.nan), np.zeros(nj), self._rows.reshape(-1)])
         floats = [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats, work]
         left = np.zeros(ASKED_OF_COAL + 1)
         ints = [self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children]
