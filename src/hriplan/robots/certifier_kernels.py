@@ -74,7 +74,7 @@ def _world(rotation, origin) -> None:
 
 
 @njit(cache=True, nogil=True, inline="always")
-def place_moved_joints(q, rows, ints, rotation, origin, last, moved) -> None:
+def _place_moved_joints(q, rows, ints, rotation, origin, last, moved) -> None:
     """`place_joints`, keeping the frames of the joints neither whose coordinates nor whose
     ancestors' changed since `last` (the state they were placed at, NaN for none): a planner moves
     one arm at a time, and a frame costs ~40 ns (its sine and cosine). `moved[j]` says which."""
@@ -221,7 +221,7 @@ def _along(rows, a, e, b, c) -> float:
 
 
 @njit(cache=True, nogil=True, inline="always")
-def capsule_beyond_face(rows, a, b, tolerance) -> bool:
+def capsule_beyond_face(rows: np.ndarray, a: int, b: int, tolerance: float) -> bool:
     """True if row a's capsule lies beyond a face of row b's box by more than `tolerance`: both
     ends of its segment past the face's plane by more than its radius (the segment between them
     is too). No square root and no halving: an arm above a table is cleared here."""
@@ -286,7 +286,7 @@ def _place(rows, g, rotation, origin, j, out) -> None:
 
 
 @njit(cache=True, nogil=True)
-def spheres_apart(rows, a, b, tolerance) -> bool:
+def spheres_apart(rows: np.ndarray, a: int, b: int, tolerance: float) -> bool:
     """True if the spheres about placed rows a and b (about their capsules' middles, radius their
     reach) are more than `tolerance` apart: the cheapest test, first for every pair and group."""
     cx = rows[a, 0] + rows[a, 3] - rows[b, 0] - rows[b, 3]
@@ -370,12 +370,12 @@ def _verdict(q, floats, ints, work, left) -> int:
     that do not certify `q` (bit k for table k) plus 2^32 times the count of pairs that may
     touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs passes at once when
     its level's rows are clear: two nodes' spheres, a geometry and a node's sphere as a pair, a
-    geometry and a part's. `work` holds the rows on no joint already placed
-    (placed once, when packed)."""
+    geometry and a part's. `work` holds the joints' frames and the rows as the last state asked
+    left them (those on no joint placed once, when packed)."""
     joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = _unpack(floats, ints)
     tolerance = floats[0]
     rotation, origin, last, moved, placed = _scratch(work, joint_rows.shape[0])
-    place_moved_joints(q, joint_rows, joint_ints, rotation, origin, last, moved)
+    _place_moved_joints(q, joint_rows, joint_ints, rotation, origin, last, moved)
     for g in range(ints[6]):  # the geometries and the links' spheres on a joint that moved
         if carrier[g] != 0 and moved[carrier[g]] != 0.0:
             _place(rows, g, rotation, origin, carrier[g], placed)

@@ -250,9 +250,8 @@ class FreeCertifier:
         """All of it in one float and one int array (a numba call costs ~0.05 us an array): the
         int array starts with the sizes and where each part begins (`_unpack`). The kernel's
         scratch ends the float array: the joints' frames, the state they were placed at (none
-        yet) and which moved, then the rows in the world (those on
-        no joint placed now, for good; the kernel places the others); the ids of the pairs left
-        end the int array."""
+        yet) and which moved, then the rows in the world (those on no joint placed now, for good;
+        the kernel places the others); the ids of the pairs left end the int array."""
         nj = len(self._joint_rows)
         work = np.concatenate([np.zeros(nj * 12), np.full(nj * 2, np.nan), np.zeros(nj), self._rows.reshape(-1)])
         floats = [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats, work]
@@ -326,7 +325,8 @@ def _parts_of(rows: np.ndarray, members: list[int], count: int = _PARTS) -> list
     while len(parts) < count and max(map(len, parts)) > 1:
         widest = max((p for p in parts if len(p) > 1), key=lambda p: np.ptp(centres[p], axis=0).max())
         parts.remove(widest)
-        order = sorted(widest, key=lambda g: centres[g, int(np.argmax(np.ptp(centres[widest], axis=0)))])
+        axis = int(np.argmax(np.ptp(centres[widest], axis=0)))
+        order = sorted(widest, key=lambda g: centres[g, axis])
         parts += [order[: len(order) // 2], order[len(order) // 2 :]]
     return parts if len(parts) > 1 else []
 
