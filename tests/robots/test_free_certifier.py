@@ -8,6 +8,7 @@ cylinder, a mesh and people close by); and the checker answers the same with and
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
 import coal
@@ -18,7 +19,14 @@ import pytest
 pytest.importorskip("numba")
 
 from hriplan.robots import kernel_switch
-from hriplan.robots.certifier_kernels import capsule_clears_box, place_joints, segment_floor
+from hriplan.robots.certifier_kernels import (
+    PAIR,
+    REACH,
+    capsule_beyond_face,
+    capsule_clears_box,
+    place_joints,
+    segment_floor,
+)
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.free_certifier import FreeCertifier, _mesh_pieces
@@ -160,28 +168,51 @@ def test_mesh_pieces_hold_every_triangle(robots):
         assert len(pieces) == 16 and pieces[:, 3].max() < 0.75 * np.linalg.norm(np.ptp(placed, axis=0))
 
 
+def _capsule_and_box(rng, row: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    """Rows (2, 23): the capsule `row` and a random box turned anywhere near it; coal's distance
+    between them; the box's rotation, centre and half sides (3 + 3 + 3, 3)."""
+    half = rng.uniform(0.02, 0.4, 3)
+    rotation = pin.Quaternion(*rng.normal(size=4)).normalized().matrix()
+    centre = rng.uniform(-0.3, 0.3, 3)
+    placed = np.zeros((2, 23))
+    placed[0] = row
+    placed[1, 7:16], placed[1, 16:19], placed[1, 19:22] = rotation.reshape(9), centre, half
+    shape, where = _coal_capsule(row)
+    result = coal.DistanceResult()
+    distance = coal.distance(
+        shape, where, coal.Box(*(2 * half)), coal.Transform3s(rotation, centre), coal.DistanceRequest(), result
+    )
+    return placed, distance, np.vstack([rotation, centre, half])
+
+
 def test_capsule_clear_of_a_box_only_where_coal_keeps_them_apart():
     rng = np.random.default_rng(4)
     capsules = _capsule_rows(rng, 3000)
     cleared = 0
     for row in capsules:
-        half = rng.uniform(0.02, 0.4, 3)
-        rotation = pin.Quaternion(*rng.normal(size=4)).normalized().matrix()
-        centre = rng.uniform(-0.3, 0.3, 3)
-        placed = np.zeros((2, 23))
-        placed[0] = row
-        placed[1, 7:16], placed[1, 16:19], placed[1, 19:22] = rotation.reshape(9), centre, half
-        shape, where = _coal_capsule(row)
-        result = coal.DistanceResult()
-        distance = coal.distance(
-            shape, where, coal.Box(*(2 * half)), coal.Transform3s(rotation, centre), coal.DistanceRequest(), result
-        )
+        placed, distance, _ = _capsule_and_box(rng, row)
         clear = capsule_clears_box(placed, 0, 1, 1e-4)
         assert not clear or distance > 1e-4
         cleared += clear
         if distance > 0.05:  # far enough for the finest pieces (1/64 of the segment) to see it
             assert clear
     assert cleared > 0.3 * len(capsules)
+
+
+def test_capsule_beyond_a_face_only_where_a_plane_and_coal_keep_them_apart():
+    """Clear exactly where both ends of the segment lie past one face's plane by more than the
+    radius (here in the box's frame, by numpy), and coal finds them apart there."""
+    rng = np.random.default_rng(7)
+    beyond = 0
+    for row in _capsule_rows(rng, 3000):
+        placed, distance, box = _capsule_and_box(rng, row)
+        ends = (np.array([row[0:3], row[3:6]]) - box[3]) @ box[:3]  # (2, 3) in the box's frame
+        reach = box[4] + row[6] + 1e-4
+        expected = bool(((ends > reach).all(axis=0) | (ends < -reach).all(axis=0)).any())
+        assert capsule_beyond_face(placed, 0, 1, 1e-4) == expected
+        assert not expected or distance > 1e-4
+        beyond += expected
+    assert 0.2 < beyond / 3000 < 0.9
 
 
 def test_tables_are_asked_as_clearance_table_asks_them(robots):
@@ -265,3 +296,122 @@ def test_moved_people_and_obstacles_are_where_the_certifier_looks(robots, kernel
     assert not checker.in_collision(q)
     checker.move_obstacle("ball", Pose(xyz=tuple(tool)))
     assert checker.in_collision(q) and not checker._free_certifier().verdict(q) == (0, ())
+
+
+def _centres(certifier: FreeCertifier, model: pin.Model, q: np.ndarray) -> np.ndarray:
+    """Each row's sphere centre (its capsule's middle) in the world at `q`, placed by pinocchio."""
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    middles = (certifier._rows[:, 0:3] + certifier._rows[:, 3:6]) / 2.0
+    return np.array([data.oMi[int(j)].act(m) for j, m in zip(certifier._carrier, middles)])
+
+
+@pytest.mark.parametrize("name", ["ur5", "madar"])
+def test_node_spheres_hold_their_members_where_the_kernel_places_them(robots, name, kernels):
+    """Each link's sphere (placed at every state), person's and part of a person's holds its
+    members' spheres (placed here by pinocchio)."""
+    robot = robots[name]
+    checker = CollisionChecker(robot, _scene(robot, name))
+    states = _random_states(robot, 300, 8)
+    checker.in_collision(states[0])
+    certifier = checker._free_certifier()
+    rows = certifier._link_rows + certifier._group_rows + certifier._part_rows
+    nodes = list(zip(rows, certifier._links + certifier._groups + certifier._parts))
+    assert len(certifier._links) >= 5 and len(certifier._groups) == 2 and len(certifier._parts) == 8
+    worst, reach = -np.inf, certifier._rows[:, REACH]
+    for q in states:
+        certifier.verdict(q)
+        scratch = len(certifier._joint_rows) * 15  # the joints' frames, state and moves first
+        placed = certifier._work[scratch:].reshape(certifier._rows.shape)
+        centres = _centres(certifier, robot.model, q)
+        for node, members in nodes:
+            held = np.linalg.norm(centres[members] - placed[node, 0:3], axis=1) + reach[members]
+            worst = max(worst, float(np.max(held - placed[node, REACH])))
+    assert -0.01 < worst < 1e-12  # held, and not by far
+
+
+def _flat(certifier: FreeCertifier) -> FreeCertifier:
+    """The same certifier testing every pair alone (no node's sphere skips a run)."""
+    flat = copy.copy(certifier)
+    flat._pairs = certifier._pairs.copy()
+    flat._pairs[:, 5:PAIR:3] = 0  # every level's run ends
+    flat._floats, flat._ints = flat._packed()
+    return flat
+
+
+def test_frames_kept_from_the_last_state_are_those_placed_anew(robots, kernels):
+    """A joint whose coordinate and ancestors' are those of the last state keeps its frame and
+    its rows: the same verdicts, frames and placed rows, to the bit, as placing all anew, over
+    states that keep none, some, most or all of the last one's coordinates."""
+    robot = robots["madar"]
+    checker = CollisionChecker(robot, _scene(robot, "madar"))
+    qs, rng = _random_states(robot, 1000, 12), np.random.default_rng(12)
+    for k in range(1, len(qs)):
+        keep = rng.uniform(size=qs.shape[1]) < rng.choice([0.0, 0.5, 0.9, 1.0])
+        qs[k, keep] = qs[k - 1, keep]
+    checker.in_collision(qs[0])
+    certifier = checker._free_certifier()
+    anew = copy.copy(certifier)
+    anew._floats, anew._ints = anew._packed()
+    nj = len(certifier._joint_rows)
+    frames, placed = slice(0, nj * 12), slice(nj * 15, None)  # between them: the state and which moved
+    for q in qs:
+        anew._work[nj * 12 : nj * 14] = np.nan  # no state placed: every joint placed anew
+        assert certifier.verdict(q) == anew.verdict(q)
+        assert np.array_equal(certifier._work[frames], anew._work[frames])
+        assert np.array_equal(certifier._work[placed], anew._work[placed])
+    assert certifier._work[nj * 12 + 1] == qs[-1, 1]  # the last state is kept
+
+
+@pytest.mark.parametrize("name", ["ur5", "madar"])
+def test_node_spheres_skip_only_pairs_clear_alone(robots, name, kernels):
+    """Runs of pairs passed by their nodes' spheres leave to coal exactly the pairs that testing
+    each pair alone leaves, and skip most pairs of the states near the robot."""
+    robot = robots[name]
+    checker = CollisionChecker(robot, _scene(robot, name))
+    states = _random_states(robot, STATES, 9)
+    checker.in_collision(states[0])
+    certifier = checker._free_certifier()
+    assert ((certifier._pairs[:, 5:PAIR:3] > 0).sum(axis=0) >= 5).all()  # runs at every level
+    left = [None if v is None else (v[0], sorted(v[1])) for v in certifier.verdicts(states)]
+    alone = [None if v is None else (v[0], sorted(v[1])) for v in _flat(certifier).verdicts(states)]
+    assert left == alone
+    assert 0.1 < np.mean([v is not None and v[1] != [] for v in left]) < 0.9  # pairs left to coal, or not
+
+
+@pytest.mark.parametrize("name", ["ur5", "madar"])
+def test_every_pair_of_a_run_lies_in_the_rows_that_pass_it(robots, name, kernels):
+    """The spheres that pass a run hold its pairs: at each level, a (or a's node) and b's node or
+    part hold the pair's geometries, over the whole run; and each person's parts split it."""
+    robot = robots[name]
+    checker = CollisionChecker(robot, _scene(robot, name))
+    checker.in_collision(_random_states(robot, 1, 10)[0])
+    certifier = checker._free_certifier()
+    rows = certifier._link_rows + certifier._group_rows + certifier._part_rows
+    members = dict(zip(rows, certifier._links + certifier._groups + certifier._parts))
+    for group in certifier._groups:
+        parts = [part for part in certifier._parts if set(part) <= set(group)]
+        assert sorted(g for part in parts for g in part) == sorted(group) and len(parts) == 4
+    pairs, runs = certifier._pairs, 0
+    for k in range(len(pairs)):
+        for column in range(3, PAIR, 3):
+            x, y, end = pairs[k, column : column + 3]
+            for a, b in pairs[k:end, :2]:
+                assert a in members.get(x, [x]) and b in members.get(y, [y])
+                runs += 1
+    assert runs > len(pairs)
+
+
+def test_a_checker_stops_asking_its_certifier_when_the_kernels_are_turned_off(robots, kernels, monkeypatch):
+    """`use_kernels(False)`: the certifier a checker made is no longer asked (coal answers)."""
+    checker = CollisionChecker(robots["ur5"])
+    q = _random_states(robots["ur5"], 1, 11)[0]
+    expected = checker.in_collision(q)
+    asked, certifier = [], checker._free_certifier()
+    verdict = certifier.verdict
+    monkeypatch.setattr(certifier, "verdict", lambda q: asked.append(q) or verdict(q))
+    kernel_switch.use_kernels(False)
+    assert checker.in_collision(q) == expected and not asked
+    kernel_switch.use_kernels(True)
+    checker.in_collision(q)
+    assert len(asked) == 1

@@ -4,13 +4,16 @@ per-state verdict over a certifier's packed arrays (`free_certifier.py` makes th
 Every jitted function lives in this one file: numba's disk cache is keyed by the source file a
 function is defined in, not by its callees in other modules, nor by the globals it read, so a
 kernel calling into another file could run stale code after an upgrade. Constants that are
-data (the tolerance) travel in the arrays.
+data (the tolerance) travel in the arrays. Functions called per row or once per state are
+inlined by numba (`inline="always"`): LLVM left them as calls, each passing its arrays field by
+field, which cost more than their arithmetic (the verdict x0.8-0.9). The hot loop is written out
+(a loop over the levels of runs made every pair ~40 % slower).
 
 The bounds are conservative: a capsule (or box) holds its geometry (`free_certifier._held_by`),
-a mesh's pieces hold its triangles (coal tests a mesh by its triangles), a group's sphere holds
-its members' spheres, and each
-distance below is a true lower bound in exact arithmetic; rounding errs by ~1e-15 m on metre
-sized scenes, far below the 1e-4 m tolerance.
+a mesh's pieces hold its triangles (coal tests a mesh by its triangles), a node's sphere (a
+link's geometries, a person's capsules) holds its members' spheres, and each distance below is
+a true lower bound in exact arithmetic; rounding errs by ~1e-15 m on metre sized scenes, far
+below the 1e-4 m tolerance.
 - Segments: the least distance is reached at an end of one of them (a point-to-segment
   distance) or at points inside both, where it is the distance between their lines; the line
   distance is never above the segments', so the least of the four end distances and the line
@@ -19,9 +22,10 @@ sized scenes, far below the 1e-4 m tolerance.
   line distance: there the distance of the second segment's ends to the first's line, less the
   second's length times 1e-4, bounds it instead (along a segment at angle t to a line, the
   squared distance is the lines' squared distance plus (s sin t)^2).
-- Capsule to box: each piece of the segment lies in a sphere about its middle of radius half
-  its length (plus the capsule's), whose distance to the box is exact; a piece too near is
-  halved, down to `_DEPTH` levels, then the pair is left to coal.
+- Capsule to box: beyond a face when both ends of the segment lie past the face's plane by more
+  than the radius (the plane separates them). Else each piece of the segment lies in a sphere
+  about its middle of radius half its length (plus the capsule's), whose distance to the box is
+  exact; a piece too near is halved, down to `_DEPTH` levels, then the pair is left to coal.
 A pair not cleared is named to the caller, which asks coal about it alone (up to a few; more:
 the whole broad phase).
 """
@@ -43,6 +47,11 @@ _INSIDE = 1e-3  # margin on the lines' nearest points falling within both segmen
 # the radius of the sphere about the capsule's middle that holds it (half its length + radius).
 CAPSULE, BOX, REACH = 7, 15, 22
 ROW = REACH + 1
+# A pair's row: its geometries' rows a, b, its id, then per level (coarse to fine: a's node and
+# b's, a and b's node, a and b's part) the two rows tested and where the run of pairs they pass
+# ends (on its first pair; 0 elsewhere and where the level tests nothing).
+PAIR_ID, NODES, NODE, PART = 2, 3, 6, 9
+LEVELS, PAIR = 3, 12
 
 
 @njit(cache=True, nogil=True)
@@ -50,46 +59,76 @@ def place_joints(q: np.ndarray, rows: np.ndarray, ints: np.ndarray, rotation: np
     """World frames of every joint at `q` into `rotation` (njoints, 3, 3) and `origin` (njoints, 3):
     a joint's frame is its parent's, times its placement, times its own motion (as pinocchio).
     Scalars throughout: an array made per joint cost more than the arithmetic."""
-    for r in range(3):  # the world (np.eye would allocate at every call)
+    _world(rotation, origin)
+    for j in range(1, rows.shape[0]):
+        _place_joint(q, rows, ints, rotation, origin, j)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _world(rotation, origin) -> None:
+    """Joint 0's frame, the world's (np.eye would allocate at every call)."""
+    for r in range(3):
         origin[0, r] = 0.0
         for c in range(3):
             rotation[0, r, c] = 1.0 if r == c else 0.0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _place_moved_joints(q, rows, ints, rotation, origin, last, moved) -> None:
+    """`place_joints`, keeping the frames of the joints neither whose coordinates nor whose
+    ancestors' changed since `last` (the state they were placed at, NaN for none): a planner moves
+    one arm at a time, and a frame costs ~40 ns (its sine and cosine). `moved[j]` says which."""
+    _world(rotation, origin)
+    moved[0] = 0.0
     for j in range(1, rows.shape[0]):
         p, kind, iq = ints[j, 0], ints[j, 1], ints[j, 2]
-        ax, ay, az = rows[j, 12], rows[j, 13], rows[j, 14]
-        if kind == PRISMATIC:
-            cos, sin, slide = 1.0, 0.0, q[iq]
-        elif kind == CONTINUOUS:
-            cos, sin, slide = q[iq], q[iq + 1], 0.0
+        if moved[p] != 0.0 or q[iq] != last[iq] or (kind == CONTINUOUS and q[iq + 1] != last[iq + 1]):
+            moved[j] = 1.0
+            _place_joint(q, rows, ints, rotation, origin, j)
         else:
-            cos, sin, slide = math.cos(q[iq]), math.sin(q[iq]), 0.0
-        # The joint's own motion in its placement's frame, Rodrigues: cos I + sin [a]x + (1 - cos) a a^T.
-        v = 1.0 - cos
-        t00, t01, t02 = cos + v * ax * ax, v * ax * ay - sin * az, v * ax * az + sin * ay
-        t10, t11, t12 = v * ay * ax + sin * az, cos + v * ay * ay, v * ay * az - sin * ax
-        t20, t21, t22 = v * az * ax - sin * ay, v * az * ay + sin * ax, cos + v * az * az
-        # Placement times motion (rotation), and the placement's translation plus the slide.
-        m00 = rows[j, 0] * t00 + rows[j, 1] * t10 + rows[j, 2] * t20
-        m01 = rows[j, 0] * t01 + rows[j, 1] * t11 + rows[j, 2] * t21
-        m02 = rows[j, 0] * t02 + rows[j, 1] * t12 + rows[j, 2] * t22
-        m10 = rows[j, 3] * t00 + rows[j, 4] * t10 + rows[j, 5] * t20
-        m11 = rows[j, 3] * t01 + rows[j, 4] * t11 + rows[j, 5] * t21
-        m12 = rows[j, 3] * t02 + rows[j, 4] * t12 + rows[j, 5] * t22
-        m20 = rows[j, 6] * t00 + rows[j, 7] * t10 + rows[j, 8] * t20
-        m21 = rows[j, 6] * t01 + rows[j, 7] * t11 + rows[j, 8] * t21
-        m22 = rows[j, 6] * t02 + rows[j, 7] * t12 + rows[j, 8] * t22
-        x = rows[j, 9] + (rows[j, 0] * ax + rows[j, 1] * ay + rows[j, 2] * az) * slide
-        y = rows[j, 10] + (rows[j, 3] * ax + rows[j, 4] * ay + rows[j, 5] * az) * slide
-        z = rows[j, 11] + (rows[j, 6] * ax + rows[j, 7] * ay + rows[j, 8] * az) * slide
-        for r in range(3):
-            u0, u1, u2 = rotation[p, r, 0], rotation[p, r, 1], rotation[p, r, 2]
-            rotation[j, r, 0] = u0 * m00 + u1 * m10 + u2 * m20
-            rotation[j, r, 1] = u0 * m01 + u1 * m11 + u2 * m21
-            rotation[j, r, 2] = u0 * m02 + u1 * m12 + u2 * m22
-            origin[j, r] = origin[p, r] + u0 * x + u1 * y + u2 * z
+            moved[j] = 0.0
+    for i in range(q.shape[0]):
+        last[i] = q[i]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
+def _place_joint(q, rows, ints, rotation, origin, j) -> None:
+    """Joint j's frame: its parent's (placed before it), times its placement, times its motion."""
+    p, kind, iq = ints[j, 0], ints[j, 1], ints[j, 2]
+    ax, ay, az = rows[j, 12], rows[j, 13], rows[j, 14]
+    if kind == PRISMATIC:
+        cos, sin, slide = 1.0, 0.0, q[iq]
+    elif kind == CONTINUOUS:
+        cos, sin, slide = q[iq], q[iq + 1], 0.0
+    else:
+        cos, sin, slide = math.cos(q[iq]), math.sin(q[iq]), 0.0
+    # The joint's own motion in its placement's frame, Rodrigues: cos I + sin [a]x + (1 - cos) a a^T.
+    v = 1.0 - cos
+    t00, t01, t02 = cos + v * ax * ax, v * ax * ay - sin * az, v * ax * az + sin * ay
+    t10, t11, t12 = v * ay * ax + sin * az, cos + v * ay * ay, v * ay * az - sin * ax
+    t20, t21, t22 = v * az * ax - sin * ay, v * az * ay + sin * ax, cos + v * az * az
+    # Placement times motion (rotation), and the placement's translation plus the slide.
+    m00 = rows[j, 0] * t00 + rows[j, 1] * t10 + rows[j, 2] * t20
+    m01 = rows[j, 0] * t01 + rows[j, 1] * t11 + rows[j, 2] * t21
+    m02 = rows[j, 0] * t02 + rows[j, 1] * t12 + rows[j, 2] * t22
+    m10 = rows[j, 3] * t00 + rows[j, 4] * t10 + rows[j, 5] * t20
+    m11 = rows[j, 3] * t01 + rows[j, 4] * t11 + rows[j, 5] * t21
+    m12 = rows[j, 3] * t02 + rows[j, 4] * t12 + rows[j, 5] * t22
+    m20 = rows[j, 6] * t00 + rows[j, 7] * t10 + rows[j, 8] * t20
+    m21 = rows[j, 6] * t01 + rows[j, 7] * t11 + rows[j, 8] * t21
+    m22 = rows[j, 6] * t02 + rows[j, 7] * t12 + rows[j, 8] * t22
+    x = rows[j, 9] + (rows[j, 0] * ax + rows[j, 1] * ay + rows[j, 2] * az) * slide
+    y = rows[j, 10] + (rows[j, 3] * ax + rows[j, 4] * ay + rows[j, 5] * az) * slide
+    z = rows[j, 11] + (rows[j, 6] * ax + rows[j, 7] * ay + rows[j, 8] * az) * slide
+    for r in range(3):
+        u0, u1, u2 = rotation[p, r, 0], rotation[p, r, 1], rotation[p, r, 2]
+        rotation[j, r, 0] = u0 * m00 + u1 * m10 + u2 * m20
+        rotation[j, r, 1] = u0 * m01 + u1 * m11 + u2 * m21
+        rotation[j, r, 2] = u0 * m02 + u1 * m12 + u2 * m22
+        origin[j, r] = origin[p, r] + u0 * x + u1 * y + u2 * z
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _uncertified_tables(q, tables, axis_ints, axis_floats, bits) -> int:
     """The tables that do not certify `q`, bit k for table k: `ClearanceTable.certified`'s arithmetic."""
     mask = 0
@@ -175,6 +214,26 @@ def _box_gap(x, y, z, hx, hy, hz) -> float:
 
 
 @njit(cache=True, nogil=True)
+def _along(rows, a, e, b, c) -> float:
+    """End e of row a's segment along axis c of row b's box, from the box's centre."""
+    ox, oy, oz = rows[a, 3 * e] - rows[b, 16], rows[a, 3 * e + 1] - rows[b, 17], rows[a, 3 * e + 2] - rows[b, 18]
+    return rows[b, 7 + c] * ox + rows[b, 10 + c] * oy + rows[b, 13 + c] * oz
+
+
+@njit(cache=True, nogil=True, inline="always")
+def capsule_beyond_face(rows: np.ndarray, a: int, b: int, tolerance: float) -> bool:
+    """True if row a's capsule lies beyond a face of row b's box by more than `tolerance`: both
+    ends of its segment past the face's plane by more than its radius (the segment between them
+    is too). No square root and no halving: an arm above a table is cleared here."""
+    reach = rows[a, 6] + tolerance
+    for c in range(3):
+        s, t, half = _along(rows, a, 0, b, c), _along(rows, a, 1, b, c), rows[b, 19 + c] + reach
+        if (s > half and t > half) or (s < -half and t < -half):
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def capsule_clears_box(rows, a, b, tolerance) -> bool:
     """True if row a's capsule (ends, radius: 0:7) is more than `tolerance` from row b's box
     (rotation 7:16, centre 16:19, half sides 19:22): its segment's pieces, halved where near,
@@ -207,7 +266,7 @@ def capsule_clears_box(rows, a, b, tolerance) -> bool:
             level, i = level + 1, 2 * i
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _place(rows, g, rotation, origin, j, out) -> None:
     """Row g (joint j's frame) in the world, into out[g]: capsule ends and radius, box rotation,
     centre and sides, reach."""
@@ -227,14 +286,26 @@ def _place(rows, g, rotation, origin, j, out) -> None:
 
 
 @njit(cache=True, nogil=True)
-def pair_clear(rows, a, b, tolerance) -> bool:
-    """True if placed rows a and b (in the world) are more than `tolerance` apart: the spheres
-    about their capsules' middles, else their capsules, else a capsule against the other's box."""
+def spheres_apart(rows: np.ndarray, a: int, b: int, tolerance: float) -> bool:
+    """True if the spheres about placed rows a and b (about their capsules' middles, radius their
+    reach) are more than `tolerance` apart: the cheapest test, first for every pair and group."""
     cx = rows[a, 0] + rows[a, 3] - rows[b, 0] - rows[b, 3]
     cy = rows[a, 1] + rows[a, 4] - rows[b, 1] - rows[b, 4]
     cz = rows[a, 2] + rows[a, 5] - rows[b, 2] - rows[b, 5]
     apart = 2.0 * (rows[a, REACH] + rows[b, REACH] + tolerance)  # |cx, cy, cz| is twice the centres' gap
-    if cx * cx + cy * cy + cz * cz > apart * apart:
+    return cx * cx + cy * cy + cz * cz > apart * apart
+
+
+@njit(cache=True, nogil=True)
+def pair_clear(rows, a, b, tolerance) -> bool:
+    """True if placed rows a and b (in the world) are more than `tolerance` apart: the spheres
+    about their capsules' middles, else a capsule beyond a face of the other's box, else their
+    capsules, else a capsule against the other's box in halved pieces."""
+    if spheres_apart(rows, a, b, tolerance):
+        return True
+    if rows[b, 19] < np.inf and capsule_beyond_face(rows, a, b, tolerance):
+        return True
+    if rows[a, 19] < np.inf and capsule_beyond_face(rows, b, a, tolerance):
         return True
     if segment_floor(rows, a, b) - rows[a, 6] - rows[b, 6] > tolerance:
         return True
@@ -243,21 +314,32 @@ def pair_clear(rows, a, b, tolerance) -> bool:
     return rows[a, 19] < np.inf and capsule_clears_box(rows, b, a, tolerance)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _unpack(floats, ints):
     """The parts of `FreeCertifier._packed`, as views (the tolerance is floats[0])."""
     nj, ng, npairs, ntables, naxes, nused = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5]
-    joint_rows = floats[ints[7] : ints[7] + nj * JOINT_ROW].reshape((nj, JOINT_ROW))
-    rows = floats[ints[8] : ints[8] + ng * ROW].reshape((ng, ROW))
-    axis_floats = floats[ints[9] : ints[9] + naxes * 2].reshape((naxes, 2))
-    joint_ints = ints[ints[10] : ints[10] + nj * 3].reshape((nj, 3))
-    carrier = ints[ints[11] : ints[11] + ng]
-    pairs = ints[ints[12] : ints[12] + npairs * 5].reshape((npairs, 5))
-    tables = ints[ints[13] : ints[13] + ntables * 3].reshape((ntables, 3))
-    axis_ints = ints[ints[14] : ints[14] + naxes * 3].reshape((naxes, 3))
-    children = ints[ints[15] : ints[15] + nused * 2].reshape((nused, 2))
-    bits = ints[ints[16] :]
+    joint_rows = floats[ints[8] : ints[8] + nj * JOINT_ROW].reshape((nj, JOINT_ROW))
+    rows = floats[ints[9] : ints[9] + ng * ROW].reshape((ng, ROW))
+    axis_floats = floats[ints[10] : ints[10] + naxes * 2].reshape((naxes, 2))
+    joint_ints = ints[ints[12] : ints[12] + nj * 3].reshape((nj, 3))
+    carrier = ints[ints[13] : ints[13] + ng]
+    pairs = ints[ints[14] : ints[14] + npairs * PAIR].reshape((npairs, PAIR))
+    tables = ints[ints[15] : ints[15] + ntables * 3].reshape((ntables, 3))
+    axis_ints = ints[ints[16] : ints[16] + naxes * 3].reshape((naxes, 3))
+    children = ints[ints[17] : ints[17] + nused * 2].reshape((nused, 2))
+    bits = ints[ints[18] : ints[19]]
     return joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _scratch(work, nj):
+    """The joints' frames, the state they were placed at (up to 2 nj coordinates) and which moved
+    then, and the placed rows, as views of `work` (made once: an array made at every state cost
+    ~0.15 us)."""
+    rotation = work[: nj * 9].reshape((nj, 3, 3))
+    origin = work[nj * 9 : nj * 12].reshape((nj, 3))
+    last, moved = work[nj * 12 : nj * 14], work[nj * 14 : nj * 15]
+    return rotation, origin, last, moved, work[nj * 15 :].reshape((-1, ROW))
 
 
 @njit(cache=True, nogil=True)
@@ -283,24 +365,31 @@ def _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b, toler
 
 
 @njit(cache=True, nogil=True)
-def _verdict(q, floats, ints, placed, left) -> int:
+def _verdict(q, floats, ints, work, left) -> int:
     """-1 if more pairs may touch at `q` than `left` holds (stopped there); else the tables
     that do not certify `q` (bit k for table k) plus 2^32 times the count of pairs that may
-    touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs with one group
-    passes at once when its sphere is clear. `placed` holds the rows on no joint already
-    (placed once, when packed)."""
+    touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs passes at once when
+    its level's rows are clear: two nodes' spheres, a geometry and a node's sphere as a pair, a
+    geometry and a part's. `work` holds the joints' frames and the rows as the last state asked
+    left them (those on no joint placed once, when packed)."""
     joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = _unpack(floats, ints)
-    nj, tolerance = joint_rows.shape[0], floats[0]
-    rotation, origin = np.empty((nj, 3, 3)), np.empty((nj, 3))
-    place_joints(q, joint_rows, joint_ints, rotation, origin)
-    for g in range(children.shape[0]):
-        if carrier[g] != 0:
+    tolerance = floats[0]
+    rotation, origin, last, moved, placed = _scratch(work, joint_rows.shape[0])
+    _place_moved_joints(q, joint_rows, joint_ints, rotation, origin, last, moved)
+    for g in range(ints[6]):  # the geometries and the links' spheres on a joint that moved
+        if carrier[g] != 0 and moved[carrier[g]] != 0.0:
             _place(rows, g, rotation, origin, carrier[g], placed)
     count, k = 0, 0
     while k < pairs.shape[0]:
-        a, b, group, end = pairs[k, 0], pairs[k, 1], pairs[k, 2], pairs[k, 3]
-        if end > 0 and pair_clear(placed, a, group, tolerance):
-            k = end
+        a, b = pairs[k, 0], pairs[k, 1]
+        if pairs[k, NODES + 2] > 0 and spheres_apart(placed, pairs[k, NODES], pairs[k, NODES + 1], tolerance):
+            k = pairs[k, NODES + 2]
+            continue
+        if pairs[k, NODE + 2] > 0 and pair_clear(placed, a, pairs[k, NODE + 1], tolerance):
+            k = pairs[k, NODE + 2]
+            continue
+        if pairs[k, PART + 2] > 0 and pair_clear(placed, a, pairs[k, PART + 1], tolerance):
+            k = pairs[k, PART + 2]
             continue
         if not pair_clear(placed, a, b, tolerance) and (
             (children[a, 1] == 0 and children[b, 1] == 0)
@@ -309,21 +398,22 @@ def _verdict(q, floats, ints, placed, left) -> int:
             if count + 1 == left.shape[0]:
                 return -1
             count += 1
-            left[count] = pairs[k, 4]
+            left[count] = pairs[k, PAIR_ID]
         k += 1
     return _uncertified_tables(q, tables, axis_ints, axis_floats, bits) + (count << 32)
 
 
 @njit(cache=True, nogil=True)
-def verdict_one(q, floats, ints, placed, left) -> int:
-    """`_verdict` of one state (a call from Python)."""
-    return _verdict(q, floats, ints, placed, left)
+def verdict_one(q, floats, ints) -> int:
+    """`_verdict` of one state (a call from Python: three arrays, the scratch and the pairs left
+    at the ends of the float and int arrays, as each array costs the call ~0.05 us)."""
+    return _verdict(q, floats, ints, floats[ints[11] :], ints[ints[19] :])
 
 
 @njit(cache=True, nogil=True)
-def verdicts(qs, floats, ints, placed, left) -> np.ndarray:
+def verdicts(qs, floats, ints, left) -> np.ndarray:
     """Per state (row n of `left` its pairs that may touch)."""
     out = np.empty(qs.shape[0], dtype=np.int64)
     for n in range(qs.shape[0]):
-        out[n] = _verdict(qs[n], floats, ints, placed, left[n])
+        out[n] = _verdict(qs[n], floats, ints, floats[ints[11] :], left[n])
     return out

@@ -600,7 +600,9 @@ class CollisionChecker:
         cannot clear (`_free_certifier`)."""
         if self._stale:
             self._ready()
-        certifier = self._free_certifier()
+        certifier = self._certifier  # `_free_certifier`'s answer when nothing moved: no call (~0.1 us)
+        if not certifier or self._statics_moved or not kernels_on():
+            certifier = self._free_certifier()
         if certifier is not None and (verdict := certifier.verdict(q)) is not None:
             return bool(verdict[0] or verdict[1]) and self._left_touch(q, *verdict)
         if pin.computeCollisions(self.robot.model, self.robot.data, self._broadphase, q, True):

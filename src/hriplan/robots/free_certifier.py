@@ -22,12 +22,13 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from hriplan.robots.certifier_kernels import REACH, ROW, verdict_one, verdicts
+from hriplan.robots.certifier_kernels import LEVELS, PAIR, REACH, ROW, verdict_one, verdicts
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.mesh_clearance import ClearanceTable
 from hriplan.robots.part_spheres import BOUND_TOLERANCE
 
 _LEAVES = 16  # spheres per mesh
+_PARTS = 4  # parts of a person, each a node of the capsules near one another
 ASKED_OF_COAL = 8  # pairs a state may leave to coal one by one; more: the whole broad phase
 
 
@@ -114,6 +115,14 @@ def _sphere_row(centre: np.ndarray, radius: float) -> np.ndarray:
     return np.concatenate([centre, centre, [radius], np.eye(3).reshape(9), np.zeros(3), np.full(3, np.inf), [radius]])
 
 
+def _sphere_about(members: np.ndarray) -> np.ndarray:
+    """A sphere row holding the spheres of `members` (rows in one frame): about the middle of
+    their centres' box."""
+    centres = (members[:, 0:3] + members[:, 3:6]) / 2.0
+    middle = (centres.min(axis=0) + centres.max(axis=0)) / 2.0
+    return _sphere_row(middle, float(np.max(np.linalg.norm(centres - middle, axis=1) + members[:, REACH])))
+
+
 class FreeCertifier:
     """Certifies states free of every checked pair of a collision model, or names the pairs and
     tables left to check. Not for threads at once: its scratch arrays are its own (as the
@@ -151,9 +160,14 @@ class FreeCertifier:
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         used = sorted(set(pairs.reshape(-1).tolist()))
         self._used, slot = used, {g: k for k, g in enumerate(used)}
-        # Rows: the geometries, then the meshes' pieces, then one sphere per group.
+        # Rows: the geometries, one sphere per link of several, the meshes' pieces, one sphere per
+        # group (a person) and per part of a group.
         rows = [_geometry_row(objects[i]) for i in used]
         carrier = [objects[i].parentJoint for i in used]
+        self._links = _links_of(carrier)
+        self._link_rows = list(range(len(rows), len(rows) + len(self._links)))
+        rows += [_sphere_about(np.array(rows)[members]) for members in self._links]
+        carrier += [carrier[members[0]] for members in self._links]
         self._children = np.zeros((len(used), 2), dtype=np.int64)  # per geometry: first piece, count
         for k, g in enumerate(used):
             pieces = _pieces_of(objects[g])
@@ -162,14 +176,15 @@ class FreeCertifier:
             carrier += [carrier[k]] * len(pieces)
         self._groups = [[slot[g] for g in group if g in slot] for group in groups]
         self._groups = [group for group in self._groups if group]
+        self._parts = [part for group in self._groups for part in _parts_of(np.array(rows), group)]
         self._group_rows = list(range(len(rows), len(rows) + len(self._groups)))
-        rows += [np.zeros(ROW)] * len(self._groups)
-        carrier += [0] * len(self._groups)
+        self._part_rows = list(range(len(rows) + len(self._groups), len(rows) + len(self._groups) + len(self._parts)))
+        rows += [np.zeros(ROW)] * (len(self._groups) + len(self._parts))
+        carrier += [0] * (len(self._groups) + len(self._parts))
         self._rows, self._carrier = np.array(rows).reshape(-1, ROW), np.array(carrier, dtype=np.int64)
         ids = np.arange(len(pairs)) if ids is None else np.asarray(ids, dtype=np.int64)
         slots = np.vectorize(slot.get, otypes=[np.int64])(pairs).reshape(-1, 2)
         self._pairs = self._ordered_pairs(np.column_stack([slots, ids]))
-        self._left = np.empty(ASKED_OF_COAL + 1, dtype=np.int64)
         # The tables: per table its first axis, number of axes and first bit; per axis (q index,
         # cells, periodic) and (lower, step); the cells' bits one after another.
         axes = [axis for table in tables for axis in table._axes]
@@ -186,31 +201,36 @@ class FreeCertifier:
         self._floats, self._ints = self._packed()
 
     def _ordered_pairs(self, pairs: np.ndarray) -> np.ndarray:
-        """Pairs (a, b, group's row or -1, end of the run or 0, id) from rows (a, b, id): a
-        moving geometry's pairs with the members of one group follow one another, the first
-        holding where the run ends, so that one test against the group's sphere passes them all."""
-        member = {g: k for k, group in enumerate(self._groups) for g in group}
-        grouped = sorted(
-            ((a, b, i) if b in member else (b, a, i) for a, b, i in pairs.tolist() if (a in member) != (b in member)),
-            key=lambda p: (p[0], member[p[1]]),
-        )
-        alone = [(a, b, -1, 0, i) for a, b, i in pairs.tolist() if (a in member) == (b in member)]
-        runs = [(a, member[b]) for a, b, _ in grouped]
-        out = list(alone)
-        for k, (a, b, i) in enumerate(grouped):
-            first = k == 0 or runs[k - 1] != runs[k]
-            end = len(alone) + next((j for j in range(k, len(grouped)) if runs[j] != runs[k]), len(grouped))
-            out.append((a, b, self._group_rows[member[b]], end if first else 0, i))
-        return np.array(out, dtype=np.int64).reshape(-1, 5)
+        """Pairs (a, b, id, then per level, coarse to fine, the rows tested and where their run
+        ends or 0: `certifier_kernels.PAIR`) from rows (a, b, id). A geometry's node is its
+        link's sphere or its person's, else itself; a person's capsule is also in a part of the
+        person. The pairs between two nodes follow one another, a's pairs with b's node within
+        them (b the larger node), and a's with each part of b's node within those; the first of
+        a run holds where it ends, so that one test passes it: the nodes' spheres, then a against
+        b's node, then a against the part."""
+        top = dict(zip(self._group_rows + self._link_rows, self._groups + self._links))
+        size = {row: len(members) for row, members in top.items()}
+        node = {g: row for row, members in top.items() for g in members}
+        part = {g: row for row, members in zip(self._part_rows, self._parts) for g in members}
+
+        def oriented(a: int, b: int, i: int) -> tuple[int, int, int, int, int, int]:
+            na, nb = node.get(a, a), node.get(b, b)
+            if (size.get(na, 1), na) > (size.get(nb, 1), nb):
+                a, b, na, nb = b, a, nb, na
+            return a, b, i, na, nb, part.get(b, nb)
+
+        rows = sorted((oriented(*p) for p in pairs.tolist()), key=lambda r: (r[3], r[4], r[0], r[5]))
+        levels = [[_level(level, *r[:2], *r[3:]) for r in rows] for level in range(LEVELS)]
+        out = []
+        for k, (a, b, i, *_) in enumerate(rows):
+            tests = [(*(keys[k] or (0, 0)), _run_end(keys, k)) for keys in levels]
+            out.append((a, b, i, *(x for test in tests for x in test)))
+        return np.array(out, dtype=np.int64).reshape(-1, PAIR)
 
     def _place_groups(self) -> None:
-        """Each group's sphere: about the middle of its members' spheres' box, holding them all."""
-        for row, group in zip(self._group_rows, self._groups):
-            members = self._rows[group]
-            centres = (members[:, 0:3] + members[:, 3:6]) / 2.0
-            middle = (centres.min(axis=0) + centres.max(axis=0)) / 2.0
-            radius = float(np.max(np.linalg.norm(centres - middle, axis=1) + members[:, REACH]))
-            self._rows[row] = _sphere_row(middle, radius)
+        """Each group's sphere, where its members stand now."""
+        for row, group in zip(self._group_rows + self._part_rows, self._groups + self._parts):
+            self._rows[row] = _sphere_about(self._rows[group])
 
     def place(self, geom_model: pin.GeometryModel) -> None:
         """Read again where the geometries on no joint stand (an obstacle moved, a person
@@ -227,10 +247,17 @@ class FreeCertifier:
             self._floats, self._ints = self._packed()
 
     def _packed(self) -> tuple[np.ndarray, np.ndarray]:
-        """All of it in one float and one int array (a numba call costs ~0.1 us an array): the
-        int array starts with the sizes and where each part begins (`_unpack`)."""
-        floats = [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats]
-        ints = [self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children, self._bits]
+        """All of it in one float and one int array (a numba call costs ~0.05 us an array): the
+        int array starts with the sizes and where each part begins (`_unpack`). The kernel's
+        scratch ends the float array: the joints' frames, the state they were placed at (none
+        yet) and which moved, then the rows in the world (those on no joint placed now, for good;
+        the kernel places the others); the ids of the pairs left end the int array."""
+        nj = len(self._joint_rows)
+        work = np.concatenate([np.zeros(nj * 12), np.full(nj * 2, np.nan), np.zeros(nj), self._rows.reshape(-1)])
+        floats = [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats, work]
+        left = np.zeros(ASKED_OF_COAL + 1)
+        ints = [self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children]
+        ints += [self._bits, left]
         sizes = [
             len(self._joint_rows),
             len(self._rows),
@@ -238,28 +265,30 @@ class FreeCertifier:
             len(self._tables),
             len(self._axis_ints),
             len(self._children),
+            len(self._children) + len(self._links),  # rows placed at each state (those on a joint)
         ]
         header = len(sizes) + len(floats) + len(ints)
         float_starts = np.cumsum([0] + [a.size for a in floats])[:-1]
         int_starts = header + np.cumsum([0] + [a.size for a in ints])[:-1]
         head = np.array([*sizes, *float_starts, *int_starts], dtype=np.int64)
         packed = np.concatenate([head, *(a.reshape(-1).astype(np.int64) for a in ints)])
-        # The rows in the world: those on no joint placed now, for good; the kernel places the others.
-        self._placed = self._rows.copy()
-        return np.concatenate([a.reshape(-1) for a in floats]), packed
+        flat = np.concatenate([a.reshape(-1) for a in floats])
+        self._work, self._left = flat[-work.size :], packed[-left.size :]  # views the kernel writes
+        return flat, packed
 
     def verdict(self, q: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
         """(tables, pairs) at `q`: bit k of tables says table k (of those given) does not
         certify it; pairs are the ids of the pairs that may touch; only those can. `FREE`
         (the same object) if none; None if more than `ASKED_OF_COAL` pairs may touch."""
-        return _decoded(verdict_one(q, self._floats, self._ints, self._placed, self._left), self._left)
+        code = verdict_one(q, self._floats, self._ints)
+        return FREE if code == 0 else _decoded(code, self._left)
 
     def verdicts(self, qs: np.ndarray) -> list[tuple[int, tuple[int, ...]] | None]:
         """`verdict` of every state of `qs` (N, nq), in one call."""
         if not len(qs):
             return []
         left = np.empty((len(qs), ASKED_OF_COAL + 1), dtype=np.int64)
-        codes = verdicts(np.ascontiguousarray(qs, dtype=float), self._floats, self._ints, self._placed, left)
+        codes = verdicts(np.ascontiguousarray(qs, dtype=float), self._floats, self._ints, left)
         return [_decoded(code, row) for code, row in zip(codes.tolist(), left)]
 
     def free_many(self, qs: np.ndarray) -> np.ndarray:
@@ -277,3 +306,45 @@ def _decoded(code: int, left: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
     if code < 0:
         return None
     return code & 0xFFFFFFFF, tuple(left[1 : (code >> 32) + 1].tolist())
+
+
+def _links_of(carrier: list[int]) -> list[list[int]]:
+    """The geometries (slots) of each joint that carries two or more: a node each, whose sphere
+    stays put in the joint's frame."""
+    by_joint: dict[int, list[int]] = {}
+    for k, joint in enumerate(carrier):
+        by_joint.setdefault(joint, []).append(k)
+    return [members for joint, members in by_joint.items() if joint != 0 and len(members) > 1]
+
+
+def _parts_of(rows: np.ndarray, members: list[int], count: int = _PARTS) -> list[list[int]]:
+    """`members` (slots of `rows`) in `count` parts of members near one another (none if they do
+    not split): the part whose centres spread widest halved along that spread."""
+    centres = (rows[:, 0:3] + rows[:, 3:6]) / 2.0
+    parts = [sorted(members)]
+    while len(parts) < count and max(map(len, parts)) > 1:
+        widest = max((p for p in parts if len(p) > 1), key=lambda p: np.ptp(centres[p], axis=0).max())
+        parts.remove(widest)
+        axis = int(np.argmax(np.ptp(centres[widest], axis=0)))
+        order = sorted(widest, key=lambda g: centres[g, axis])
+        parts += [order[: len(order) // 2], order[len(order) // 2 :]]
+    return parts if len(parts) > 1 else []
+
+
+def _level(level: int, a: int, b: int, na: int, nb: int, pb: int) -> tuple[int, int] | None:
+    """The rows that test a pair's run at `level` (its nodes na, nb; pb: b's part, else nb), or
+    None where that is no test (a geometry alone, its own node, or a coarser level's rows)."""
+    if level == 0:
+        return (na, nb) if na not in (a, nb) else None
+    if level == 1:
+        return (a, nb) if nb not in (b, na) else None
+    return (a, pb) if pb not in (b, nb) else None
+
+
+def _run_end(keys: list[tuple[int, int] | None], k: int) -> int:
+    """Where the run of pairs with key k's ends, if k is its first and it holds two or more;
+    else 0 (one pair is tested alone)."""
+    if keys[k] is None or (k > 0 and keys[k - 1] == keys[k]):
+        return 0
+    end = next((j for j in range(k, len(keys)) if keys[j] != keys[k]), len(keys))
+    return end if end - k > 1 else 0
