@@ -8,13 +8,16 @@ BIN := $(VENV)/bin
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 
-# The server extra too: after `make demo`, `.venv/bin/hriplan serve` works as the docs say.
+# The server extra too: after `make demo`, `.venv/bin/hriplan serve` works as the docs say. Its
+# compiled kernels (numba) are compiled into their cache here, once, not at a first use.
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[server]'
+	$(BIN)/python -m hriplan.planner.kernels
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test]'
+	$(BIN)/python -m hriplan.planner.kernels
 	touch $(VENV)/.installed $@
 
 demo: $(VENV)/.installed

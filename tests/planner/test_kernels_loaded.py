@@ -76,3 +76,11 @@ def test_without_numba_the_kernels_stay_off(monkeypatch):
             assert load_kernels() is False and kernel_switch.kernels_on() is False
     finally:
         kernel_switch.use_kernels(before)  # numba back first: else the switch could not go on again
+
+
+def test_the_module_loads_them_for_an_installation_and_says_so():
+    """`python -m hriplan.planner.kernels` (the Makefile runs it after installing): exit 0, one line."""
+    pytest.importorskip("numba")
+    run = subprocess.run([sys.executable, "-m", "hriplan.planner.kernels"], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.startswith("hriplan: compiled kernels loaded") and len(run.stdout.splitlines()) == 1

@@ -1,10 +1,12 @@
 """Turning the compiled kernels on in a long-running process, loaded before its first request.
 
-Why: a process pays ~1 s to import numba and load the cached kernels (~7 s to compile them on the
-first use after installation), more than a one-off `hriplan plan` spends where they help, so the
-CLI leaves them off (`robots/kernel_switch.py`). A service's planning workers and a motion
-manager plan for hours; they turn them on (constrained solves x0.59-0.86, re-plans x0.92-0.93:
-benchmarks/REPORT-kernels.md) and load them here, at start, so that no request pays the load.
+Why: a process pays ~1 s to import numba and load the cached kernels (~10-13 s of CPU to compile
+them on the first use after installation), more than a one-off `hriplan plan` spends where they
+help, so the CLI leaves them off (`robots/kernel_switch.py`). A service's planning workers and a
+motion manager plan for hours; they turn them on (constrained solves x0.59-0.86, re-plans
+x0.92-0.93: benchmarks/REPORT-kernels.md) and load them here, at start, so that no request pays
+the load. `python -m hriplan.planner.kernels` compiles them into numba's cache once, at
+installation (the Makefile does), so that no first use pays the compile either.
 """
 
 from __future__ import annotations
@@ -44,3 +46,13 @@ def load_kernels() -> bool:
     evaluator.gradients(x)
     evaluator.margins_many(np.repeat(q[None], 2, axis=0))
     return True
+
+
+if __name__ == "__main__":
+    import time
+
+    started = time.perf_counter()
+    if load_kernels():
+        print(f"hriplan: compiled kernels loaded (compiled if not cached) in {time.perf_counter() - started:.1f} s")
+    else:
+        print("hriplan: numba is not installed (the fast extra): the compiled kernels stay off")
