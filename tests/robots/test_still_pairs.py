@@ -226,3 +226,25 @@ def test_a_scene_changed_within_the_block_is_where_it_is(madar, either_route):
 
 def _first(checker: CollisionChecker, states: np.ndarray) -> int | None:
     return checker.first_collision(states)
+
+
+def test_a_block_at_another_base_asks_the_still_pairs_there(madar, either_route):
+    """The left hand in a box at one base, out of it at another: blocks at each, one after the
+    other and one inside the other, answer as the full check at their own base."""
+    checker = CollisionChecker(madar, Scene())
+    base = _madar_base(madar)
+    hand = madar.frame_pose(madar.tool_frame("left"), base)[:3, 3]
+    checker.set_scene(
+        Scene(obstacles=[Obstacle(name="crate", shape=Box(size=(0.1, 0.1, 0.1)), pose=Pose(xyz=tuple(hand)))])
+    )
+    other = base.copy()
+    other[madar.group_indices("left_arm")[0]] += 0.8  # the left arm turned away from the box
+    right = madar.group_indices("right_arm")
+    at_base, at_other = _states(madar, right, base, 30, 16), _states(madar, right, other, 30, 16)
+    full = _full_answers(checker, at_base), _full_answers(checker, at_other)
+    assert all(full[0][0]) and not all(full[1][0])
+    assert _answers_in(checker, "right_arm", base, at_base) == full[0]
+    assert _answers_in(checker, "right_arm", other, at_other) == full[1]
+    with checker.moving("right_arm", base):
+        assert _answers_in(checker, "right_arm", other, at_other) == full[1]
+        assert _full_answers(checker, at_base) == full[0]

@@ -176,7 +176,9 @@ class CollisionChecker:
         # when the person is posed anew or is another Human (`_posed`, `pose_human`).
         self._placements: dict[str, list[pin.SE3]] = {}
         self._motion: Motion | None = None  # the joints that move, and where the rest stay (`moving`)
-        self._held_answer: tuple[object, bytes, bool] | None = None  # (view, base, do its still pairs touch)
+        # While a view holds pairs still: (view, the entries that stay, their values at the base, do
+        # its still pairs touch there: None until asked); else None.
+        self._held: tuple[object, slice | np.ndarray | None, bytes, bool | None] | None = None
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
@@ -565,29 +567,33 @@ class CollisionChecker:
             )
         self._view, self._tabled, self._broadphase = view, view.tabled, view.broadphase
         self._statics_moved = True  # another certifier may be asked: placed when it is
+        motion, held = self._motion, self._held
+        if motion is None or not view.holds:
+            self._held = None
+        elif held is None or held[0] is not view or held[2] != motion.at_base:  # else its answer stands
+            self._held = (view, motion.fixed, motion.at_base, None)
 
     def _placed_statics(self) -> None:
         """Something on no joint moved (an obstacle, a person): the certifier reads it again, and
         the still pairs are asked again at the base."""
         self._statics_moved = True
-        self._held_answer = None
+        if self._held is not None:
+            self._held = (*self._held[:3], None)
 
     def _held_touch(self, q: np.ndarray) -> bool:
         """Does a pair the motion holds still touch at `q`? Its answer at the base, asked once,
         if `q` is at the base outside the moving joints; else asked at `q`."""
-        view, motion = self._view, self._motion
-        if not view.holds:
-            return False
-        if not motion.stays(q):
+        view, fixed, at_base, answer = self._held
+        if fixed is not None and q[fixed].tobytes() != at_base:
             return self._still_touch(q)
-        answer = self._held_answer
-        if answer is None or answer[0] is not view or answer[1] != motion.at_base:
-            answer = self._held_answer = (view, motion.at_base, self._still_touch(motion.base))
-        return answer[2]
+        if answer is None:
+            answer = self._still_touch(self._motion.base)
+            self._held = (view, fixed, at_base, answer)
+        return answer
 
     def _first_held(self, qs: np.ndarray) -> int | None:
         """The first of the states `qs` at which a pair the motion holds still touches, or None."""
-        if self._motion is None or not self._view.holds or not len(qs):
+        if self._held is None or not len(qs):
             return None
         stays = self._motion.stays_many(qs)
         at_base = np.flatnonzero(stays)
@@ -673,7 +679,7 @@ class CollisionChecker:
         cannot clear (`_free_certifier`)."""
         if self._stale:
             self._ready()
-        if self._motion is not None and self._held_touch(q):
+        if self._held is not None and self._held_touch(q):
             return True
         certifier = self._free_certifier()
         if certifier is not None and (verdict := certifier.verdict(q)) is not None:

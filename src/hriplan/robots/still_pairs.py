@@ -139,7 +139,7 @@ class Motion:
     """Which configuration entries a motion moves, and where the others stay."""
 
     moved: frozenset[int]  # model joints the moving entries move
-    fixed: slice | np.ndarray  # the entries that stay
+    fixed: slice | np.ndarray | None  # the entries that stay (None: none, nothing to compare)
     base: np.ndarray  # the configuration they stay at
     at_base: bytes  # base[fixed], bit for bit
 
@@ -154,14 +154,12 @@ class Motion:
         if len(fixed) and fixed[-1] - fixed[0] == len(fixed) - 1:  # a slice: ~0.2 us less than indexing
             fixed = slice(int(fixed[0]), int(fixed[-1]) + 1)
         base = np.array(q_base, dtype=float)
-        return cls(moved, fixed, base, base[fixed].tobytes())
-
-    def stays(self, q: np.ndarray) -> bool:
-        """Is every fixed entry of `q` the base's, bit for bit?"""
-        return q[self.fixed].tobytes() == self.at_base
+        return cls(moved, fixed if len(base[fixed]) else None, base, base[fixed].tobytes())
 
     def stays_many(self, qs: np.ndarray) -> np.ndarray:
-        """`stays` per row of `qs` (N, nq)."""
+        """Per row of `qs` (N, nq): is every fixed entry the base's, bit for bit?"""
+        if self.fixed is None:
+            return np.ones(len(qs), dtype=bool)
         qs = np.asarray(qs, dtype=float).reshape(len(qs), -1)
         rows = np.ascontiguousarray(qs[:, self.fixed]).view(np.uint64)
         return (rows == np.frombuffer(self.at_base, dtype=np.uint64)).all(axis=1)
