@@ -175,6 +175,7 @@ class CollisionChecker:
         # every remembered build placed anew asks: ~40 us each, a dozen a re-plan). Forgotten
         # when the person is posed anew or is another Human (`_posed`, `pose_human`).
         self._placements: dict[str, list[pin.SE3]] = {}
+        self._statics_placed = 0  # counts placings of what is on no joint: a certifier placed before reads them again
         self._motion: Motion | None = None  # the joints that move, and where the rest stay (`moving`)
         # While a view holds pairs still: (view, the entries that stay, their values at the base, do
         # its still pairs touch there: None until asked); else None.
@@ -566,7 +567,6 @@ class CollisionChecker:
                 self.robot.model, self._geom_model, self._geom_data
             )
         self._view, self._tabled, self._broadphase = view, view.tabled, view.broadphase
-        self._statics_moved = True  # another certifier may be asked: placed when it is
         motion, held = self._motion, self._held
         if motion is None or not view.holds:
             self._held = None
@@ -576,7 +576,7 @@ class CollisionChecker:
     def _placed_statics(self) -> None:
         """Something on no joint moved (an obstacle, a person): the certifier reads it again, and
         the still pairs are asked again at the base."""
-        self._statics_moved = True
+        self._statics_placed += 1
         if self._held is not None:
             self._held = (*self._held[:3], None)
 
@@ -603,7 +603,7 @@ class CollisionChecker:
 
     def _still_touch(self, q: np.ndarray) -> bool:
         """Does a still pair of the current view touch at `q`, asked of coal as the full check would?"""
-        return self._view.still_touch(self.robot.model, self.robot.data, self._geom_model, q)
+        return self._view.still_touch(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q)
 
     # -- updates (no rebuild of the robot) -------------------------------------------------------------
     def move_obstacle(self, name: str, pose: Pose) -> None:
@@ -736,11 +736,10 @@ class CollisionChecker:
             people = [slots + [s for s, _ in self._zone_slots.get(n, [])] for n, slots in self._human_slots.items()]
             ids = np.flatnonzero(active)
             made = FreeCertifier.of(self.robot.model, self._geom_model, pairs.reshape(-1, 2)[ids], tables, people, ids)
-            view.certifier = made or False  # False: none for this robot, not asked again
-            self._statics_moved = False
-        elif self._statics_moved and view.certifier:
+            view.certifier, view.placed = made or False, self._statics_placed  # False: none for this robot
+        elif view.certifier and view.placed != self._statics_placed:
             view.certifier.place(self._geom_model)
-            self._statics_moved = False
+            view.placed = self._statics_placed
         return view.certifier or None
 
     def _left_touch(self, q: np.ndarray, uncertified: int, pairs: tuple[int, ...]) -> bool:

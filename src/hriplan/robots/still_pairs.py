@@ -20,7 +20,6 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.robots.mesh_clearance import ClearanceTable
-from hriplan.robots.robot_geometry import ask_contacts
 
 Tabled = list[tuple[ClearanceTable, list[int]]]  # clearance tables, each with the pair ids it stands for
 
@@ -37,45 +36,43 @@ class View:
     quiet: list[int]  # geometries with no pair left to ask: out of the broad phase
     broadphase: pin.BroadPhaseManager_NaiveCollisionManager | None = None  # made once applied
     certifier: object = None  # the compiled certifier of these pairs: None not made yet, False none
-    # The still pairs' own data (only they active) and broad phase: one C++ call asks them all.
-    _still: tuple[pin.GeometryData, pin.BroadPhaseManager_NaiveCollisionManager] | None = None
+    placed: int = -1  # the checker's count of statics placings when the certifier last read them
+    still_map: np.ndarray | None = None  # the still pairs as `active` has the others
+    still_broadphase: pin.BroadPhaseManager_NaiveCollisionManager | None = None  # made when first asked
 
     @property
     def holds(self) -> bool:
         return bool(self.still or self.still_tables)
 
-    def still_touch(self, model: pin.Model, data: pin.Data, geom_model: pin.GeometryModel, q: np.ndarray) -> bool:
-        """Does a still pair touch at `q`? Each asked as the full check asks it: a tabled one
-        on its meshes only where its table does not certify `q`."""
+    def still_touch(
+        self,
+        model: pin.Model,
+        data: pin.Data,
+        geom_model: pin.GeometryModel,
+        geom_data: pin.GeometryData,
+        q: np.ndarray,
+    ) -> bool:
+        """Does a still pair touch at `q`? Each asked as the full check asks it: a tabled one on
+        its meshes only where its table does not certify `q`. The view's data asks them alone
+        for one C++ call (a data of their own costs ~5 ms to make), then asks its own again."""
         objects = geom_model.geometryObjects
         for g in self.quiet:  # out of the per-state broad phase, not out of this one
             objects[g].disableCollision = False
         try:
-            if self._still is None:
-                self._still = self._still_data(model, geom_model)
-            still_data, broadphase = self._still
-            if pin.computeCollisions(model, data, broadphase, q, True):
+            geom_data.setActiveCollisionPairs(geom_model, self.still_map, False)
+            if self.still_broadphase is None:
+                self.still_broadphase = pin.BroadPhaseManager_NaiveCollisionManager(model, geom_model, geom_data)
+            if pin.computeCollisions(model, data, self.still_broadphase, q, True):
                 return True
         finally:
+            geom_data.setActiveCollisionPairs(geom_model, self.active, False)
             for g in self.quiet:
                 objects[g].disableCollision = True
         values = q.tolist()
         return any(
-            not table.certified(values) and any(pin.computeCollision(geom_model, still_data, k) for k in ks)
+            not table.certified(values) and any(pin.computeCollision(geom_model, geom_data, k) for k in ks)
             for table, ks in self.still_tables
         )
-
-    def _still_data(
-        self, model: pin.Model, geom_model: pin.GeometryModel
-    ) -> tuple[pin.GeometryData, pin.BroadPhaseManager_NaiveCollisionManager]:
-        pairs = geom_model.collisionPairs
-        still = np.zeros((geom_model.ngeoms, geom_model.ngeoms), dtype=bool)
-        for k in self.still:
-            still[pairs[k].first, pairs[k].second] = still[pairs[k].second, pairs[k].first] = True
-        still_data = geom_model.createData()
-        ask_contacts(still_data)
-        still_data.setActiveCollisionPairs(geom_model, still, False)
-        return still_data, pin.BroadPhaseManager_NaiveCollisionManager(model, geom_model, still_data)
 
 
 @dataclass(eq=False)
@@ -112,6 +109,7 @@ class Views:
             np.flatnonzero(asked & still_pair).tolist(),
             [t for t, held in zip(full.tabled, held_table) if held],
             np.flatnonzero(quiet).tolist(),
+            still_map=_pair_map(pairs, asked & still_pair, len(joints)),
         )
 
     def apply(self, view: View, geom_model: pin.GeometryModel, geom_data: pin.GeometryData) -> None:
