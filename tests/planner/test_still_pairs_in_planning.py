@@ -37,7 +37,7 @@ def _plan(problem, session, seed: int):
     return session.plan(problem.start, problem.goal, options, problem.group, safety=None)
 
 
-def test_every_state_a_plan_and_its_timing_ask_is_asked_within_a_motion_of_its_group(
+def test_every_state_a_plan_its_timing_and_leave_check_ask_is_asked_within_a_motion_of_its_group(
     handover, monkeypatch, either_route
 ):
     problem, session = handover
@@ -67,6 +67,9 @@ def test_every_state_a_plan_and_its_timing_ask_is_asked_within_a_motion_of_its_g
     asked.clear()
     timed = session.time(motion, problem.options, safety=None)  # dense validation of the timed path
     assert timed.solved and len(asked) >= 1 and set(asked) == {(moved, start)}
+    asked.clear()
+    assert session.leave(problem.start, problem.options, "right_arm", safety=None) is None  # the start asked
+    assert len(asked) >= 1 and set(asked) == {(moved, start)}
     assert session.checker._motion is None
 
 
