@@ -84,7 +84,9 @@ def main() -> None:
         "and so on: median CPU and collision checks of each",
     )
     args = parser.parse_args()
-    held_moving = CollisionChecker.moving
+    held_moving = getattr(CollisionChecker, "moving", None)  # a tree before it has none
+    if args.switch_still and held_moving is None:
+        parser.error("--switch-still needs CollisionChecker.moving")
     if args.switch_kernels and not load_kernels():
         parser.error("--switch-kernels needs numba (pip install 'hriplan[fast]')")
     task = load_task(EXAMPLE)
@@ -128,7 +130,7 @@ def main() -> None:
         if args.switch_still:
             CollisionChecker.moving = held_moving if k // 2 % 2 == 0 else _not_held
         kernels.append(kernels_on())
-        held.append(CollisionChecker.moving is held_moving)
+        held.append(getattr(CollisionChecker, "moving", None) is held_moving)
         started, started_cpu = time.perf_counter(), time.process_time()
         outcome = run_task(variant, session, advance=False)  # each re-plan from the task's start
         totals.append(time.perf_counter() - started)
