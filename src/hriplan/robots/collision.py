@@ -516,12 +516,11 @@ class CollisionChecker:
         self._tabled_pairs = [k for _, ks in tabled for k in ks]
         for k in self._tabled_pairs:
             self._geom_data.deactivateCollisionPair(k)
-        # A table free in every cell proves the pair never touches (the crossbar and a shoulder).
         self._pair_table = np.array(sorted(pairs), dtype=int).reshape(-1, 2)
-        self._views = Views.of(
-            self._pair_table, gm.ngeoms, self._tabled_pairs, [(t, ks) for t, ks in tabled if not t.free.all()]
-        )
-        self._hold()
+        # A table free in every cell proves the pair never touches (the crossbar and a shoulder).
+        asked = [(table, ks) for table, ks in tabled if not table.free.all()]
+        self._views = Views.of(self._pair_table, gm.ngeoms, self._tabled_pairs, asked)
+        self._hold()  # the view of the motion under way, if one is
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
