@@ -186,6 +186,8 @@ def test_leaving_restores_the_checks_also_on_an_exception(madar, either_route):
     with checker.moving("right_arm", base):
         inside = _state_of(checker)
         assert sum(inside[0]) < sum(before[0]) and any(inside[1]) and len(inside[2]) < len(before[2])
+        checker.contacts(states[0])  # asks every pair, then leaves the motion's checks as they were
+        assert _state_of(checker) == inside
     assert _state_of(checker) == before
     with pytest.raises(RuntimeError), checker.moving("right_arm", base):
         checker.in_collision(states[0])

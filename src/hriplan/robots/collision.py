@@ -759,9 +759,9 @@ class CollisionChecker:
         lists nothing: reading every pair's result back costs more than computing them."""
         if self._stale:
             self._ready()
-        hit = pin.computeCollisions(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q, False)
-        asked = [*self._tabled_pairs, *self._view.still]  # the pairs the broad phase leaves out
-        tabled = [pin.computeCollision(self._geom_model, self._geom_data, k) for k in asked]
+        with self._views.every_pair(self._geom_model, self._geom_data):  # a motion's still pairs too
+            hit = pin.computeCollisions(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q, False)
+        tabled = [pin.computeCollision(self._geom_model, self._geom_data, k) for k in self._tabled_pairs]
         if not hit and not any(tabled):
             return []
         names = self._geom_model.geometryObjects

@@ -13,7 +13,8 @@ in every sampled state or in none).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,6 +112,20 @@ class Views:
             np.flatnonzero(quiet).tolist(),
             still_map=_pair_map(pairs, asked & still_pair, len(joints)),
         )
+
+    @contextmanager
+    def every_pair(self, geom_model: pin.GeometryModel, geom_data: pin.GeometryData) -> Iterator[None]:
+        """Within the block the build's data asks every pair but the tabled ones, as with no
+        motion (`contacts` names every colliding pair), whatever view is applied."""
+        held = self.applied
+        if held is self.by_moved[None]:
+            yield
+            return
+        self.apply(self.by_moved[None], geom_model, geom_data)
+        try:
+            yield
+        finally:
+            self.apply(held, geom_model, geom_data)
 
     def apply(self, view: View, geom_model: pin.GeometryModel, geom_data: pin.GeometryData) -> None:
         """Make `view` the one the build's data asks: its pairs active, its quiet geometries out."""
