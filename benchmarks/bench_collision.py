@@ -2,7 +2,8 @@
 
 Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_collision.py [--src /tmp/base/src] [--rounds 2]
 Per robot (UR5, MADAR): the cost of `in_collision` on free states drawn uniformly and on the states
-of planned paths; per scenario (benchmarks/scenarios, a without its constraints too): the median
+of planned paths (also "in its motion": within `CollisionChecker.moving` of the planned group
+from the start, as the planner asks them; the full check in a tree without it); per scenario (benchmarks/scenarios, a without its constraints too): the median
 seconds of `PlanningSession.plan` with the scenario's own options (CBiRRT), over seeds, and the
 solved count. With --src, each round runs both trees in turn in fresh processes (alternating, so
 that the machine's load falls on both alike) and the table gives their ratio.
@@ -10,6 +11,7 @@ that the machine's load falls on both alike) and the table gives their ratio.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from pathlib import Path
 
@@ -31,6 +33,16 @@ def _per_state_us(checker, states: np.ndarray, clock=time.perf_counter) -> float
     return best
 
 
+def in_motion(checker, session, problem):
+    """The block within which the planner asks a scenario's states (`CollisionChecker.moving`: the
+    planned group from the start); none in a tree without it, whose checks are then the full ones."""
+    moving = getattr(checker, "moving", None)
+    if moving is None:
+        return contextlib.nullcontext()
+    group = problem.group or session.robot.default_group
+    return moving(group, session.robot.configuration(problem.start))
+
+
 def free_states(checker, rng: np.random.Generator, drawn: int = 3000, kept: int = 500) -> np.ndarray:
     """Up to `kept` collision-free states among `drawn` uniformly within the joint limits."""
     model = checker.robot.model
@@ -41,7 +53,7 @@ def free_states(checker, rng: np.random.Generator, drawn: int = 3000, kept: int 
 def scenario_plans(scenario: str, seeds: int, clock=time.perf_counter):
     """Plan `scenario` (benchmarks/scenarios, with its own options, CBiRRT) once a seed on one
     session: the session, the path's states (full configurations), the seconds each plan took
-    by `clock`, the solved count and the results."""
+    by `clock`, the solved count, the results and the problem."""
     from hriplan.planner.problem import load_problem
     from hriplan.planner.session import PlanningSession
 
@@ -59,7 +71,7 @@ def scenario_plans(scenario: str, seeds: int, clock=time.perf_counter):
         if result.motion is not None:
             states += [session.robot.configuration(x, problem.group, base=base) for x in result.motion.path]
     solved = sum(r.status == "solved" for r in results)
-    return session, np.array(states), seconds, solved, results
+    return session, np.array(states), seconds, solved, results, problem
 
 
 def measure() -> dict:
@@ -74,11 +86,13 @@ def measure() -> dict:
         free = free_states(checker, rng)
         out[f"{name} free state (us)"] = _per_state_us(checker, free)
     for scenario, seeds in PLANS.items():
-        session, states, seconds, solved, _ = scenario_plans(scenario, seeds)
+        session, states, seconds, solved, _, problem = scenario_plans(scenario, seeds)
         out[f"{scenario} plan median (s)"] = float(np.median(seconds))
         out[f"{scenario} solved"] = solved
         if len(states):
             out[f"{scenario} path state (us)"] = _per_state_us(session.checker, states)
+            with in_motion(session.checker, session, problem):
+                out[f"{scenario} path state in its motion (us)"] = _per_state_us(session.checker, states)
     return out
 
 

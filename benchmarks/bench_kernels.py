@@ -5,7 +5,9 @@ Per scenario of benchmarks/scenarios (a without its constraints too): the median
 seconds of `PlanningSession.plan` over seeds, the solved count and a digest of every planned
 path (equal digests: the same paths, bit for bit); per robot and scene, the CPU microseconds of
 `in_collision` on the states of the planned paths and on free states drawn uniformly, and the
-share of those states the certifier passes without coal. Each round runs both trees in turn in
+share of those states the certifier passes without coal; "in its motion": the path's states asked
+as the planner asks them, within `CollisionChecker.moving` of the planned group from the start
+(the full check in a tree without it). Each round runs both trees in turn in
 fresh processes (benchmarks/trees.py); the kernels' compilation is cached, and the first call's
 load is made before timing.
 """
@@ -17,7 +19,7 @@ import os
 import time
 
 import numpy as np
-from bench_collision import PLANS, _per_state_us, free_states, median_row, scenario_plans
+from bench_collision import PLANS, _per_state_us, free_states, in_motion, median_row, scenario_plans
 from trees import runs_by_tree
 
 
@@ -44,7 +46,7 @@ def measure() -> dict:
         out[f"{name} free state (us)"] = _cpu_us(checker, free)
         out[f"{name} free states certified"] = _certified(checker, free)
     for scenario, seeds in PLANS.items():
-        session, states, seconds, solved, results = scenario_plans(scenario, seeds, time.process_time)
+        session, states, seconds, solved, results, problem = scenario_plans(scenario, seeds, time.process_time)
         digest = hashlib.sha256()
         for result in results:
             if result.motion is not None:
@@ -55,6 +57,9 @@ def measure() -> dict:
         if len(states):
             out[f"{scenario} path state (us)"] = _cpu_us(session.checker, states)
             out[f"{scenario} path states certified"] = _certified(session.checker, states)
+            with in_motion(session.checker, session, problem):
+                out[f"{scenario} path state in its motion (us)"] = _cpu_us(session.checker, states)
+                out[f"{scenario} path states in its motion certified"] = _certified(session.checker, states)
     return out
 
 

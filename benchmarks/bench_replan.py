@@ -2,7 +2,7 @@
 perception"): the receiver of examples/handover_full_can_receiver.yaml moves 10 cm, and the
 motion manager derives and plans the handover again on the same session.
 
-Run: .venv/bin/python benchmarks/bench_replan.py [--updates 10] [--switch-kernels]
+Run: .venv/bin/python benchmarks/bench_replan.py [--updates 10] [--switch-kernels] [--switch-still]
 Prints, per update, the wall time of `run_task` (derive + plan + time, warm session and
 reasoner) and of its parts, then the medians, and the median CPU time per re-plan of each stage
 (STAGES: inclusive, a stage inside another is indented under it). Times are seconds on this
@@ -20,6 +20,7 @@ kinematics rounding apart from pinocchio's by ~1e-16).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import statistics
 import time
@@ -60,6 +61,11 @@ STAGES = (
 )
 
 
+def _not_held(checker: CollisionChecker, joints: object, q_base: object) -> contextlib.AbstractContextManager:
+    """`CollisionChecker.moving` as a no-op: every pair asked at every state (--switch-still)."""
+    return contextlib.nullcontext()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--updates", type=int, default=10)
@@ -71,7 +77,16 @@ def main() -> None:
         help="the compiled kernels on for two updates, off for two, and so on: median CPU of each (--save and "
         "--against then hold both routes' outcomes; use a multiple of 4 updates for equal shares)",
     )
+    parser.add_argument(
+        "--switch-still",
+        action="store_true",
+        help="CollisionChecker.moving in use for two updates, a no-op for two (every pair asked at every state), "
+        "and so on: median CPU and collision checks of each",
+    )
     args = parser.parse_args()
+    held_moving = getattr(CollisionChecker, "moving", None)  # a tree before it has none
+    if args.switch_still and held_moving is None:
+        parser.error("--switch-still needs CollisionChecker.moving")
     if args.switch_kernels and not load_kernels():
         parser.error("--switch-kernels needs numba (pip install 'hriplan[fast]')")
     task = load_task(EXAMPLE)
@@ -100,7 +115,7 @@ def main() -> None:
 
     ApproachMonitor.speed_scale = comparing
     run_task(task, session, advance=False)  # warm: robot, collision model, reasoner's schema
-    totals, cpu, stages, by_stage, outcomes, kernels = [], [], [], [], [], []
+    totals, cpu, stages, by_stage, outcomes, kernels, held = [], [], [], [], [], [], []
     bob = task.humans[0]
     for k in range(args.updates):
         # 10 cm to and fro, plus 1 mm more each time: every update is a place she has not been
@@ -112,7 +127,10 @@ def main() -> None:
         spent.clear()
         if args.switch_kernels:
             use_kernels(k // 2 % 2 == 0)
+        if args.switch_still:
+            CollisionChecker.moving = held_moving if k // 2 % 2 == 0 else _not_held
         kernels.append(kernels_on())
+        held.append(getattr(CollisionChecker, "moving", None) is held_moving)
         started, started_cpu = time.perf_counter(), time.process_time()
         outcome = run_task(variant, session, advance=False)  # each re-plan from the task's start
         totals.append(time.perf_counter() - started)
@@ -133,6 +151,15 @@ def main() -> None:
             f"median CPU per re-plan: kernels on {1e3 * statistics.median(on):.1f} ms ({len(on)} updates), "
             f"off {1e3 * statistics.median(off):.1f} ms ({len(off)})"
         )
+    if args.switch_still:
+        checks = [s.get("    collision checks", 0.0) for s in by_stage]
+        for name, values in (("CPU per re-plan", cpu), ("collision checks", checks)):
+            on, off = ([t for t, h in zip(values, held) if h == side] for side in (True, False))
+            print(
+                f"median {name}: still pairs held {1e3 * statistics.median(on):.1f} ms ({len(on)} updates), "
+                f"every pair asked {1e3 * statistics.median(off):.1f} ms ({len(off)})"
+            )
+        CollisionChecker.moving = held_moving
     print("median CPU per re-plan by stage (inclusive):")
     for label, _, _ in STAGES:
         print(f"  {label:44s} {1e3 * statistics.median(s.get(label, 0.0) for s in by_stage):6.1f} ms")

@@ -322,6 +322,18 @@ def leave_path(
 ) -> Leave | None:
     """The leave phase of `group` from `q_start` (checker: the scene without keep-outs or zones),
     or None when the start lies in no keep-out volume and no person's S_0: nothing to leave."""
+    with checker.moving(group, q_start):  # every state it asks moves `group` alone from the start
+        return _leave(robot, checker, bound, group, q_start, safety)
+
+
+def _leave(
+    robot: Robot,
+    checker: CollisionChecker,
+    bound: list[BoundConstraint],
+    group: str,
+    q_start: np.ndarray,
+    safety: SeparationPolicy | None,
+) -> Leave | None:
     zones = start_zones(checker, robot, safety, group, q_start)
     with with_keep_out(checker, bound, zones):  # the contacts only of a start that collides: plans re-check every start
         contacts = checker.contacts(q_start) if checker.in_collision(q_start) else []

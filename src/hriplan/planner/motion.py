@@ -188,7 +188,8 @@ def plan_motion(
         return MotionResult(status=status, message=message, group=group, joint_names=joint_names, start=full_start)
 
     separation = start_zones(checker, robot, safety, group, q_start)
-    with with_keep_out(checker, bound, separation):
+    # The joints outside the group stay at the start: the pairs they alone place are asked once.
+    with with_keep_out(checker, bound, separation), checker.moving(group, q_start):
         problem = _Problem(robot, checker, bound, group, q_start)
         x_start = robot.group_values(q_start, group)
         if checker.in_collision(q_start):

@@ -70,7 +70,8 @@ def validate_path(
     margins = evaluator.margins_many(qs)
     worst = margins.max(axis=0, initial=-np.inf)
     violated_at = np.flatnonzero(margins.max(axis=1, initial=-np.inf) > VALIDATION_TOLERANCE)
-    hit = checker.first_collision(qs)
+    with checker.moving(evaluator.group, evaluator.q):  # only the group's joints leave the evaluator's base
+        hit = checker.first_collision(qs)
     collision = None
     if hit is not None:
         contacts = checker.contacts(qs[hit])

@@ -33,6 +33,7 @@ from hriplan.robots.part_spheres import PartSpheres
 from hriplan.robots.robot_geometry import NO_COLLISION_SHAPES, ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
+from hriplan.robots.still_pairs import Motion, Views
 
 if TYPE_CHECKING:
     from hriplan.robots.free_certifier import FreeCertifier
@@ -107,14 +108,13 @@ _BUILT = (
     "_zone_slots",
     "_geom_model",
     "_geom_data",
-    "_broadphase",
     "_tabled_pairs",
-    "_tabled",
     "_fixed_contacts",
     "_index",
     "_names",
     "_joints",
-    "_certifier",
+    "_pair_table",
+    "_views",
 )
 _REMEMBERED_BUILDS = 8
 _PEOPLE_KEPT = 16  # the people a checker keeps a Human of (a service's session sees many)
@@ -175,6 +175,11 @@ class CollisionChecker:
         # every remembered build placed anew asks: ~40 us each, a dozen a re-plan). Forgotten
         # when the person is posed anew or is another Human (`_posed`, `pose_human`).
         self._placements: dict[str, list[pin.SE3]] = {}
+        self._statics_placed = 0  # counts placings of what is on no joint: a certifier placed before reads them again
+        self._motion: Motion | None = None  # the joints that move, and where the rest stay (`moving`)
+        # While a view holds pairs still: (view, the entries that stay, their values at the base, do
+        # its still pairs touch there: None until asked); else None.
+        self._held: tuple[object, slice | np.ndarray | None, bytes, bool | None] | None = None
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
@@ -292,9 +297,10 @@ class CollisionChecker:
                 self._place_person(name)
         else:
             self._build_new()
+        self._hold()
         self._remember()
         self._stale = False
-        self._statics_moved = True
+        self._placed_statics()
 
     @property
     def geom_model(self) -> pin.GeometryModel:
@@ -510,11 +516,11 @@ class CollisionChecker:
         self._tabled_pairs = [k for _, ks in tabled for k in ks]
         for k in self._tabled_pairs:
             self._geom_data.deactivateCollisionPair(k)
+        self._pair_table = np.array(sorted(pairs), dtype=int).reshape(-1, 2)
         # A table free in every cell proves the pair never touches (the crossbar and a shoulder).
-        self._tabled = [(table, ks) for table, ks in tabled if not table.free.all()]
-        # The naive manager loops over the pairs with an AABB test first: fastest here (benchmark).
-        self._broadphase = pin.BroadPhaseManager_NaiveCollisionManager(self.robot.model, gm, self._geom_data)
-        self._certifier: FreeCertifier | bool | None = None  # made when first asked, with the kernels on
+        asked = [(table, ks) for table, ks in tabled if not table.free.all()]
+        self._views = Views.of(self._pair_table, gm.ngeoms, self._tabled_pairs, asked)
+        self._hold()  # the view of the motion under way, if one is
 
     def _fixed_part_touches(self, part: int, obstacle: int) -> bool:
         """Does a part on the robot's fixed base touch an obstacle, on its URDF collision shapes?"""
@@ -525,6 +531,78 @@ class CollisionChecker:
                 self._fixed_contacts.add((part, obstacle))
                 return True
         return False
+
+    # -- a motion of some joints ----------------------------------------------------------------
+    @contextmanager
+    def moving(self, joints: str | Sequence[int], q_base: np.ndarray) -> Iterator[None]:
+        """Within the block, a motion of the group `joints` (or of these configuration entries),
+        every other entry at `q_base`: the pairs it cannot move (`still_pairs.py`) are checked
+        once, at `q_base`, and left out of the per-state checks; a colliding one makes every state
+        collide, and `contacts` still names it. A state whose other entries differ from
+        `q_base` has those pairs checked where it has them. Blocks nest; leaving restores the
+        checks as they were."""
+        entries = self.robot.group_indices(joints) if isinstance(joints, str) else joints
+        before = self._motion
+        self._motion = Motion.of(self._moves, entries, q_base)
+        try:
+            if not self._stale:
+                self._hold()
+            yield
+        finally:
+            self._motion = before
+            if not self._stale:
+                self._hold()
+
+    def _hold(self) -> None:
+        """Apply the current motion's view (`still_pairs.View`) to the build, made once per build
+        and motion's moved joints, with its own broad phase and certifier."""
+        views, moved = self._views, None if self._motion is None else self._motion.moved
+        view = views.by_moved.get(moved)
+        if view is None:
+            view = views.by_moved[moved] = views.held(moved, self._pair_table, self._joints)
+        views.apply(view, self._geom_model, self._geom_data)
+        if view.broadphase is None:  # the naive manager loops over the pairs with an AABB test first: fastest here
+            view.broadphase = pin.BroadPhaseManager_NaiveCollisionManager(
+                self.robot.model, self._geom_model, self._geom_data
+            )
+        self._view, self._tabled, self._broadphase = view, view.tabled, view.broadphase
+        motion, held = self._motion, self._held
+        if motion is None or not view.holds:
+            self._held = None
+        elif held is None or held[0] is not view or held[2] != motion.at_base:  # else its answer stands
+            self._held = (view, motion.fixed, motion.at_base, None)
+
+    def _placed_statics(self) -> None:
+        """Something on no joint moved (an obstacle, a person): the certifier reads it again, and
+        the still pairs are asked again at the base."""
+        self._statics_placed += 1
+        if self._held is not None:
+            self._held = (*self._held[:3], None)
+
+    def _held_touch(self, q: np.ndarray) -> bool:
+        """Does a pair the motion holds still touch at `q`? Its answer at the base, asked once,
+        if `q` is at the base outside the moving joints; else asked at `q`."""
+        view, fixed, at_base, answer = self._held
+        if fixed is not None and q[fixed].tobytes() != at_base:
+            return self._still_touch(q)
+        if answer is None:
+            answer = self._still_touch(self._motion.base)
+            self._held = (view, fixed, at_base, answer)
+        return answer
+
+    def _first_held(self, qs: np.ndarray) -> int | None:
+        """The first of the states `qs` at which a pair the motion holds still touches, or None."""
+        if self._held is None or not len(qs):
+            return None
+        stays = self._motion.stays_many(qs)
+        at_base = np.flatnonzero(stays)
+        first = int(at_base[0]) if len(at_base) and self._held_touch(qs[at_base[0]]) else len(qs)
+        hit = next((k for k in np.flatnonzero(~stays[:first]).tolist() if self._still_touch(qs[k])), first)
+        return hit if hit < len(qs) else None
+
+    def _still_touch(self, q: np.ndarray) -> bool:
+        """Does a still pair of the current view touch at `q`, asked of coal as the full check would?"""
+        return self._view.still_touch(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q)
 
     # -- updates (no rebuild of the robot) -------------------------------------------------------------
     def move_obstacle(self, name: str, pose: Pose) -> None:
@@ -537,7 +615,7 @@ class CollisionChecker:
                 ]
             }
         )
-        self._statics_moved = True
+        self._placed_statics()
         if not self._stale and self._place_obstacle(self._index[name], pose):
             self._pair_up()
             self._remember()
@@ -575,7 +653,7 @@ class CollisionChecker:
         stands now, in the build. Builds are remembered without the people's poses (a person who
         moved changes no pair), so using one places them."""
         placements = self._placed(name)
-        self._statics_moved = True
+        self._placed_statics()
         for slot, placement in zip(self._human_slots[name], placements):
             self._geom_model.geometryObjects[slot].placement = placement
         for slot, k in self._zone_slots.get(name, []):
@@ -600,8 +678,11 @@ class CollisionChecker:
         cannot clear (`_free_certifier`)."""
         if self._stale:
             self._ready()
-        certifier = self._certifier  # `_free_certifier`'s answer when nothing moved: no call (~0.1 us)
-        if not certifier or self._statics_moved or not kernels_on():
+        if self._held is not None and self._held_touch(q):
+            return True
+        view = self._view
+        certifier = view.certifier  # `_free_certifier`'s answer when nothing moved: no call (~0.1 us)
+        if not certifier or view.placed != self._statics_placed or not kernels_on():
             certifier = self._free_certifier()
         if certifier is not None and (verdict := certifier.verdict(q)) is not None:
             return bool(verdict[0] or verdict[1]) and self._left_touch(q, *verdict)
@@ -618,6 +699,8 @@ class CollisionChecker:
         tables asked about every state at once (a path's dense validation)."""
         if self._stale:
             self._ready()
+        held = self._first_held(qs)  # a still pair touches there: the states after it are not asked
+        qs = qs[:held]
         model, data, broadphase = self.robot.model, self.robot.data, self._broadphase
         certifier = self._free_certifier()
         verdicts = certifier.verdicts(qs) if certifier is not None else [None] * len(qs)
@@ -637,7 +720,7 @@ class CollisionChecker:
                 return k
             if any(not free and self._meshes_touch(pairs) for (_, pairs), free in zip(self._tabled, certified[k])):
                 return k
-        return None
+        return held
 
     def _free_certifier(self) -> FreeCertifier | None:
         """The compiled certifier of this build's broad-phase pairs and tables, placed where the
@@ -645,7 +728,8 @@ class CollisionChecker:
         walk. It says free only where coal and the tables would, so answers are the same."""
         if not kernels_on():
             return None
-        if self._certifier is None:
+        view = self._view
+        if view.certifier is None:
             from hriplan.robots.free_certifier import FreeCertifier
 
             active = np.array(self._geom_data.activeCollisionPairs, dtype=bool)
@@ -654,13 +738,11 @@ class CollisionChecker:
             people = [slots + [s for s, _ in self._zone_slots.get(n, [])] for n, slots in self._human_slots.items()]
             ids = np.flatnonzero(active)
             made = FreeCertifier.of(self.robot.model, self._geom_model, pairs.reshape(-1, 2)[ids], tables, people, ids)
-            self._certifier = made or False  # False: none for this robot, not asked again
-            self._statics_moved = False
-            self._remember()
-        elif self._statics_moved and self._certifier:
-            self._certifier.place(self._geom_model)
-            self._statics_moved = False
-        return self._certifier or None
+            view.certifier, view.placed = made or False, self._statics_placed  # False: none for this robot
+        elif view.certifier and view.placed != self._statics_placed:
+            view.certifier.place(self._geom_model)
+            view.placed = self._statics_placed
+        return view.certifier or None
 
     def _left_touch(self, q: np.ndarray, uncertified: int, pairs: tuple[int, ...]) -> bool:
         """With every other broad-phase pair clear at `q` (the certifier's word): does one of
@@ -680,7 +762,8 @@ class CollisionChecker:
         lists nothing: reading every pair's result back costs more than computing them."""
         if self._stale:
             self._ready()
-        hit = pin.computeCollisions(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q, False)
+        with self._views.every_pair(self._geom_model, self._geom_data):  # a motion's still pairs too
+            hit = pin.computeCollisions(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q, False)
         tabled = [pin.computeCollision(self._geom_model, self._geom_data, k) for k in self._tabled_pairs]
         if not hit and not any(tabled):
             return []
