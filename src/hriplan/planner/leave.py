@@ -323,57 +323,50 @@ def leave_path(
     """The leave phase of `group` from `q_start` (checker: the scene without keep-outs or zones),
     or None when the start lies in no keep-out volume and no person's S_0: nothing to leave."""
     with checker.moving(group, q_start):  # every state it asks moves `group` alone from the start
-        return _leave(robot, checker, bound, group, q_start, safety)
-
-
-def _leave(
-    robot: Robot,
-    checker: CollisionChecker,
-    bound: list[BoundConstraint],
-    group: str,
-    q_start: np.ndarray,
-    safety: SeparationPolicy | None,
-) -> Leave | None:
-    zones = start_zones(checker, robot, safety, group, q_start)
-    with with_keep_out(checker, bound, zones):  # the contacts only of a start that collides: plans re-check every start
-        contacts = checker.contacts(q_start) if checker.in_collision(q_start) else []
-    blocking = [c for c in contacts if _blocking(c.a) or _blocking(c.b)]
-    if not blocking or checker.in_collision(q_start):
-        return None  # a start valid, or in a plain collision: plan_motion says so
-    left = sorted({n[len(KEEP_OUT_PREFIX) :] for c in blocking for n in (c.a, c.b) if n.startswith(KEEP_OUT_PREFIX)})
-    leaving = _Leaving(robot, checker, bound, group, q_start, safety)
-    left = sorted({*left, *leaving.broken})
-    fixed = leaving.fixed_in_keep_out()
-    if fixed:
-        return Leave(None, left, f"the start is inside a keep-out volume: {fixed}, which {group} does not move")
-    full_zones = None if zones is None else separation_zones(checker, robot, safety, group, None)
-    x = robot.group_values(q_start, group)
-    path, rows = [x], leaving.rows(x)
-    for _ in range(MAX_STEPS):
-        if not rows.trouble.any():
-            with with_keep_out(checker, bound, full_zones):
-                contacts = checker.contacts(leaving.full(x))
-            if not contacts:
-                return Leave(path, left, measured=leaving)
-            listed = ", ".join(f"{c.a} - {c.b}" for c in contacts[:2])
-            return Leave(
-                None, left, f"the start is in a keep-out volume or a person's S_0 ({listed}) no leave measures"
-            )
-        step, why, new = _advance(leaving, checker, x, rows)
-        if step is None and not new and not why:
-            return Leave(None, left, f"{_worst(rows)}, and no motion of {group} moves away without coming closer")
-        if new:  # keep those apart from now on, from where they were BACK_OFF apart
-            leaving.keep_apart(new)
-            added = range(len(leaving.solid_pairs) - len(new), len(leaving.solid_pairs))
-            while len(path) > 1 and leaving.solid_distances(leaving.full(path[-1]), added).min() < BACK_OFF:
-                path.pop()
-            x, rows = path[-1], leaving.rows(path[-1])
-            continue
-        if step is None:
-            return Leave(None, left, f"{_worst(rows)}, and every motion of {group} away {why}")
-        x, rows = step
-        path.append(x)
-    return Leave(None, left, f"{_worst(rows)} after {MAX_STEPS} steps away")
+        zones = start_zones(checker, robot, safety, group, q_start)
+        with with_keep_out(
+            checker, bound, zones
+        ):  # the contacts only of a start that collides: plans re-check every start
+            contacts = checker.contacts(q_start) if checker.in_collision(q_start) else []
+        blocking = [c for c in contacts if _blocking(c.a) or _blocking(c.b)]
+        if not blocking or checker.in_collision(q_start):
+            return None  # a start valid, or in a plain collision: plan_motion says so
+        left = sorted(
+            {n[len(KEEP_OUT_PREFIX) :] for c in blocking for n in (c.a, c.b) if n.startswith(KEEP_OUT_PREFIX)}
+        )
+        leaving = _Leaving(robot, checker, bound, group, q_start, safety)
+        left = sorted({*left, *leaving.broken})
+        fixed = leaving.fixed_in_keep_out()
+        if fixed:
+            return Leave(None, left, f"the start is inside a keep-out volume: {fixed}, which {group} does not move")
+        full_zones = None if zones is None else separation_zones(checker, robot, safety, group, None)
+        x = robot.group_values(q_start, group)
+        path, rows = [x], leaving.rows(x)
+        for _ in range(MAX_STEPS):
+            if not rows.trouble.any():
+                with with_keep_out(checker, bound, full_zones):
+                    contacts = checker.contacts(leaving.full(x))
+                if not contacts:
+                    return Leave(path, left, measured=leaving)
+                listed = ", ".join(f"{c.a} - {c.b}" for c in contacts[:2])
+                return Leave(
+                    None, left, f"the start is in a keep-out volume or a person's S_0 ({listed}) no leave measures"
+                )
+            step, why, new = _advance(leaving, checker, x, rows)
+            if step is None and not new and not why:
+                return Leave(None, left, f"{_worst(rows)}, and no motion of {group} moves away without coming closer")
+            if new:  # keep those apart from now on, from where they were BACK_OFF apart
+                leaving.keep_apart(new)
+                added = range(len(leaving.solid_pairs) - len(new), len(leaving.solid_pairs))
+                while len(path) > 1 and leaving.solid_distances(leaving.full(path[-1]), added).min() < BACK_OFF:
+                    path.pop()
+                x, rows = path[-1], leaving.rows(path[-1])
+                continue
+            if step is None:
+                return Leave(None, left, f"{_worst(rows)}, and every motion of {group} away {why}")
+            x, rows = step
+            path.append(x)
+        return Leave(None, left, f"{_worst(rows)} after {MAX_STEPS} steps away")
 
 
 def _advance(
