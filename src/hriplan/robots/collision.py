@@ -33,7 +33,7 @@ from hriplan.robots.part_spheres import PartSpheres
 from hriplan.robots.robot_geometry import NO_COLLISION_SHAPES, ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
-from hriplan.robots.still_pairs import Motion, Views
+from hriplan.robots.still_pairs import Held, Motion, Views
 
 if TYPE_CHECKING:
     from hriplan.robots.free_certifier import FreeCertifier
@@ -177,9 +177,7 @@ class CollisionChecker:
         self._placements: dict[str, list[pin.SE3]] = {}
         self._statics_placed = 0  # counts placings of what is on no joint: a certifier placed before reads them again
         self._motion: Motion | None = None  # the joints that move, and where the rest stay (`moving`)
-        # While a view holds pairs still: (view, the entries that stay, their values at the base, do
-        # its still pairs touch there: None until asked); else None.
-        self._held: tuple[object, slice | np.ndarray | None, bytes, bool | None] | None = None
+        self._held: Held | None = None  # while a view holds pairs still
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
@@ -569,26 +567,25 @@ class CollisionChecker:
         motion, held = self._motion, self._held
         if motion is None or not view.holds:
             self._held = None
-        elif held is None or held[0] is not view or held[2] != motion.at_base:  # else its answer stands
-            self._held = (view, motion.fixed, motion.at_base, None)
+        elif held is None or held.view is not view or held.at_base != motion.at_base:  # else its answer stands
+            self._held = Held(view, motion.at_base)
 
     def _placed_statics(self) -> None:
         """Something on no joint moved (an obstacle, a person): the certifier reads it again, and
         the still pairs are asked again at the base."""
         self._statics_placed += 1
         if self._held is not None:
-            self._held = (*self._held[:3], None)
+            self._held.answer = None
 
     def _held_touch(self, q: np.ndarray) -> bool:
         """Does a pair the motion holds still touch at `q`? Its answer at the base, asked once,
         if `q` is at the base outside the moving joints; else asked at `q`."""
-        view, fixed, at_base, answer = self._held
-        if fixed is not None and q[fixed].tobytes() != at_base:
+        held, motion = self._held, self._motion
+        if motion.fixed is not None and q[motion.fixed].tobytes() != motion.at_base:
             return self._still_touch(q)
-        if answer is None:
-            answer = self._still_touch(self._motion.base)
-            self._held = (view, fixed, at_base, answer)
-        return answer
+        if held.answer is None:
+            held.answer = self._still_touch(motion.base)
+        return held.answer
 
     def _first_held(self, qs: np.ndarray) -> int | None:
         """The first of the states `qs` at which a pair the motion holds still touches, or None."""

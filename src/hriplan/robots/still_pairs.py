@@ -76,6 +76,16 @@ class View:
         )
 
 
+@dataclass(eq=False, slots=True)
+class Held:
+    """A view holding pairs still under a motion whose other entries stay at `at_base` (bytes of
+    `Motion.at_base`), and whether its still pairs touch there (None: not asked yet)."""
+
+    view: View
+    at_base: bytes
+    answer: bool | None = None
+
+
 @dataclass(eq=False)
 class Views:
     """One build's views by the joints that move (None: no motion declared; all pairs asked),
