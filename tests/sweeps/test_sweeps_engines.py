@@ -253,3 +253,24 @@ def test_with_no_route_out_the_ray_sweep_prints_only_its_own_lines(tmp_path):
     done = subprocess.run(offline + command, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0 and done.stdout.startswith("2 variants: 2 run"), done.stderr
     assert [line for line in done.stderr.splitlines() if not line.startswith("... ")] == [], done.stderr
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads process states from /proc")
+def test_a_pool_given_up_ends_its_workers_even_one_that_would_not_end_by_itself():
+    """A broken pool is given up with `_stop`: its workers are ended, not left to finish or to
+    wait for work (a worker left behind makes the interpreter's exit wait for it for ever)."""
+    import multiprocessing
+    import time
+    from concurrent.futures import ProcessPoolExecutor, wait
+
+    from hriplan.sweeps.engines import _stop
+
+    pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+    wait([pool.submit(time.sleep, 0.0)])  # the worker started
+    pool.submit(time.sleep, 60.0)  # busy for a minute: shutting down alone would wait for it
+    (worker,) = list(pool._processes.values())
+    _stop(pool)
+    deadline = time.monotonic() + 10.0
+    while helpers.alive(worker.pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not helpers.alive(worker.pid)

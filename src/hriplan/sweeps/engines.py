@@ -116,18 +116,27 @@ class LocalEngine:
                         else:
                             alone.append(variant)
                     running.clear()
-                    pool.shutdown(wait=False)
+                    _stop(pool)
                     pool = self._pool()
                     continue
                 for future in done:
                     variant = running.pop(future)
                     deliver(variant, _outcome(variant, future))
         except BaseException:  # Ctrl-C or a failure here: stop the workers, keep what was delivered
-            pool.shutdown(wait=False, cancel_futures=True)
-            for process in (getattr(pool, "_processes", None) or {}).values():
-                process.terminate()
+            _stop(pool)
             raise
         pool.shutdown(wait=True)
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Shut `pool` down without waiting, and end its workers. A broken pool's manager ends those
+    it knows of, but a worker started by a submit racing the break waits for work for ever, and the
+    interpreter's exit then waits for it (a test run once hung there after a worker died). The
+    workers are read before the shutdown, which forgets them."""
+    workers = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in workers:
+        process.terminate()
 
 
 class SessionActor:
