@@ -1,5 +1,5 @@
 """planner/kernels.py: a long-running process loads every compiled kernel at start, so that no
-request pays numba's load (or compile): after `load_kernels` on the UR5, whole tasks of other
+request pays numba's load (or compile): after `load_kernels` (on the UR5 and MADAR), whole tasks of other
 robots (MADAR's handover and peg-in-hole, the UR10 carry: people, carried objects, dynamic
 tolerances) make numba load or compile nothing more. Without numba it leaves the kernels off."""
 
@@ -24,6 +24,8 @@ from numba.core.registry import CPUDispatcher
 from hriplan.planner.kernels import load_kernels
 from hriplan.robots import certifier_kernels
 from hriplan.planner.constraints import compiled
+from hriplan.safety import approach_kernels
+from hriplan.safety.approach import ApproachMonitor
 from hriplan.api import PlanningSession, load_task, run_task
 from hriplan.robots.free_certifier import FreeCertifier
 
@@ -36,11 +38,11 @@ def counted(owner, name):
     setattr(owner, name, wrapper)
 for owner, name in [(compiled.CompiledTerms, n) for n in ("margins", "gradients", "margins_many")] + [
     (FreeCertifier, n) for n in ("verdict", "verdicts")
-]:
+] + [(ApproachMonitor, "_compiled")]:
     counted(owner, name)
 
 def signatures():
-    kernels = {**vars(certifier_kernels), **compiled._KERNELS}
+    kernels = {**vars(certifier_kernels), **compiled._KERNELS, **vars(approach_kernels)}
     return {name: len(f.signatures) for name, f in kernels.items() if isinstance(f, CPUDispatcher)}
 
 loaded = load_kernels()
@@ -61,10 +63,12 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
     assert run.returncode == 0, run.stderr[-2000:]
     found = json.loads(run.stdout.splitlines()[-1])
     assert found["loaded"] is True and found["solved"] == [True, True, True]
-    entries = ("verdict_one", "verdicts", "place_joints", "term_margins", "term_gradients")
+    entries = ("verdict_one", "verdicts", "place_joints", "term_margins", "term_gradients", "capsule_rows")
+    entries += ("fold_rows", "needed_rows")
     assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
     # the tasks took the compiled routes (planning, validation, collision), and numba loaded nothing for them
-    assert sorted(found["calls"]) == ["gradients", "margins", "margins_many", "verdict", "verdicts"], found["calls"]
+    called = ["_compiled", "gradients", "margins", "margins_many", "verdict", "verdicts"]
+    assert sorted(found["calls"]) == called, found["calls"]
     assert found["after"] == found["before"]
 
 

@@ -16,19 +16,23 @@ import numpy as np
 from hriplan.planner.constraints.binding import bind
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import BoxConstraint, FrameRef, OrientationConstraint
+from hriplan.planner.session import PlanningSession
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import posture
+from hriplan.robots.human import HumanSpec
 from hriplan.robots.kernel_switch import kernels_on, use_kernels
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
+from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.separation import PersonSeparation, RobotStopping, SeparationPolicy
 
 
 def load_kernels() -> bool:
     """Turn the kernels on in this process, and load every one of them (compiling any not yet
-    cached): the collision certifier's and the constraint terms', called once each on the
-    built-in UR5 (its robot and checker stay cached, as any robot's). False (and the kernels
-    stay off) without numba, the `fast` extra."""
+    cached): the collision certifier's and the constraint terms' called once each on the
+    built-in UR5, the ISO/TS 15066 monitor's on MADAR (robots and checkers stay cached).
+    False (and the kernels stay off) without numba, the `fast` extra."""
     use_kernels(True)
     if not kernels_on():
         return False
@@ -45,7 +49,23 @@ def load_kernels() -> bool:
     evaluator.margins(q)  # a whole configuration; gradients take the planned joints' values
     evaluator.gradients(x)
     evaluator.margins_many(np.repeat(q[None], 2, axis=0))
+    _monitor()
     return True
+
+
+def _monitor() -> None:
+    """The monitor's kernels, on MADAR's right arm with its hand open (palm boxes: rows that coal
+    measures) reaching towards a person in front of it, at rest (so never closing in on them)."""
+    person = HumanSpec(name="visitor", position=(1.38, 0.65), yaw=np.pi)
+    session = PlanningSession("madar", Scene(humans=[person]), hands={"right": "open"})
+    stopping = RobotStopping(reaction_time=0.1, stopping_time=0.2, position_uncertainty=0.01, moving_mass=10.0)
+    visitor = PersonSeparation(name="visitor", approach_speed=1.6, intrusion=0.2, sensor_uncertainty=0.05)
+    policy = SeparationPolicy(robot=stopping, people=[visitor])
+    q = session.robot.configuration(posture("madar", "ready"))
+    x = session.robot.group_values(q, "right_arm")
+    xs = x + np.linspace(0.0, 1.0, 8)[:, None] * np.array([0.8, -0.4, 0.4, 0.3, -0.2, 0.5])
+    monitor = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q)
+    monitor.speed_scale(xs, np.zeros(xs.shape))
 
 
 if __name__ == "__main__":

@@ -22,8 +22,10 @@ import numpy as np
 
 from hriplan import HriplanError
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.kernel_switch import kernels_on
 from hriplan.robots.model import Robot
-from hriplan.safety.person_distance import PersonDistances, Select, StatePairs
+from hriplan.robots.part_spheres import BOUND_TOLERANCE
+from hriplan.safety.person_distance import ROUNDING, PersonDistances, Select, StatePairs
 from hriplan.safety.separation import (
     PersonSeparation,
     SeparationPolicy,
@@ -31,6 +33,7 @@ from hriplan.safety.separation import (
     contact_caps,
     kept_capped_speeds,
     kept_separation,
+    kept_speed_terms,
     minimum_separation,
 )
 
@@ -186,34 +189,94 @@ class ApproachMonitor:
     ) -> tuple[list[PersonSample], tuple[int, str] | None]:
         """One person's sample at each state, or the first state with a moved part inside S_0 and why."""
         distances, kind = self._pairs(person)
-        speeds = _Speeds(self.policy, person, kind, (len(qs), len(distances.parts)))
-        pairs = distances.at(qs, dqs, self._deciding(person, kind, speeds))
-        if not pairs.parts:
+        if not distances.parts:
             return [PersonSample(np.inf, np.inf, np.inf, np.inf, 0.0, np.inf, "", "") for _ in qs], None
-        distance = pairs.distance
-        allowed, approach = speeds.of(pairs)
-        closing = approach > CLOSING
-        stopped = (allowed <= 0.0) & closing
-        if stopped.any():
-            n = int(np.flatnonzero(stopped.any(axis=1))[0])
-            k = int(np.flatnonzero(stopped[n])[np.argmin(distance[n, stopped[n]])])
+        columns = (self._compiled if kernels_on() else self._measured)(person, distances, kind, qs, dqs)
+        if columns.stop is not None:
+            n, k, distance = columns.stop
             return [], (
                 n,
-                f"{pairs.parts[k]} passes {distance[n, k]:.3f} m from {person.name}/{pairs.capsules[k]}, inside the "
+                f"{distances.parts[k]} passes {distance:.3f} m from {person.name}/{distances.capsules[k]}, inside the "
                 f"minimum protective separation {minimum_separation(self.policy.robot, person):.3f} m of ISO/TS 15066 "
                 f"and the padding {self.policy.margin.padding:g} m ({kept_separation(self.policy, person):.3f} m; the "
                 f"robot would have to stand still there)",
             )
-        binding = np.argmin(allowed - approach, axis=1)
-        scale, body = _scales(allowed, approach).min(axis=1), _body(kind.contact, distance)
-        at = np.arange(len(qs))
-        iso = capped_speeds(self.policy.robot, person, distance[at, binding], kind.caps[binding])
-        numbers = (distance.min(axis=1), body, allowed[at, binding], iso, approach[at, binding], scale, binding)
+        binding = columns.binding
+        iso = capped_speeds(self.policy.robot, person, columns.distance, kind.caps[binding])
+        numbers = (columns.nearest, columns.body, columns.allowed, iso, columns.approach, columns.scale, binding)
         samples = [
-            PersonSample(d, b, a, i, r, s, pairs.parts[k], pairs.capsules[k])
+            PersonSample(d, b, a, i, r, s, distances.parts[k], distances.capsules[k])
             for d, b, a, i, r, s, k in zip(*(np.asarray(column).tolist() for column in numbers))
         ]
         return samples, None
+
+    def _measured(
+        self, person: PersonSeparation, distances: PersonDistances, kind: _Rows, qs: np.ndarray, dqs: np.ndarray
+    ) -> _Columns:
+        """The samples' numbers from the rows `_deciding` selects, measured in numpy batches."""
+        speeds = _Speeds(self.policy, person, kind, (len(qs), len(distances.parts)))
+        pairs = distances.at(qs, dqs, self._deciding(person, kind, speeds))
+        distance = pairs.distance
+        allowed, approach = speeds.of(pairs)
+        stopped = (allowed <= 0.0) & (approach > CLOSING)
+        stop = None
+        if stopped.any():
+            n = int(np.flatnonzero(stopped.any(axis=1))[0])
+            k = int(np.flatnonzero(stopped[n])[np.argmin(distance[n, stopped[n]])])
+            stop = n, k, float(distance[n, k])
+        binding = np.argmin(allowed - approach, axis=1)
+        at = np.arange(len(qs))
+        return _Columns(
+            nearest=distance.min(axis=1),
+            body=_body(kind.contact, distance),
+            binding=binding,
+            allowed=allowed[at, binding],
+            approach=approach[at, binding],
+            distance=distance[at, binding],
+            scale=_scales(allowed, approach).min(axis=1),
+            stop=stop,
+        )
+
+    def _compiled(
+        self, person: PersonSeparation, distances: PersonDistances, kind: _Rows, qs: np.ndarray, dqs: np.ndarray
+    ) -> _Columns:
+        """The same numbers from the compiled route (`approach_kernels.py`), state by state."""
+        from hriplan.safety import approach_kernels as k  # numba: imported with the kernels on
+
+        iso = np.array([*kept_speed_terms(self.policy, person), BOUND_TOLERANCE, CLOSING, _TOUCHING, ROUNDING])
+        agg = distances.folded(qs, dqs, kind.contact, kind.caps, iso)
+        stopping = np.flatnonzero(agg[:, k.STOP] >= 0)
+        stop = None
+        if stopping.size:
+            n = int(stopping[0])
+            stop = n, int(agg[n, k.STOP]), float(agg[n, k.STOP_DISTANCE])
+        return _Columns(
+            nearest=agg[:, k.NEAREST],
+            body=agg[:, k.BODY],
+            binding=agg[:, k.BINDING].astype(int),
+            allowed=agg[:, k.ALLOWED],
+            approach=agg[:, k.APPROACH],
+            distance=agg[:, k.DISTANCE],
+            scale=agg[:, k.SCALE],
+            stop=stop,
+        )
+
+
+@dataclass(frozen=True)
+class _Columns:
+    """One person's numbers at each state (N,): the nearest row's distance, the nearest outside
+    the contact regions, the binding row (least allowed less approach) with its allowed speed,
+    approach and distance, the least scale; and the first state with a part closing in where
+    no speed is allowed: (state, row, distance), else None."""
+
+    nearest: np.ndarray
+    body: np.ndarray
+    binding: np.ndarray
+    allowed: np.ndarray
+    approach: np.ndarray
+    distance: np.ndarray
+    scale: np.ndarray
+    stop: tuple[int, int, float] | None
 
 
 class _Speeds:

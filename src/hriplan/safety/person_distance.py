@@ -51,7 +51,7 @@ class Select:
 
 
 # An upper bound on a speed is raised by this, relatively and absolutely (m/s): float rounding.
-_ROUNDING = 1e-9
+ROUNDING = 1e-9
 
 # PersonDistances made lately, by robot model, person model and joints (`PersonDistances.of`).
 _MADE: MadeFor[PersonDistances] = MadeFor(8)
@@ -83,7 +83,8 @@ class PersonDistances:
         self._slot = np.array([self._slots.index(b) for _, b in pairs], dtype=int)
         self._slot_half = np.array([objects[b].geometry.halfLength for b in self._slots])
         self._person_half = self._slot_half[self._slot]
-        self._person_radius = np.array([objects[b].geometry.radius for b in self._slots])[self._slot]
+        self._slot_radius = np.array([objects[b].geometry.radius for b in self._slots])
+        self._person_radius = self._slot_radius[self._slot]
         capsule = np.array([isinstance(objects[a].geometry, coal.Capsule) for a, _ in pairs], dtype=bool)
         self._capsule_rows, self._other_rows = np.flatnonzero(capsule), np.flatnonzero(~capsule)
         # A robot capsule meets every capsule of the person: place each once, then spread it over its rows.
@@ -99,6 +100,11 @@ class PersonDistances:
         self._others = _coal_model(person_model, [pairs[k] for k in self._other_rows])
         self._copy_of = np.full(len(pairs), -1, dtype=int)  # row -> its pair in the coal model
         self._copy_of[self._other_rows] = np.arange(self._other_rows.size)
+        # Per row for the compiled route: its robot capsule (-1: not a capsule pair), that capsule's
+        # half length and radius.
+        self._kernel_rows = (np.full(len(pairs), -1, dtype=int), np.zeros(len(pairs)), np.zeros(len(pairs)))
+        for column, values in zip(self._kernel_rows, (self._robot_capsule, self._robot_half, self._robot_radius)):
+            column[self._capsule_rows] = values
         # Each moved part's bounding sphere: centre in its joint's frame (P, 3, 1), radius (P,).
         parts = sorted({a for a, _ in pairs})
         self._part = np.array([parts.index(a) for a, _ in pairs], dtype=int)
@@ -147,6 +153,50 @@ class PersonDistances:
         measure(select.needed(pairs, floor, speed))
         return pairs
 
+    def folded(
+        self, qs: np.ndarray, dqs: np.ndarray, contact: np.ndarray, caps: np.ndarray, iso: np.ndarray
+    ) -> np.ndarray:
+        """The ISO/TS 15066 monitor's aggregates of each state (N, `approach_kernels.AGGREGATES`)
+        over every row that could change them, computed state by state in compiled code
+        (`approach_kernels.py`: its rows' contact flags and caps, its numbers `iso`); the rows
+        that are not capsule pairs measured by coal in the order and rounds `at` asks them (coal's
+        answers depend on what it was asked before)."""
+        from hriplan.safety import approach_kernels as kernels  # numba: imported with the kernels on
+
+        frames = self._kinematics(qs, dqs)
+        # Every array C-contiguous, whatever made it: one compiled signature serves every robot.
+        rotation, origin, linear, angular = (
+            np.ascontiguousarray(a) for a in (frames.rotation, frames.origin, frames.linear, frames.angular)
+        )
+        centre, axis = self._person_capsules()
+        shape = (len(qs), len(self.parts))
+        agg, floor, speed = np.empty((shape[0], kernels.AGGREGATES)), np.empty(shape), np.empty(shape)
+        likely = np.zeros(shape, dtype=bool)
+        kernels.capsule_rows(
+            rotation, origin, linear, angular,
+            self._capsule_frame, self._local_centre[..., 0], self._local_axis[..., 0],
+            self._sphere_frame, self._sphere_centre[..., 0], self._sphere_radius,
+            self._part, self._slot, *self._kernel_rows, self._frame,
+            centre, axis, self._slot_half, self._slot_radius,
+            contact, caps, iso, agg, floor, speed, likely,
+        )  # fmt: skip
+        others = self._other_rows
+        if others.size:
+            self._place_person_copies()
+            for asked in (
+                likely[:, others],
+                kernels.needed_rows(others, floor, speed, contact, caps, iso, agg, likely),
+            ):
+                states, which = map(np.ascontiguousarray, np.nonzero(asked))
+                if states.size:
+                    distance, robot, person = self._coal(qs, states, others[which])
+                    points = np.hstack([np.array(robot), np.array(person)])
+                    kernels.fold_rows(
+                        states, others[which], np.array(distance), points, origin, linear, angular,
+                        self._frame, contact, caps, iso, agg,
+                    )  # fmt: skip
+        return agg
+
     def _measure_capsules(self, world: _Placed, states: np.ndarray, rows: np.ndarray, pairs: StatePairs) -> None:
         """The capsule rows `rows` at `states` (flat, paired), in one numpy pass, into `pairs`."""
         if not rows.size:
@@ -166,10 +216,15 @@ class PersonDistances:
         pairs.distance[states, rows], pairs.robot_point[states, rows], pairs.person_point[states, rows] = found
 
     def _measure_others(self, qs: np.ndarray, states: np.ndarray, rows: np.ndarray, pairs: StatePairs) -> None:
-        """The non-capsule rows `rows` at `states` (flat, paired, by state), by coal, into `pairs`.
-        Each result is read once and all of them turned into arrays at the end."""
-        if not rows.size:
-            return
+        """The non-capsule rows `rows` at `states` (flat, paired, by state), by coal, into `pairs`."""
+        if rows.size:
+            pairs.distance[states, rows], pairs.robot_point[states, rows], pairs.person_point[states, rows] = (
+                self._coal(qs, states, rows)
+            )
+
+    def _coal(self, qs: np.ndarray, states: np.ndarray, rows: np.ndarray) -> tuple[list, list, list]:
+        """coal's distance and witness points (robot, person) of the non-capsule rows `rows` at
+        `states` (flat, paired, by state): each result read once, the lists made at the end."""
         (others, other_data, _), model, data = self._others, self.robot_model, self.robot_data
         found, copy_of = [], self._copy_of[rows].tolist()
         last = -1
@@ -179,9 +234,7 @@ class PersonDistances:
                 last = n
             r = pin.computeDistance(others, other_data, m)
             found.append((r.min_distance, r.getNearestPoint1(), r.getNearestPoint2()))
-        pairs.distance[states, rows] = [d for d, _, _ in found]
-        pairs.robot_point[states, rows] = [p for _, p, _ in found]
-        pairs.person_point[states, rows] = [p for _, _, p in found]
+        return [d for d, _, _ in found], [p for _, p, _ in found], [p for _, _, p in found]
 
     def _place_person_copies(self) -> None:
         """The person's capsules in the coal model of the other shapes placed where the person
@@ -204,7 +257,7 @@ class PersonDistances:
         speed += np.linalg.norm(spin, axis=2) * self._sphere_radius
         gap = axis_gaps(centre, world.person_centre, world.person_axis, self._slot_half)[:, self._part, self._slot]
         floor = gap - self._sphere_radius[self._part] - self._person_radius - BOUND_TOLERANCE
-        return floor, speed[:, self._part] * (1.0 + _ROUNDING) + _ROUNDING
+        return floor, speed[:, self._part] * (1.0 + ROUNDING) + ROUNDING
 
     def _person_capsules(self) -> tuple[np.ndarray, np.ndarray]:
         """World centres and axes of the person's capsules (S, 3), read afresh from the model:

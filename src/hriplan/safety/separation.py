@@ -203,3 +203,11 @@ def kept_capped_speeds(
     """`kept_speeds` with each pair's `contact_caps` given (broadcast against `separations`)."""
     closer = np.asarray(separations, dtype=float) - policy.margin.padding
     return policy.margin.speed_factor * capped_speeds(policy.robot, person, closer, caps)
+
+
+def kept_speed_terms(policy: SeparationPolicy, person: PersonSeparation) -> tuple[float, float, float, float]:
+    """(padding, S_0, T_r + T_s / 2, speed factor): the numbers `kept_capped_speeds` computes
+    from, for compiled code that evaluates it row by row (`approach_kernels._kept`, held to it
+    by the tests)."""
+    travel = _robot_travel_per_speed(policy.robot)
+    return policy.margin.padding, minimum_separation(policy.robot, person), travel, policy.margin.speed_factor

@@ -1,0 +1,351 @@
+"""The ISO/TS 15066 monitor's compiled code (numba): one person's rows at many states, state by state.
+
+Why: `approach.py` decides which part-capsule rows to measure in numpy batches over (states x
+rows) arrays, three rounds of a dozen passes each; with ~200 rows and ~20 of them measured a
+state, those passes (and numpy's call overhead) were three quarters of the monitor's time. Here
+each state is one loop: every row's bounds, the likely rows measured first, then every capsule
+row that could still change the state's sample, measured and folded in at once. What a row
+needs, and how its speeds and the sample's aggregates are computed, are `approach.py`'s
+(`ApproachMonitor._deciding`, `_Speeds`, `_person`), written per row; the tests hold the two
+routes to the same samples. Rows that are not capsule pairs (palm boxes, carried objects) are
+left to coal: the caller measures them and folds them in with `fold_rows`.
+
+Every jitted function lives in this one file (numba caches a kernel by the file it is defined
+in, not by its callees'). Per state the aggregates are seven numbers (`AGGREGATES`): the
+nearest row's distance, the nearest outside the contact regions, the least margin (allowed
+less approach) and its row, that row's allowed speed, approach and distance, the least scale,
+and the stopping row (a moved part closing in where the allowed speed is 0) with its distance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# Columns of a state's aggregates.
+NEAREST, BODY, MARGIN, BINDING, ALLOWED, APPROACH, DISTANCE, SCALE, STOP, STOP_DISTANCE = range(10)
+AGGREGATES = 10
+# The monitor's numbers, in one array: the policy's padding, S_0, T_r + T_s / 2 and speed factor;
+# the bound tolerance; the closing, touching and rounding thresholds (approach.py, person_distance.py).
+PADDING, S0, TRAVEL, FACTOR, TOLERANCE, CLOSING, TOUCHING, ROUNDING = range(8)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _kept(distance: float, cap: float, iso: np.ndarray) -> float:
+    """`separation.kept_capped_speeds` of one row: the same operations in the same order."""
+    room = max(distance - iso[PADDING] - iso[S0], 0.0)
+    travel = iso[TRAVEL]
+    if travel > 0.0:
+        ssm = room / travel
+    else:
+        ssm = math.inf if room > 0.0 else 0.0
+    return iso[FACTOR] * max(ssm, cap)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _dot(a0: float, a1: float, a2: float, b0: float, b1: float, b2: float) -> float:
+    return a0 * b0 + a1 * b1 + a2 * b2
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _clip(x: float, low: float, high: float) -> float:
+    return min(max(x, low), high)
+
+
+@njit(cache=True, nogil=True)
+def _capsules(
+    c1: np.ndarray,
+    a1: np.ndarray,
+    h1: float,
+    r1: float,
+    c2: np.ndarray,
+    a2: np.ndarray,
+    h2: float,
+    r2: float,
+    out: np.ndarray,
+) -> float:
+    """`capsule_distance.capsule_distances` of one pair: the signed distance, the witness points
+    into out[0:3] (capsule 1) and out[3:6] (capsule 2)."""
+    s1 = np.empty(3)
+    s2 = np.empty(3)
+    d1 = np.empty(3)
+    d2 = np.empty(3)
+    for i in range(3):
+        s1[i] = c1[i] - h1 * a1[i]
+        s2[i] = c2[i] - h2 * a2[i]
+        d1[i] = 2.0 * h1 * a1[i]
+        d2[i] = 2.0 * h2 * a2[i]
+    r0, r1_, r2_ = s1[0] - s2[0], s1[1] - s2[1], s1[2] - s2[2]
+    a = _dot(d1[0], d1[1], d1[2], d1[0], d1[1], d1[2])
+    e = _dot(d2[0], d2[1], d2[2], d2[0], d2[1], d2[2])
+    b = _dot(d1[0], d1[1], d1[2], d2[0], d2[1], d2[2])
+    c = _dot(d1[0], d1[1], d1[2], r0, r1_, r2_)
+    f = _dot(d2[0], d2[1], d2[2], r0, r1_, r2_)
+    safe_a = 1.0 if a <= 1e-18 else a
+    safe_e = 1.0 if e <= 1e-18 else e
+    denom = a * e - b * b
+    if denom <= 1e-12 * a * e:
+        s = 0.0
+    else:
+        s = _clip((b * f - c * e) / denom, 0.0, 1.0)
+    t = (b * s + f) / safe_e
+    if t < 0.0:
+        s = _clip(-c / safe_a, 0.0, 1.0)
+    elif t > 1.0:
+        s = _clip((b - c) / safe_a, 0.0, 1.0)
+    t = _clip(t, 0.0, 1.0)
+    if e <= 1e-18:
+        s = _clip(-c / safe_a, 0.0, 1.0)
+    g = np.empty(3)
+    for i in range(3):
+        out[i] = s1[i] + s * d1[i]
+        out[3 + i] = s2[i] + t * d2[i]
+        g[i] = out[3 + i] - out[i]
+    length = math.sqrt(_dot(g[0], g[1], g[2], g[0], g[1], g[2]))
+    if length > 1e-12:
+        n0, n1, n2 = g[0] / length, g[1] / length, g[2] / length
+    else:  # crossing axes: a unit normal to both (to the first if parallel), as `_across`
+        n0 = a1[1] * a2[2] - a1[2] * a2[1]
+        n1 = a1[2] * a2[0] - a1[0] * a2[2]
+        n2 = a1[0] * a2[1] - a1[1] * a2[0]
+        if not _dot(n0, n1, n2, n0, n1, n2) > 1e-12:
+            if abs(a1[0]) < 0.9:
+                h0, h1_, h2_ = 1.0, 0.0, 0.0
+            else:
+                h0, h1_, h2_ = 0.0, 1.0, 0.0
+            n0 = a1[1] * h2_ - a1[2] * h1_
+            n1 = a1[2] * h0 - a1[0] * h2_
+            n2 = a1[0] * h1_ - a1[1] * h0
+        size = math.sqrt(_dot(n0, n1, n2, n0, n1, n2))
+        n0, n1, n2 = n0 / size, n1 / size, n2 / size
+    out[0] += r1 * n0
+    out[1] += r1 * n1
+    out[2] += r1 * n2
+    out[3] -= r2 * n0
+    out[4] -= r2 * n1
+    out[5] -= r2 * n2
+    return length - r1 - r2
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _fold(
+    agg: np.ndarray, row: int, distance: float, allowed: float, approach: float, contact: bool, iso: np.ndarray
+) -> None:
+    """Fold a measured row into a state's aggregates (ties go to the lower row, as argmin)."""
+    if distance < agg[NEAREST]:
+        agg[NEAREST] = distance
+    if not contact and distance < agg[BODY]:
+        agg[BODY] = distance
+    margin = allowed - approach
+    # Row 0 starts as the binding row, unmeasured (argmin's answer where every margin is inf).
+    if margin < agg[MARGIN] or (margin == agg[MARGIN] and row <= agg[BINDING]):
+        agg[MARGIN], agg[BINDING] = margin, row
+        agg[ALLOWED], agg[APPROACH], agg[DISTANCE] = allowed, approach, distance
+    closing = approach > iso[CLOSING]
+    if closing and allowed / approach < agg[SCALE]:
+        agg[SCALE] = allowed / approach
+    if closing and allowed <= 0.0:
+        if agg[STOP] < 0 or distance < agg[STOP_DISTANCE] or (distance == agg[STOP_DISTANCE] and row < agg[STOP]):
+            agg[STOP], agg[STOP_DISTANCE] = row, distance
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _speeds(
+    distance: float, point: np.ndarray, v0: float, v1: float, v2: float, contact: bool, cap: float, iso: np.ndarray
+) -> tuple[float, float]:
+    """`approach._Speeds.of` of one row: (allowed, approach), the robot point at point[0:3], the
+    person's at point[3:6], the robot point's velocity v."""
+    allowed = _kept(distance, cap, iso)
+    if contact or distance <= iso[TOUCHING]:
+        return allowed, math.sqrt(_dot(v0, v1, v2, v0, v1, v2))
+    g0, g1, g2 = point[3] - point[0], point[4] - point[1], point[5] - point[2]
+    return allowed, _dot(v0, v1, v2, g0, g1, g2) / max(distance, iso[TOUCHING])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _needed(floor: float, speed: float, lowest: float, contact: bool, agg: np.ndarray, iso: np.ndarray) -> bool:
+    """`approach.ApproachMonitor._deciding`'s `needed` for one row against a state's aggregates."""
+    if floor <= agg[NEAREST] or (not contact and floor <= agg[BODY]) or lowest - speed <= agg[MARGIN]:
+        return True
+    return speed > iso[CLOSING] and (lowest <= 0.0 or lowest <= agg[SCALE] * speed)
+
+
+@njit(cache=True, nogil=True)
+def capsule_rows(
+    rotation: np.ndarray,
+    origin: np.ndarray,
+    linear: np.ndarray,
+    angular: np.ndarray,
+    capsule_frame: np.ndarray,
+    capsule_centre: np.ndarray,
+    capsule_axis: np.ndarray,
+    sphere_frame: np.ndarray,
+    sphere_centre: np.ndarray,
+    sphere_radius: np.ndarray,
+    row_part: np.ndarray,
+    row_slot: np.ndarray,
+    row_capsule: np.ndarray,
+    row_half: np.ndarray,
+    row_radius: np.ndarray,
+    row_frame: np.ndarray,
+    person_centre: np.ndarray,
+    person_axis: np.ndarray,
+    person_half: np.ndarray,
+    person_radius: np.ndarray,
+    contact: np.ndarray,
+    caps: np.ndarray,
+    iso: np.ndarray,
+    agg: np.ndarray,
+    floor: np.ndarray,
+    speed: np.ndarray,
+    likely: np.ndarray,
+) -> None:
+    """Per state n (frames (N, F, ...)): every row's lower bound on its distance and upper bound
+    on its part's speed into floor[n] and speed[n] (K), the likely rows flagged in likely[n];
+    the likely capsule rows measured, then every capsule row `_needed` against what is measured
+    so far, each folded into agg[n] (AGGREGATES). Rows with row_capsule -1 are not measured.
+    The bounds are `PersonDistances._bounds`' (its part's sphere against the capsule's axis)."""
+    n_states, n_rows = floor.shape
+    n_parts, n_capsules = sphere_radius.size, capsule_frame.size
+    part_speed = np.empty(n_parts)
+    centre = np.empty((n_parts, 3))
+    placed_centre = np.empty((n_capsules, 3))
+    placed_axis = np.empty((n_capsules, 3))
+    lowest = np.empty(n_rows)
+    point = np.empty(6)
+    for n in range(n_states):
+        for p in range(n_parts):
+            f = sphere_frame[p]
+            for i in range(3):
+                centre[p, i] = (
+                    rotation[n, f, i, 0] * sphere_centre[p, 0]
+                    + rotation[n, f, i, 1] * sphere_centre[p, 1]
+                    + rotation[n, f, i, 2] * sphere_centre[p, 2]
+                    + origin[n, f, i]
+                )
+            w0, w1, w2 = angular[n, f, 0], angular[n, f, 1], angular[n, f, 2]
+            o0, o1, o2 = centre[p, 0] - origin[n, f, 0], centre[p, 1] - origin[n, f, 1], centre[p, 2] - origin[n, f, 2]
+            v0 = linear[n, f, 0] + (w1 * o2 - w2 * o1)
+            v1 = linear[n, f, 1] + (w2 * o0 - w0 * o2)
+            v2 = linear[n, f, 2] + (w0 * o1 - w1 * o0)
+            bound = math.sqrt(_dot(v0, v1, v2, v0, v1, v2)) + math.sqrt(_dot(w0, w1, w2, w0, w1, w2)) * sphere_radius[p]
+            part_speed[p] = bound * (1.0 + iso[ROUNDING]) + iso[ROUNDING]
+        for c in range(n_capsules):
+            f = capsule_frame[c]
+            for i in range(3):
+                placed_centre[c, i] = (
+                    rotation[n, f, i, 0] * capsule_centre[c, 0]
+                    + rotation[n, f, i, 1] * capsule_centre[c, 1]
+                    + rotation[n, f, i, 2] * capsule_centre[c, 2]
+                    + origin[n, f, i]
+                )
+                placed_axis[c, i] = (
+                    rotation[n, f, i, 0] * capsule_axis[c, 0]
+                    + rotation[n, f, i, 1] * capsule_axis[c, 1]
+                    + rotation[n, f, i, 2] * capsule_axis[c, 2]
+                )
+        best = np.full(4, math.inf)
+        best_row = np.zeros(4, dtype=np.int64)
+        for k in range(n_rows):
+            p, s = row_part[k], row_slot[k]
+            c0, c1, c2 = centre[p, 0], centre[p, 1], centre[p, 2]
+            p0, p1, p2 = person_centre[s, 0], person_centre[s, 1], person_centre[s, 2]
+            x0, x1, x2 = person_axis[s, 0], person_axis[s, 1], person_axis[s, 2]
+            # part_spheres.axis_gaps' products: |c|^2 + |p|^2 - (2 c.p + t (2 along - t)), along = c.a - p.a
+            along = _dot(c0, c1, c2, x0, x1, x2) - _dot(p0, p1, p2, x0, x1, x2)
+            t = _clip(along, -person_half[s], person_half[s])
+            squared = _dot(c0, c1, c2, c0, c1, c2) + _dot(p0, p1, p2, p0, p1, p2)
+            squared -= 2.0 * _dot(c0, c1, c2, p0, p1, p2) + t * (2.0 * along - t)
+            bound = math.sqrt(max(squared, 0.0)) - sphere_radius[p] - person_radius[s] - iso[TOLERANCE]
+            floor[n, k], speed[n, k] = bound, part_speed[p]
+            lowest[k] = _kept(bound, caps[k], iso)
+            closing = part_speed[p] > iso[CLOSING]
+            ranks = (
+                bound,
+                math.inf if contact[k] else bound,
+                lowest[k] - part_speed[p],
+                lowest[k] / part_speed[p] if closing else math.inf,
+            )
+            for r in range(4):
+                if ranks[r] < best[r]:
+                    best[r], best_row[r] = ranks[r], k
+        for r in range(4):
+            likely[n, best_row[r]] = True
+        a = agg[n]
+        a[NEAREST] = a[BODY] = a[MARGIN] = a[DISTANCE] = a[SCALE] = math.inf
+        a[BINDING], a[ALLOWED], a[APPROACH], a[STOP], a[STOP_DISTANCE] = 0.0, math.inf, 0.0, -1.0, math.inf
+        for sweep in range(2):  # the likely rows first, then the others while they may matter
+            for k in range(n_rows):
+                c = row_capsule[k]
+                if c < 0 or likely[n, k] != (sweep == 0):
+                    continue
+                if sweep == 1 and not _needed(floor[n, k], speed[n, k], lowest[k], contact[k], a, iso):
+                    continue
+                s = row_slot[k]
+                distance = _capsules(
+                    placed_centre[c], placed_axis[c], row_half[k], row_radius[k],
+                    person_centre[s], person_axis[s], person_half[s], person_radius[s], point,
+                )  # fmt: skip
+                f = row_frame[k]
+                w0, w1, w2 = angular[n, f, 0], angular[n, f, 1], angular[n, f, 2]
+                o0, o1, o2 = point[0] - origin[n, f, 0], point[1] - origin[n, f, 1], point[2] - origin[n, f, 2]
+                v0 = linear[n, f, 0] + (w1 * o2 - w2 * o1)
+                v1 = linear[n, f, 1] + (w2 * o0 - w0 * o2)
+                v2 = linear[n, f, 2] + (w0 * o1 - w1 * o0)
+                allowed, approach = _speeds(distance, point, v0, v1, v2, contact[k], caps[k], iso)
+                _fold(a, k, distance, allowed, approach, contact[k], iso)
+
+
+@njit(cache=True, nogil=True)
+def fold_rows(
+    states: np.ndarray,
+    rows: np.ndarray,
+    distance: np.ndarray,
+    points: np.ndarray,
+    origin: np.ndarray,
+    linear: np.ndarray,
+    angular: np.ndarray,
+    row_frame: np.ndarray,
+    contact: np.ndarray,
+    caps: np.ndarray,
+    iso: np.ndarray,
+    agg: np.ndarray,
+) -> None:
+    """Rows measured elsewhere (coal), (states[i], rows[i]) at distance[i] with witness points
+    points[i] (robot 0:3, person 3:6), folded into agg (N, AGGREGATES)."""
+    for i in range(states.size):
+        n, k = states[i], rows[i]
+        f = row_frame[k]
+        point = points[i]
+        w0, w1, w2 = angular[n, f, 0], angular[n, f, 1], angular[n, f, 2]
+        o0, o1, o2 = point[0] - origin[n, f, 0], point[1] - origin[n, f, 1], point[2] - origin[n, f, 2]
+        v0 = linear[n, f, 0] + (w1 * o2 - w2 * o1)
+        v1 = linear[n, f, 1] + (w2 * o0 - w0 * o2)
+        v2 = linear[n, f, 2] + (w0 * o1 - w1 * o0)
+        allowed, approach = _speeds(distance[i], point, v0, v1, v2, contact[k], caps[k], iso)
+        _fold(agg[n], k, distance[i], allowed, approach, contact[k], iso)
+
+
+@njit(cache=True, nogil=True)
+def needed_rows(
+    rows: np.ndarray,
+    floor: np.ndarray,
+    speed: np.ndarray,
+    contact: np.ndarray,
+    caps: np.ndarray,
+    iso: np.ndarray,
+    agg: np.ndarray,
+    done: np.ndarray,
+) -> np.ndarray:
+    """Which of `rows` (at every state) not yet `done` (N, K) `_needed` asks for against agg:
+    (N, len(rows)) flags."""
+    flags = np.zeros((floor.shape[0], rows.size), dtype=np.bool_)
+    for n in range(floor.shape[0]):
+        for j in range(rows.size):
+            k = rows[j]
+            if not done[n, k]:
+                lowest = _kept(floor[n, k], caps[k], iso)
+                flags[n, j] = _needed(floor[n, k], speed[n, k], lowest, contact[k], agg[n], iso)
+    return flags
