@@ -1,6 +1,6 @@
 """Turning the compiled kernels on in a long-running process, loaded before its first request.
 
-Why: a process pays ~1 s to import numba and load the cached kernels (~10-13 s of CPU to compile
+Why: a process pays ~1 s to import numba and load the cached kernels (~16 s of CPU to compile
 them on the first use after installation), more than a one-off `hriplan plan` spends where they
 help, so the CLI leaves them off (`robots/kernel_switch.py`). A service's planning workers and a
 motion manager plan for hours; they turn them on (constrained solves x0.59-0.86, re-plans
