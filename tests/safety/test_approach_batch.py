@@ -118,6 +118,25 @@ def test_capsule_distances_equal_coal_on_random_pairs_in_one_batch():
     np.testing.assert_allclose(d[pairs["crossing"]], -(pairs["r1"] + pairs["r2"])[pairs["crossing"]], atol=1e-12)
 
 
+def test_the_compiled_pair_gives_the_batchs_numbers_on_random_pairs():
+    """The monitor's compiled route measures a capsule pair alone (`approach_kernels._capsules`):
+    the numbers of `capsule_distances` (held to coal above) on the same random pairs, parallel,
+    point-like, crossing and coaxial ones included."""
+    kernels = pytest.importorskip("hriplan.safety.approach_kernels")
+    pairs = _random_capsules(2000)
+    # Coaxial pairs too (the axes cross and are parallel: a normal from a helper axis), some along x.
+    coaxial = np.arange(2000) % 100 == 5  # kind 1: capsules with length
+    pairs["a1"][coaxial & (np.arange(2000) % 200 == 5)] = [0.96, 0.28, 0.0]
+    pairs["a2"][coaxial] = pairs["a1"][coaxial]
+    pairs["c2"][coaxial] = pairs["c1"][coaxial] + 0.05 * pairs["a1"][coaxial]
+    d, p1, p2 = capsule_distances(*(pairs[k] for k in ("c1", "a1", "h1", "r1", "c2", "a2", "h2", "r2")))
+    points = np.empty(6)
+    for i in range(len(d)):
+        one = (pairs[k][i] for k in ("c1", "a1", "h1", "r1", "c2", "a2", "h2", "r2"))
+        assert kernels._capsules(*one, points) == pytest.approx(d[i], abs=1e-12), i
+        np.testing.assert_allclose(points, np.concatenate([p1[i], p2[i]]), atol=1e-12)
+
+
 def test_capsule_distances_broadcast_one_capsule_against_many():
     pairs = _random_capsules(40)
     one = capsule_distances(

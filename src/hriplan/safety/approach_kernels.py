@@ -54,7 +54,7 @@ def _clip(x: float, low: float, high: float) -> float:
     return min(max(x, low), high)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _capsules(
     c1: np.ndarray,
     a1: np.ndarray,
@@ -66,30 +66,25 @@ def _capsules(
     r2: float,
     out: np.ndarray,
 ) -> float:
-    """`capsule_distance.capsule_distances` of one pair: the signed distance, the witness points
-    into out[0:3] (capsule 1) and out[3:6] (capsule 2)."""
-    s1 = np.empty(3)
-    s2 = np.empty(3)
-    d1 = np.empty(3)
-    d2 = np.empty(3)
-    for i in range(3):
-        s1[i] = c1[i] - h1 * a1[i]
-        s2[i] = c2[i] - h2 * a2[i]
-        d1[i] = 2.0 * h1 * a1[i]
-        d2[i] = 2.0 * h2 * a2[i]
-    r0, r1_, r2_ = s1[0] - s2[0], s1[1] - s2[1], s1[2] - s2[2]
-    a = _dot(d1[0], d1[1], d1[2], d1[0], d1[1], d1[2])
-    e = _dot(d2[0], d2[1], d2[2], d2[0], d2[1], d2[2])
-    b = _dot(d1[0], d1[1], d1[2], d2[0], d2[1], d2[2])
-    c = _dot(d1[0], d1[1], d1[2], r0, r1_, r2_)
-    f = _dot(d2[0], d2[1], d2[2], r0, r1_, r2_)
+    """`capsule_distance.capsule_distances` of one pair, the same operations on scalars (no
+    arrays made: ~5 allocations a pair cost as much as its arithmetic): the signed distance, the
+    witness points into out[0:3] (capsule 1) and out[3:6] (capsule 2)."""
+    x0, x1, x2 = a1[0], a1[1], a1[2]
+    y0, y1, y2 = a2[0], a2[1], a2[2]
+    s0, s1, s2 = c1[0] - h1 * x0, c1[1] - h1 * x1, c1[2] - h1 * x2
+    t0, t1, t2 = c2[0] - h2 * y0, c2[1] - h2 * y1, c2[2] - h2 * y2
+    d0, d1, d2 = 2.0 * h1 * x0, 2.0 * h1 * x1, 2.0 * h1 * x2
+    e0, e1, e2 = 2.0 * h2 * y0, 2.0 * h2 * y1, 2.0 * h2 * y2
+    r0, r1_, r2_ = s0 - t0, s1 - t1, s2 - t2
+    a = _dot(d0, d1, d2, d0, d1, d2)
+    e = _dot(e0, e1, e2, e0, e1, e2)
+    b = _dot(d0, d1, d2, e0, e1, e2)
+    c = _dot(d0, d1, d2, r0, r1_, r2_)
+    f = _dot(e0, e1, e2, r0, r1_, r2_)
     safe_a = 1.0 if a <= 1e-18 else a
     safe_e = 1.0 if e <= 1e-18 else e
     denom = a * e - b * b
-    if denom <= 1e-12 * a * e:
-        s = 0.0
-    else:
-        s = _clip((b * f - c * e) / denom, 0.0, 1.0)
+    s = 0.0 if denom <= 1e-12 * a * e else _clip((b * f - c * e) / denom, 0.0, 1.0)
     t = (b * s + f) / safe_e
     if t < 0.0:
         s = _clip(-c / safe_a, 0.0, 1.0)
@@ -98,34 +93,21 @@ def _capsules(
     t = _clip(t, 0.0, 1.0)
     if e <= 1e-18:
         s = _clip(-c / safe_a, 0.0, 1.0)
-    g = np.empty(3)
-    for i in range(3):
-        out[i] = s1[i] + s * d1[i]
-        out[3 + i] = s2[i] + t * d2[i]
-        g[i] = out[3 + i] - out[i]
-    length = math.sqrt(_dot(g[0], g[1], g[2], g[0], g[1], g[2]))
+    p0, p1, p2 = s0 + s * d0, s1 + s * d1, s2 + s * d2
+    q0, q1, q2 = t0 + t * e0, t1 + t * e1, t2 + t * e2
+    g0, g1, g2 = q0 - p0, q1 - p1, q2 - p2
+    length = math.sqrt(_dot(g0, g1, g2, g0, g1, g2))
     if length > 1e-12:
-        n0, n1, n2 = g[0] / length, g[1] / length, g[2] / length
+        n0, n1, n2 = g0 / length, g1 / length, g2 / length
     else:  # crossing axes: a unit normal to both (to the first if parallel), as `_across`
-        n0 = a1[1] * a2[2] - a1[2] * a2[1]
-        n1 = a1[2] * a2[0] - a1[0] * a2[2]
-        n2 = a1[0] * a2[1] - a1[1] * a2[0]
+        n0, n1, n2 = x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0
         if not _dot(n0, n1, n2, n0, n1, n2) > 1e-12:
-            if abs(a1[0]) < 0.9:
-                h0, h1_, h2_ = 1.0, 0.0, 0.0
-            else:
-                h0, h1_, h2_ = 0.0, 1.0, 0.0
-            n0 = a1[1] * h2_ - a1[2] * h1_
-            n1 = a1[2] * h0 - a1[0] * h2_
-            n2 = a1[0] * h1_ - a1[1] * h0
+            k0, k1, k2 = (1.0, 0.0, 0.0) if abs(x0) < 0.9 else (0.0, 1.0, 0.0)
+            n0, n1, n2 = x1 * k2 - x2 * k1, x2 * k0 - x0 * k2, x0 * k1 - x1 * k0
         size = math.sqrt(_dot(n0, n1, n2, n0, n1, n2))
         n0, n1, n2 = n0 / size, n1 / size, n2 / size
-    out[0] += r1 * n0
-    out[1] += r1 * n1
-    out[2] += r1 * n2
-    out[3] -= r2 * n0
-    out[4] -= r2 * n1
-    out[5] -= r2 * n2
+    out[0], out[1], out[2] = p0 + r1 * n0, p1 + r1 * n1, p2 + r1 * n2
+    out[3], out[4], out[5] = q0 - r2 * n0, q1 - r2 * n1, q2 - r2 * n2
     return length - r1 - r2
 
 
@@ -215,6 +197,8 @@ def capsule_rows(
     placed_axis = np.empty((n_capsules, 3))
     lowest = np.empty(n_rows)
     point = np.empty(6)
+    best = np.empty(4)
+    best_row = np.empty(4, dtype=np.int64)
     for n in range(n_states):
         for p in range(n_parts):
             f = sphere_frame[p]
@@ -246,8 +230,8 @@ def capsule_rows(
                     + rotation[n, f, i, 1] * capsule_axis[c, 1]
                     + rotation[n, f, i, 2] * capsule_axis[c, 2]
                 )
-        best = np.full(4, math.inf)
-        best_row = np.zeros(4, dtype=np.int64)
+        best[:] = math.inf
+        best_row[:] = 0
         for k in range(n_rows):
             p, s = row_part[k], row_slot[k]
             c0, c1, c2 = centre[p, 0], centre[p, 1], centre[p, 2]
