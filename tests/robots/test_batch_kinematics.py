@@ -45,7 +45,7 @@ def _mixed_chain() -> pin.Model:
     ],
     ids=["madar", "every-kind", "free-flyer"],
 )
-def test_the_walk_gives_pinocchios_frames_and_velocities(model, walked):
+def test_the_walk_gives_pinocchios_frames_and_velocities(model, walked, either_route):
     rng = np.random.default_rng(5)
     qs = np.array([pin.randomConfiguration(model) for _ in range(25)])
     dqs = rng.normal(size=(25, model.nv))
@@ -69,7 +69,7 @@ def test_the_walk_gives_pinocchios_frames_and_velocities(model, walked):
     [load_robot("madar").model, _mixed_chain(), pin.buildSampleModelHumanoid()],
     ids=["madar", "every-kind", "free-flyer"],
 )
-def test_placements_are_the_walks_own_bit_for_bit(model):
+def test_placements_are_the_walks_own_bit_for_bit(model, either_route):
     """The placements alone (the velocities' walk skipped, for distance bounds) are the very
     numbers the full walk gives, whatever the velocities."""
     rng = np.random.default_rng(6)

@@ -64,6 +64,50 @@ def place_joints(q: np.ndarray, rows: np.ndarray, ints: np.ndarray, rotation: np
         _place_joint(q, rows, ints, rotation, origin, j)
 
 
+@njit(cache=True, nogil=True)
+def walk_frames(
+    qs: np.ndarray,
+    dqs: np.ndarray,
+    rows: np.ndarray,
+    ints: np.ndarray,
+    idx_v: np.ndarray,
+    rotation: np.ndarray,
+    origin: np.ndarray,
+    linear: np.ndarray,
+    angular: np.ndarray,
+) -> None:
+    """Per state n (qs (N, nq), dqs (N, nv)): every joint's world frame, as `place_joints`, and
+    its origin's linear and its body's angular velocity in the world (N, J, 3), as
+    `BatchKinematics`' numpy walk: a joint spins as its parent plus its world axis times its
+    speed (a prismatic one as its parent), its origin moves as its parent's plus the parent's spin
+    across the offset between them, plus its axis times its speed if it slides. `idx_v`: each
+    joint's place in dq."""
+    for n in range(qs.shape[0]):
+        _world(rotation[n], origin[n])
+        for r in range(3):
+            linear[n, 0, r] = angular[n, 0, r] = 0.0
+        for j in range(1, rows.shape[0]):
+            _place_joint(qs[n], rows, ints, rotation[n], origin[n], j)
+            p, speed = ints[j, 0], dqs[n, idx_v[j]]
+            ax, ay, az = rows[j, 12], rows[j, 13], rows[j, 14]
+            w0, w1, w2 = angular[n, p, 0], angular[n, p, 1], angular[n, p, 2]
+            o0, o1, o2 = (
+                origin[n, j, 0] - origin[n, p, 0],
+                origin[n, j, 1] - origin[n, p, 1],
+                origin[n, j, 2] - origin[n, p, 2],
+            )
+            linear[n, j, 0] = linear[n, p, 0] + (w1 * o2 - w2 * o1)
+            linear[n, j, 1] = linear[n, p, 1] + (w2 * o0 - w0 * o2)
+            linear[n, j, 2] = linear[n, p, 2] + (w0 * o1 - w1 * o0)
+            for r in range(3):
+                along = (rotation[n, j, r, 0] * ax + rotation[n, j, r, 1] * ay + rotation[n, j, r, 2] * az) * speed
+                if ints[j, 1] == PRISMATIC:
+                    angular[n, j, r] = angular[n, p, r]
+                    linear[n, j, r] += along
+                else:
+                    angular[n, j, r] = angular[n, p, r] + along
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _world(rotation, origin) -> None:
     """Joint 0's frame, the world's (np.eye would allocate at every call)."""
