@@ -236,6 +236,19 @@ def test_examples_keep_the_speed_limit_at_every_sample(example):
         assert worst_speed >= -0.02 and worst_gap > 0.0, (step.name, worst_speed, worst_gap)
 
 
+def test_with_the_compiled_kernels_a_handover_keeps_the_speed_limit_at_every_sample(compiled_route):
+    """A service's workers and a motion manager time with the monitor's compiled route
+    (`safety/approach_kernels.py`): the demo's trajectories checked by the formulas of
+    tests/independent.py with hriplan's margin (padding 0.05 m, speed factor 0.95), and the
+    leave from the giver's hand held by the limit, as with the kernels off (above)."""
+    outcome = TaskRunner(load_task(EXAMPLES / "handover_full_can.yaml"), EXAMPLES).run()
+    assert outcome.solved, [s.message for s in outcome.steps]
+    for step in outcome.steps:
+        worst_speed, worst_gap = trajectory_speed_margins(step.trajectory, step.derivation.separation, 0.05, 0.95)
+        assert worst_speed >= -0.01 and worst_gap > 0.0, (step.name, worst_speed, worst_gap)
+    assert outcome.steps[1].trajectory.report.separation[0].slowest_allowed == pytest.approx(0.95 * 0.7394, abs=1e-3)
+
+
 # -- timing near and far from people ---------------------------------------------------------
 def _right_arm_path(robot):
     """The right tool from (0.25, 0.6, 1.0) out to (0.73, 0.61, 1.24), MADAR facing +y."""
