@@ -92,6 +92,19 @@ EVERY_KIND = """<robot name="kinds"><link name="w"/><link name="a"/><link name="
   <axis xyz="0 0 1"/><limit lower="0" upper="0.2" effort="1" velocity="1"/></joint></robot>"""
 
 
+def test_joint_tables_of_a_model_changed_in_place_are_its_own(robots):
+    """Tables are kept per model, found again only for a model equal to the one they were made
+    of, and handed out as the caller's own arrays."""
+    model = pin.Model(robots["ur5"].model)
+    before = joint_tables(model)
+    model.jointPlacements[2] = pin.SE3(np.eye(3), np.array([0.0, 0.3, 0.1])) * model.jointPlacements[2]
+    after, fresh = joint_tables(model), joint_tables(pin.Model(model))
+    assert not np.array_equal(before[0], after[0]) and np.array_equal(after[0], fresh[0])
+    after[0][:], after[1][:] = 0.0, 0
+    again = joint_tables(model)
+    assert np.array_equal(again[0], fresh[0]) and np.array_equal(again[1], fresh[1])
+
+
 def test_forward_kinematics_of_every_joint_kind_is_pinocchios():
     model = pin.buildModelFromXML(EVERY_KIND)
     rng, k = np.random.default_rng(3), model.idx_qs[model.getJointId("spin")]
