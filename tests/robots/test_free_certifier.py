@@ -29,7 +29,7 @@ from hriplan.robots.certifier_kernels import (
 )
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import load_robot_file
-from hriplan.robots.free_certifier import FreeCertifier, _mesh_pieces
+from hriplan.robots.free_certifier import FreeCertifier, _geometry_row, _mesh_pieces, _static_row
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.model import load_robot
@@ -90,6 +90,19 @@ EVERY_KIND = """<robot name="kinds"><link name="w"/><link name="a"/><link name="
   <axis xyz="0.36 0.48 0.8"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
 <joint name="branch" type="prismatic"><parent link="a"/><child link="d"/><origin xyz="0 0 -0.3"/>
   <axis xyz="0 0 1"/><limit lower="0" upper="0.2" effort="1" velocity="1"/></joint></robot>"""
+
+
+def test_joint_tables_of_a_model_changed_in_place_are_its_own(robots):
+    """Tables are kept per model, found again only for a model equal to the one they were made
+    of, and handed out as the caller's own arrays."""
+    model = pin.Model(robots["ur5"].model)
+    before = joint_tables(model)
+    model.jointPlacements[2] = pin.SE3(np.eye(3), np.array([0.0, 0.3, 0.1])) * model.jointPlacements[2]
+    after, fresh = joint_tables(model), joint_tables(pin.Model(model))
+    assert not np.array_equal(before[0], after[0]) and np.array_equal(after[0], fresh[0])
+    after[0][:], after[1][:] = 0.0, 0
+    again = joint_tables(model)
+    assert np.array_equal(again[0], fresh[0]) and np.array_equal(again[1], fresh[1])
 
 
 def test_forward_kinematics_of_every_joint_kind_is_pinocchios():
@@ -296,6 +309,20 @@ def test_moved_people_and_obstacles_are_where_the_certifier_looks(robots, kernel
     assert not checker.in_collision(q)
     checker.move_obstacle("ball", Pose(xyz=tuple(tool)))
     assert checker.in_collision(q) and not checker._free_certifier().verdict(q) == (0, ())
+
+
+def test_a_static_row_kept_is_found_again_only_for_its_shape_and_placement():
+    """A row kept for a shape on no joint (`_static_row`) is the one of that shape, of those
+    values, placed there: a person re-posed or grown by another margin, or an obstacle of
+    another size, gets its own."""
+    placements = [pin.SE3.Identity(), pin.SE3(pin.rpy.rpyToMatrix(0.1, 0.2, 0.3), np.array([0.1, 0.0, 0.2]))]
+    shapes = [coal.Capsule(0.1, 0.4), coal.Capsule(0.12, 0.4), coal.Capsule(0.1, 0.5), coal.Cylinder(0.1, 0.4)]
+    shapes += [coal.Sphere(0.1), coal.Sphere(0.2), coal.Box(0.1, 0.2, 0.3), coal.Box(0.3, 0.2, 0.1)]
+    for placement in placements * 2:  # the second time, from the rows kept
+        for shape in shapes:
+            geometry = pin.GeometryObject("g", 0, placement, shape)
+            row = _static_row(geometry, placement.homogeneous.tobytes())
+            assert np.array_equal(row, _geometry_row(geometry))
 
 
 def _centres(certifier: FreeCertifier, model: pin.Model, q: np.ndarray) -> np.ndarray:

@@ -297,8 +297,15 @@ class _TOPPRA(toppra.algorithm.TOPPRA):
     (~4 us a call, two calls a stage per pass). Its trajectory is toppra's constant path
     acceleration between gridpoints, evaluated in numpy (`_ConstantAcceleration`)."""
 
-    def __init__(self, *args, **kwargs) -> None:
-        super().__init__(*args, **kwargs)
+    def __init__(self, constraints: list, path: object, gridpoints: np.ndarray, solver_wrapper: str = "seidel") -> None:
+        """toppra's set-up with its seidel solver, made here: toppra's first asks which solvers
+        are installed (two searches of sys.path, ~0.3 ms a path) even when told which to use."""
+        if solver_wrapper != "seidel":
+            raise ValueError(f"hriplan's TOPP-RA passes drive the seidel solver, not {solver_wrapper!r}")
+        toppra.algorithm.ParameterizationAlgorithm.__init__(self, constraints, path, gridpoints=gridpoints)
+        self.solver_wrapper = toppra.solverwrapper.seidelWrapper(
+            self.constraints, self.path, self.gridpoints, solve_lp1d=True
+        )
         self.parametrizer = _ConstantAcceleration
 
     def compute_parameterization(self, sd_start, sd_end, return_data=False):

@@ -22,6 +22,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from hriplan.recent import Recent
 from hriplan.robots.certifier_kernels import LEVELS, PAIR, REACH, ROW, verdict_one, verdicts
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.mesh_clearance import ClearanceTable
@@ -67,6 +68,36 @@ def _geometry_row(geometry: pin.GeometryObject) -> np.ndarray:
     capsule = np.concatenate([placement.act(start), placement.act(end), [radius]])
     box = np.concatenate([placement.rotation.reshape(9), placement.act(centre), half])
     return np.concatenate([capsule, box, [np.linalg.norm(end - start) / 2.0 + radius]])
+
+
+# Rows of primitive shapes on no joint, by shape and placement: every certifier of every build
+# places a re-posed person's capsules anew (~100 rows a re-plan, 32 of them different).
+_STATIC_ROWS: Recent[tuple, np.ndarray] = Recent(256)
+
+
+def _shape_key(shape: coal.CollisionGeometry) -> tuple | None:
+    """What `_held_by` reads of a primitive shape; None for a mesh or hull (its row is not kept)."""
+    if isinstance(shape, coal.Capsule | coal.Cylinder):
+        return type(shape), shape.radius, shape.halfLength
+    if isinstance(shape, coal.Sphere):
+        return coal.Sphere, shape.radius
+    if isinstance(shape, coal.Box):
+        return coal.Box, tuple(shape.halfSide.tolist())
+    return None
+
+
+def _static_row(geometry: pin.GeometryObject, where: bytes) -> np.ndarray:
+    """`_geometry_row` of a geometry on no joint placed at `where` (its homogeneous matrix's
+    bytes), kept by its shape's values and `where` (read-only: rows are copied into a certifier's)."""
+    shape = _shape_key(geometry.geometry)
+    if shape is None:
+        return _geometry_row(geometry)
+    row = _STATIC_ROWS.get((shape, where))
+    if row is None:
+        row = _geometry_row(geometry)
+        row.flags.writeable = False
+        _STATIC_ROWS.put((shape, where), row)
+    return row
 
 
 def _mesh_pieces(geometry: pin.GeometryObject, leaves: int = _LEAVES) -> list[np.ndarray]:
@@ -241,7 +272,7 @@ class FreeCertifier:
         for k in self._statics:
             where = objects[self._used[k]].placement.homogeneous.tobytes()
             if where != self._where[k]:
-                self._rows[k], self._where[k], moved = _geometry_row(objects[self._used[k]]), where, True
+                self._rows[k], self._where[k], moved = _static_row(objects[self._used[k]], where), where, True
         if moved:
             self._place_groups()
             self._floats, self._ints = self._packed()

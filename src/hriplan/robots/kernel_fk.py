@@ -13,13 +13,30 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from hriplan.recent import Recent
 from hriplan.robots.batch_kinematics import _joint
 from hriplan.robots.certifier_kernels import CONTINUOUS, JOINT_ROW, PRISMATIC, REVOLUTE
 
+Tables = tuple[np.ndarray, np.ndarray]
+# The tables of the last few models, each with a copy of its model: found again only for a model
+# equal to that copy (pinocchio compares every field, ~4 us), so a model changed in place gets
+# its own. Every constraint evaluator asks (a re-plan makes two, ~0.5 ms each for MADAR).
+_KEPT: Recent[int, tuple[pin.Model, Tables | None]] = Recent(8)
 
-def joint_tables(model: pin.Model) -> tuple[np.ndarray, np.ndarray] | None:
+
+def joint_tables(model: pin.Model) -> Tables | None:
     """Per joint (0: the world): its row (njoints, 15) and (parent, kind, idx_q) (njoints, 3);
-    None if the model holds a joint of another kind (free-flyer, spherical, ...: no kernel)."""
+    None if the model holds a joint of another kind (free-flyer, spherical, ...: no kernel).
+    The caller's own arrays (copies of those kept)."""
+    kept = _KEPT.get(id(model))
+    if kept is None or not kept[0] == model:
+        kept = (pin.Model(model), _tables(model))
+        _KEPT.put(id(model), kept)
+    return None if kept[1] is None else (kept[1][0].copy(), kept[1][1].copy())
+
+
+def _tables(model: pin.Model) -> Tables | None:
+    """`joint_tables` made from the model's joints."""
     neutral = pin.neutral(model)
     rows, ints = np.zeros((model.njoints, JOINT_ROW)), np.zeros((model.njoints, 3), dtype=np.int64)
     rows[0, [0, 4, 8]] = 1.0
