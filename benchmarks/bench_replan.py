@@ -14,7 +14,10 @@ numbers checked.
 `--against FILE` compares each update's with that file's (another tree's run): re-plans must
 give the same trajectories, bit for bit, and the same report; its constraints' largest margins
 may differ by 1e-12 (with the kernels on, validation computes them in one compiled batch, its
-kinematics rounding apart from pinocchio's by ~1e-16).
+kinematics rounding apart from pinocchio's by ~1e-16). `--rtol R` lets every number differ by R
+relatively (the same structure, sample counts and statuses): with the kernels on, the ISO/TS
+15066 monitor's compiled route rounds apart from the numpy route's by ~1e-16, which TOPP-RA
+carries into the samples at ~1e-12; it prints the largest relative difference found.
 """
 
 from __future__ import annotations
@@ -71,6 +74,7 @@ def main() -> None:
     parser.add_argument("--updates", type=int, default=10)
     parser.add_argument("--save", type=Path, help="write each update's outcome here (JSON lines)")
     parser.add_argument("--against", type=Path, help="compare each update's outcome with this --save file")
+    parser.add_argument("--rtol", type=float, default=0.0, help="--against: numbers may differ by this, relatively")
     parser.add_argument(
         "--switch-kernels",
         action="store_true",
@@ -167,8 +171,10 @@ def main() -> None:
         args.save.write_text("".join(json.dumps(o, sort_keys=True) + "\n" for o in outcomes))
     if args.against:
         before = [json.loads(line) for line in args.against.read_text().splitlines()]
-        same = [k + 1 for k, (a, b) in enumerate(zip(outcomes, before)) if _same_outcome(a, b)]
-        print(f"outcomes identical to {args.against} at {len(same)} of {len(outcomes)} updates")
+        widest = [0.0]
+        same = [k + 1 for k, (a, b) in enumerate(zip(outcomes, before)) if _same_outcome(a, b, args.rtol, widest)]
+        within = f" (numbers within {args.rtol:g} relatively, the largest {widest[0]:.1e})" if args.rtol else ""
+        print(f"outcomes identical to {args.against} at {len(same)} of {len(outcomes)} updates{within}")
         assert len(same) == len(outcomes) == len(before), (
             f"updates that differ: {sorted(set(range(1, len(outcomes) + 1)) - set(same))}"
         )
@@ -191,14 +197,19 @@ def _without_planning_times(value):
     return value
 
 
-def _same_outcome(a, b, loose: bool = False) -> bool:
-    """Two outcomes (JSON trees) equal, the numbers under a `max_violation` key (`loose`) to 1e-12."""
+def _same_outcome(a, b, rtol: float, widest: list[float], loose: bool = False) -> bool:
+    """Two outcomes (JSON trees) equal, every number to `rtol` relatively (the largest relative
+    difference kept in widest[0]) and those under a `max_violation` key (`loose`) also to 1e-12."""
     if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(_same_outcome(a[k], b[k], loose or k == "max_violation") for k in a)
+        return a.keys() == b.keys() and all(
+            _same_outcome(a[k], b[k], rtol, widest, loose or k == "max_violation") for k in a
+        )
     if isinstance(a, list) and isinstance(b, list):
-        return len(a) == len(b) and all(_same_outcome(x, y, loose) for x, y in zip(a, b))
-    if loose and isinstance(a, float) and isinstance(b, float):
-        return abs(a - b) <= 1e-12
+        return len(a) == len(b) and all(_same_outcome(x, y, rtol, widest, loose) for x, y in zip(a, b))
+    if isinstance(a, float) and isinstance(b, float) and a != b:
+        relative = abs(a - b) / max(abs(a), abs(b))
+        widest[0] = max(widest[0], relative)
+        return relative <= rtol or (loose and abs(a - b) <= 1e-12)
     return a == b
 
 
