@@ -27,9 +27,10 @@ with `PERSON_FRAMES` the frame names every person has. Any robot from its URDF a
 `PlanningSession("robots/panda.yaml")` takes a robot file (`load_robot_file` registers it by name).
 
 A long-running process (a motion manager re-planning as people move): `load_kernels()` once at
-start plans with the compiled kernels (numba, the `fast` extra): ~1 s then, re-plans x0.92-0.93
-and constrained solves x0.59-0.86 after (`hriplan serve` does it; a seed then reproduces with
-them on only).
+start plans with the compiled kernels (numba, the `fast` extra): ~1 s then, the ISO/TS 15066
+monitor x0.44-0.47 and constrained solves x0.59-0.86 after (`hriplan serve` does it; a seed then
+reproduces with them on only); `gc.freeze()` after the first plan keeps full garbage collections
+out of the re-plans (docs/api.md).
 
 BLAS: importing this module before numpy asks one BLAS thread (`blas_threads.py`, as the
 command line does), unless the environment names a number (OPENBLAS_NUM_THREADS and the like).
