@@ -1,5 +1,6 @@
-"""Whether hriplan uses its compiled kernels: the collision certifier (`free_certifier.py`) and
-the constraint terms (`planner/constraints/compiled.py`).
+"""Whether hriplan uses its compiled kernels: the collision certifier (`free_certifier.py`), the
+constraint terms (`planner/constraints/compiled.py`), the kinematic walk of many states
+(`batch_kinematics.py`) and the ISO/TS 15066 monitor's selection (`safety/approach_kernels.py`).
 
 Why a switch: importing numba and loading its cached kernels costs ~1 s in every new process,
 more than a short `hriplan plan` spends where they help; long runs (benchmarks, a service, a
