@@ -112,6 +112,29 @@ def _capsules(
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _placed(rotation: np.ndarray, origin: np.ndarray, n: int, f: int, local: np.ndarray, out: np.ndarray) -> None:
+    """The point `local` of frame f (its joint's frame) in the world at state n, into out."""
+    for i in range(3):
+        out[i] = rotation[n, f, i, 0] * local[0] + rotation[n, f, i, 1] * local[1] + rotation[n, f, i, 2] * local[2]
+        out[i] += origin[n, f, i]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _velocity(
+    linear: np.ndarray, angular: np.ndarray, origin: np.ndarray, n: int, f: int, p0: float, p1: float, p2: float
+) -> tuple[float, float, float]:
+    """The world velocity of the point (p0, p1, p2) riding on frame f at state n: the frame
+    origin's plus its spin across the offset (`person_distance._point_velocity`)."""
+    w0, w1, w2 = angular[n, f, 0], angular[n, f, 1], angular[n, f, 2]
+    o0, o1, o2 = p0 - origin[n, f, 0], p1 - origin[n, f, 1], p2 - origin[n, f, 2]
+    return (
+        linear[n, f, 0] + (w1 * o2 - w2 * o1),
+        linear[n, f, 1] + (w2 * o0 - w0 * o2),
+        linear[n, f, 2] + (w0 * o1 - w1 * o0),
+    )
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _fold(
     agg: np.ndarray, row: int, distance: float, allowed: float, approach: float, contact: bool, iso: np.ndarray
 ) -> None:
@@ -202,29 +225,15 @@ def capsule_rows(
     for n in range(n_states):
         for p in range(n_parts):
             f = sphere_frame[p]
-            for i in range(3):
-                centre[p, i] = (
-                    rotation[n, f, i, 0] * sphere_centre[p, 0]
-                    + rotation[n, f, i, 1] * sphere_centre[p, 1]
-                    + rotation[n, f, i, 2] * sphere_centre[p, 2]
-                    + origin[n, f, i]
-                )
+            _placed(rotation, origin, n, f, sphere_centre[p], centre[p])
+            v0, v1, v2 = _velocity(linear, angular, origin, n, f, centre[p, 0], centre[p, 1], centre[p, 2])
             w0, w1, w2 = angular[n, f, 0], angular[n, f, 1], angular[n, f, 2]
-            o0, o1, o2 = centre[p, 0] - origin[n, f, 0], centre[p, 1] - origin[n, f, 1], centre[p, 2] - origin[n, f, 2]
-            v0 = linear[n, f, 0] + (w1 * o2 - w2 * o1)
-            v1 = linear[n, f, 1] + (w2 * o0 - w0 * o2)
-            v2 = linear[n, f, 2] + (w0 * o1 - w1 * o0)
             bound = math.sqrt(_dot(v0, v1, v2, v0, v1, v2)) + math.sqrt(_dot(w0, w1, w2, w0, w1, w2)) * sphere_radius[p]
             part_speed[p] = bound * (1.0 + iso[ROUNDING]) + iso[ROUNDING]
         for c in range(n_capsules):
             f = capsule_frame[c]
-            for i in range(3):
-                placed_centre[c, i] = (
-                    rotation[n, f, i, 0] * capsule_centre[c, 0]
-                    + rotation[n, f, i, 1] * capsule_centre[c, 1]
-                    + rotation[n, f, i, 2] * capsule_centre[c, 2]
-                    + origin[n, f, i]
-                )
+            _placed(rotation, origin, n, f, capsule_centre[c], placed_centre[c])
+            for i in range(3):  # an axis turns with the frame, without its origin
                 placed_axis[c, i] = (
                     rotation[n, f, i, 0] * capsule_axis[c, 0]
                     + rotation[n, f, i, 1] * capsule_axis[c, 1]
@@ -272,12 +281,7 @@ def capsule_rows(
                     placed_centre[c], placed_axis[c], row_half[k], row_radius[k],
                     person_centre[s], person_axis[s], person_half[s], person_radius[s], point,
                 )  # fmt: skip
-                f = row_frame[k]
-                w0, w1, w2 = angular[n, f, 0], angular[n, f, 1], angular[n, f, 2]
-                o0, o1, o2 = point[0] - origin[n, f, 0], point[1] - origin[n, f, 1], point[2] - origin[n, f, 2]
-                v0 = linear[n, f, 0] + (w1 * o2 - w2 * o1)
-                v1 = linear[n, f, 1] + (w2 * o0 - w0 * o2)
-                v2 = linear[n, f, 2] + (w0 * o1 - w1 * o0)
+                v0, v1, v2 = _velocity(linear, angular, origin, n, row_frame[k], point[0], point[1], point[2])
                 allowed, approach = _speeds(distance, point, v0, v1, v2, contact[k], caps[k], iso)
                 _fold(a, k, distance, allowed, approach, contact[k], iso)
 
@@ -300,14 +304,8 @@ def fold_rows(
     """Rows measured elsewhere (coal), (states[i], rows[i]) at distance[i] with witness points
     points[i] (robot 0:3, person 3:6), folded into agg (N, AGGREGATES)."""
     for i in range(states.size):
-        n, k = states[i], rows[i]
-        f = row_frame[k]
-        point = points[i]
-        w0, w1, w2 = angular[n, f, 0], angular[n, f, 1], angular[n, f, 2]
-        o0, o1, o2 = point[0] - origin[n, f, 0], point[1] - origin[n, f, 1], point[2] - origin[n, f, 2]
-        v0 = linear[n, f, 0] + (w1 * o2 - w2 * o1)
-        v1 = linear[n, f, 1] + (w2 * o0 - w0 * o2)
-        v2 = linear[n, f, 2] + (w0 * o1 - w1 * o0)
+        n, k, point = states[i], rows[i], points[i]
+        v0, v1, v2 = _velocity(linear, angular, origin, n, row_frame[k], point[0], point[1], point[2])
         allowed, approach = _speeds(distance[i], point, v0, v1, v2, contact[k], caps[k], iso)
         _fold(agg[n], k, distance[i], allowed, approach, contact[k], iso)
 
