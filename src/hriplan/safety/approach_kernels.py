@@ -11,7 +11,7 @@ routes to the same samples. Rows that are not capsule pairs (palm boxes, carried
 left to coal: the caller measures them and folds them in with `fold_rows`.
 
 Every jitted function lives in this one file (numba caches a kernel by the file it is defined
-in, not by its callees'). Per state the aggregates are seven numbers (`AGGREGATES`): the
+in, not by its callees'). Per state the aggregates are ten numbers (`AGGREGATES`): the
 nearest row's distance, the nearest outside the contact regions, the least margin (allowed
 less approach) and its row, that row's allowed speed, approach and distance, the least scale,
 and the stopping row (a moved part closing in where the allowed speed is 0) with its distance.
