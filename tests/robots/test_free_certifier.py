@@ -311,6 +311,29 @@ def test_moved_people_and_obstacles_are_where_the_certifier_looks(robots, kernel
     assert checker.in_collision(q) and not checker._free_certifier().verdict(q) == (0, ())
 
 
+def test_a_certifier_placed_anew_answers_as_one_made_there(robots, kernels):
+    """A person re-posed and an obstacle moved: the certifier placed anew holds what packing
+    it afresh would (its int array was not packed again), and answers as a certifier made in
+    the moved scene does."""
+    robot = robots["ur5"]
+    checker = CollisionChecker(robot, _scene(robot, "ur5"))
+    states = _random_states(robot, 500, 7)
+    checker.in_collision(states[0])
+    certifier = checker._free_certifier()
+    before = certifier.verdicts(states)
+    checker.pose_human(HumanSpec(name="bob", position=(0.5, 0.2), yaw=np.pi))
+    checker.move_obstacle("ball", Pose(xyz=(0.3, 0.1, 0.5)))
+    assert checker._free_certifier() is certifier
+    floats, ints = copy.deepcopy(certifier)._packed()
+    scratch = len(certifier._left)  # the ids of the pairs left: the kernel's to write
+    assert np.array_equal(certifier._floats, floats, equal_nan=True)
+    assert np.array_equal(certifier._ints[:-scratch], ints[:-scratch])
+    made = CollisionChecker(robot, checker.scene)
+    made.in_collision(states[0])
+    after = certifier.verdicts(states)
+    assert after == made._free_certifier().verdicts(states) and after != before
+
+
 def test_a_static_row_kept_is_found_again_only_for_its_shape_and_placement():
     """A row kept for a shape on no joint (`_static_row`) is the one of that shape, of those
     values, placed there: a person re-posed or grown by another margin, or an obstacle of

@@ -275,17 +275,28 @@ class FreeCertifier:
                 self._rows[k], self._where[k], moved = _static_row(objects[self._used[k]], where), where, True
         if moved:
             self._place_groups()
-            self._floats, self._ints = self._packed()
+            # Only the float array holds rows; the int array (sizes, where each part begins, the
+            # pairs) is the same: packed again, it cost ~0.1 ms a place, five a re-plan.
+            self._floats = np.concatenate([a.reshape(-1) for a in self._float_parts()])
+
+    def _float_parts(self) -> list[np.ndarray]:
+        """The float array's parts. The kernel's scratch ends it: the joints' frames, the state
+        they were placed at (none yet) and which moved, then the rows in the world (those on no
+        joint placed now, for good; the kernel places the others)."""
+        nj = len(self._joint_rows)
+        work = np.concatenate([np.zeros(nj * 12), np.full(nj * 2, np.nan), np.zeros(nj), self._rows.reshape(-1)])
+        return [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats, work]
+
+    @property
+    def _work(self) -> np.ndarray:
+        """The kernel's scratch: the last of `_float_parts`, a view of the float array."""
+        return self._floats[-(len(self._joint_rows) * 15 + self._rows.size) :]
 
     def _packed(self) -> tuple[np.ndarray, np.ndarray]:
         """All of it in one float and one int array (a numba call costs ~0.05 us an array): the
-        int array starts with the sizes and where each part begins (`_unpack`). The kernel's
-        scratch ends the float array: the joints' frames, the state they were placed at (none
-        yet) and which moved, then the rows in the world (those on no joint placed now, for good;
-        the kernel places the others); the ids of the pairs left end the int array."""
-        nj = len(self._joint_rows)
-        work = np.concatenate([np.zeros(nj * 12), np.full(nj * 2, np.nan), np.zeros(nj), self._rows.reshape(-1)])
-        floats = [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats, work]
+        int array starts with the sizes and where each part begins (`_unpack`), and ends with the
+        ids of the pairs left (the kernel's); the float array is `_float_parts`."""
+        floats = self._float_parts()
         left = np.zeros(ASKED_OF_COAL + 1)
         ints = [self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children]
         ints += [self._bits, left]
@@ -303,9 +314,8 @@ class FreeCertifier:
         int_starts = header + np.cumsum([0] + [a.size for a in ints])[:-1]
         head = np.array([*sizes, *float_starts, *int_starts], dtype=np.int64)
         packed = np.concatenate([head, *(a.reshape(-1).astype(np.int64) for a in ints)])
-        flat = np.concatenate([a.reshape(-1) for a in floats])
-        self._work, self._left = flat[-work.size :], packed[-left.size :]  # views the kernel writes
-        return flat, packed
+        self._left = packed[-left.size :]  # a view the kernel writes
+        return np.concatenate([a.reshape(-1) for a in floats]), packed
 
     def verdict(self, q: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
         """(tables, pairs) at `q`: bit k of tables says table k (of those given) does not
