@@ -80,9 +80,10 @@ class BatchKinematics:
         """The walk in compiled code (`certifier_kernels.walk_frames`), state by state: the numpy
         walk's passes over (N, 3, 3) arrays cost ~50 us a joint, ten times the arithmetic."""
         from hriplan.robots.certifier_kernels import walk_frames  # numba: imported with the kernels on
+        from hriplan.robots.kernel_fk import walk_tables
 
         if self._tables is None:
-            self._tables = _tables(self._walk)
+            self._tables = walk_tables(self._walk)
         rows, ints, idx_v = self._tables
         n, size = len(qs), len(rows)
         rotation, origin = np.empty((n, size, 3, 3)), np.empty((n, size, 3))
@@ -181,21 +182,6 @@ def _joint(model: pin.Model, j: int, parent: int, neutral: np.ndarray) -> _Joint
         np.eye(3) - along,
         cross,
     )
-
-
-def _tables(walk: list[_Joint]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The walk as `certifier_kernels.walk_frames` reads it, the world first: per joint its row
-    (placement rotation, translation, unit axis), (parent, kind, idx_q) and idx_v."""
-    from hriplan.robots.certifier_kernels import CONTINUOUS, JOINT_ROW, PRISMATIC, REVOLUTE
-
-    rows, ints = np.zeros((len(walk) + 1, JOINT_ROW)), np.zeros((len(walk) + 1, 3), dtype=np.int64)
-    idx_v = np.zeros(len(walk) + 1, dtype=np.int64)
-    rows[0, [0, 4, 8]] = 1.0
-    for k, joint in enumerate(walk, start=1):
-        rows[k] = np.concatenate([joint.rotation.reshape(9), joint.translation, joint.axis])
-        kind = PRISMATIC if not joint.turns else CONTINUOUS if joint.nq == 2 else REVOLUTE
-        ints[k], idx_v[k] = (joint.parent + 1, kind, joint.idx_q), joint.idx_v
-    return rows, ints, idx_v
 
 
 def _angle(qs: np.ndarray, joint: _Joint) -> tuple[np.ndarray, np.ndarray]:

@@ -1,5 +1,6 @@
-"""The robot's joints as the certifier's compiled forward kinematics reads them
-(`certifier_kernels.place_joints`).
+"""The robot's joints as the compiled forward kinematics reads them: the whole model for the
+certifier (`certifier_kernels.place_joints`), a walked chain with its velocities for
+`BatchKinematics` (`certifier_kernels.walk_frames`).
 
 Why: the certifier (`free_certifier.py`) places every collision part at every state it is asked
 about; a call into pinocchio from Python and reading its placements back costs more than the
@@ -14,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.recent import Recent
-from hriplan.robots.batch_kinematics import _joint
+from hriplan.robots.batch_kinematics import _Joint, _joint
 from hriplan.robots.certifier_kernels import CONTINUOUS, JOINT_ROW, PRISMATIC, REVOLUTE
 
 Tables = tuple[np.ndarray, np.ndarray]
@@ -38,13 +39,28 @@ def joint_tables(model: pin.Model) -> Tables | None:
 def _tables(model: pin.Model) -> Tables | None:
     """`joint_tables` made from the model's joints."""
     neutral = pin.neutral(model)
-    rows, ints = np.zeros((model.njoints, JOINT_ROW)), np.zeros((model.njoints, 3), dtype=np.int64)
-    rows[0, [0, 4, 8]] = 1.0
-    for j in range(1, model.njoints):
-        joint = _joint(model, j, model.parents[j], neutral)
-        if joint is None:
-            return None
-        rows[j] = np.concatenate([joint.rotation.reshape(9), joint.translation, joint.axis])
-        kind = PRISMATIC if not joint.turns else CONTINUOUS if joint.nq == 2 else REVOLUTE
-        ints[j] = (joint.parent, kind, joint.idx_q)
+    joints = [_joint(model, j, model.parents[j], neutral) for j in range(1, model.njoints)]
+    if any(joint is None for joint in joints):
+        return None
+    rows, ints, _ = _walk_rows(joints, parents=[joint.parent for joint in joints])
     return rows, ints
+
+
+def walk_tables(walk: list[_Joint]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A chain `BatchKinematics` walks, as `certifier_kernels.walk_frames` reads it: the world
+    first, then per joint its row, (parent, kind, idx_q) with the parent's place in the walk,
+    and idx_v."""
+    return _walk_rows(walk, parents=[joint.parent + 1 for joint in walk])
+
+
+def _walk_rows(joints: list[_Joint], parents: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The world's row, then per joint its row (placement rotation, translation, unit axis),
+    (parent, kind, idx_q) given its parent's index in these tables, and idx_v."""
+    rows, ints = np.zeros((len(joints) + 1, JOINT_ROW)), np.zeros((len(joints) + 1, 3), dtype=np.int64)
+    idx_v = np.zeros(len(joints) + 1, dtype=np.int64)
+    rows[0, [0, 4, 8]] = 1.0
+    for k, (joint, parent) in enumerate(zip(joints, parents), start=1):
+        rows[k] = np.concatenate([joint.rotation.reshape(9), joint.translation, joint.axis])
+        kind = PRISMATIC if not joint.turns else CONTINUOUS if joint.nq == 2 else REVOLUTE
+        ints[k], idx_v[k] = (parent, kind, joint.idx_q), joint.idx_v
+    return rows, ints, idx_v
