@@ -3,10 +3,11 @@
 References that do not share the code under test: coal.distance per capsule pair; for the
 monitor, the per-point computation it replaced (kept here): coal's closest points through
 `CollisionChecker.person_pairs`, point velocities from pinocchio's joint Jacobians, and the
-ISO/TS 15066 limits by the formulas written in tests/independent.py (SSM and PFL, not `hriplan.safety.separation`). coal's GJK
-(palm, adapter, can) converges to 1e-6 from a guess that depends on what its model computed
-before; both sides walk the same points in the same order from fresh models, so they agree to
-rounding and the tolerances can stay tight.
+ISO/TS 15066 limits by the formulas written in tests/independent.py (SSM and PFL, not `hriplan.safety.separation`). The
+checker's robot-person models run coal's GJK to 1e-12 (`collision.PERSON_GJK_TOLERANCE`), so
+the palm's, adapter's and can's distances are exact to ~1e-11 m, as the compiled route's
+(`approach_kernels._shape_capsule`, held here to coal); their witness points on a cylinder
+stay ~1e-6 m apart, where a test lets approach speeds differ by 1e-6.
 """
 
 from __future__ import annotations
@@ -135,6 +136,104 @@ def test_the_compiled_pair_gives_the_batchs_numbers_on_random_pairs():
         one = (pairs[k][i] for k in ("c1", "a1", "h1", "r1", "c2", "a2", "h2", "r2"))
         assert kernels._capsules(*one, points) == pytest.approx(d[i], abs=1e-12), i
         np.testing.assert_allclose(points, np.concatenate([p1[i], p2[i]]), atol=1e-12)
+
+
+def _random_rotation(rng: np.random.Generator) -> np.ndarray:
+    return pin.Quaternion(rng.normal(size=4)).normalized().matrix()
+
+
+def _tight_coal(shape: coal.CollisionGeometry, at: coal.Transform3s, capsule: coal.Capsule, where: coal.Transform3s):
+    """coal's distance with GJK run to 1e-12: its default 1e-6 leaves a cylinder's points ~0.6 mm
+    off; at 1e-12 it agrees with a dense search along the segment to ~1e-11 m (at 1e-13 it stalls
+    on some pairs, 7e-7 m short)."""
+    request, result = coal.DistanceRequest(), coal.DistanceResult()
+    request.gjk_tolerance = 1e-12
+    coal.distance(shape, at, capsule, where, request, result)
+    return result.min_distance, np.array(result.getNearestPoint1()), np.array(result.getNearestPoint2())
+
+
+@pytest.mark.parametrize("kind", ["box", "cylinder"])
+def test_the_compiled_shape_capsule_pair_is_coals_to_1e9(kind):
+    """`approach_kernels._shape_capsule` (a palm box, an adapter or a can against a capsule of a
+    person) against coal run to convergence, on 3000 random pairs placed through a joint's frame
+    and the shape's own placement in it: distances within 1e-9 m, witness points within 1e-6
+    (unique: random poses); a pair touching or overlapping is NaN (left to coal's depth)."""
+    kernels = pytest.importorskip("hriplan.safety.approach_kernels")
+    rng = np.random.default_rng(5)
+    out, scratch, separate, touching = np.empty(6), np.empty(15), 0, 0
+    for _ in range(3000):
+        joint, local = (
+            (_random_rotation(rng), rng.uniform(-0.2, 0.2, 3)),
+            (_random_rotation(rng), rng.uniform(-0.1, 0.1, 3)),
+        )
+        if kind == "box":
+            dims = np.array([*rng.uniform(0.005, 0.1, 3)])
+            shape, code = coal.Box(*(2.0 * dims)), kernels.BOX
+        else:
+            dims = np.array([rng.uniform(0.01, 0.08), rng.uniform(0.005, 0.1), 0.0])
+            shape, code = coal.Cylinder(dims[0], 2.0 * dims[1]), kernels.CYLINDER
+        centre, axis = rng.uniform(-0.4, 0.4, 3), _random_rotation(rng)[:, 2]
+        half, radius = rng.uniform(0.0, 0.3), rng.uniform(0.01, 0.1)
+        rotation, origin = joint[0][None, None], joint[1][None, None]
+        got = kernels._shape_capsule(
+            rotation, origin, 0, 0, local[0], local[1], code, dims, centre, axis, half, radius, scratch, out
+        )
+        world = pin.SE3(*joint) * pin.SE3(*local)
+        frame = np.eye(3)
+        frame[:, 2] = axis
+        frame[:, 0] = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+        frame[:, 0] /= np.linalg.norm(frame[:, 0])
+        frame[:, 1] = np.cross(frame[:, 2], frame[:, 0])
+        distance, on_shape, on_capsule = _tight_coal(
+            shape, coal.Transform3s(world.rotation, world.translation), coal.Capsule(radius, 2.0 * half),
+            coal.Transform3s(frame, centre),
+        )  # fmt: skip
+        if distance <= 1e-9:
+            touching += 1
+            assert math.isnan(got), distance
+            continue
+        separate += 1
+        assert got == pytest.approx(distance, abs=1e-9)
+        np.testing.assert_allclose(out[:3], on_shape, atol=1e-6)
+        np.testing.assert_allclose(out[3:], on_capsule, atol=1e-6)
+    assert separate > 1000 and touching > 100
+
+
+def test_a_shape_touching_the_person_is_measured_by_coal_and_the_samples_are_the_per_point_ones(
+    either_route, monkeypatch
+):
+    """MADAR's open right hand held by a person (her right hand at its tool frame: the palm and
+    adapter touch her) while the arm moves at random velocities: every sample or S_0 message is
+    the per-point one, and on the compiled route coal is asked only at states where a shape
+    touches her (`left` rows), each of them a touching pair."""
+    session = PlanningSession("madar", Scene(), hands={"right": "open"})
+    q0 = session.robot.configuration(posture("madar", "ready"))
+    tool = session.robot.frame_pose(session.robot.tool_frame("right"), q0)[:3, 3]
+    person = HumanSpec(
+        name="visitor", position=(tool[0] + 0.55, tool[1]), yaw=1.25 * math.pi, reach={"right": tuple(tool)}
+    )
+    session.set_scene(Scene(humans=[person]))
+    policy = default_policy("madar", [person], roles={"visitor": "Receiver"})
+    rng = np.random.default_rng(3)
+    x0 = session.robot.group_values(q0, "right_arm")
+    xs = x0 + np.linspace(0.0, 1.0, 12)[:, None] * rng.uniform(-0.3, 0.3, 6)
+    asked = []
+    measure = pin.computeDistance
+    monkeypatch.setattr(pin, "computeDistance", lambda *a: asked.append(measure(*a)) or asked[-1])
+    monitor = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
+    for x in xs:
+        dx = rng.normal(0.0, 0.3, 6)
+        reference = _reference(session, policy, "right_arm", q0, x, dx)  # coal's computeDistances, not patched
+        if isinstance(reference, str):
+            with pytest.raises(HriplanError) as error:
+                monitor.samples(x, dx)
+            assert str(error.value) == reference
+        else:
+            _assert_same(monitor, reference, x, dx)
+    if either_route:
+        assert asked and all(r.min_distance <= 0.0 for r in asked)
+    else:  # the numpy route asks coal for every box and cylinder it cannot rule out
+        assert any(r.min_distance > 0.0 for r in asked)
 
 
 def test_capsule_distances_broadcast_one_capsule_against_many():
@@ -308,11 +407,14 @@ def test_the_monitor_leaves_out_only_pairs_that_cannot_change_a_sample(handover,
             with pytest.raises(HriplanError) as error:
                 monitor.samples(x, dx)
             assert str(error.value) == reference
-        else:  # coal's GJK here starts from other guesses than the reference's: 1e-6 apart at most
+        else:  # coal's points on a cylinder (can, adapter), GJK run to 1e-12, are ~1e-6 m from the exact ones
             _assert_same(monitor, reference, x, dx, rel=1e-6)
     model = session.checker.person_model(policy.people[0].name)
     others = [p for p in model.collisionPairs if not isinstance(model.geometryObjects[p.first].geometry, coal.Capsule)]
-    assert 0 < len(asked) < 0.2 * len(others) * len(points)
+    if either_route:  # the compiled route measures boxes and cylinders itself; nothing here touches her
+        assert asked == []
+    else:
+        assert 0 < len(asked) < 0.2 * len(others) * len(points)
     rows = monitor._pairs(policy.people[0])[0]._capsule_rows.size  # the moved parts' capsule pairs
     if not either_route:  # the compiled route measures its capsule pairs in its own loop
         assert 0 < sum(computed) < 0.25 * rows * len(points)

@@ -54,14 +54,19 @@ def load_kernels() -> bool:
 
 
 def _monitor() -> None:
-    """The monitor's kernels, on MADAR's right arm with its hand open (palm boxes: rows that coal
-    measures) reaching towards a person in front of it, at rest (so never closing in on them)."""
-    person = HumanSpec(name="visitor", position=(1.38, 0.65), yaw=np.pi)
-    session = PlanningSession("madar", Scene(humans=[person]), hands={"right": "open"})
+    """The monitor's kernels, on MADAR's right arm with its hand open (palm boxes, adapter
+    cylinders) moving beside a person whose right hand holds the tool frame (rows touching her:
+    left to coal and folded in), at rest (so never closing in on her)."""
+    session = PlanningSession("madar", hands={"right": "open"})
+    q = session.robot.configuration(posture("madar", "ready"))
+    tool = session.robot.frame_pose(session.robot.tool_frame("right"), q)[:3, 3]
+    person = HumanSpec(
+        name="visitor", position=(tool[0] + 0.55, tool[1]), yaw=1.25 * np.pi, reach={"right": tuple(tool)}
+    )
+    session.set_scene(Scene(humans=[person]))
     stopping = RobotStopping(reaction_time=0.1, stopping_time=0.2, position_uncertainty=0.01, moving_mass=10.0)
     visitor = PersonSeparation(name="visitor", approach_speed=1.6, intrusion=0.2, sensor_uncertainty=0.05)
     policy = SeparationPolicy(robot=stopping, people=[visitor])
-    q = session.robot.configuration(posture("madar", "ready"))
     x = session.robot.group_values(q, "right_arm")
     xs = x + np.linspace(0.0, 1.0, 8)[:, None] * np.array([0.8, -0.4, 0.4, 0.3, -0.2, 0.5])
     monitor = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q)

@@ -3,12 +3,15 @@
 Why: `approach.py` decides which part-capsule rows to measure in numpy batches over (states x
 rows) arrays, three rounds of a dozen passes each; with ~200 rows and ~20 of them measured a
 state, those passes (and numpy's call overhead) were three quarters of the monitor's time. Here
-each state is one loop: every row's bounds, the likely rows measured first, then every capsule
-row that could still change the state's sample, measured and folded in at once. What a row
-needs, and how its speeds and the sample's aggregates are computed, are `approach.py`'s
+each state is one loop: every row's bounds, the likely rows measured first, then every row
+that could still change the state's sample, measured and folded in at once. What a row needs,
+and how its speeds and the sample's aggregates are computed, are `approach.py`'s
 (`ApproachMonitor._deciding`, `_Speeds`, `_person`), written per row; the tests hold the two
-routes to the same samples. Rows that are not capsule pairs (palm boxes, carried objects) are
-left to coal: the caller measures them and folds them in with `fold_rows`.
+routes to the same samples. A box or cylinder (palms, adapters, carried objects) is measured
+against a capsule exactly (`_shape_capsule`; the numpy route asks coal, ~2.5 us a query from
+Python, its distances the same to ~1e-11 m at `collision.PERSON_GJK_TOLERANCE`); a mesh, or
+a shape touching the person (a penetration depth), is left to coal: the caller measures those
+rows and folds them in with `fold_rows`.
 
 Every jitted function lives in this one file (numba caches a kernel by the file it is defined
 in, not by its callees'). Per state the aggregates are ten numbers (`AGGREGATES`): the
@@ -30,6 +33,8 @@ AGGREGATES = 10
 # The monitor's numbers, in one array: the policy's padding, S_0, T_r + T_s / 2 and speed factor;
 # the bound tolerance; the closing, touching and rounding thresholds (approach.py, person_distance.py).
 PADDING, S0, TRAVEL, FACTOR, TOLERANCE, CLOSING, TOUCHING, ROUNDING = range(8)
+# What a row's moved part is: measured here (a capsule, a box, a cylinder about z) or by coal.
+CAPSULE, BOX, CYLINDER, BY_COAL = range(4)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -109,6 +114,98 @@ def _capsules(
     out[0], out[1], out[2] = p0 + r1 * n0, p1 + r1 * n1, p2 + r1 * n2
     out[3], out[4], out[5] = q0 - r2 * n0, q1 - r2 * n1, q2 - r2 * n2
     return length - r1 - r2
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _nearest_on_shape(kind: int, dims: np.ndarray, x0: float, x1: float, x2: float) -> tuple[float, float, float]:
+    """The point of a box (half sides dims[0:3]) or of a cylinder about z (radius dims[0], half
+    length dims[1]) nearest (x0, x1, x2), all in the shape's frame: the projection onto it."""
+    if kind == BOX:
+        return _clip(x0, -dims[0], dims[0]), _clip(x1, -dims[1], dims[1]), _clip(x2, -dims[2], dims[2])
+    z, across = _clip(x2, -dims[1], dims[1]), math.sqrt(x0 * x0 + x1 * x1)
+    if across > dims[0]:
+        return x0 * (dims[0] / across), x1 * (dims[0] / across), z
+    return x0, x1, z
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _slope(kind: int, dims: np.ndarray, t: float, a: np.ndarray, d: np.ndarray) -> float:
+    """Half the derivative in t of the squared distance from a + t d to the shape: (p - proj p).d,
+    non-decreasing in t (the squared distance to a convex set is convex, its gradient 2 (p - proj p))."""
+    p0, p1, p2 = a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]
+    q0, q1, q2 = _nearest_on_shape(kind, dims, p0, p1, p2)
+    return _dot(p0 - q0, p1 - q1, p2 - q2, d[0], d[1], d[2])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _segment_to_shape(kind: int, dims: np.ndarray, a: np.ndarray, d: np.ndarray) -> float:
+    """The t in [0, 1] where a + t d (a segment in the shape's frame) is nearest the shape: where
+    `_slope` changes sign, bisected until the interval cannot shrink (the distance is then exact
+    to rounding: it is flat there)."""
+    if _slope(kind, dims, 0.0, a, d) >= 0.0:
+        return 0.0
+    if _slope(kind, dims, 1.0, a, d) <= 0.0:
+        return 1.0
+    low, high = 0.0, 1.0
+    for _ in range(64):
+        middle = 0.5 * (low + high)
+        if middle <= low or middle >= high:
+            break
+        if _slope(kind, dims, middle, a, d) < 0.0:
+            low = middle
+        else:
+            high = middle
+    return 0.5 * (low + high)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _shape_capsule(
+    rotation: np.ndarray,
+    origin: np.ndarray,
+    n: int,
+    f: int,
+    local_rotation: np.ndarray,
+    local_origin: np.ndarray,
+    kind: int,
+    dims: np.ndarray,
+    c2: np.ndarray,
+    a2: np.ndarray,
+    h2: float,
+    r2: float,
+    scratch: np.ndarray,
+    out: np.ndarray,
+) -> float:
+    """A box or cylinder placed at (local_rotation, local_origin) in frame f at state n against
+    the capsule (c2, a2, h2, r2): the distance and its witness points into out[0:3] (the
+    shape's) and out[3:6] (the capsule's), as `_capsules`; NaN where they touch or overlap (a
+    penetration depth is left to coal). scratch (15): the shape's world rotation, then the
+    capsule's axis segment (start, end - start) in the shape's frame."""
+    r, a, d = scratch[0:9], scratch[9:12], scratch[12:15]
+    for i in range(3):  # the shape's world rotation R_f R_local, row-major
+        for j in range(3):
+            r[3 * i + j] = (
+                rotation[n, f, i, 0] * local_rotation[0, j]
+                + rotation[n, f, i, 1] * local_rotation[1, j]
+                + rotation[n, f, i, 2] * local_rotation[2, j]
+            )
+    _placed(rotation, origin, n, f, local_origin, out)  # the shape's world origin, in out[0:3]
+    s0, s1, s2 = c2[0] - h2 * a2[0] - out[0], c2[1] - h2 * a2[1] - out[1], c2[2] - h2 * a2[2] - out[2]
+    e0, e1, e2 = 2.0 * h2 * a2[0], 2.0 * h2 * a2[1], 2.0 * h2 * a2[2]
+    for j in range(3):  # R^T (start - origin), R^T (end - start)
+        a[j] = r[j] * s0 + r[3 + j] * s1 + r[6 + j] * s2
+        d[j] = r[j] * e0 + r[3 + j] * e1 + r[6 + j] * e2
+    t = _segment_to_shape(kind, dims, a, d)
+    p0, p1, p2 = a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]
+    q0, q1, q2 = _nearest_on_shape(kind, dims, p0, p1, p2)
+    g0, g1, g2 = p0 - q0, p1 - q1, p2 - q2
+    gap = math.sqrt(_dot(g0, g1, g2, g0, g1, g2))
+    if not gap - r2 > 0.0:
+        return math.nan
+    for i in range(3):  # to the world: the shape's point, and the capsule's towards it
+        shape_point = r[3 * i] * q0 + r[3 * i + 1] * q1 + r[3 * i + 2] * q2 + out[i]
+        out[3 + i] = shape_point + (1.0 - r2 / gap) * (r[3 * i] * g0 + r[3 * i + 1] * g1 + r[3 * i + 2] * g2)
+        out[i] = shape_point
+    return gap - r2
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -195,6 +292,10 @@ def capsule_rows(
     row_half: np.ndarray,
     row_radius: np.ndarray,
     row_frame: np.ndarray,
+    row_shape: np.ndarray,
+    row_rotation: np.ndarray,
+    row_origin: np.ndarray,
+    row_dims: np.ndarray,
     person_centre: np.ndarray,
     person_axis: np.ndarray,
     person_half: np.ndarray,
@@ -203,23 +304,24 @@ def capsule_rows(
     caps: np.ndarray,
     iso: np.ndarray,
     agg: np.ndarray,
-    floor: np.ndarray,
-    speed: np.ndarray,
-    likely: np.ndarray,
+    left: np.ndarray,
 ) -> None:
     """Per state n (frames (N, F, ...)): every row's lower bound on its distance and upper bound
-    on its part's speed into floor[n] and speed[n] (K), the likely rows flagged in likely[n];
-    the likely capsule rows measured, then every capsule row `_needed` against what is measured
-    so far, each folded into agg[n] (AGGREGATES). Rows with row_capsule -1 are not measured.
-    The bounds are `PersonDistances._bounds`' (its part's sphere against the capsule's axis)."""
-    n_states, n_rows = floor.shape
+    on its part's speed, the likely rows measured, then every row `_needed` against what is
+    measured so far, each folded into agg[n] (AGGREGATES). A row is a capsule, box or cylinder
+    (row_shape; a shape's placement in its joint's frame and its sizes in row_rotation,
+    row_origin, row_dims) against a capsule of the person; one this cannot measure (BY_COAL, or
+    touching) and that is likely or needed is flagged in left[n] (N, K) for coal. The bounds
+    are `PersonDistances._bounds`' (its part's sphere against the capsule's axis)."""
+    n_states, n_rows = left.shape
+    floor, speed, likely = np.empty(n_rows), np.empty(n_rows), np.empty(n_rows, dtype=np.bool_)
     n_parts, n_capsules = sphere_radius.size, capsule_frame.size
     part_speed = np.empty(n_parts)
     centre = np.empty((n_parts, 3))
     placed_centre = np.empty((n_capsules, 3))
     placed_axis = np.empty((n_capsules, 3))
     lowest = np.empty(n_rows)
-    point = np.empty(6)
+    point, scratch = np.empty(6), np.empty(15)
     best = np.empty(4)
     best_row = np.empty(4, dtype=np.int64)
     for n in range(n_states):
@@ -252,7 +354,7 @@ def capsule_rows(
             squared = _dot(c0, c1, c2, c0, c1, c2) + _dot(p0, p1, p2, p0, p1, p2)
             squared -= 2.0 * _dot(c0, c1, c2, p0, p1, p2) + t * (2.0 * along - t)
             bound = math.sqrt(max(squared, 0.0)) - sphere_radius[p] - person_radius[s] - iso[TOLERANCE]
-            floor[n, k], speed[n, k] = bound, part_speed[p]
+            floor[k], speed[k] = bound, part_speed[p]
             lowest[k] = _kept(bound, caps[k], iso)
             closing = part_speed[p] > iso[CLOSING]
             ranks = (
@@ -264,23 +366,35 @@ def capsule_rows(
             for r in range(4):
                 if ranks[r] < best[r]:
                     best[r], best_row[r] = ranks[r], k
+        likely[:] = False
         for r in range(4):
-            likely[n, best_row[r]] = True
+            likely[best_row[r]] = True
         a = agg[n]
         a[NEAREST] = a[BODY] = a[MARGIN] = a[DISTANCE] = a[SCALE] = math.inf
         a[BINDING], a[ALLOWED], a[APPROACH], a[STOP], a[STOP_DISTANCE] = 0.0, math.inf, 0.0, -1.0, math.inf
         for sweep in range(2):  # the likely rows first, then the others while they may matter
             for k in range(n_rows):
-                c = row_capsule[k]
-                if c < 0 or likely[n, k] != (sweep == 0):
+                if likely[k] != (sweep == 0):
                     continue
-                if sweep == 1 and not _needed(floor[n, k], speed[n, k], lowest[k], contact[k], a, iso):
+                if sweep == 1 and not _needed(floor[k], speed[k], lowest[k], contact[k], a, iso):
                     continue
-                s = row_slot[k]
-                distance = _capsules(
-                    placed_centre[c], placed_axis[c], row_half[k], row_radius[k],
-                    person_centre[s], person_axis[s], person_half[s], person_radius[s], point,
-                )  # fmt: skip
+                s, kind = row_slot[k], row_shape[k]
+                if kind == CAPSULE:
+                    c = row_capsule[k]
+                    distance = _capsules(
+                        placed_centre[c], placed_axis[c], row_half[k], row_radius[k],
+                        person_centre[s], person_axis[s], person_half[s], person_radius[s], point,
+                    )  # fmt: skip
+                elif kind == BY_COAL:
+                    distance = math.nan
+                else:
+                    distance = _shape_capsule(
+                        rotation, origin, n, row_frame[k], row_rotation[k], row_origin[k], kind, row_dims[k],
+                        person_centre[s], person_axis[s], person_half[s], person_radius[s], scratch, point,
+                    )  # fmt: skip
+                if math.isnan(distance):  # coal's to measure
+                    left[n, k] = True
+                    continue
                 v0, v1, v2 = _velocity(linear, angular, origin, n, row_frame[k], point[0], point[1], point[2])
                 allowed, approach = _speeds(distance, point, v0, v1, v2, contact[k], caps[k], iso)
                 _fold(a, k, distance, allowed, approach, contact[k], iso)
@@ -308,26 +422,3 @@ def fold_rows(
         v0, v1, v2 = _velocity(linear, angular, origin, n, row_frame[k], point[0], point[1], point[2])
         allowed, approach = _speeds(distance[i], point, v0, v1, v2, contact[k], caps[k], iso)
         _fold(agg[n], k, distance[i], allowed, approach, contact[k], iso)
-
-
-@njit(cache=True, nogil=True)
-def needed_rows(
-    rows: np.ndarray,
-    floor: np.ndarray,
-    speed: np.ndarray,
-    contact: np.ndarray,
-    caps: np.ndarray,
-    iso: np.ndarray,
-    agg: np.ndarray,
-    done: np.ndarray,
-) -> np.ndarray:
-    """Which of `rows` (at every state) not yet `done` (N, K) `_needed` asks for against agg:
-    (N, len(rows)) flags."""
-    flags = np.zeros((floor.shape[0], rows.size), dtype=np.bool_)
-    for n in range(floor.shape[0]):
-        for j in range(rows.size):
-            k = rows[j]
-            if not done[n, k]:
-                lowest = _kept(floor[n, k], caps[k], iso)
-                flags[n, j] = _needed(floor[n, k], speed[n, k], lowest, contact[k], agg[n], iso)
-    return flags

@@ -23,6 +23,7 @@ import pinocchio as pin
 
 from hriplan.recent import MadeFor
 from hriplan.robots.batch_kinematics import BatchKinematics, cross
+from hriplan.robots.collision import person_distance_data
 from hriplan.robots.part_spheres import BOUND_TOLERANCE, axis_gaps, bounding_sphere
 from hriplan.safety.capsule_distance import capsule_distances
 
@@ -100,11 +101,13 @@ class PersonDistances:
         self._others = _coal_model(person_model, [pairs[k] for k in self._other_rows])
         self._copy_of = np.full(len(pairs), -1, dtype=int)  # row -> its pair in the coal model
         self._copy_of[self._other_rows] = np.arange(self._other_rows.size)
-        # Per row for the compiled route: its robot capsule (-1: not a capsule pair), that capsule's
-        # half length and radius.
-        self._kernel_rows = (np.full(len(pairs), -1, dtype=int), np.zeros(len(pairs)), np.zeros(len(pairs)))
-        for column, values in zip(self._kernel_rows, (self._robot_capsule, self._robot_half, self._robot_radius)):
-            column[self._capsule_rows] = values
+        self._kernel_rows = _kernel_rows(
+            [objects[a] for a, _ in pairs],
+            self._capsule_rows,
+            self._robot_capsule,
+            self._robot_half,
+            self._robot_radius,
+        )
         # Each moved part's bounding sphere: centre in its joint's frame (P, 3, 1), radius (P,).
         parts = sorted({a for a, _ in pairs})
         self._part = np.array([parts.index(a) for a, _ in pairs], dtype=int)
@@ -158,9 +161,9 @@ class PersonDistances:
     ) -> np.ndarray:
         """The ISO/TS 15066 monitor's aggregates of each state (N, `approach_kernels.AGGREGATES`)
         over every row that could change them, computed state by state in compiled code
-        (`approach_kernels.py`: its rows' contact flags and caps, its numbers `iso`); the rows
-        that are not capsule pairs measured by coal in the order and rounds `at` asks them (coal's
-        answers depend on what it was asked before)."""
+        (`approach_kernels.py`: its rows' contact flags and caps, its numbers `iso`), capsules,
+        boxes and cylinders exactly; the rows it leaves (a mesh, a shape touching the person)
+        measured by coal and folded in after."""
         from hriplan.safety import approach_kernels as kernels  # numba: imported with the kernels on
 
         frames = self._kinematics(qs, dqs)
@@ -169,32 +172,23 @@ class PersonDistances:
             np.ascontiguousarray(a) for a in (frames.rotation, frames.origin, frames.linear, frames.angular)
         )
         centre, axis = self._person_capsules()
-        shape = (len(qs), len(self.parts))
-        agg, floor, speed = np.empty((shape[0], kernels.AGGREGATES)), np.empty(shape), np.empty(shape)
-        likely = np.zeros(shape, dtype=bool)
+        agg, left = np.empty((len(qs), kernels.AGGREGATES)), np.zeros((len(qs), len(self.parts)), dtype=bool)
         kernels.capsule_rows(
             rotation, origin, linear, angular,
             self._capsule_frame, self._local_centre[..., 0], self._local_axis[..., 0],
             self._sphere_frame, self._sphere_centre[..., 0], self._sphere_radius,
-            self._part, self._slot, *self._kernel_rows, self._frame,
+            self._part, self._slot, *self._kernel_rows[:3], self._frame, *self._kernel_rows[3:],
             centre, axis, self._slot_half, self._slot_radius,
-            contact, caps, iso, agg, floor, speed, likely,
+            contact, caps, iso, agg, left,
         )  # fmt: skip
-        others = self._other_rows
-        if others.size:
+        states, rows = map(np.ascontiguousarray, np.nonzero(left))
+        if states.size:  # a mesh, or a shape touching the person: coal's
             self._place_person_copies()
-            for asked in (
-                likely[:, others],
-                kernels.needed_rows(others, floor, speed, contact, caps, iso, agg, likely),
-            ):
-                states, which = map(np.ascontiguousarray, np.nonzero(asked))
-                if states.size:
-                    distance, robot, person = self._coal(qs, states, others[which])
-                    points = np.hstack([np.array(robot), np.array(person)])
-                    kernels.fold_rows(
-                        states, others[which], np.array(distance), points, origin, linear, angular,
-                        self._frame, contact, caps, iso, agg,
-                    )  # fmt: skip
+            distance, robot, person = self._coal(qs, states, rows)
+            points = np.hstack([np.array(robot), np.array(person)])
+            kernels.fold_rows(
+                states, rows, np.array(distance), points, origin, linear, angular, self._frame, contact, caps, iso, agg
+            )
         return agg
 
     def _measure_capsules(self, world: _Placed, states: np.ndarray, rows: np.ndarray, pairs: StatePairs) -> None:
@@ -288,6 +282,41 @@ def _point_velocity(linear: np.ndarray, angular: np.ndarray, origin: np.ndarray,
     return linear + cross(angular, point - origin)
 
 
+def _kernel_rows(
+    parts: list[pin.GeometryObject],
+    capsule_rows: np.ndarray,
+    robot_capsule: np.ndarray,
+    robot_half: np.ndarray,
+    robot_radius: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """Per row (its robot part `parts[k]`) for the compiled route: its robot capsule (-1: not a
+    capsule), that capsule's half length and radius; then its shape's kind
+    (`approach_kernels.CAPSULE`, BOX, CYLINDER or BY_COAL), its placement in its joint's frame
+    (rotation (K, 3, 3), origin (K, 3)) and its sizes (K, 3: a box's half sides, a cylinder's
+    radius and half length)."""
+    from hriplan.safety.approach_kernels import BOX, BY_COAL, CAPSULE, CYLINDER
+
+    k = len(parts)
+    capsule, half, radius = np.full(k, -1, dtype=int), np.zeros(k), np.zeros(k)
+    capsule[capsule_rows], half[capsule_rows], radius[capsule_rows] = robot_capsule, robot_half, robot_radius
+    kind, rotation, origin, dims = (
+        np.full(k, BY_COAL, dtype=int),
+        np.zeros((k, 3, 3)),
+        np.zeros((k, 3)),
+        np.zeros((k, 3)),
+    )
+    for row, part in enumerate(parts):
+        shape = part.geometry
+        rotation[row], origin[row] = part.placement.rotation, part.placement.translation
+        if isinstance(shape, coal.Capsule):
+            kind[row] = CAPSULE
+        elif isinstance(shape, coal.Box):
+            kind[row], dims[row] = BOX, shape.halfSide
+        elif isinstance(shape, coal.Cylinder):
+            kind[row], dims[row, :2] = CYLINDER, (shape.radius, shape.halfLength)
+    return capsule, half, radius, kind, rotation, origin, dims
+
+
 def _coal_model(
     source: pin.GeometryModel, pairs: list[tuple[int, int]]
 ) -> tuple[pin.GeometryModel, pin.GeometryData, dict[int, int]]:
@@ -300,4 +329,4 @@ def _coal_model(
                 index[g] = model.addGeometryObject(pin.GeometryObject(source.geometryObjects[g]))
         model.addCollisionPair(pin.CollisionPair(index[pair[0]], index[pair[1]]))
     people = {b for _, b in pairs}
-    return model, model.createData(), {g: k for g, k in index.items() if g in people}
+    return model, person_distance_data(model), {g: k for g, k in index.items() if g in people}
