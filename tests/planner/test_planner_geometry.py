@@ -124,3 +124,11 @@ def _smooth_rows(f, x: np.ndarray, h: float = 1e-5) -> np.ndarray:
     forward = np.column_stack([(f(x + h * e) - f(x)) / h for e in np.eye(len(x))])
     backward = np.column_stack([(f(x) - f(x - h * e)) / h for e in np.eye(len(x))])
     return np.abs(forward - backward).max(axis=1) < 1e-3
+
+
+@pytest.mark.parametrize("group", ["left_arm", "right_arm", None])
+def test_an_evaluators_velocity_entries_are_its_groups_joints(madar, group):
+    """Jacobian columns are taken at the group's joints' velocity entries (pinocchio's idx_v)."""
+    evaluator = ConstraintEvaluator(madar, [], group or madar.default_group, madar.q_neutral)
+    model = madar.model
+    assert evaluator.vidx.tolist() == [model.joints[model.getJointId(j)].idx_v for j in madar.group_joints(group)]

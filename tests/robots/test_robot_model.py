@@ -133,6 +133,7 @@ def test_ur5_single_arm():
         (lambda r: r.frame_pose("nose", np.zeros(12)), "has no frame 'nose'"),
         (lambda r: r.frame_pose("right_tool", [0.0] * 5, "right_arm"), "has 6 joints, got a vector of 5"),
         (lambda r: r.frame_pose("right_tool", {"right_knee": 1.0}), "no arm joint 'right_knee'"),
+        (lambda r: r.configuration({"universe": 1.0}), "no arm joint 'universe'"),  # a model joint, not an arm's
         (lambda r: r.frame_pose("right_tool", [np.nan] * 6, "right_arm"), "must be finite"),
         (lambda r: r.group_joints("torso"), "no joint group 'torso'"),
     ],
@@ -140,6 +141,29 @@ def test_ur5_single_arm():
 def test_bad_input_is_a_clear_error(madar, call, message):
     with pytest.raises(HriplanError, match=message):
         call(madar)
+
+
+def test_joint_values_by_name_go_where_pinocchio_puts_each_joint(madar):
+    """Named values land on their joints' entries; the joints not named keep `base`'s."""
+    values = {name: 0.1 * (k + 1) for k, name in enumerate(reversed(madar.joint_names[:7]))}
+    base = madar.q_neutral + 0.5
+    expected = base.copy()
+    for name, value in values.items():
+        expected[madar.model.joints[madar.model.getJointId(name)].idx_q] = value
+    np.testing.assert_array_equal(madar.configuration(values, base=base), expected)
+
+
+def test_frame_ids_are_each_robots_own_and_the_same_when_asked_again(madar):
+    """`frame_id` keeps the ids it looked up, per robot: pinocchio's id on that robot's model."""
+    ur5 = load_robot("ur5")
+    for robot in (madar, ur5, madar, ur5):
+        for frame in robot.model.frames:
+            assert robot.frame_id(frame.name) == robot.model.getFrameId(frame.name)
+    for robot, other in ((madar, ur5), (ur5, madar)):
+        name = other.tool_frame(next(iter(other.arms)))
+        assert not robot.model.existFrame(name)
+        with pytest.raises(HriplanError, match=f"has no frame {name!r}"):  # the other robot's, asked of it
+            robot.frame_id(name)
 
 
 def test_non_unit_quaternion_is_rejected():

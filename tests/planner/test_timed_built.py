@@ -1,0 +1,44 @@
+"""Models the planner builds without validating them again (`model_construct`, where the values
+are made by the code itself): each must equal the validated model of the same values, field types
+and JSON alike, on a real re-plan's outputs (the example handover)."""
+
+from pathlib import Path
+
+import pytest
+
+from hriplan.planner import session as session_module
+from hriplan.planner.timing import TimedPath
+from hriplan.tasks.load import load_task
+from hriplan.tasks.pipeline import TaskRunner
+
+EXAMPLE = Path(__file__).parents[2] / "examples" / "handover_full_can_receiver.yaml"
+
+
+@pytest.fixture(scope="module")
+def timed_paths() -> list[TimedPath]:
+    """Every TimedPath the example's handover timed: each part, then the parts joined."""
+    made = []
+    originals = session_module.time_parameterize, session_module.joined
+    session_module.time_parameterize = lambda *a, **k: made.append(originals[0](*a, **k)) or made[-1]
+    session_module.joined = lambda parts: made.append(originals[1](parts)) or made[-1]
+    try:
+        outcome = TaskRunner(load_task(EXAMPLE), EXAMPLE.parent).run()
+    finally:
+        session_module.time_parameterize, session_module.joined = originals
+    assert [s.status for s in outcome.steps] == ["solved", "solved"]
+    return made
+
+
+def _types(value: object) -> object:
+    """The type of every leaf of `value` (lists walked): what validation would have coerced."""
+    return [_types(v) for v in value] if isinstance(value, list) else type(value)
+
+
+def test_a_built_timed_path_is_the_validated_one(timed_paths):
+    assert len(timed_paths) >= 4  # two motions, each a part and the parts joined
+    for built in timed_paths:
+        validated = TimedPath(**{name: getattr(built, name) for name in TimedPath.model_fields})
+        assert built == validated
+        assert built.model_dump_json() == validated.model_dump_json()
+        for name in TimedPath.model_fields:
+            assert _types(getattr(built, name)) == _types(getattr(validated, name)), name
