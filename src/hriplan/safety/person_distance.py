@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Collection
 from dataclasses import dataclass
+from functools import cached_property
 
 import coal
 import numpy as np
@@ -101,13 +102,7 @@ class PersonDistances:
         self._others = _coal_model(person_model, [pairs[k] for k in self._other_rows])
         self._copy_of = np.full(len(pairs), -1, dtype=int)  # row -> its pair in the coal model
         self._copy_of[self._other_rows] = np.arange(self._other_rows.size)
-        self._kernel_rows = _kernel_rows(
-            [objects[a] for a, _ in pairs],
-            self._capsule_rows,
-            self._robot_capsule,
-            self._robot_half,
-            self._robot_radius,
-        )
+        self._row_parts = [a for a, _ in pairs]  # each row's moved part, for the compiled route's rows
         # Each moved part's bounding sphere: centre in its joint's frame (P, 3, 1), radius (P,).
         parts = sorted({a for a, _ in pairs})
         self._part = np.array([parts.index(a) for a, _ in pairs], dtype=int)
@@ -155,6 +150,14 @@ class PersonDistances:
         measure(select.needed(pairs, floor, speed) & (self._capsule_of >= 0))
         measure(select.needed(pairs, floor, speed))
         return pairs
+
+    @cached_property
+    def _kernel_rows(self) -> tuple[np.ndarray, ...]:
+        """`_kernel_rows` of this model's rows, made when the compiled route first asks (their
+        shape codes live with the kernels, and numba is imported only with the kernels on)."""
+        objects = self.person_model.geometryObjects
+        parts = [objects[a] for a in self._row_parts]
+        return _kernel_rows(parts, self._capsule_rows, self._robot_capsule, self._robot_half, self._robot_radius)
 
     def folded(
         self, qs: np.ndarray, dqs: np.ndarray, contact: np.ndarray, caps: np.ndarray, iso: np.ndarray
