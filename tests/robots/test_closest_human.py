@@ -147,3 +147,41 @@ def test_moving_pairs_are_those_whose_chain_holds_a_varying_joint(madar, checker
         moved = [bool(changed.intersection(model.supports[int(j)])) for j in carriers]
         assert checker._moving_pairs(qs).tolist() == moved
     assert checker._moving_pairs(np.repeat(q0[None], 3, axis=0)).sum() == 0
+
+
+def test_the_compiled_route_finds_the_same_closest_pair(madar, checker, rng):
+    """`closest_human` with `person_distance.nearest_moving` (numba: capsules, boxes and cylinders
+    exactly, a shape touching a person by coal) names the same pair at the same distance as the
+    coal route, within 1e-9 m, on the same paths: into kim (capsules and the palm touching her
+    grown capsules), past lou, scattered, still."""
+    pytest.importorskip("numba")
+    from hriplan.safety.person_distance import nearest_moving
+
+    touching = 0
+    for path in _paths(madar, rng):
+        coal_route, compiled = checker.closest_human(path), checker.closest_human(path, nearest_moving)
+        assert compiled[1:] == coal_route[1:]
+        assert compiled[0] == pytest.approx(coal_route[0], abs=1e-9)
+        touching += compiled[0] < 0.0
+    assert touching
+
+
+def test_a_palm_inside_a_person_is_measured_by_coal_on_the_compiled_route():
+    """MADAR's open palm (a box) 4 cm inside a person's lower arm, the closest pair of a short
+    path: the compiled route leaves a shape touching a person to coal (its depth) and names it."""
+    pytest.importorskip("numba")
+    from hriplan.planner.session import PlanningSession
+    from hriplan.robots.descriptions.registry import posture
+    from hriplan.safety.person_distance import nearest_moving
+
+    session = PlanningSession("madar", Scene(), hands={"right": "open"})
+    robot = session.robot
+    q0 = robot.configuration(posture("madar", "ready"))
+    x, y, z = robot.frame_pose(robot.tool_frame("right"), q0)[:3, 3]
+    reach = {"right": (x, y, z - 0.05)}
+    session.set_scene(Scene(humans=[HumanSpec(name="v", position=(x + 0.55, y - 0.1), yaw=1.25 * np.pi, reach=reach)]))
+    path = np.repeat(q0[None], 8, axis=0)
+    path[:, robot.group_indices("right_arm")[0]] += np.linspace(0.0, 0.01, 8)
+    coal_route = session.checker.closest_human(path)
+    assert coal_route[1:] == ("right_hand_palm_link", "v/right_lowerarm") and coal_route[0] < -0.03
+    assert session.checker.closest_human(path, nearest_moving) == coal_route

@@ -25,6 +25,7 @@ from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 from hriplan.safety.approach import ApproachMonitor
+from hriplan.safety.person_distance import nearest_moving
 from hriplan.safety.separation import PersonSeparation, RobotStopping, SeparationPolicy
 
 
@@ -54,9 +55,9 @@ def load_kernels() -> bool:
 
 
 def _monitor() -> None:
-    """The monitor's kernels, on MADAR's right arm with its hand open (palm boxes, adapter
-    cylinders) moving beside a person whose right hand holds the tool frame (rows touching her:
-    left to coal and folded in), at rest (so never closing in on her)."""
+    """The monitor's kernels and the closest approach's, on MADAR's right arm with its hand open
+    (palm boxes, adapter cylinders) moving beside a person whose right hand holds the tool frame
+    (rows touching her: left to coal and folded in), at rest (so never closing in on her)."""
     session = PlanningSession("madar", hands={"right": "open"})
     q = session.robot.configuration(posture("madar", "ready"))
     tool = session.robot.frame_pose(session.robot.tool_frame("right"), q)[:3, 3]
@@ -71,6 +72,9 @@ def _monitor() -> None:
     xs = x + np.linspace(0.0, 1.0, 8)[:, None] * np.array([0.8, -0.4, 0.4, 0.3, -0.2, 0.5])
     monitor = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q)
     monitor.speed_scale(xs, np.zeros(xs.shape))
+    states = np.repeat(q[None], len(xs), axis=0)
+    states[:, session.robot.group_indices("right_arm")] = xs
+    session.checker.closest_human(states, nearest_moving)  # a path report's closest approach
 
 
 if __name__ == "__main__":

@@ -14,6 +14,8 @@ from pydantic import BaseModel
 
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.kernel_switch import kernels_on
+from hriplan.safety.person_distance import nearest_moving
 
 VALIDATION_TOLERANCE = 1e-4
 DISTANCE_SAMPLES = 150
@@ -84,7 +86,11 @@ def validate_path(
         for c, w in zip(evaluator.constraints, worst)
     ]
     sample = dense[_spread(len(dense), DISTANCE_SAMPLES)]
-    best = checker.closest_human(evaluator.full_many(sample)) if human_distance else (float("inf"), "", "")
+    best = (
+        checker.closest_human(evaluator.full_many(sample), nearest_moving if kernels_on() else None)
+        if human_distance
+        else (float("inf"), "", "")
+    )
     violated = [c.id for c in checks if not c.satisfied]
     problems = ([f"constraint {', '.join(violated)} violated"] if violated else []) + ([collision] if collision else [])
     return PathValidation(

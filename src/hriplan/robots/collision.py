@@ -12,7 +12,7 @@ standing on a table must not collide through its capsule, which reaches 8 cm bel
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cached_property
@@ -62,6 +62,12 @@ def person_distance_data(model: pin.GeometryModel) -> pin.GeometryData:
     for request in data.distanceRequests:
         request.gjk_tolerance = PERSON_GJK_TOLERANCE
     return data
+
+
+# (robot model, distance model, joints, states (N, nq), ceiling) -> (distance, state, pair): of the
+# model's pairs whose robot part rides on one of the joints, the least distance over the states, of
+# equal ones the first state, then the first pair; (inf, -1, -1) if none comes within the ceiling.
+NearestPairs = Callable[[pin.Model, pin.GeometryModel, set[int], np.ndarray, float], tuple[float, int, int]]
 
 
 # A list of colliding pairs in a message is cut to this many characters, so that the message's
@@ -828,7 +834,7 @@ class CollisionChecker:
         names = [g.name for g in dm.geometryObjects]
         return [(d, names[pairs[k, 0]], names[pairs[k, 1]]) for d, k in ranked]
 
-    def closest_human(self, qs: np.ndarray) -> tuple[float, str, str]:
+    def closest_human(self, qs: np.ndarray, nearest: NearestPairs | None = None) -> tuple[float, str, str]:
         """The closest robot-person pair over the states `qs` (N, nq): the least of
         `human_distances(qs)` and its pair (of equal ones, the first state's); (inf, "", "")
         without people or states. A path report keeps only this one number, so not every pair
@@ -839,7 +845,8 @@ class CollisionChecker:
         states in the order of their bound until it passes the closest found, each state through
         coal as there. A pair or state whose bound is above the closest found cannot hold a
         closer distance, nor an equal one (the bound is 1e-4 m below coal's), so the least, its
-        first state and that state's first pair of the least are those of `human_distances`."""
+        first state and that state's first pair of the least are those of `human_distances`.
+        `nearest` finds the moving pairs' least instead (`NearestPairs`: the compiled route)."""
         if not len(qs):
             return (float("inf"), "", "")
         if self._people_stale:
@@ -855,7 +862,10 @@ class CollisionChecker:
             with self._only_pairs(~moving):
                 distance, pair = self._closest_at(qs[0])
             best = (distance, 0, pair)
-        if moving.any():
+        if moving.any() and nearest is not None:
+            joints = {int(j) for j in self._distance_pair_table()[1][moving]}
+            best = min(best, nearest(self.robot.model, dm, joints, qs, best[0]))
+        elif moving.any():
             floor, rows = self._moving_floors(qs, moving)
             first = int(np.argmin(floor.min(axis=1)))
             if floor[first].min() <= best[0]:

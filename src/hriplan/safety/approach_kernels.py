@@ -274,6 +274,102 @@ def _needed(floor: float, speed: float, lowest: float, contact: bool, agg: np.nd
     return speed > iso[CLOSING] and (lowest <= 0.0 or lowest <= agg[SCALE] * speed)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _floor(
+    centre: np.ndarray,
+    p: int,
+    sphere_radius: np.ndarray,
+    s: int,
+    person_centre: np.ndarray,
+    person_axis: np.ndarray,
+    person_half: np.ndarray,
+    person_radius: np.ndarray,
+    tolerance: float,
+) -> float:
+    """A lower bound on a row's distance: its part's sphere (placed centre[p]) against the
+    person's capsule s's axis (`PersonDistances._bounds`), less `tolerance`."""
+    c0, c1, c2 = centre[p, 0], centre[p, 1], centre[p, 2]
+    p0, p1, p2 = person_centre[s, 0], person_centre[s, 1], person_centre[s, 2]
+    x0, x1, x2 = person_axis[s, 0], person_axis[s, 1], person_axis[s, 2]
+    # part_spheres.axis_gaps' products: |c|^2 + |p|^2 - (2 c.p + t (2 along - t)), along = c.a - p.a
+    along = _dot(c0, c1, c2, x0, x1, x2) - _dot(p0, p1, p2, x0, x1, x2)
+    t = _clip(along, -person_half[s], person_half[s])
+    squared = _dot(c0, c1, c2, c0, c1, c2) + _dot(p0, p1, p2, p0, p1, p2)
+    squared -= 2.0 * _dot(c0, c1, c2, p0, p1, p2) + t * (2.0 * along - t)
+    return math.sqrt(max(squared, 0.0)) - sphere_radius[p] - person_radius[s] - tolerance
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _place_parts(
+    rotation: np.ndarray,
+    origin: np.ndarray,
+    n: int,
+    sphere_frame: np.ndarray,
+    sphere_centre: np.ndarray,
+    capsule_frame: np.ndarray,
+    capsule_centre: np.ndarray,
+    capsule_axis: np.ndarray,
+    centre: np.ndarray,
+    placed_centre: np.ndarray,
+    placed_axis: np.ndarray,
+) -> None:
+    """At state n: every part's sphere centre into centre (P, 3), every robot capsule's centre
+    and axis into placed_centre, placed_axis (C, 3)."""
+    for p in range(sphere_frame.size):
+        _placed(rotation, origin, n, sphere_frame[p], sphere_centre[p], centre[p])
+    for c in range(capsule_frame.size):
+        f = capsule_frame[c]
+        _placed(rotation, origin, n, f, capsule_centre[c], placed_centre[c])
+        for i in range(3):  # an axis turns with the frame, without its origin
+            placed_axis[c, i] = (
+                rotation[n, f, i, 0] * capsule_axis[c, 0]
+                + rotation[n, f, i, 1] * capsule_axis[c, 1]
+                + rotation[n, f, i, 2] * capsule_axis[c, 2]
+            )
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _row_distance(
+    rotation: np.ndarray,
+    origin: np.ndarray,
+    n: int,
+    k: int,
+    placed_centre: np.ndarray,
+    placed_axis: np.ndarray,
+    row_capsule: np.ndarray,
+    row_half: np.ndarray,
+    row_radius: np.ndarray,
+    row_frame: np.ndarray,
+    row_shape: np.ndarray,
+    row_rotation: np.ndarray,
+    row_origin: np.ndarray,
+    row_dims: np.ndarray,
+    s: int,
+    person_centre: np.ndarray,
+    person_axis: np.ndarray,
+    person_half: np.ndarray,
+    person_radius: np.ndarray,
+    scratch: np.ndarray,
+    point: np.ndarray,
+) -> float:
+    """Row k's distance at state n and its witness points into point (robot 0:3, person 3:6):
+    a capsule (`_capsules`), a box or cylinder (`_shape_capsule`); NaN where coal must measure
+    it (BY_COAL, or a shape touching the person)."""
+    kind = row_shape[k]
+    if kind == CAPSULE:
+        c = row_capsule[k]
+        return _capsules(
+            placed_centre[c], placed_axis[c], row_half[k], row_radius[k],
+            person_centre[s], person_axis[s], person_half[s], person_radius[s], point,
+        )  # fmt: skip
+    if kind == BY_COAL:
+        return math.nan
+    return _shape_capsule(
+        rotation, origin, n, row_frame[k], row_rotation[k], row_origin[k], kind, row_dims[k],
+        person_centre[s], person_axis[s], person_half[s], person_radius[s], scratch, point,
+    )  # fmt: skip
+
+
 @njit(cache=True, nogil=True)
 def capsule_rows(
     rotation: np.ndarray,
@@ -325,35 +421,23 @@ def capsule_rows(
     best = np.empty(4)
     best_row = np.empty(4, dtype=np.int64)
     for n in range(n_states):
+        _place_parts(
+            rotation, origin, n, sphere_frame, sphere_centre, capsule_frame, capsule_centre, capsule_axis,
+            centre, placed_centre, placed_axis,
+        )  # fmt: skip
         for p in range(n_parts):
             f = sphere_frame[p]
-            _placed(rotation, origin, n, f, sphere_centre[p], centre[p])
             v0, v1, v2 = _velocity(linear, angular, origin, n, f, centre[p, 0], centre[p, 1], centre[p, 2])
             w0, w1, w2 = angular[n, f, 0], angular[n, f, 1], angular[n, f, 2]
             bound = math.sqrt(_dot(v0, v1, v2, v0, v1, v2)) + math.sqrt(_dot(w0, w1, w2, w0, w1, w2)) * sphere_radius[p]
             part_speed[p] = bound * (1.0 + iso[ROUNDING]) + iso[ROUNDING]
-        for c in range(n_capsules):
-            f = capsule_frame[c]
-            _placed(rotation, origin, n, f, capsule_centre[c], placed_centre[c])
-            for i in range(3):  # an axis turns with the frame, without its origin
-                placed_axis[c, i] = (
-                    rotation[n, f, i, 0] * capsule_axis[c, 0]
-                    + rotation[n, f, i, 1] * capsule_axis[c, 1]
-                    + rotation[n, f, i, 2] * capsule_axis[c, 2]
-                )
         best[:] = math.inf
         best_row[:] = 0
         for k in range(n_rows):
             p, s = row_part[k], row_slot[k]
-            c0, c1, c2 = centre[p, 0], centre[p, 1], centre[p, 2]
-            p0, p1, p2 = person_centre[s, 0], person_centre[s, 1], person_centre[s, 2]
-            x0, x1, x2 = person_axis[s, 0], person_axis[s, 1], person_axis[s, 2]
-            # part_spheres.axis_gaps' products: |c|^2 + |p|^2 - (2 c.p + t (2 along - t)), along = c.a - p.a
-            along = _dot(c0, c1, c2, x0, x1, x2) - _dot(p0, p1, p2, x0, x1, x2)
-            t = _clip(along, -person_half[s], person_half[s])
-            squared = _dot(c0, c1, c2, c0, c1, c2) + _dot(p0, p1, p2, p0, p1, p2)
-            squared -= 2.0 * _dot(c0, c1, c2, p0, p1, p2) + t * (2.0 * along - t)
-            bound = math.sqrt(max(squared, 0.0)) - sphere_radius[p] - person_radius[s] - iso[TOLERANCE]
+            bound = _floor(
+                centre, p, sphere_radius, s, person_centre, person_axis, person_half, person_radius, iso[TOLERANCE]
+            )
             floor[k], speed[k] = bound, part_speed[p]
             lowest[k] = _kept(bound, caps[k], iso)
             closing = part_speed[p] > iso[CLOSING]
@@ -378,20 +462,11 @@ def capsule_rows(
                     continue
                 if sweep == 1 and not _needed(floor[k], speed[k], lowest[k], contact[k], a, iso):
                     continue
-                s, kind = row_slot[k], row_shape[k]
-                if kind == CAPSULE:
-                    c = row_capsule[k]
-                    distance = _capsules(
-                        placed_centre[c], placed_axis[c], row_half[k], row_radius[k],
-                        person_centre[s], person_axis[s], person_half[s], person_radius[s], point,
-                    )  # fmt: skip
-                elif kind == BY_COAL:
-                    distance = math.nan
-                else:
-                    distance = _shape_capsule(
-                        rotation, origin, n, row_frame[k], row_rotation[k], row_origin[k], kind, row_dims[k],
-                        person_centre[s], person_axis[s], person_half[s], person_radius[s], scratch, point,
-                    )  # fmt: skip
+                distance = _row_distance(
+                    rotation, origin, n, k, placed_centre, placed_axis, row_capsule, row_half, row_radius,
+                    row_frame, row_shape, row_rotation, row_origin, row_dims,
+                    row_slot[k], person_centre, person_axis, person_half, person_radius, scratch, point,
+                )  # fmt: skip
                 if math.isnan(distance):  # coal's to measure
                     left[n, k] = True
                     continue
@@ -422,3 +497,65 @@ def fold_rows(
         v0, v1, v2 = _velocity(linear, angular, origin, n, row_frame[k], point[0], point[1], point[2])
         allowed, approach = _speeds(distance[i], point, v0, v1, v2, contact[k], caps[k], iso)
         _fold(agg[n], k, distance[i], allowed, approach, contact[k], iso)
+
+
+@njit(cache=True, nogil=True)
+def nearest_rows(
+    rotation: np.ndarray,
+    origin: np.ndarray,
+    capsule_frame: np.ndarray,
+    capsule_centre: np.ndarray,
+    capsule_axis: np.ndarray,
+    sphere_frame: np.ndarray,
+    sphere_centre: np.ndarray,
+    sphere_radius: np.ndarray,
+    row_part: np.ndarray,
+    row_slot: np.ndarray,
+    row_capsule: np.ndarray,
+    row_half: np.ndarray,
+    row_radius: np.ndarray,
+    row_frame: np.ndarray,
+    row_shape: np.ndarray,
+    row_rotation: np.ndarray,
+    row_origin: np.ndarray,
+    row_dims: np.ndarray,
+    person_centre: np.ndarray,
+    person_axis: np.ndarray,
+    person_half: np.ndarray,
+    person_radius: np.ndarray,
+    tolerance: float,
+    ceiling: float,
+    best: np.ndarray,
+    left: np.ndarray,
+) -> None:
+    """The least distance over every row and state (frames (N, F, ...)) into best: (distance,
+    state, row), the first state and row of equal ones; a row is measured only where its bound
+    (`_floor`) is within the least found so far and `ceiling` (what the caller found elsewhere),
+    so no row left out could come closer or as close. A row this cannot measure is flagged in
+    left (N, K) for coal, as `capsule_rows` flags it."""
+    n_states, n_rows = left.shape
+    centre = np.empty((sphere_radius.size, 3))
+    placed_centre, placed_axis = np.empty((capsule_frame.size, 3)), np.empty((capsule_frame.size, 3))
+    point, scratch = np.empty(6), np.empty(15)
+    best[0], best[1], best[2] = math.inf, -1.0, -1.0
+    for n in range(n_states):
+        _place_parts(
+            rotation, origin, n, sphere_frame, sphere_centre, capsule_frame, capsule_centre, capsule_axis,
+            centre, placed_centre, placed_axis,
+        )  # fmt: skip
+        for k in range(n_rows):
+            s = row_slot[k]
+            bound = _floor(
+                centre, row_part[k], sphere_radius, s, person_centre, person_axis, person_half, person_radius, tolerance
+            )
+            if bound > min(best[0], ceiling):
+                continue
+            distance = _row_distance(
+                rotation, origin, n, k, placed_centre, placed_axis, row_capsule, row_half, row_radius,
+                row_frame, row_shape, row_rotation, row_origin, row_dims,
+                s, person_centre, person_axis, person_half, person_radius, scratch, point,
+            )  # fmt: skip
+            if math.isnan(distance):
+                left[n, k] = True
+            elif distance < best[0]:
+                best[0], best[1], best[2] = distance, n, k

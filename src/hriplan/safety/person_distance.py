@@ -75,7 +75,9 @@ class PersonDistances:
     def __init__(self, robot_model: pin.Model, person_model: pin.GeometryModel, joints: Collection[int]) -> None:
         self.robot_model, self.robot_data, self.person_model = robot_model, robot_model.createData(), person_model
         objects = person_model.geometryObjects
-        pairs = [(p.first, p.second) for p in person_model.collisionPairs if objects[p.first].parentJoint in joints]
+        chosen = [k for k, p in enumerate(person_model.collisionPairs) if objects[p.first].parentJoint in joints]
+        self.pair_index = np.array(chosen, dtype=int)  # each row's pair in the model
+        pairs = [(person_model.collisionPairs[k].first, person_model.collisionPairs[k].second) for k in chosen]
         self.parts = [objects[a].name for a, _ in pairs]
         self.capsules = [objects[b].name for _, b in pairs]
         self._slots = sorted({b for _, b in pairs})  # the person's capsules
@@ -194,6 +196,32 @@ class PersonDistances:
             )
         return agg
 
+    def nearest(self, qs: np.ndarray, ceiling: float = np.inf) -> tuple[float, int, int]:
+        """The least distance of every row over the configurations `qs` (N, nq): (distance,
+        state, row), of equal ones the first state, then the first row; rows whose bound passes
+        `ceiling` (a distance the caller has) or the least found are not measured, so (inf, -1,
+        -1) when none comes within it. Compiled (`approach_kernels.nearest_rows`): capsules, boxes
+        and cylinders exactly, the rows it leaves (a mesh, a shape touching the person) by coal."""
+        from hriplan.safety import approach_kernels as kernels  # numba: imported with the kernels on
+
+        rotation, origin = map(np.ascontiguousarray, self._kinematics.placements(qs))
+        centre, axis = self._person_capsules()
+        best, left = np.empty(3), np.zeros((len(qs), len(self.parts)), dtype=bool)
+        kernels.nearest_rows(
+            rotation, origin,
+            self._capsule_frame, self._local_centre[..., 0], self._local_axis[..., 0],
+            self._sphere_frame, self._sphere_centre[..., 0], self._sphere_radius,
+            self._part, self._slot, *self._kernel_rows[:3], self._frame, *self._kernel_rows[3:],
+            centre, axis, self._slot_half, self._slot_radius, BOUND_TOLERANCE, ceiling, best, left,
+        )  # fmt: skip
+        found = (float(best[0]), int(best[1]), int(best[2]))
+        states, rows = np.nonzero(left)
+        if states.size:
+            self._place_person_copies()
+            distance, _, _ = self._coal(qs, states, rows)
+            found = min([found, *zip(distance, states.tolist(), rows.tolist())])
+        return found
+
     def _measure_capsules(self, world: _Placed, states: np.ndarray, rows: np.ndarray, pairs: StatePairs) -> None:
         """The capsule rows `rows` at `states` (flat, paired), in one numpy pass, into `pairs`."""
         if not rows.size:
@@ -283,6 +311,18 @@ def _point_velocity(linear: np.ndarray, angular: np.ndarray, origin: np.ndarray,
     """The world velocity of `point` on a body whose `origin` moves at `linear` and turns at
     `angular` (all (..., 3), world)."""
     return linear + cross(angular, point - origin)
+
+
+def nearest_moving(
+    robot_model: pin.Model, model: pin.GeometryModel, joints: Collection[int], qs: np.ndarray, ceiling: float
+) -> tuple[float, int, int]:
+    """`CollisionChecker.closest_human`'s moving pairs in compiled code: of `model`'s pairs whose
+    robot part rides on one of `joints`, the least distance over `qs` (N, nq) as (distance,
+    state, pair index in the model), of equal ones the first state, then the first pair; (inf,
+    -1, -1) if none comes within `ceiling` (`PersonDistances.nearest`)."""
+    distances = PersonDistances.of(robot_model, model, joints)
+    distance, state, row = distances.nearest(qs, ceiling)
+    return distance, state, int(distances.pair_index[row]) if row >= 0 else -1
 
 
 def _kernel_rows(
