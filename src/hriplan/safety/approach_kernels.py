@@ -275,19 +275,11 @@ def _needed(floor: float, speed: float, lowest: float, contact: bool, agg: np.nd
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _floor(
-    centre: np.ndarray,
-    p: int,
-    sphere_radius: np.ndarray,
-    s: int,
-    person_centre: np.ndarray,
-    person_axis: np.ndarray,
-    person_half: np.ndarray,
-    person_radius: np.ndarray,
-    tolerance: float,
-) -> float:
-    """A lower bound on a row's distance: its part's sphere (placed centre[p]) against the
-    person's capsule s's axis (`PersonDistances._bounds`), less `tolerance`."""
+def _floor(centre: np.ndarray, robot: tuple, rows: tuple, person: tuple, k: int, tolerance: float) -> float:
+    """A lower bound on row k's distance: its part's sphere (placed in centre) against the
+    person's capsule's axis (`PersonDistances._bounds`), less `tolerance`."""
+    p, s = rows[0][k], rows[1][k]
+    person_centre, person_axis, person_half, person_radius = person
     c0, c1, c2 = centre[p, 0], centre[p, 1], centre[p, 2]
     p0, p1, p2 = person_centre[s, 0], person_centre[s, 1], person_centre[s, 2]
     x0, x1, x2 = person_axis[s, 0], person_axis[s, 1], person_axis[s, 2]
@@ -296,7 +288,7 @@ def _floor(
     t = _clip(along, -person_half[s], person_half[s])
     squared = _dot(c0, c1, c2, c0, c1, c2) + _dot(p0, p1, p2, p0, p1, p2)
     squared -= 2.0 * _dot(c0, c1, c2, p0, p1, p2) + t * (2.0 * along - t)
-    return math.sqrt(max(squared, 0.0)) - sphere_radius[p] - person_radius[s] - tolerance
+    return math.sqrt(max(squared, 0.0)) - robot[5][p] - person_radius[s] - tolerance
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -304,17 +296,14 @@ def _place_parts(
     rotation: np.ndarray,
     origin: np.ndarray,
     n: int,
-    sphere_frame: np.ndarray,
-    sphere_centre: np.ndarray,
-    capsule_frame: np.ndarray,
-    capsule_centre: np.ndarray,
-    capsule_axis: np.ndarray,
+    robot: tuple,
     centre: np.ndarray,
     placed_centre: np.ndarray,
     placed_axis: np.ndarray,
 ) -> None:
     """At state n: every part's sphere centre into centre (P, 3), every robot capsule's centre
     and axis into placed_centre, placed_axis (C, 3)."""
+    capsule_frame, capsule_centre, capsule_axis, sphere_frame, sphere_centre, _ = robot
     for p in range(sphere_frame.size):
         _placed(rotation, origin, n, sphere_frame[p], sphere_centre[p], centre[p])
     for c in range(capsule_frame.size):
@@ -336,36 +325,27 @@ def _row_distance(
     k: int,
     placed_centre: np.ndarray,
     placed_axis: np.ndarray,
-    row_capsule: np.ndarray,
-    row_half: np.ndarray,
-    row_radius: np.ndarray,
-    row_frame: np.ndarray,
-    row_shape: np.ndarray,
-    row_rotation: np.ndarray,
-    row_origin: np.ndarray,
-    row_dims: np.ndarray,
-    s: int,
-    person_centre: np.ndarray,
-    person_axis: np.ndarray,
-    person_half: np.ndarray,
-    person_radius: np.ndarray,
+    rows: tuple,
+    person: tuple,
     scratch: np.ndarray,
     point: np.ndarray,
 ) -> float:
     """Row k's distance at state n and its witness points into point (robot 0:3, person 3:6):
     a capsule (`_capsules`), a box or cylinder (`_shape_capsule`); NaN where coal must measure
     it (BY_COAL, or a shape touching the person)."""
-    kind = row_shape[k]
+    _, slot, capsule, half, radius, frame, shape, local_rotation, local_origin, dims = rows
+    person_centre, person_axis, person_half, person_radius = person
+    kind, s = shape[k], slot[k]
     if kind == CAPSULE:
-        c = row_capsule[k]
+        c = capsule[k]
         return _capsules(
-            placed_centre[c], placed_axis[c], row_half[k], row_radius[k],
+            placed_centre[c], placed_axis[c], half[k], radius[k],
             person_centre[s], person_axis[s], person_half[s], person_radius[s], point,
         )  # fmt: skip
     if kind == BY_COAL:
         return math.nan
     return _shape_capsule(
-        rotation, origin, n, row_frame[k], row_rotation[k], row_origin[k], kind, row_dims[k],
+        rotation, origin, n, frame[k], local_rotation[k], local_origin[k], kind, dims[k],
         person_centre[s], person_axis[s], person_half[s], person_radius[s], scratch, point,
     )  # fmt: skip
 
@@ -376,26 +356,8 @@ def capsule_rows(
     origin: np.ndarray,
     linear: np.ndarray,
     angular: np.ndarray,
-    capsule_frame: np.ndarray,
-    capsule_centre: np.ndarray,
-    capsule_axis: np.ndarray,
-    sphere_frame: np.ndarray,
-    sphere_centre: np.ndarray,
-    sphere_radius: np.ndarray,
-    row_part: np.ndarray,
-    row_slot: np.ndarray,
-    row_capsule: np.ndarray,
-    row_half: np.ndarray,
-    row_radius: np.ndarray,
-    row_frame: np.ndarray,
-    row_shape: np.ndarray,
-    row_rotation: np.ndarray,
-    row_origin: np.ndarray,
-    row_dims: np.ndarray,
-    person_centre: np.ndarray,
-    person_axis: np.ndarray,
-    person_half: np.ndarray,
-    person_radius: np.ndarray,
+    geometry: tuple,
+    person: tuple,
     contact: np.ndarray,
     caps: np.ndarray,
     iso: np.ndarray,
@@ -404,14 +366,19 @@ def capsule_rows(
 ) -> None:
     """Per state n (frames (N, F, ...)): every row's lower bound on its distance and upper bound
     on its part's speed, the likely rows measured, then every row `_needed` against what is
-    measured so far, each folded into agg[n] (AGGREGATES). A row is a capsule, box or cylinder
-    (row_shape; a shape's placement in its joint's frame and its sizes in row_rotation,
-    row_origin, row_dims) against a capsule of the person; one this cannot measure (BY_COAL, or
-    touching) and that is likely or needed is flagged in left[n] (N, K) for coal. The bounds
-    are `PersonDistances._bounds`' (its part's sphere against the capsule's axis)."""
+    measured so far, each folded into agg[n] (AGGREGATES). `geometry` (`PersonDistances.
+    _kernel_geometry`): the robot's capsules (frame, centre, axis in it) and its parts' spheres
+    (frame, centre, radius); per row its part, person capsule slot, robot capsule with half
+    length and radius, frame, shape (CAPSULE, BOX, CYLINDER, BY_COAL), a shape's placement in its
+    joint's frame and sizes; `person`: the person's capsules' centres, axes, half lengths and
+    radii. A row this cannot measure (BY_COAL, or touching) and that is likely or needed is
+    flagged in left[n] (N, K) for coal. The bounds are `PersonDistances._bounds`' (its part's
+    sphere against the capsule's axis)."""
+    robot, rows = geometry
+    sphere_frame, sphere_radius, row_part, row_frame = robot[3], robot[5], rows[0], rows[5]
     n_states, n_rows = left.shape
     floor, speed, likely = np.empty(n_rows), np.empty(n_rows), np.empty(n_rows, dtype=np.bool_)
-    n_parts, n_capsules = sphere_radius.size, capsule_frame.size
+    n_parts, n_capsules = sphere_radius.size, robot[0].size
     part_speed = np.empty(n_parts)
     centre = np.empty((n_parts, 3))
     placed_centre = np.empty((n_capsules, 3))
@@ -421,10 +388,7 @@ def capsule_rows(
     best = np.empty(4)
     best_row = np.empty(4, dtype=np.int64)
     for n in range(n_states):
-        _place_parts(
-            rotation, origin, n, sphere_frame, sphere_centre, capsule_frame, capsule_centre, capsule_axis,
-            centre, placed_centre, placed_axis,
-        )  # fmt: skip
+        _place_parts(rotation, origin, n, robot, centre, placed_centre, placed_axis)
         for p in range(n_parts):
             f = sphere_frame[p]
             v0, v1, v2 = _velocity(linear, angular, origin, n, f, centre[p, 0], centre[p, 1], centre[p, 2])
@@ -434,10 +398,8 @@ def capsule_rows(
         best[:] = math.inf
         best_row[:] = 0
         for k in range(n_rows):
-            p, s = row_part[k], row_slot[k]
-            bound = _floor(
-                centre, p, sphere_radius, s, person_centre, person_axis, person_half, person_radius, iso[TOLERANCE]
-            )
+            p = row_part[k]
+            bound = _floor(centre, robot, rows, person, k, iso[TOLERANCE])
             floor[k], speed[k] = bound, part_speed[p]
             lowest[k] = _kept(bound, caps[k], iso)
             closing = part_speed[p] > iso[CLOSING]
@@ -463,10 +425,8 @@ def capsule_rows(
                 if sweep == 1 and not _needed(floor[k], speed[k], lowest[k], contact[k], a, iso):
                     continue
                 distance = _row_distance(
-                    rotation, origin, n, k, placed_centre, placed_axis, row_capsule, row_half, row_radius,
-                    row_frame, row_shape, row_rotation, row_origin, row_dims,
-                    row_slot[k], person_centre, person_axis, person_half, person_radius, scratch, point,
-                )  # fmt: skip
+                    rotation, origin, n, k, placed_centre, placed_axis, rows, person, scratch, point
+                )
                 if math.isnan(distance):  # coal's to measure
                     left[n, k] = True
                     continue
@@ -503,58 +463,32 @@ def fold_rows(
 def nearest_rows(
     rotation: np.ndarray,
     origin: np.ndarray,
-    capsule_frame: np.ndarray,
-    capsule_centre: np.ndarray,
-    capsule_axis: np.ndarray,
-    sphere_frame: np.ndarray,
-    sphere_centre: np.ndarray,
-    sphere_radius: np.ndarray,
-    row_part: np.ndarray,
-    row_slot: np.ndarray,
-    row_capsule: np.ndarray,
-    row_half: np.ndarray,
-    row_radius: np.ndarray,
-    row_frame: np.ndarray,
-    row_shape: np.ndarray,
-    row_rotation: np.ndarray,
-    row_origin: np.ndarray,
-    row_dims: np.ndarray,
-    person_centre: np.ndarray,
-    person_axis: np.ndarray,
-    person_half: np.ndarray,
-    person_radius: np.ndarray,
+    geometry: tuple,
+    person: tuple,
     tolerance: float,
     ceiling: float,
     best: np.ndarray,
     left: np.ndarray,
 ) -> None:
-    """The least distance over every row and state (frames (N, F, ...)) into best: (distance,
-    state, row), the first state and row of equal ones; a row is measured only where its bound
+    """The least distance over every row and state (frames (N, F, ...); `geometry` and `person`
+    as `capsule_rows`') into best: (distance, state, row), the first state and row of equal
+    ones; a row is measured only where its bound
     (`_floor`) is within the least found so far and `ceiling` (what the caller found elsewhere),
     so no row left out could come closer or as close. A row this cannot measure is flagged in
     left (N, K) for coal, as `capsule_rows` flags it."""
+    robot, rows = geometry
     n_states, n_rows = left.shape
-    centre = np.empty((sphere_radius.size, 3))
-    placed_centre, placed_axis = np.empty((capsule_frame.size, 3)), np.empty((capsule_frame.size, 3))
+    centre = np.empty((robot[5].size, 3))
+    placed_centre, placed_axis = np.empty((robot[0].size, 3)), np.empty((robot[0].size, 3))
     point, scratch = np.empty(6), np.empty(15)
     best[0], best[1], best[2] = math.inf, -1.0, -1.0
     for n in range(n_states):
-        _place_parts(
-            rotation, origin, n, sphere_frame, sphere_centre, capsule_frame, capsule_centre, capsule_axis,
-            centre, placed_centre, placed_axis,
-        )  # fmt: skip
+        _place_parts(rotation, origin, n, robot, centre, placed_centre, placed_axis)
         for k in range(n_rows):
-            s = row_slot[k]
-            bound = _floor(
-                centre, row_part[k], sphere_radius, s, person_centre, person_axis, person_half, person_radius, tolerance
-            )
+            bound = _floor(centre, robot, rows, person, k, tolerance)
             if bound > min(best[0], ceiling):
                 continue
-            distance = _row_distance(
-                rotation, origin, n, k, placed_centre, placed_axis, row_capsule, row_half, row_radius,
-                row_frame, row_shape, row_rotation, row_origin, row_dims,
-                s, person_centre, person_axis, person_half, person_radius, scratch, point,
-            )  # fmt: skip
+            distance = _row_distance(rotation, origin, n, k, placed_centre, placed_axis, rows, person, scratch, point)
             if math.isnan(distance):
                 left[n, k] = True
             elif distance < best[0]:

@@ -154,12 +154,23 @@ class PersonDistances:
         return pairs
 
     @cached_property
-    def _kernel_rows(self) -> tuple[np.ndarray, ...]:
-        """`_kernel_rows` of this model's rows, made when the compiled route first asks (their
-        shape codes live with the kernels, and numba is imported only with the kernels on)."""
+    def _kernel_geometry(self) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+        """What the compiled route's kernels read of the robot (`approach_kernels.capsule_rows`'
+        `geometry`), made when it first asks (the shape codes live with the kernels, and numba is
+        imported only with the kernels on)."""
         objects = self.person_model.geometryObjects
         parts = [objects[a] for a in self._row_parts]
-        return _kernel_rows(parts, self._capsule_rows, self._robot_capsule, self._robot_half, self._robot_radius)
+        rows = _kernel_rows(parts, self._capsule_rows, self._robot_capsule, self._robot_half, self._robot_radius)
+        capsule, half, radius, *shapes = rows
+        robot = (self._capsule_frame, self._local_centre[..., 0], self._local_axis[..., 0])
+        spheres = (self._sphere_frame, self._sphere_centre[..., 0], self._sphere_radius)
+        rows = (self._part, self._slot, capsule, half, radius, self._frame, *shapes)
+        return tuple(np.ascontiguousarray(a) for a in (*robot, *spheres)), tuple(np.ascontiguousarray(a) for a in rows)
+
+    def _kernel_person(self) -> tuple[np.ndarray, ...]:
+        """The person's capsules as the kernels read them (`capsule_rows`' `person`), where she stands now."""
+        centre, axis = self._person_capsules()
+        return centre, axis, self._slot_half, self._slot_radius
 
     def folded(
         self, qs: np.ndarray, dqs: np.ndarray, contact: np.ndarray, caps: np.ndarray, iso: np.ndarray
@@ -176,16 +187,9 @@ class PersonDistances:
         rotation, origin, linear, angular = (
             np.ascontiguousarray(a) for a in (frames.rotation, frames.origin, frames.linear, frames.angular)
         )
-        centre, axis = self._person_capsules()
         agg, left = np.empty((len(qs), kernels.AGGREGATES)), np.zeros((len(qs), len(self.parts)), dtype=bool)
-        kernels.capsule_rows(
-            rotation, origin, linear, angular,
-            self._capsule_frame, self._local_centre[..., 0], self._local_axis[..., 0],
-            self._sphere_frame, self._sphere_centre[..., 0], self._sphere_radius,
-            self._part, self._slot, *self._kernel_rows[:3], self._frame, *self._kernel_rows[3:],
-            centre, axis, self._slot_half, self._slot_radius,
-            contact, caps, iso, agg, left,
-        )  # fmt: skip
+        geometry, person = self._kernel_geometry, self._kernel_person()
+        kernels.capsule_rows(rotation, origin, linear, angular, geometry, person, contact, caps, iso, agg, left)
         states, rows = map(np.ascontiguousarray, np.nonzero(left))
         if states.size:  # a mesh, or a shape touching the person: coal's
             self._place_person_copies()
@@ -205,15 +209,9 @@ class PersonDistances:
         from hriplan.safety import approach_kernels as kernels  # numba: imported with the kernels on
 
         rotation, origin = map(np.ascontiguousarray, self._kinematics.placements(qs))
-        centre, axis = self._person_capsules()
         best, left = np.empty(3), np.zeros((len(qs), len(self.parts)), dtype=bool)
-        kernels.nearest_rows(
-            rotation, origin,
-            self._capsule_frame, self._local_centre[..., 0], self._local_axis[..., 0],
-            self._sphere_frame, self._sphere_centre[..., 0], self._sphere_radius,
-            self._part, self._slot, *self._kernel_rows[:3], self._frame, *self._kernel_rows[3:],
-            centre, axis, self._slot_half, self._slot_radius, BOUND_TOLERANCE, ceiling, best, left,
-        )  # fmt: skip
+        geometry, person = self._kernel_geometry, self._kernel_person()
+        kernels.nearest_rows(rotation, origin, geometry, person, BOUND_TOLERANCE, ceiling, best, left)
         found = (float(best[0]), int(best[1]), int(best[2]))
         states, rows = np.nonzero(left)
         if states.size:
