@@ -29,7 +29,7 @@ from hriplan.robots.certifier_kernels import (
 )
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import load_robot_file
-from hriplan.robots.free_certifier import FreeCertifier, _geometry_row, _mesh_pieces, _static_row
+from hriplan.robots.free_certifier import FreeCertifier, _geometry_row, _mesh_pieces, _sphere_about, _static_row
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.model import load_robot
@@ -465,3 +465,25 @@ def test_a_checker_stops_asking_its_certifier_when_the_kernels_are_turned_off(ro
     kernel_switch.use_kernels(True)
     checker.in_collision(q)
     assert len(asked) == 1
+
+
+def test_a_group_sphere_holds_its_members_and_is_kept_by_all_their_values():
+    """`_sphere_about` (kept by its rows' bytes): the sphere holds every member's sphere (the
+    middle of its capsule, its reach); the same rows again give the same sphere, read-only; a
+    change to any member's row gives that member's new sphere held too."""
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        rows = rng.normal(0.0, 0.3, (int(rng.integers(1, 20)), REACH + 1))
+        rows[:, REACH] = rng.uniform(0.01, 0.2, len(rows))
+        for members in (rows, rows.copy()):
+            sphere = _sphere_about(members)
+            middles = (members[:, 0:3] + members[:, 3:6]) / 2.0
+            assert np.all(np.linalg.norm(middles - sphere[0:3], axis=1) + members[:, REACH] <= sphere[REACH] + 1e-12)
+        assert not sphere.flags.writeable and np.array_equal(_sphere_about(rows.copy()), sphere)
+        moved = rows.copy()
+        moved[-1, 0:6] += 2.0  # the last member far away: a sphere it fits in is another
+        grown = _sphere_about(moved)
+        assert (
+            np.linalg.norm((moved[-1, 0:3] + moved[-1, 3:6]) / 2.0 - grown[0:3]) + moved[-1, REACH]
+            <= grown[REACH] + 1e-12
+        )
