@@ -104,15 +104,22 @@ def problem(madar):
 
 
 def _same(found: PathValidation, expected: PathValidation) -> bool:
-    """Field for field, the largest margins to 1e-12: with the kernels on they come from one
-    compiled batch, whose kinematics round apart from pinocchio's by ~1e-16."""
+    """Field for field, the largest margins and the closest person's distance to 1e-12: with the
+    kernels on the margins come from one compiled batch, whose kinematics round apart from
+    pinocchio's by ~1e-16, and the closest approach from compiled distances (exact, as coal's
+    capsule pairs, rounded otherwise)."""
     worst = [(a.max_violation, b.max_violation) for a, b in zip(found.constraints, expected.constraints)]
     if any(abs(a - b) > 1e-12 for a, b in worst):
+        return False
+    distances = (found.min_human_distance, expected.min_human_distance)
+    if (distances[0] is None) != (distances[1] is None) or (
+        None not in distances and abs(distances[0] - distances[1]) > 1e-12
+    ):
         return False
     checks = [
         c.model_copy(update={"max_violation": e.max_violation}) for c, e in zip(found.constraints, expected.constraints)
     ]
-    return found.model_copy(update={"constraints": checks}) == expected
+    return found.model_copy(update={"constraints": checks, "min_human_distance": distances[1]}) == expected
 
 
 def test_validate_path_is_the_state_by_state_check(problem, rng, either_route):
