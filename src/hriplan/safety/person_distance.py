@@ -158,10 +158,12 @@ class PersonDistances:
         """What the compiled route's kernels read of the robot (`approach_kernels.capsule_rows`'
         `geometry`), made when it first asks (the shape codes live with the kernels, and numba is
         imported only with the kernels on)."""
-        objects = self.person_model.geometryObjects
-        parts = [objects[a] for a in self._row_parts]
-        rows = _kernel_rows(parts, self._capsule_rows, self._robot_capsule, self._robot_half, self._robot_radius)
-        capsule, half, radius, *shapes = rows
+        objects, n = self.person_model.geometryObjects, len(self.parts)
+        # Per row its robot capsule (-1: not a capsule), that capsule's half length and radius.
+        capsule, half, radius = np.full(n, -1, dtype=int), np.zeros(n), np.zeros(n)
+        at = self._capsule_rows
+        capsule[at], half[at], radius[at] = self._robot_capsule, self._robot_half, self._robot_radius
+        shapes = _row_shapes([objects[a] for a in self._row_parts])
         robot = (self._capsule_frame, self._local_centre[..., 0], self._local_axis[..., 0])
         spheres = (self._sphere_frame, self._sphere_centre[..., 0], self._sphere_radius)
         rows = (self._part, self._slot, capsule, half, radius, self._frame, *shapes)
@@ -323,23 +325,14 @@ def nearest_moving(
     return distance, state, int(distances.pair_index[row]) if row >= 0 else -1
 
 
-def _kernel_rows(
-    parts: list[pin.GeometryObject],
-    capsule_rows: np.ndarray,
-    robot_capsule: np.ndarray,
-    robot_half: np.ndarray,
-    robot_radius: np.ndarray,
-) -> tuple[np.ndarray, ...]:
-    """Per row (its robot part `parts[k]`) for the compiled route: its robot capsule (-1: not a
-    capsule), that capsule's half length and radius; then its shape's kind
+def _row_shapes(parts: list[pin.GeometryObject]) -> tuple[np.ndarray, ...]:
+    """Per row (its robot part `parts[k]`) for the compiled route: its shape's kind
     (`approach_kernels.CAPSULE`, BOX, CYLINDER or BY_COAL), its placement in its joint's frame
     (rotation (K, 3, 3), origin (K, 3)) and its sizes (K, 3: a box's half sides, a cylinder's
     radius and half length)."""
     from hriplan.safety.approach_kernels import BOX, BY_COAL, CAPSULE, CYLINDER
 
     k = len(parts)
-    capsule, half, radius = np.full(k, -1, dtype=int), np.zeros(k), np.zeros(k)
-    capsule[capsule_rows], half[capsule_rows], radius[capsule_rows] = robot_capsule, robot_half, robot_radius
     kind, rotation, origin, dims = (
         np.full(k, BY_COAL, dtype=int),
         np.zeros((k, 3, 3)),
@@ -355,7 +348,7 @@ def _kernel_rows(
             kind[row], dims[row] = BOX, shape.halfSide
         elif isinstance(shape, coal.Cylinder):
             kind[row], dims[row, :2] = CYLINDER, (shape.radius, shape.halfLength)
-    return capsule, half, radius, kind, rotation, origin, dims
+    return kind, rotation, origin, dims
 
 
 def _coal_model(
