@@ -169,3 +169,41 @@ def test_a_spec_that_cannot_be_posed_leaves_the_person_as_they_were(human):
         human.pose(HumanSpec(position=(0.2, 0.3), yaw=1.0, reach={"left": (-2.0, 0.0, 1.0)}))
     assert all(np.array_equal(human.frame(name).homogeneous, frames[name]) for name in Human.FRAMES)
     assert all(np.array_equal(p.homogeneous, c) for p, c in zip(human.capsule_placements(), capsules))
+
+
+# The receiver's right arm (REACH_JOINTS) as c5881fc solved it, from the second seed.
+ARM_OF_THE_RECEIVER = [
+    0.31483730672216537,
+    -0.44047096464396046,
+    0.18154209994452022,
+    0.8525587439392281,
+    0.006706736635695427,
+]
+
+
+def test_a_seed_that_stops_closing_in_is_left_early(human, monkeypatch):
+    """The example receiver's reach (handover_full_can_receiver.yaml): from the hanging arm the
+    damped steps swing between two distances ~0.3 and ~0.5 m off. That seed is left once it has
+    not closed in for `_STALLED_AFTER` steps, not at step 40, and the next seed reaches: fewer
+    steps, the same arm as the earlier code solved."""
+    import pinocchio as pin
+
+    monkeypatch.setattr(human_module, "_CONFIGURATIONS", Recent(4))
+    steps, jacobian = [], pin.computeJointJacobian
+    monkeypatch.setattr(pin, "computeJointJacobian", lambda *args: steps.append(1) or jacobian(*args))
+    spec = HumanSpec(position=(0.1, 1.45), yaw=-1.5708, reach={"right": (0.15, 1.05, 1.05)})
+    human.pose(spec)
+    assert np.linalg.norm(human.frame("right_hand").translation - spec.reach_point("right")) < 1e-4
+    solved = [human.q[human._iq(f"right_{joint}")] for joint in REACH_JOINTS]
+    assert np.allclose(solved, ARM_OF_THE_RECEIVER, rtol=0.0, atol=1e-14)
+    assert len(steps) <= 30  # 44 when the swinging seed was left at step 40
+
+
+def test_a_seed_closing_in_slowly_near_the_target_is_not_left(human, monkeypatch):
+    """An arm stretched up and out creeps towards the target by less than 1 % a step once it
+    is within a few centimetres: that is not a stall, and leaving it there would refuse a reach
+    the person can make (it ends 0.8 mm away, within the 1 cm a reach may miss by)."""
+    monkeypatch.setattr(human_module, "_CONFIGURATIONS", Recent(4))
+    spec = HumanSpec(position=(0.906, -0.713), yaw=1.774, reach={"right": (1.323, -0.588, 1.372)})
+    human.pose(spec)
+    assert np.linalg.norm(human.frame("right_hand").translation - spec.reach_point("right")) < 1e-3

@@ -217,6 +217,10 @@ def _fitted(height: float | None) -> dict:
 # A seed still this far from the target (m) after this many steps is not converging (it swings
 # against the joint limits): the next seed is tried.
 _GIVE_UP_AFTER, _GIVE_UP_ERROR = 40, 0.05
+# Nor is one still that far whose distance has not fallen below 99 % of its best for this many
+# steps: a hanging arm reaching forward swings between two distances, and waiting for step 40
+# made two thirds of a moved receiver's posing (44 of 50 kinematics passes).
+_STALLED_AFTER, _PROGRESS = 10, 0.99
 # Solved configurations per spec, oldest forgotten first.
 _CONFIGURATIONS: Recent[str, np.ndarray] = Recent(256)
 
@@ -288,7 +292,8 @@ class Human:
 
     def _reach(self, q: np.ndarray, side: Side, target: np.ndarray) -> np.ndarray:
         """Damped least squares on the shoulder and elbow so the palm centre reaches `target`: the
-        first of a few seed postures that reaches it, else the closest. What does not change
+        first of a few seed postures that reaches it, else the closest; a seed that stops closing in
+        is left early (`_STALLED_AFTER`). What does not change
         between steps (indices, limits, the palm's offset as an action, the damping) is made once
         and each step's norm once: Python, not pinocchio (~4 of ~70 us), made a step's cost, and a
         re-plan poses its moved person anew. The arithmetic is the earlier loop's, to the bit."""
@@ -303,11 +308,15 @@ class Human:
         for seed in (np.zeros(5), np.array([0.8, 0.0, 0.0, 0.8, 0.0]), np.array([1.4, 0.3, 0.0, 0.3, 0.0])):
             qs = q.copy()
             qs[idx] = np.clip(seed, lower, upper)
+            closest, stalled = math.inf, 0
             for iteration in range(200):
                 pin.forwardKinematics(self.model, self.data, qs)
                 err = target - (self.data.oMi[joint] * offset).translation
                 distance = math.sqrt(err @ err)  # np.linalg.norm's arithmetic, without its checks
-                if distance < 1e-4 or (iteration >= _GIVE_UP_AFTER and distance > _GIVE_UP_ERROR):
+                if distance < 1e-4:
+                    break
+                closest, stalled = (distance, 0) if distance < _PROGRESS * closest else (closest, stalled + 1)
+                if distance > _GIVE_UP_ERROR and (iteration >= _GIVE_UP_AFTER or stalled >= _STALLED_AFTER):
                     break
                 local = to_palm @ pin.computeJointJacobian(self.model, self.data, qs, joint)
                 lin = (self.data.oMi[joint].rotation @ local[:3])[:, vidx]
