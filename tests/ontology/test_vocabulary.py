@@ -80,3 +80,29 @@ def test_the_units_query_lists_them():
     assert units["hasApproachSpeed"] == "M-PER-SEC" and units["hasToleranceGradient"] == "RAD-PER-M"
     assert units["hasMovingMass"] == "KiloGM" and units["hasSpringConstant"] == "N-PER-M"
     assert len(units) == 29 and DIMENSIONLESS.isdisjoint(units)
+
+
+def test_an_ontology_file_is_hashed_again_only_when_it_changed(tmp_path, monkeypatch):
+    """The digest (which keys the reasoning cache) is the hash of the file and the robots'
+    Turtle, kept while the file's identity is the same: unchanged, the file is not read again;
+    rewritten with other text of the same length (a later modification time), it is hashed anew."""
+    import hashlib
+    import os
+
+    from hriplan.ontology.robot_individuals import robot_turtle
+    from hriplan.ontology.vocabulary import ontology_source
+
+    path = tmp_path / "hriplan.ttl"
+    path.write_text(TTL.read_text())
+    first = ontology_source(path).digest
+    assert first == hashlib.sha256(path.read_bytes() + b"\0" + robot_turtle().encode()).hexdigest()
+    with monkeypatch.context() as patched:
+        patched.setattr(Path, "read_bytes", lambda self: (_ for _ in ()).throw(AssertionError("read again")))
+        assert ontology_source(path).digest == first
+    stat = path.stat()
+    text = path.read_text()
+    path.write_text(text.replace("hriplan", "HRIPLAN", 1))  # the same length
+    os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000))
+    again = ontology_source(path).digest
+    assert again != first
+    assert again == hashlib.sha256(path.read_bytes() + b"\0" + robot_turtle().encode()).hexdigest()

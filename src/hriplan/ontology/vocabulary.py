@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 from hriplan import HriplanError
 from hriplan.ontology.robot_individuals import robot_turtle
+from hriplan.recent import Recent
 
 if TYPE_CHECKING:
     import rdflib
@@ -63,14 +64,29 @@ class OntologySource:
 
 def ontology_source(path: str | Path | None = None) -> OntologySource:
     """The ontology at `path` (default: the packaged one) with the described robots, identified by
-    the hash of both."""
+    the hash of both. The hash is kept by the file's identity (device, inode, size, modification
+    and change times in ns) and the robots' Turtle: every knowledge base and safety policy of a
+    re-plan asks (~60 us to read and hash, ~5 us to stat); an edited file is hashed anew."""
     path = Path(path) if path is not None else ONTOLOGY_PATH
     try:
-        data = path.read_bytes()
+        stat = path.stat()
     except OSError as exc:
         raise HriplanError(f"cannot read ontology {path}: {exc.strerror or exc}") from None
     robots = robot_turtle()
-    return OntologySource(path, robots, hashlib.sha256(data + b"\0" + robots.encode()).hexdigest())
+    key = (str(path), stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns, stat.st_ctime_ns, robots)
+    digest = _DIGESTS.get(key)
+    if digest is None:
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise HriplanError(f"cannot read ontology {path}: {exc.strerror or exc}") from None
+        digest = hashlib.sha256(data + b"\0" + robots.encode()).hexdigest()
+        _DIGESTS.put(key, digest)
+    return OntologySource(path, robots, digest)
+
+
+# Ontology digests by file identity and robots (`ontology_source`).
+_DIGESTS: Recent[tuple, str] = Recent(16)
 
 
 @functools.lru_cache(maxsize=8)
