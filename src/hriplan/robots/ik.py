@@ -23,6 +23,7 @@ import ur_analytic_ik
 from pydantic import BaseModel
 
 from hriplan import HriplanError
+from hriplan.recent import Recent
 from hriplan.robots import numeric_ik_search
 from hriplan.robots.collision import ZONE_NAMING
 from hriplan.robots.descriptions.description import IK_KINDS, NUMERIC_IK, UR_MODELS
@@ -32,6 +33,7 @@ AXES = {"x": 0, "y": 1, "z": 2}
 ORTHONORMAL_TOLERANCE = 1e-6
 LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 LAST_ROW_TOLERANCE = 1e-8 + 1e-5 * LAST_ROW  # np.allclose's atol + rtol * |expected|
+_EYE3 = np.eye(3)
 POLISH_ITERATIONS = 10
 POLISH_DAMPING = 1e-6
 TWO_PI = 2.0 * math.pi
@@ -119,7 +121,7 @@ def fit_analytic(kind: str, relative_tool: Callable[[np.ndarray], np.ndarray], n
 
 def _vector(values: np.ndarray, size: int, what: str) -> np.ndarray:
     vec = np.asarray(values, dtype=float).ravel()
-    if vec.shape != (size,) or not np.all(np.isfinite(vec)):
+    if vec.shape != (size,) or not np.isfinite(vec).all():
         raise HriplanError(f"{what} must be {size} finite numbers, got {np.asarray(values).tolist()}")
     return vec
 
@@ -128,14 +130,21 @@ def _check_target(target: np.ndarray) -> np.ndarray:
     t = np.asarray(target, dtype=float)
     if t.shape != (4, 4):
         raise HriplanError(f"IK target must be a 4x4 homogeneous pose, got shape {t.shape}")
-    if not np.all(np.isfinite(t)):
+    if not np.isfinite(t).all():
         raise HriplanError("IK target contains NaN or infinite values")
     rot = t[:3, :3]
     if not (np.abs(t[3] - LAST_ROW) <= LAST_ROW_TOLERANCE).all():  # np.allclose's test, without its overhead
         raise HriplanError(f"IK target's last row must be [0, 0, 0, 1], got {t[3].tolist()}")
-    if np.abs(rot.T @ rot - np.eye(3)).max() > ORTHONORMAL_TOLERANCE or np.linalg.det(rot) < 0:
+    if np.abs(rot.T @ rot - _EYE3).max() > ORTHONORMAL_TOLERANCE or _determinant(rot.tolist()) < 0:
         raise HriplanError("IK target's rotation part is not a proper orthonormal rotation matrix")
     return t
+
+
+def _determinant(m: list[list[float]]) -> float:
+    """A 3x3 determinant in floats: only its sign is read, of a matrix orthonormal to 1e-6 (so
+    +-1 within 1e-5), where np.linalg.det's checks and LAPACK call cost ~10 us an IK solve."""
+    (a, b, c), (d, e, f), (g, h, i) = m
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
 
 
 def _free_axis(free_axes: Sequence[str]) -> int | None:
@@ -162,12 +171,27 @@ def _spins(axis: int, samples: int) -> tuple[np.ndarray, ...]:
     return tuple(_spin(axis, angle) for angle in np.arange(samples) * TWO_PI / samples)
 
 
+# Inverted frames by their values (`_inverse`).
+_INVERSES: Recent[bytes, np.ndarray] = Recent(16)
+
+
+def _inverse(frame: np.ndarray) -> np.ndarray:
+    """np.linalg.inv of a 4x4 frame, kept by its values: an arm's solver base and flange stand
+    where they stood (~10 us each an IK solve, ~12 solves a re-plan)."""
+    key = frame.tobytes()
+    inverse = _INVERSES.get(key)
+    if inverse is None:
+        inverse = np.linalg.inv(frame)
+        _INVERSES.put(key, inverse)
+    return inverse
+
+
 def _branches(arm: _Arm, target: np.ndarray, axis: int | None, samples: int) -> tuple[np.ndarray, np.ndarray]:
     """Every analytic solution (rows, angles in (-pi, pi]) and the exact tool pose each reaches;
     with a free axis, the target spun about it at `samples` evenly spaced angles."""
     if samples < 1:
         raise HriplanError(f"samples_per_free_axis must be at least 1, got {samples}")
-    to_solver, from_tool = np.linalg.inv(arm.base @ arm.solver_base), np.linalg.inv(arm.flange_to_tool)
+    to_solver, from_tool = _inverse(arm.base @ arm.solver_base), _inverse(arm.flange_to_tool)
     solutions, poses = [], []
     for pose in [target] if axis is None else [target @ spin for spin in _spins(axis, samples)]:
         flange = to_solver @ pose @ from_tool
@@ -185,17 +209,22 @@ def _fit_limits(
     Returns the shifted solutions and a mask of those whose every joint fits."""
     k_min = np.ceil((lower - solutions) / TWO_PI)
     k_max = np.floor((upper - solutions) / TWO_PI)
-    k = np.clip(np.round((reference - solutions) / TWO_PI), k_min, k_max)
+    k = np.minimum(np.maximum(np.rint((reference - solutions) / TWO_PI), k_min), k_max)  # np.clip's, np.round's
     return solutions + TWO_PI * k, np.all(k_min <= k_max, axis=1)
 
 
 def _errors(pose: np.ndarray, target: np.ndarray, axis: int | None) -> tuple[float, float]:
     """Position error (m) and orientation error (rad); with a free axis only its direction counts."""
-    position = float(np.linalg.norm(target[:3, 3] - pose[:3, 3]))
+    position = _norm(target[:3, 3] - pose[:3, 3])
     if axis is None:
-        return position, float(np.linalg.norm(pin.log3(target[:3, :3].T @ pose[:3, :3])))
+        return position, _norm(pin.log3(target[:3, :3].T @ pose[:3, :3]))
     a, b = target[:3, axis], pose[:3, axis]
     return position, float(math.atan2(np.linalg.norm(np.cross(a, b)), float(a @ b)))
+
+
+def _norm(v: np.ndarray) -> float:
+    """np.linalg.norm of a vector, its arithmetic (sqrt of the dot) without its checks."""
+    return math.sqrt(v.dot(v))
 
 
 def _polish(
@@ -290,7 +319,7 @@ def solve_ik(
     if not tolerance > 0:
         raise HriplanError(f"IK tolerance must be positive, got {tolerance}")
     info = _Arm(robot, arm, base_q)
-    distance = np.linalg.norm(target[:3, 3] - info.shoulder)
+    distance = _norm(target[:3, 3] - info.shoulder)
     if info.kind == NUMERIC_IK:
         length = numeric_ik_search.reach(robot, info, arm)
         if length is not None and distance > length + tolerance:
@@ -317,7 +346,7 @@ def solve_ik(
         n_tried += 1
         q, reached = _polish(robot, info, robot.configuration(values, info.group, base=info.base_q), pose, tolerance)
         polished = robot.group_values(q, info.group)
-        inside = np.all(polished >= lower) and np.all(polished <= upper)
+        inside = (polished >= lower).all() and (polished <= upper).all()
         if not inside or reached is None:
             continue
         n_accurate += 1
