@@ -46,6 +46,26 @@ def test_shapes_follow_the_input():
     assert spline(np.zeros((3, 4)), 1).shape == (3, 4, 6)
 
 
+def test_values_asked_again_are_the_same_and_the_callers_own():
+    """The values at the positions last asked about are kept, by order: asked again (as TOPP-RA's
+    constraints ask), each order's values are the same bits, in an array the caller may change
+    without changing the next answer; other positions, or the same numbers in another shape,
+    are evaluated anew."""
+    s, knots = _path(40, seed=3)
+    spline, fresh = NaturalSpline(s, knots), NaturalSpline(s, knots)
+    at, other = np.linspace(s[0], s[-1], 101), np.linspace(s[0], s[-1], 77)
+    first = {order: spline(at, order) for order in (1, 2, 0)}
+    for order, values in first.items():
+        again = spline(at, order)
+        assert np.array_equal(again, values) and again is not values
+        again[:] = 7.0
+        assert np.array_equal(spline(at, order), fresh(at, order))
+    assert np.array_equal(spline(other, 1), fresh(other, 1))
+    assert np.array_equal(spline(at, 1), fresh(at, 1))
+    square = at[:100].reshape(10, 10)
+    assert spline(at[:100], 1).shape == (100, 6) and spline(square, 1).shape == (10, 10, 6)
+
+
 @pytest.mark.parametrize(
     ("s", "knots", "message"),
     [

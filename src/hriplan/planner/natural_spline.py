@@ -38,6 +38,8 @@ class NaturalSpline:
                 np.diff(second, axis=0) / (6.0 * h[:, None]),
             ]
         )
+        self._at: bytes | None = None  # the path positions last asked about, and their values by order
+        self._values: dict[int, np.ndarray] = {}
 
     @property
     def dof(self) -> int:
@@ -49,10 +51,22 @@ class NaturalSpline:
 
     def __call__(self, at: float | np.ndarray, order: int = 0) -> np.ndarray:
         """Positions (order 0) or their derivatives (1, 2) at path positions `at`: (dof,) for a
-        number, (len(at), dof) for an array."""
+        number, (len(at), dof) for an array. The values at the positions last asked about are
+        kept (a copy is returned): TOPP-RA's constraints each ask for the first derivative at the
+        same gridpoints, its trajectory for the path at the same samples again (8 of a re-plan's
+        34 evaluations)."""
         if order not in (0, 1, 2):
             raise ValueError(f"a cubic path has derivatives of order 0, 1 and 2, not {order}")
         points = np.asarray(at, dtype=float)
+        key = points.tobytes() + bytes(str(points.shape), "ascii")
+        if key != self._at:
+            self._at, self._values = key, {}
+        kept = self._values.get(order)
+        if kept is None:
+            kept = self._values[order] = self._evaluated(points, order)
+        return kept.copy()
+
+    def _evaluated(self, points: np.ndarray, order: int) -> np.ndarray:
         flat = points.reshape(-1)
         interval = np.clip(np.searchsorted(self.s, flat, side="right") - 1, 0, len(self.s) - 2)
         t = (flat - self.s[interval])[:, None]
