@@ -483,9 +483,13 @@ def test_the_batched_monitor_follows_every_person_and_their_moves(either_route):
     )
     q0, xs, dxs = _right_arm_sweep(session)
     monitor = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
-    monitor.speed_scale(xs, dxs)
-    for x, dx in zip(xs, dxs):
-        _assert_same(monitor, _reference(session, policy, "right_arm", q0, x, dx), x, dx)
+    scales = monitor.speed_scale(xs, dxs)
+    references = [_reference(session, policy, "right_arm", q0, x, dx) for x, dx in zip(xs, dxs)]
+    # The least scale over both people, and each of them sets it somewhere along the sweep.
+    np.testing.assert_allclose(scales, [min(r[4] for r in ref) for ref in references], rtol=1e-9)
+    assert {int(np.argmin([r[4] for r in ref])) for ref in references} == {0, 1}
+    for x, dx, reference in zip(xs, dxs, references):
+        _assert_same(monitor, reference, x, dx)
     # A new scene (the checker rebuilds the person models) is measured afresh by a new monitor's batch.
     session.set_scene(Scene(humans=[people[0].model_copy(update={"position": (1.6, 0.4)}), people[1]]))
     moved = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
