@@ -139,9 +139,9 @@ class ApproachMonitor:
         cached = self._distances.get(person.name)
         if cached is None or cached[0].person_model is not model:
             distances = PersonDistances.of(self.robot.model, model, self._moved)
-            regions = {c: person.contact_region(c) is not None for c in set(distances.capsules)}
-            contact = np.array([regions[c] for c in distances.capsules], dtype=bool)
-            cached = distances, _Rows(contact, contact_caps(self.policy.robot, person, distances.capsules))
+            names = distances.slot_names
+            contact = distances.by_row(np.array([person.contact_region(c) is not None for c in names], dtype=bool))
+            cached = distances, _Rows(contact, distances.by_row(contact_caps(self.policy.robot, person, names)))
             self._distances[person.name] = cached
         return cached
 
