@@ -456,12 +456,11 @@ def test_a_pair_that_could_bind_is_measured_though_it_is_neither_closest_nor_slo
     assert select.needed(pairs, floors, np.array([[3.0, 1.0]])).tolist() == [[True, False]]
     # The compiled route asks the same of B, given what A measured (approach_kernels.py).
     kernels = pytest.importorskip("hriplan.safety.approach_kernels")
-    measured = np.full(kernels.AGGREGATES, np.inf)
-    measured[[kernels.NEAREST, kernels.BODY, kernels.MARGIN, kernels.SCALE]] = a, a, 1.0 - 3.0, 1.0 / 3.0
+    measured = (a, a, 1.0 - 3.0, 1.0 / 3.0)  # nearest, body, margin and scale so far
     iso = np.array([*kept_speed_terms(policy, person), BOUND_TOLERANCE, CLOSING, 1e-6, ROUNDING])
     assert kernels._kept(floor, 0.0, iso) == pytest.approx(lowest, rel=1e-12)
-    assert kernels._needed(floor, speed, lowest, False, measured, iso)
-    assert not kernels._needed(floor, 1.0, lowest, False, measured, iso)
+    assert kernels._needed(floor, speed, lowest, False, *measured, CLOSING)
+    assert not kernels._needed(floor, 1.0, lowest, False, *measured, CLOSING)
 
 
 def _right_arm_sweep(session: PlanningSession) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -483,9 +482,13 @@ def test_the_batched_monitor_follows_every_person_and_their_moves(either_route):
     )
     q0, xs, dxs = _right_arm_sweep(session)
     monitor = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
-    monitor.speed_scale(xs, dxs)
-    for x, dx in zip(xs, dxs):
-        _assert_same(monitor, _reference(session, policy, "right_arm", q0, x, dx), x, dx)
+    scales = monitor.speed_scale(xs, dxs)
+    references = [_reference(session, policy, "right_arm", q0, x, dx) for x, dx in zip(xs, dxs)]
+    # The least scale over both people, and each of them sets it somewhere along the sweep.
+    np.testing.assert_allclose(scales, [min(r[4] for r in ref) for ref in references], rtol=1e-9)
+    assert {int(np.argmin([r[4] for r in ref])) for ref in references} == {0, 1}
+    for x, dx, reference in zip(xs, dxs, references):
+        _assert_same(monitor, reference, x, dx)
     # A new scene (the checker rebuilds the person models) is measured afresh by a new monitor's batch.
     session.set_scene(Scene(humans=[people[0].model_copy(update={"position": (1.6, 0.4)}), people[1]]))
     moved = ApproachMonitor(session.robot, session.checker, policy, "right_arm", q0)
@@ -616,6 +619,24 @@ def test_every_pairs_bounds_hold_at_random_states(handover):
             checked += 1
     assert checked == len(qs) * len(distances.parts)
     assert (bounds["floor"] > 0.0).mean() > 0.5  # not trivially low
+    # The compiled route prunes with the same distance bounds, to rounding (approach_kernels._floor).
+    kernels = pytest.importorskip("hriplan.safety.approach_kernels")
+    (robot_arrays, row_arrays), placed = distances._kernel_geometry, distances._kernel_person()
+    frames = distances._kinematics(qs, dqs)
+    rotation, origin = np.ascontiguousarray(frames.rotation), np.ascontiguousarray(frames.origin)
+    centre, centre_sq, capsules = (
+        np.empty((robot_arrays[5].size, 3)),
+        np.empty(robot_arrays[5].size),
+        robot_arrays[0].size,
+    )
+    terms = kernels._person_terms(placed)
+    for n in range(len(qs)):
+        kernels._place_parts(rotation, origin, n, robot_arrays, centre, centre_sq, *np.empty((2, capsules, 3)))
+        compiled = [
+            kernels._floor(centre, centre_sq, terms, robot_arrays, row_arrays, placed, k, BOUND_TOLERANCE)
+            for k in range(len(distances.parts))
+        ]
+        np.testing.assert_allclose(compiled, bounds["floor"][n], rtol=0.0, atol=1e-9)
 
 
 def test_a_person_no_moved_part_faces_gets_an_empty_batch():

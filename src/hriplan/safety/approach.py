@@ -70,8 +70,9 @@ class _Rows:
 class ApproachMonitor:
     """A robot group's approach to the people of a policy, at configurations of that group.
 
-    Serves one scene: samples are memoised by state (the report re-reads the timing's final
-    check), while the pair geometry is rebuilt whenever the checker rebuilds a person's model."""
+    Serves one scene: each state's numbers are memoised (the report re-reads the timing's final
+    check), its samples made only when asked, while the pair geometry is rebuilt whenever the
+    checker rebuilds a person's model."""
 
     def __init__(
         self, robot: Robot, checker: CollisionChecker, policy: SeparationPolicy, group: str, base: np.ndarray
@@ -86,7 +87,7 @@ class ApproachMonitor:
         self._iq = robot.group_indices(group)
         self._iv = np.array([model.joints[model.getJointId(j)].idx_v for j in robot.group_joints(group)])
         self._moved = robot.moved_joints(group)
-        self._memo: dict[bytes, list[PersonSample]] = {}
+        self._memo: dict[bytes, tuple[_Batch, int]] = {}
         self._distances: dict[str, tuple[PersonDistances, _Rows]] = {}
 
     def full(self, x: np.ndarray) -> np.ndarray:
@@ -100,17 +101,20 @@ class ApproachMonitor:
 
     def samples_along(self, xs: np.ndarray, dxs: np.ndarray) -> list[list[PersonSample]]:
         """`samples` at every row of `xs` (k x group) moving with `dxs`, in one batch."""
-        return self._rows(np.asarray(xs, dtype=float), np.asarray(dxs, dtype=float))
+        found = self._rows(np.asarray(xs, dtype=float), np.asarray(dxs, dtype=float))
+        return [batch.samples()[n] for batch, n in found]
 
     def speed_scale(self, xs: np.ndarray, dxs: np.ndarray) -> np.ndarray:
         """Per row: the largest factor on `dxs` that keeps every person's limit (inf: unbounded)."""
-        rows = self._rows(np.asarray(xs, dtype=float), np.asarray(dxs, dtype=float))
-        return np.array([min((s.scale for s in row), default=np.inf) for row in rows])
+        found = self._rows(np.asarray(xs, dtype=float), np.asarray(dxs, dtype=float))
+        return np.array([batch.scale[n] for batch, n in found], dtype=float)
 
-    def _rows(self, xs: np.ndarray, dxs: np.ndarray) -> list[list[PersonSample]]:
-        """`samples` of every row, the ones not memoised computed in one batch; a moved part inside
-        S_0 raises at the first such row (first person there), as row-by-row evaluation would."""
-        keys = [row.tobytes() for row in np.concatenate([xs, dxs], axis=1)]
+    def _rows(self, xs: np.ndarray, dxs: np.ndarray) -> list[tuple[_Batch, int]]:
+        """Every row's batch and its state there, the ones not memoised computed in one batch; a
+        moved part inside S_0 raises at the first such row (first person there), as row-by-row
+        evaluation would. A row's key is its bytes (one view of the batch, not a copy a row)."""
+        rows = np.concatenate([xs, dxs], axis=1)
+        keys = rows.view(np.dtype((np.void, rows.shape[1] * rows.itemsize))).ravel().tolist()
         first: dict[bytes, int] = {}
         for i, key in enumerate(keys):
             first.setdefault(key, i)
@@ -124,7 +128,8 @@ class ApproachMonitor:
             stops = [stop for _, stop in per_person if stop is not None]
             if stops:
                 raise HriplanError(min(stops, key=lambda stop: stop[0])[1])
-            self._memo.update({keys[i]: [samples[n] for samples, _ in per_person] for n, i in enumerate(new)})
+            batch = _Batch(self.policy, [found for found, _ in per_person if found is not None], len(new))
+            self._memo.update({keys[i]: (batch, n) for n, i in enumerate(new)})
         return [self._memo[k] for k in keys]
 
     def _pairs(self, person: PersonSeparation) -> tuple[PersonDistances, _Rows]:
@@ -134,9 +139,9 @@ class ApproachMonitor:
         cached = self._distances.get(person.name)
         if cached is None or cached[0].person_model is not model:
             distances = PersonDistances.of(self.robot.model, model, self._moved)
-            regions = {c: person.contact_region(c) is not None for c in set(distances.capsules)}
-            contact = np.array([regions[c] for c in distances.capsules], dtype=bool)
-            cached = distances, _Rows(contact, contact_caps(self.policy.robot, person, distances.capsules))
+            names = distances.slot_names
+            contact = distances.by_row(np.array([person.contact_region(c) is not None for c in names], dtype=bool))
+            cached = distances, _Rows(contact, distances.by_row(contact_caps(self.policy.robot, person, names)))
             self._distances[person.name] = cached
         return cached
 
@@ -186,29 +191,22 @@ class ApproachMonitor:
 
     def _person(
         self, person: PersonSeparation, qs: np.ndarray, dqs: np.ndarray
-    ) -> tuple[list[PersonSample], tuple[int, str] | None]:
-        """One person's sample at each state, or the first state with a moved part inside S_0 and why."""
+    ) -> tuple[_Found | None, tuple[int, str] | None]:
+        """One person's numbers at each state, or the first state with a moved part inside S_0 and why."""
         distances, kind = self._pairs(person)
         if not distances.parts:
-            return [PersonSample(np.inf, np.inf, np.inf, np.inf, 0.0, np.inf, "", "") for _ in qs], None
+            return _Found(person, distances, kind, None), None
         columns = (self._compiled if kernels_on() else self._measured)(person, distances, kind, qs, dqs)
         if columns.stop is not None:
             n, k, distance = columns.stop
-            return [], (
+            return None, (
                 n,
                 f"{distances.parts[k]} passes {distance:.3f} m from {person.name}/{distances.capsules[k]}, inside the "
                 f"minimum protective separation {minimum_separation(self.policy.robot, person):.3f} m of ISO/TS 15066 "
                 f"and the padding {self.policy.margin.padding:g} m ({kept_separation(self.policy, person):.3f} m; the "
                 f"robot would have to stand still there)",
             )
-        binding = columns.binding
-        iso = capped_speeds(self.policy.robot, person, columns.distance, kind.caps[binding])
-        numbers = (columns.nearest, columns.body, columns.allowed, iso, columns.approach, columns.scale, binding)
-        samples = [
-            PersonSample(d, b, a, i, r, s, distances.parts[k], distances.capsules[k])
-            for d, b, a, i, r, s, k in zip(*(np.asarray(column).tolist() for column in numbers))
-        ]
-        return samples, None
+        return _Found(person, distances, kind, columns), None
 
     def _measured(
         self, person: PersonSeparation, distances: PersonDistances, kind: _Rows, qs: np.ndarray, dqs: np.ndarray
@@ -277,6 +275,53 @@ class _Columns:
     distance: np.ndarray
     scale: np.ndarray
     stop: tuple[int, int, float] | None
+
+
+@dataclass(frozen=True)
+class _Found:
+    """One person's numbers at a batch's states (None: no moved part meets them) and what a
+    sample reads besides: the pair geometry's names and caps."""
+
+    person: PersonSeparation
+    distances: PersonDistances
+    kind: _Rows
+    columns: _Columns | None
+
+
+class _Batch:
+    """One batch's states: per state the least scale over the people, and the samples, made
+    when first asked (`samples`, the report): `speed_scale` reads the scales alone, and making a
+    PersonSample per state and person was a fifth of its time."""
+
+    def __init__(self, policy: SeparationPolicy, people: list[_Found], count: int) -> None:
+        self.policy, self.people, self.count = policy, people, count
+        least = np.full(count, np.inf)
+        for n, found in enumerate(people):  # min over the people in order: the first of equal ones
+            scale = np.full(count, np.inf) if found.columns is None else found.columns.scale
+            least = scale if n == 0 else np.where(scale < least, scale, least)
+        self.scale: list[float] = least.tolist()
+        self._samples: list[list[PersonSample]] | None = None
+
+    def samples(self) -> list[list[PersonSample]]:
+        """Per state, per person (policy order): the person's sample, made once."""
+        if self._samples is None:
+            per_person = [self._person_samples(found) for found in self.people]
+            self._samples = [[samples[n] for samples in per_person] for n in range(self.count)]
+        return self._samples
+
+    def _person_samples(self, found: _Found) -> list[PersonSample]:
+        """One person's sample at every state of the batch."""
+        columns = found.columns
+        if columns is None:
+            return [PersonSample(np.inf, np.inf, np.inf, np.inf, 0.0, np.inf, "", "") for _ in range(self.count)]
+        binding = columns.binding
+        iso = capped_speeds(self.policy.robot, found.person, columns.distance, found.kind.caps[binding])
+        numbers = (columns.nearest, columns.body, columns.allowed, iso, columns.approach, columns.scale, binding)
+        parts, capsules = found.distances.parts, found.distances.capsules
+        return [
+            PersonSample(d, b, a, i, r, s, parts[k], capsules[k])
+            for d, b, a, i, r, s, k in zip(*(np.asarray(column).tolist() for column in numbers))
+        ]
 
 
 class _Speeds:

@@ -267,28 +267,63 @@ def _speeds(
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _needed(floor: float, speed: float, lowest: float, contact: bool, agg: np.ndarray, iso: np.ndarray) -> bool:
-    """`approach.ApproachMonitor._deciding`'s `needed` for one row against a state's aggregates."""
-    if floor <= agg[NEAREST] or (not contact and floor <= agg[BODY]) or lowest - speed <= agg[MARGIN]:
+def _needed(
+    floor: float,
+    speed: float,
+    lowest: float,
+    contact: bool,
+    nearest: float,
+    body: float,
+    margin: float,
+    scale: float,
+    closing: float,
+) -> bool:
+    """`approach.ApproachMonitor._deciding`'s `needed` for one row against a state's aggregates
+    so far (NEAREST, BODY, MARGIN, SCALE: the caller holds them in locals, read again after a
+    fold; read from agg at every row they were a third of the kernel's time)."""
+    if floor <= nearest or (not contact and floor <= body) or lowest - speed <= margin:
         return True
-    return speed > iso[CLOSING] and (lowest <= 0.0 or lowest <= agg[SCALE] * speed)
+    return speed > closing and (lowest <= 0.0 or lowest <= scale * speed)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _floor(centre: np.ndarray, robot: tuple, rows: tuple, person: tuple, k: int, tolerance: float) -> float:
-    """A lower bound on row k's distance: its part's sphere (placed in centre) against the
-    person's capsule's axis (`PersonDistances._bounds`), less `tolerance`."""
+def _floor(
+    centre: np.ndarray,
+    centre_sq: np.ndarray,
+    terms: np.ndarray,
+    robot: tuple,
+    rows: tuple,
+    person: tuple,
+    k: int,
+    tolerance: float,
+) -> float:
+    """A lower bound on row k's distance: its part's sphere (placed in centre, |c|^2 in
+    centre_sq) against the person's capsule's axis (|p|^2 and p.a in `terms`: `_person_terms`)
+    (`PersonDistances._bounds`), less `tolerance`."""
     p, s = rows[0][k], rows[1][k]
     person_centre, person_axis, person_half, person_radius = person
     c0, c1, c2 = centre[p, 0], centre[p, 1], centre[p, 2]
     p0, p1, p2 = person_centre[s, 0], person_centre[s, 1], person_centre[s, 2]
     x0, x1, x2 = person_axis[s, 0], person_axis[s, 1], person_axis[s, 2]
     # part_spheres.axis_gaps' products: |c|^2 + |p|^2 - (2 c.p + t (2 along - t)), along = c.a - p.a
-    along = _dot(c0, c1, c2, x0, x1, x2) - _dot(p0, p1, p2, x0, x1, x2)
+    along = _dot(c0, c1, c2, x0, x1, x2) - terms[s, 1]
     t = _clip(along, -person_half[s], person_half[s])
-    squared = _dot(c0, c1, c2, c0, c1, c2) + _dot(p0, p1, p2, p0, p1, p2)
+    squared = centre_sq[p] + terms[s, 0]
     squared -= 2.0 * _dot(c0, c1, c2, p0, p1, p2) + t * (2.0 * along - t)
     return math.sqrt(max(squared, 0.0)) - robot[5][p] - person_radius[s] - tolerance
+
+
+@njit(cache=True, nogil=True)
+def _person_terms(person: tuple) -> np.ndarray:
+    """Per capsule of the person, what `_floor` reads of it at every state and row, found once a
+    call: |p|^2 and p.a (S, 2), a capsule's centre p and axis a."""
+    person_centre, person_axis = person[0], person[1]
+    terms = np.empty((person_centre.shape[0], 2))
+    for s in range(person_centre.shape[0]):
+        p0, p1, p2 = person_centre[s, 0], person_centre[s, 1], person_centre[s, 2]
+        terms[s, 0] = _dot(p0, p1, p2, p0, p1, p2)
+        terms[s, 1] = _dot(p0, p1, p2, person_axis[s, 0], person_axis[s, 1], person_axis[s, 2])
+    return terms
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -298,14 +333,16 @@ def _place_parts(
     n: int,
     robot: tuple,
     centre: np.ndarray,
+    centre_sq: np.ndarray,
     placed_centre: np.ndarray,
     placed_axis: np.ndarray,
 ) -> None:
-    """At state n: every part's sphere centre into centre (P, 3), every robot capsule's centre
-    and axis into placed_centre, placed_axis (C, 3)."""
+    """At state n: every part's sphere centre into centre (P, 3) and its squared length into
+    centre_sq (P,), every robot capsule's centre and axis into placed_centre, placed_axis (C, 3)."""
     capsule_frame, capsule_centre, capsule_axis, sphere_frame, sphere_centre, _ = robot
     for p in range(sphere_frame.size):
         _placed(rotation, origin, n, sphere_frame[p], sphere_centre[p], centre[p])
+        centre_sq[p] = _dot(centre[p, 0], centre[p, 1], centre[p, 2], centre[p, 0], centre[p, 1], centre[p, 2])
     for c in range(capsule_frame.size):
         f = capsule_frame[c]
         _placed(rotation, origin, n, f, capsule_centre[c], placed_centre[c])
@@ -377,52 +414,51 @@ def capsule_rows(
     robot, rows = geometry
     sphere_frame, sphere_radius, row_part, row_frame = robot[3], robot[5], rows[0], rows[5]
     n_states, n_rows = left.shape
-    floor, speed, likely = np.empty(n_rows), np.empty(n_rows), np.empty(n_rows, dtype=np.bool_)
+    floor, lowest, likely = np.empty(n_rows), np.empty(n_rows), np.empty(n_rows, dtype=np.bool_)
     n_parts, n_capsules = sphere_radius.size, robot[0].size
-    part_speed = np.empty(n_parts)
-    centre = np.empty((n_parts, 3))
+    part_speed, centre, centre_sq = np.empty(n_parts), np.empty((n_parts, 3)), np.empty(n_parts)
     placed_centre = np.empty((n_capsules, 3))
     placed_axis = np.empty((n_capsules, 3))
-    lowest = np.empty(n_rows)
     point, scratch = np.empty(6), np.empty(15)
-    best = np.empty(4)
-    best_row = np.empty(4, dtype=np.int64)
+    terms, tolerance, closing = _person_terms(person), iso[TOLERANCE], iso[CLOSING]
     for n in range(n_states):
-        _place_parts(rotation, origin, n, robot, centre, placed_centre, placed_axis)
+        _place_parts(rotation, origin, n, robot, centre, centre_sq, placed_centre, placed_axis)
         for p in range(n_parts):
             f = sphere_frame[p]
             v0, v1, v2 = _velocity(linear, angular, origin, n, f, centre[p, 0], centre[p, 1], centre[p, 2])
             w0, w1, w2 = angular[n, f, 0], angular[n, f, 1], angular[n, f, 2]
             bound = math.sqrt(_dot(v0, v1, v2, v0, v1, v2)) + math.sqrt(_dot(w0, w1, w2, w0, w1, w2)) * sphere_radius[p]
             part_speed[p] = bound * (1.0 + iso[ROUNDING]) + iso[ROUNDING]
-        best[:] = math.inf
-        best_row[:] = 0
+        # The likely rows: the first of the least bound, of the least outside the contact regions,
+        # of the least allowed less speed and of the least allowed over speed (closing in).
+        least_floor = least_body = least_margin = least_ratio = math.inf
+        at_floor = at_body = at_margin = at_ratio = 0
         for k in range(n_rows):
-            p = row_part[k]
-            bound = _floor(centre, robot, rows, person, k, iso[TOLERANCE])
-            floor[k], speed[k] = bound, part_speed[p]
-            lowest[k] = _kept(bound, caps[k], iso)
-            closing = part_speed[p] > iso[CLOSING]
-            ranks = (
-                bound,
-                math.inf if contact[k] else bound,
-                lowest[k] - part_speed[p],
-                lowest[k] / part_speed[p] if closing else math.inf,
-            )
-            for r in range(4):
-                if ranks[r] < best[r]:
-                    best[r], best_row[r] = ranks[r], k
+            bound, speed = _floor(centre, centre_sq, terms, robot, rows, person, k, tolerance), part_speed[row_part[k]]
+            allowed = _kept(bound, caps[k], iso)
+            floor[k], lowest[k] = bound, allowed
+            if bound < least_floor:
+                least_floor, at_floor = bound, k
+            if not contact[k] and bound < least_body:
+                least_body, at_body = bound, k
+            if allowed - speed < least_margin:
+                least_margin, at_margin = allowed - speed, k
+            if speed > closing and allowed / speed < least_ratio:
+                least_ratio, at_ratio = allowed / speed, k
         likely[:] = False
-        for r in range(4):
-            likely[best_row[r]] = True
+        likely[at_floor] = likely[at_body] = likely[at_margin] = likely[at_ratio] = True
         a = agg[n]
         a[NEAREST] = a[BODY] = a[MARGIN] = a[DISTANCE] = a[SCALE] = math.inf
         a[BINDING], a[ALLOWED], a[APPROACH], a[STOP], a[STOP_DISTANCE] = 0.0, math.inf, 0.0, -1.0, math.inf
         for sweep in range(2):  # the likely rows first, then the others while they may matter
+            nearest, body, margin, scale = a[NEAREST], a[BODY], a[MARGIN], a[SCALE]
             for k in range(n_rows):
                 if likely[k] != (sweep == 0):
                     continue
-                if sweep == 1 and not _needed(floor[k], speed[k], lowest[k], contact[k], a, iso):
+                speed = part_speed[row_part[k]]
+                if sweep == 1 and not _needed(
+                    floor[k], speed, lowest[k], contact[k], nearest, body, margin, scale, closing
+                ):
                     continue
                 distance = _row_distance(
                     rotation, origin, n, k, placed_centre, placed_axis, rows, person, scratch, point
@@ -433,6 +469,7 @@ def capsule_rows(
                 v0, v1, v2 = _velocity(linear, angular, origin, n, row_frame[k], point[0], point[1], point[2])
                 allowed, approach = _speeds(distance, point, v0, v1, v2, contact[k], caps[k], iso)
                 _fold(a, k, distance, allowed, approach, contact[k], iso)
+                nearest, body, margin, scale = a[NEAREST], a[BODY], a[MARGIN], a[SCALE]
 
 
 @njit(cache=True, nogil=True)
@@ -478,18 +515,20 @@ def nearest_rows(
     left (N, K) for coal, as `capsule_rows` flags it."""
     robot, rows = geometry
     n_states, n_rows = left.shape
-    centre = np.empty((robot[5].size, 3))
+    centre, centre_sq = np.empty((robot[5].size, 3)), np.empty(robot[5].size)
     placed_centre, placed_axis = np.empty((robot[0].size, 3)), np.empty((robot[0].size, 3))
     point, scratch = np.empty(6), np.empty(15)
-    best[0], best[1], best[2] = math.inf, -1.0, -1.0
+    terms = _person_terms(person)
+    least, state, row = math.inf, -1, -1  # in locals: read from best at every row they cost more
     for n in range(n_states):
-        _place_parts(rotation, origin, n, robot, centre, placed_centre, placed_axis)
+        _place_parts(rotation, origin, n, robot, centre, centre_sq, placed_centre, placed_axis)
         for k in range(n_rows):
-            bound = _floor(centre, robot, rows, person, k, tolerance)
-            if bound > min(best[0], ceiling):
+            bound = _floor(centre, centre_sq, terms, robot, rows, person, k, tolerance)
+            if bound > min(least, ceiling):
                 continue
             distance = _row_distance(rotation, origin, n, k, placed_centre, placed_axis, rows, person, scratch, point)
             if math.isnan(distance):
                 left[n, k] = True
-            elif distance < best[0]:
-                best[0], best[1], best[2] = distance, n, k
+            elif distance < least:
+                least, state, row = distance, n, k
+    best[0], best[1], best[2] = least, float(state), float(row)
