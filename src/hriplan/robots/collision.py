@@ -137,6 +137,7 @@ _BUILT = (
     "_joints",
     "_pair_table",
     "_views",
+    "_where",
 )
 _REMEMBERED_BUILDS = 8
 _PEOPLE_KEPT = 16  # the people a checker keeps a Human of (a service's session sees many)
@@ -196,7 +197,7 @@ class CollisionChecker:
         # Per person: where their capsules are as posed now (made once a posing; every build and
         # every remembered build placed anew asks: ~40 us each, a dozen a re-plan). Forgotten
         # when the person is posed anew or is another Human (`_posed`, `pose_human`).
-        self._placements: dict[str, list[pin.SE3]] = {}
+        self._placements: dict[str, tuple[list[pin.SE3], np.ndarray]] = {}
         self._statics_placed = 0  # counts placings of what is on no joint: a certifier placed before reads them again
         self._motion: Motion | None = None  # the joints that move, and where the rest stay (`moving`)
         self._held: Held | None = None  # while a view holds pairs still
@@ -287,8 +288,13 @@ class CollisionChecker:
 
     def _placed(self, name: str) -> list[pin.SE3]:
         """Where the person's capsules are in the world as the Human is posed now, in `capsules` order."""
+        return self._placing(name)[0]
+
+    def _placing(self, name: str) -> tuple[list[pin.SE3], np.ndarray]:
+        """`_placed`, and the same as homogeneous matrices (k, 4, 4) for `_where`."""
         if name not in self._placements:
-            self._placements[name] = self.humans[name].capsule_placements()
+            placements = self.humans[name].capsule_placements()
+            self._placements[name] = placements, np.array([p.homogeneous for p in placements]).reshape(-1, 4, 4)
         return self._placements[name]
 
     def _build_key(self) -> str:
@@ -367,6 +373,9 @@ class CollisionChecker:
             self._kind += ["human"] * len(self._human_slots[spec.name])
         self._zone_slots = self._add_zones(gm)
         self._geom_model = gm
+        # Where each geometry is placed in the model, kept as the checker places those on no
+        # joint (`_place_obstacle`, `_place_person`): the certifier reads them here.
+        self._where = np.array([g.placement.homogeneous for g in gm.geometryObjects])
         self._pair_up()
         self._index = {g.name: i for i, g in enumerate(gm.geometryObjects)}
 
@@ -643,9 +652,11 @@ class CollisionChecker:
         """Put obstacle `i` at `pose` in the current build; True if a part on the fixed base
         touches it now and did not before, or the other way round (its pairs must change)."""
         placement = pose.se3()
-        if np.array_equal(self._geom_model.geometryObjects[i].placement.homogeneous, placement.homogeneous):
+        matrix = placement.homogeneous
+        if np.array_equal(self._where[i], matrix):
             return False
         self._geom_model.geometryObjects[i].placement = placement
+        self._where[i] = matrix
         fixed = self._robot.fixed_shapes
         before = {p for p, o in self._fixed_contacts if o == i}
         self._fixed_contacts -= {(p, i) for p in before}
@@ -671,12 +682,16 @@ class CollisionChecker:
         """Set the person's capsules, and the separation zones grown from them, where the Human
         stands now, in the build. Builds are remembered without the people's poses (a person who
         moved changes no pair), so using one places them."""
-        placements = self._placed(name)
+        placements, where = self._placing(name)
         self._placed_statics()
-        for slot, placement in zip(self._human_slots[name], placements):
-            self._geom_model.geometryObjects[slot].placement = placement
-        for slot, k in self._zone_slots.get(name, []):
-            self._geom_model.geometryObjects[slot].placement = placements[k]
+        objects = self._geom_model.geometryObjects
+        slots, zones = self._human_slots[name], self._zone_slots.get(name, [])
+        for slot, placement in zip(slots, placements):
+            objects[slot].placement = placement
+        for slot, k in zones:
+            objects[slot].placement = placements[k]
+        self._where[slots] = where
+        self._where[[slot for slot, _ in zones]] = where[[k for _, k in zones]]
 
     def _place_person_models(self, name: str) -> None:
         """The same in the distance model and the person's model."""
@@ -759,7 +774,7 @@ class CollisionChecker:
             made = FreeCertifier.of(self.robot.model, self._geom_model, pairs.reshape(-1, 2)[ids], tables, people, ids)
             view.certifier, view.placed = made or False, self._statics_placed  # False: none for this robot
         elif view.certifier and view.placed != self._statics_placed:
-            view.certifier.place(self._geom_model)
+            view.certifier.place(self._where)
             view.placed = self._statics_placed
         return view.certifier or None
 
