@@ -12,7 +12,7 @@ from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
 from hriplan.robots.robot_geometry import robot_parts
-from hriplan.robots.scene import AttachedObject, Box, Cylinder, Obstacle, Scene, Sphere, table
+from hriplan.robots.scene import AttachedObject, Box, Capsule, Cone, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
 from independent import closest_robot_person
 from madar_states import CLEAR
@@ -405,3 +405,41 @@ def test_the_fixed_base_is_asked_again_about_another_shape_where_an_obstacle_sto
             into_base = ("base_link", "table") in [(c.a, c.b) for c in checker.contacts(up)]
             assert into_base == (touches and where[1] == 0.0), (shape, where)
             assert checker.in_collision(up) == into_base
+
+
+@pytest.mark.parametrize("name", ["ur5", "madar"])
+def test_an_obstacle_moved_about_the_fixed_base_touches_it_as_in_a_checker_built_there(name, rng):
+    """A moved obstacle is asked about only the fixed parts whose ball comes near it
+    (`_near_base`): about the balls' surfaces, for every kind of shape, the fixed base touches
+    it exactly where a checker built there (every part asked) finds it touching, with the same pairs."""
+    robot = load_robot(name)
+    shapes = [
+        Box(size=(0.3, 0.1, 0.2)),
+        Sphere(radius=0.08),
+        Cylinder(radius=0.05, height=0.4),
+        Cone(radius=0.1, height=0.2),
+    ]
+    shapes.append(Capsule(radius=0.04, length=0.3))
+    checker = CollisionChecker(robot, Scene(obstacles=[Obstacle(name="thing", shape=shapes[0])]))
+    centres, radii = checker._robot.fixed_balls
+    touched = 0
+    for k in range(150):
+        shape = shapes[k % len(shapes)]
+        part = int(rng.integers(len(radii)))
+        direction = rng.normal(size=3)
+        at = centres[part] + direction / np.linalg.norm(direction) * (radii[part] + rng.uniform(-0.3, 0.3))
+        pose = Pose(xyz=tuple(at.tolist()), rpy=tuple(rng.uniform(-np.pi, np.pi, 3).tolist()))
+        checker.set_scene(Scene(obstacles=[Obstacle(name="thing", shape=shape, pose=Pose(xyz=(5.0, 5.0, 5.0)))]))
+        assert _fixed_contacts(checker) == set()  # far away: the move below places it
+        checker.move_obstacle("thing", pose)
+        built = CollisionChecker(robot, checker.scene)
+        assert checker._fixed_contacts == _fixed_contacts(built)
+        assert np.array_equal(checker._pair_table, built._pair_table)
+        touched += bool(built._fixed_contacts)
+    assert 20 < touched < 130
+
+
+def _fixed_contacts(checker: CollisionChecker) -> set[tuple[int, int]]:
+    """The (fixed part, obstacle) pairs that touch in the checker's build (built if it was not)."""
+    assert checker.geom_model.ngeoms
+    return checker._fixed_contacts

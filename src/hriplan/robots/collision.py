@@ -162,10 +162,41 @@ class _RobotGeometry:
     # Per part on the fixed base: its URDF collision shapes where they stand (finding them walks
     # every mesh of the robot, ~0.2 ms for a MADAR arm's base: a re-plan asked ~90 times).
     fixed_shapes: dict[int, list[tuple[coal.CollisionGeometry, coal.Transform3s]]]
+    # Per part on the fixed base (in `fixed_shapes`' order): a ball holding its shapes, the
+    # centres (P, 3) and radii (P,), so that a moved obstacle asks coal only about parts near it.
+    fixed_balls: tuple[np.ndarray, np.ndarray]
     internal_pairs: list[tuple[int, int]] | None = None  # made by the first checker's first build
 
 
 _BY_ROBOT: dict[tuple[object, float], _RobotGeometry] = {}  # by robot spec and padding, as robot_parts
+
+# Balls this far apart or more hold shapes coal finds apart (its contact tolerance is ~1e-6 m).
+_BALLS_APART = 1e-3
+
+
+def _local_ball(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, float]:
+    """A ball (centre, radius) holding `geometry` in its own frame, about its local box: computed
+    on a copy, as the model's own shape is left as it is (coal computes its box when first asked)."""
+    shape = geometry.clone()
+    shape.computeLocalAABB()
+    return np.array(shape.aabb_center), float(shape.aabb_radius)
+
+
+def _fixed_balls(
+    fixed_shapes: dict[int, list[tuple[coal.CollisionGeometry, coal.Transform3s]]],
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per part on the fixed base: a ball holding every one of its shapes' balls (none: no ball)."""
+    centres, radii = [], []
+    for shapes in fixed_shapes.values():
+        balls = [
+            (placement.transform(centre), radius)
+            for shape, placement in shapes
+            for centre, radius in [_local_ball(shape)]
+        ]
+        middle = np.mean([centre for centre, _ in balls], axis=0) if balls else np.zeros(3)
+        centres.append(middle)
+        radii.append(max((np.linalg.norm(centre - middle) + radius for centre, radius in balls), default=-np.inf))
+    return np.array(centres).reshape(-1, 3), np.array(radii)
 
 
 class CollisionChecker:
@@ -180,7 +211,8 @@ class CollisionChecker:
         if key not in _BY_ROBOT:
             self.acm = load_acm(robot, robot_parts(robot))
             objects = self._robot_objects()
-            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects), self._fixed_shapes())
+            fixed = self._fixed_shapes()
+            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects), fixed, _fixed_balls(fixed))
         self._robot = _BY_ROBOT[key]
         self.acm, self._robot_geometry = self._robot.acm, self._robot.objects
         self.humans: dict[str, Human] = {}
@@ -657,10 +689,19 @@ class CollisionChecker:
             return False
         self._geom_model.geometryObjects[i].placement = placement
         self._where[i] = matrix
-        fixed = self._robot.fixed_shapes
         before = {p for p, o in self._fixed_contacts if o == i}
         self._fixed_contacts -= {(p, i) for p in before}
-        return {p for p in fixed if self._fixed_part_touches(p, i)} != before
+        return {p for p in self._near_base(i) if self._fixed_part_touches(p, i)} != before
+
+    def _near_base(self, obstacle: int) -> list[int]:
+        """The parts on the fixed base whose ball comes within `_BALLS_APART` of the obstacle's
+        where it stands: no other can touch it (a moved obstacle asked coal about each of
+        MADAR's nine, ~10 us each; a keep-out follows its person, away from the base)."""
+        other = self._geom_model.geometryObjects[obstacle]
+        centre, radius = _local_ball(other.geometry)
+        centres, radii = self._robot.fixed_balls
+        gaps = np.linalg.norm(centres - other.placement.act(centre), axis=1) - radii - radius
+        return [p for p, gap in zip(self._robot.fixed_shapes, gaps.tolist()) if gap < _BALLS_APART]
 
     def pose_human(self, spec: HumanSpec) -> None:
         """Re-pose a person already in the scene: only capsule placements change (and the scene).
