@@ -249,6 +249,24 @@ def test_a_scene_given_back_is_the_checkers_own_and_a_callers_copy_is_still_copi
     assert checker.scene is not mine and not checker.in_collision(q)
 
 
+def test_a_scene_given_back_is_built_as_its_own_contents_not_the_last_scenes(madar):
+    """Around a keep-out (`with_keep_out`), both builds made: the checker's own scene given back
+    (its contents kept with it, not read again) uses its own build, not the keep-out's."""
+    q = madar.configuration(CLEAR)
+    keep_out = Obstacle(
+        name="keep-out:hand", shape=Sphere(radius=0.1), pose=Pose(xyz=tuple(madar.frame_pose("right_tool", q)[:3, 3]))
+    )
+    checker = CollisionChecker(madar, Scene(humans=[HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)]))
+    own = checker.scene
+    assert not checker.in_collision(q)
+    for _ in range(2):
+        checker.set_scene(own.model_copy(update={"obstacles": [keep_out]}))
+        assert checker.in_collision(q)
+        checker.set_scene(own)
+        assert checker.scene is own and not checker.in_collision(q)
+        assert pair_names(checker) == pair_names(CollisionChecker(madar, own))
+
+
 def test_a_person_moved_by_a_scene_or_re_posed_is_placed_where_they_stand_in_every_model(madar):
     """The checker keeps each person's capsule placements per posing: after every move (a new
     scene, `pose_human`, back to a remembered build) its collision model holds a fresh Human's

@@ -223,9 +223,10 @@ class CollisionChecker:
         self._people_models: Recent[str, tuple] = Recent(_REMEMBERED_BUILDS)
         # Per distance model: its pairs as geometry indices and the joint of each pair's robot part.
         self._distance_pairs: MadeFor[tuple[np.ndarray, np.ndarray]] = MadeFor(_REMEMBERED_BUILDS)
-        # The scenes this checker copied lately: given back (a keep-out's block ends with the scene
-        # before it), one is the checker's own already and needs no copy (~0.1 ms each).
-        self._copies: Recent[int, Scene] = Recent(_REMEMBERED_BUILDS)
+        # The scenes this checker copied lately, each with its contents as a build's key reads
+        # them: given back (a keep-out's block ends with the scene before it), one is the
+        # checker's own already and needs no copy (~0.1 ms each), nor its contents read (~35 us).
+        self._copies: Recent[int, tuple[Scene, str]] = Recent(_REMEMBERED_BUILDS)
         # Per person: where their capsules are as posed now (made once a posing; every build and
         # every remembered build placed anew asks: ~40 us each, a dozen a re-plan). Forgotten
         # when the person is posed anew or is another Human (`_posed`, `pose_human`).
@@ -290,7 +291,8 @@ class CollisionChecker:
         for obj in scene.attached:  # refused here, as when the scene was built at once
             self.robot.tool_frame(obj.arm)
         # The caller may change theirs in place later (not one of the checker's own).
-        copy = scene if self._copies.get(id(scene)) is scene else scene.model_copy(deep=True)
+        own = self._copies.get(id(scene))
+        copy, contents = own if own is not None and own[0] is scene else (scene.model_copy(deep=True), None)
         try:
             humans = {spec.name: self._posed(spec) for spec in copy.humans}
         except HriplanError:  # a reach out of range: the people stay where the scene has them
@@ -298,8 +300,9 @@ class CollisionChecker:
                 self._posed(spec)
             raise
         self.scene, self.zones, self.humans = copy, zones, humans
-        self._copies.put(id(copy), copy)  # held here, so its id is not reused while it is
-        self._key = self._build_key()
+        contents = contents or copy.model_dump_json(exclude=_BUILD_KEY)
+        self._copies.put(id(copy), (copy, contents))  # held here, so its id is not reused while it is
+        self._key = self._build_key(contents)
         self._stale = self._people_stale = True
 
     def _posed(self, spec: HumanSpec) -> Human:
@@ -329,10 +332,10 @@ class CollisionChecker:
             self._placements[name] = placements, np.array([p.homogeneous for p in placements]).reshape(-1, 4, 4)
         return self._placements[name]
 
-    def _build_key(self) -> str:
-        """What makes a build: the scene's contents and the zones (not where things stand)."""
+    def _build_key(self, contents: str) -> str:
+        """What makes a build: the scene's `contents` (JSON, not where things stand) and the zones."""
         key = (
-            self.scene.model_dump_json(exclude=_BUILD_KEY),
+            contents,
             None
             if self.zones is None
             else (
