@@ -12,7 +12,7 @@ from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.model import load_robot
 from hriplan.robots.robot_geometry import robot_parts
-from hriplan.robots.scene import AttachedObject, Box, Cylinder, Obstacle, Scene, Sphere, table
+from hriplan.robots.scene import AttachedObject, Box, Capsule, Cone, Cylinder, Obstacle, Scene, Sphere, table
 from hriplan.robots.spatial import Pose
 from independent import closest_robot_person
 from madar_states import CLEAR
@@ -249,6 +249,24 @@ def test_a_scene_given_back_is_the_checkers_own_and_a_callers_copy_is_still_copi
     assert checker.scene is not mine and not checker.in_collision(q)
 
 
+def test_a_scene_given_back_is_built_as_its_own_contents_not_the_last_scenes(madar):
+    """Around a keep-out (`with_keep_out`), both builds made: the checker's own scene given back
+    (its contents kept with it, not read again) uses its own build, not the keep-out's."""
+    q = madar.configuration(CLEAR)
+    keep_out = Obstacle(
+        name="keep-out:hand", shape=Sphere(radius=0.1), pose=Pose(xyz=tuple(madar.frame_pose("right_tool", q)[:3, 3]))
+    )
+    checker = CollisionChecker(madar, Scene(humans=[HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)]))
+    own = checker.scene
+    assert not checker.in_collision(q)
+    for _ in range(2):
+        checker.set_scene(own.model_copy(update={"obstacles": [keep_out]}))
+        assert checker.in_collision(q)
+        checker.set_scene(own)
+        assert checker.scene is own and not checker.in_collision(q)
+        assert pair_names(checker) == pair_names(CollisionChecker(madar, own))
+
+
 def test_a_person_moved_by_a_scene_or_re_posed_is_placed_where_they_stand_in_every_model(madar):
     """The checker keeps each person's capsule placements per posing: after every move (a new
     scene, `pose_human`, back to a remembered build) its collision model holds a fresh Human's
@@ -405,3 +423,41 @@ def test_the_fixed_base_is_asked_again_about_another_shape_where_an_obstacle_sto
             into_base = ("base_link", "table") in [(c.a, c.b) for c in checker.contacts(up)]
             assert into_base == (touches and where[1] == 0.0), (shape, where)
             assert checker.in_collision(up) == into_base
+
+
+@pytest.mark.parametrize("name", ["ur5", "madar"])
+def test_an_obstacle_moved_about_the_fixed_base_touches_it_as_in_a_checker_built_there(name, rng):
+    """A moved obstacle is asked about only the fixed parts whose ball comes near it
+    (`_near_base`): about the balls' surfaces, for every kind of shape, the fixed base touches
+    it exactly where a checker built there (every part asked) finds it touching, with the same pairs."""
+    robot = load_robot(name)
+    shapes = [
+        Box(size=(0.3, 0.1, 0.2)),
+        Sphere(radius=0.08),
+        Cylinder(radius=0.05, height=0.4),
+        Cone(radius=0.1, height=0.2),
+    ]
+    shapes.append(Capsule(radius=0.04, length=0.3))
+    checker = CollisionChecker(robot, Scene(obstacles=[Obstacle(name="thing", shape=shapes[0])]))
+    centres, radii = checker._robot.fixed_balls
+    touched = 0
+    for k in range(150):
+        shape = shapes[k % len(shapes)]
+        part = int(rng.integers(len(radii)))
+        direction = rng.normal(size=3)
+        at = centres[part] + direction / np.linalg.norm(direction) * (radii[part] + rng.uniform(-0.3, 0.3))
+        pose = Pose(xyz=tuple(at.tolist()), rpy=tuple(rng.uniform(-np.pi, np.pi, 3).tolist()))
+        checker.set_scene(Scene(obstacles=[Obstacle(name="thing", shape=shape, pose=Pose(xyz=(5.0, 5.0, 5.0)))]))
+        assert _fixed_contacts(checker) == set()  # far away: the move below places it
+        checker.move_obstacle("thing", pose)
+        built = CollisionChecker(robot, checker.scene)
+        assert checker._fixed_contacts == _fixed_contacts(built)
+        assert np.array_equal(checker._pair_table, built._pair_table)
+        touched += bool(built._fixed_contacts)
+    assert 20 < touched < 130
+
+
+def _fixed_contacts(checker: CollisionChecker) -> set[tuple[int, int]]:
+    """The (fixed part, obstacle) pairs that touch in the checker's build (built if it was not)."""
+    assert checker.geom_model.ngeoms
+    return checker._fixed_contacts

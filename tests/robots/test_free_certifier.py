@@ -27,9 +27,9 @@ from hriplan.robots.certifier_kernels import (
     place_joints,
     segment_floor,
 )
-from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.collision import CollisionChecker, SeparationZones
 from hriplan.robots.descriptions.registry import load_robot_file
-from hriplan.robots.free_certifier import FreeCertifier, _geometry_row, _mesh_pieces, _sphere_about, _static_row
+from hriplan.robots.free_certifier import FreeCertifier, _geometry_row, _mesh_pieces, _spheres_about, _static_rows
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.model import load_robot
@@ -334,18 +334,90 @@ def test_a_certifier_placed_anew_answers_as_one_made_there(robots, kernels):
     assert after == made._free_certifier().verdicts(states) and after != before
 
 
-def test_a_static_row_kept_is_found_again_only_for_its_shape_and_placement():
-    """A row kept for a shape on no joint (`_static_row`) is the one of that shape, of those
-    values, placed there: a person re-posed or grown by another margin, or an obstacle of
-    another size, gets its own."""
-    placements = [pin.SE3.Identity(), pin.SE3(pin.rpy.rpyToMatrix(0.1, 0.2, 0.3), np.array([0.1, 0.0, 0.2]))]
-    shapes = [coal.Capsule(0.1, 0.4), coal.Capsule(0.12, 0.4), coal.Capsule(0.1, 0.5), coal.Cylinder(0.1, 0.4)]
-    shapes += [coal.Sphere(0.1), coal.Sphere(0.2), coal.Box(0.1, 0.2, 0.3), coal.Box(0.3, 0.2, 0.1)]
-    for placement in placements * 2:  # the second time, from the rows kept
-        for shape in shapes:
-            geometry = pin.GeometryObject("g", 0, placement, shape)
-            row = _static_row(geometry, placement.homogeneous.tobytes())
-            assert np.array_equal(row, _geometry_row(geometry))
+def test_every_move_leaves_the_certifier_as_one_made_where_things_stand(robots, kernels):
+    """However the checker moves what is on no joint (a person re-posed, with separation zones
+    grown from their capsules; an obstacle moved; a new scene; a remembered build used again,
+    placed anew), the placements it keeps for its certifier are its collision model's, and the
+    certifier holds, to the bit, the rows of one made in that scene, and answers as it does."""
+    robot = robots["ur5"]
+    scene = _scene(robot, "ur5")
+    zones = SeparationZones(
+        {"bob": {"right_hand": 0.2, "middle_thorax": 0.1}}, frozenset(range(1, robot.model.njoints))
+    )
+    checker, states = CollisionChecker(robot), _random_states(robot, 300, 13)
+    bob = scene.humans[0]
+    at = lambda x, y: bob.model_copy(update={"position": (x, y)})  # noqa: E731
+    keep_out = Obstacle(name="keep-out:bob", shape=Cylinder(radius=0.3, height=1.8), pose=Pose(xyz=(0.5, 0.3, 0.9)))
+    moves = [
+        lambda: checker.set_world(scene, zones),
+        lambda: checker.pose_human(at(0.5, 0.2)),
+        lambda: checker.move_obstacle("ball", Pose(xyz=(0.3, 0.1, 0.5))),
+        lambda: checker.set_world(scene.model_copy(update={"obstacles": [*scene.obstacles, keep_out]}), zones),
+        lambda: checker.set_world(scene.model_copy(update={"humans": [at(0.4, -0.3), scene.humans[1]]}), zones),
+        lambda: checker.set_scene(scene.model_copy(update={"humans": [at(0.6, 0.1), scene.humans[1]]})),
+        lambda: checker.set_world(scene.model_copy(update={"humans": [at(0.45, 0.3), scene.humans[1]]}), zones),
+    ]
+    for move in moves:
+        move()
+        checker.in_collision(states[0])
+        certifier, objects = checker._free_certifier(), checker.geom_model.geometryObjects
+        statics = [k for k, g in enumerate(objects) if g.parentJoint == 0]
+        assert np.array_equal(checker._where[statics], np.array([objects[k].placement.homogeneous for k in statics]))
+        made = CollisionChecker(robot)
+        made.set_world(checker.scene, checker.zones)
+        made.in_collision(states[0])
+        assert np.array_equal(certifier._rows, made._free_certifier()._rows)
+        assert certifier.verdicts(states) == made._free_certifier().verdicts(states)
+
+
+def _off_centre_mesh() -> coal.BVHModelOBBRSS:
+    """A mesh whose box is off its frame's origin along every axis (its points' every coordinate counts)."""
+    mesh = coal.BVHModelOBBRSS()
+    corners = np.array([[x, y, z] for x in (0.1, 0.3) for y in (-0.2, 0.05) for z in (0.4, 0.45)])
+    mesh.beginModel(4, 8)
+    for a, b, c in ((0, 1, 2), (1, 2, 3), (4, 5, 6), (5, 6, 7)):
+        mesh.addTriangle(corners[a], corners[b], corners[c])
+    mesh.endModel()
+    return mesh
+
+
+def test_static_rows_are_geometry_rows_to_the_bit():
+    """Rows of geometries on no joint made in one pass (`_static_rows`, from a row made anywhere)
+    are `_geometry_row`'s where they stand, to the bit, for every kind of shape and placement."""
+    rng = np.random.default_rng(3)
+    shapes = [coal.Capsule(0.1, 0.4), coal.Cylinder(0.1, 0.4), coal.Sphere(0.1), coal.Box(0.1, 0.2, 0.3)]
+    shapes += [coal.Cone(0.1, 0.3), _off_centre_mesh()]
+    for shape in shapes:
+        anywhere = _geometry_row(pin.GeometryObject("g", 0, pin.SE3.Random(), shape))
+        points = _geometry_row(pin.GeometryObject("g", 0, pin.SE3.Identity(), shape))[[0, 1, 2, 3, 4, 5, 16, 17, 18]]
+        placements = [pin.SE3(pin.rpy.rpyToMatrix(*rng.uniform(-4, 4, 3)), rng.normal(0, 2, 3)) for _ in range(200)]
+        placements += [pin.SE3.Identity(), pin.SE3(np.eye(3), np.array([0.0, -0.0, 1.0]))]
+        where = np.array([p.homogeneous for p in placements])
+        made = _static_rows(
+            np.tile(anywhere, (len(where), 1)), np.tile(points.reshape(3, 3), (len(where), 1, 1)), where
+        )
+        expected = np.array([_geometry_row(pin.GeometryObject("g", 0, p, shape)) for p in placements])
+        assert np.array_equal(made.view(np.uint64), expected.view(np.uint64))
+
+
+def test_a_group_sphere_holds_its_members_and_no_other_row_moves_it():
+    """`_spheres_about`: each sphere holds every member's sphere (the middle of its capsule, its
+    reach), and is the sphere of its members alone, to the bit: the other rows, wherever they
+    are, change nothing; a member moved far is held where it is."""
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        rows = rng.normal(0.0, 0.3, (int(rng.integers(1, 20)), REACH + 1))
+        rows[:, REACH] = rng.uniform(0.01, 0.2, len(rows))
+        members = rng.uniform(size=(5, len(rows))) < 0.5
+        members[:, rng.integers(len(rows))] = True
+        for moved in (rows, rows + np.where(np.arange(REACH + 1) < 6, 2.0, 0.0) * (np.arange(len(rows)) == 0)[:, None]):
+            spheres = _spheres_about(moved, members)
+            middles = (moved[:, 0:3] + moved[:, 3:6]) / 2.0
+            for sphere, flags in zip(spheres, members):
+                held = np.linalg.norm(middles[flags] - sphere[0:3], axis=1) + moved[flags, REACH]
+                assert np.all(held <= sphere[REACH] + 1e-12)
+                alone = _spheres_about(moved[flags], np.ones((1, flags.sum()), dtype=bool))[0]
+                assert np.array_equal(sphere, alone)
 
 
 def _centres(certifier: FreeCertifier, model: pin.Model, q: np.ndarray) -> np.ndarray:
@@ -465,25 +537,3 @@ def test_a_checker_stops_asking_its_certifier_when_the_kernels_are_turned_off(ro
     kernel_switch.use_kernels(True)
     checker.in_collision(q)
     assert len(asked) == 1
-
-
-def test_a_group_sphere_holds_its_members_and_is_kept_by_all_their_values():
-    """`_sphere_about` (kept by its rows' bytes): the sphere holds every member's sphere (the
-    middle of its capsule, its reach); the same rows again give the same sphere, read-only; a
-    change to any member's row gives that member's new sphere held too."""
-    rng = np.random.default_rng(4)
-    for _ in range(50):
-        rows = rng.normal(0.0, 0.3, (int(rng.integers(1, 20)), REACH + 1))
-        rows[:, REACH] = rng.uniform(0.01, 0.2, len(rows))
-        for members in (rows, rows.copy()):
-            sphere = _sphere_about(members)
-            middles = (members[:, 0:3] + members[:, 3:6]) / 2.0
-            assert np.all(np.linalg.norm(middles - sphere[0:3], axis=1) + members[:, REACH] <= sphere[REACH] + 1e-12)
-        assert not sphere.flags.writeable and np.array_equal(_sphere_about(rows.copy()), sphere)
-        moved = rows.copy()
-        moved[-1, 0:6] += 2.0  # the last member far away: a sphere it fits in is another
-        grown = _sphere_about(moved)
-        assert (
-            np.linalg.norm((moved[-1, 0:3] + moved[-1, 3:6]) / 2.0 - grown[0:3]) + moved[-1, REACH]
-            <= grown[REACH] + 1e-12
-        )

@@ -137,6 +137,7 @@ _BUILT = (
     "_joints",
     "_pair_table",
     "_views",
+    "_where",
 )
 _REMEMBERED_BUILDS = 8
 _PEOPLE_KEPT = 16  # the people a checker keeps a Human of (a service's session sees many)
@@ -161,10 +162,41 @@ class _RobotGeometry:
     # Per part on the fixed base: its URDF collision shapes where they stand (finding them walks
     # every mesh of the robot, ~0.2 ms for a MADAR arm's base: a re-plan asked ~90 times).
     fixed_shapes: dict[int, list[tuple[coal.CollisionGeometry, coal.Transform3s]]]
+    # Per part on the fixed base (in `fixed_shapes`' order): a ball holding its shapes, the
+    # centres (P, 3) and radii (P,), so that a moved obstacle asks coal only about parts near it.
+    fixed_balls: tuple[np.ndarray, np.ndarray]
     internal_pairs: list[tuple[int, int]] | None = None  # made by the first checker's first build
 
 
 _BY_ROBOT: dict[tuple[object, float], _RobotGeometry] = {}  # by robot spec and padding, as robot_parts
+
+# Balls this far apart or more hold shapes coal finds apart (its contact tolerance is ~1e-6 m).
+_BALLS_APART = 1e-3
+
+
+def _local_ball(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, float]:
+    """A ball (centre, radius) holding `geometry` in its own frame, about its local box: computed
+    on a copy, as the model's own shape is left as it is (coal computes its box when first asked)."""
+    shape = geometry.clone()
+    shape.computeLocalAABB()
+    return np.array(shape.aabb_center), float(shape.aabb_radius)
+
+
+def _fixed_balls(
+    fixed_shapes: dict[int, list[tuple[coal.CollisionGeometry, coal.Transform3s]]],
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per part on the fixed base: a ball holding every one of its shapes' balls (none: no ball)."""
+    centres, radii = [], []
+    for shapes in fixed_shapes.values():
+        balls = [
+            (placement.transform(centre), radius)
+            for shape, placement in shapes
+            for centre, radius in [_local_ball(shape)]
+        ]
+        middle = np.mean([centre for centre, _ in balls], axis=0) if balls else np.zeros(3)
+        centres.append(middle)
+        radii.append(max((np.linalg.norm(centre - middle) + radius for centre, radius in balls), default=-np.inf))
+    return np.array(centres).reshape(-1, 3), np.array(radii)
 
 
 class CollisionChecker:
@@ -179,7 +211,8 @@ class CollisionChecker:
         if key not in _BY_ROBOT:
             self.acm = load_acm(robot, robot_parts(robot))
             objects = self._robot_objects()
-            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects), self._fixed_shapes())
+            fixed = self._fixed_shapes()
+            _BY_ROBOT[key] = _RobotGeometry(self.acm, objects, self._tables(objects), fixed, _fixed_balls(fixed))
         self._robot = _BY_ROBOT[key]
         self.acm, self._robot_geometry = self._robot.acm, self._robot.objects
         self.humans: dict[str, Human] = {}
@@ -190,13 +223,14 @@ class CollisionChecker:
         self._people_models: Recent[str, tuple] = Recent(_REMEMBERED_BUILDS)
         # Per distance model: its pairs as geometry indices and the joint of each pair's robot part.
         self._distance_pairs: MadeFor[tuple[np.ndarray, np.ndarray]] = MadeFor(_REMEMBERED_BUILDS)
-        # The scenes this checker copied lately: given back (a keep-out's block ends with the scene
-        # before it), one is the checker's own already and needs no copy (~0.1 ms each).
-        self._copies: Recent[int, Scene] = Recent(_REMEMBERED_BUILDS)
+        # The scenes this checker copied lately, each with its contents as a build's key reads
+        # them: given back (a keep-out's block ends with the scene before it), one is the
+        # checker's own already and needs no copy (~0.1 ms each), nor its contents read (~35 us).
+        self._copies: Recent[int, tuple[Scene, str]] = Recent(_REMEMBERED_BUILDS)
         # Per person: where their capsules are as posed now (made once a posing; every build and
         # every remembered build placed anew asks: ~40 us each, a dozen a re-plan). Forgotten
         # when the person is posed anew or is another Human (`_posed`, `pose_human`).
-        self._placements: dict[str, list[pin.SE3]] = {}
+        self._placements: dict[str, tuple[list[pin.SE3], np.ndarray]] = {}
         self._statics_placed = 0  # counts placings of what is on no joint: a certifier placed before reads them again
         self._motion: Motion | None = None  # the joints that move, and where the rest stay (`moving`)
         self._held: Held | None = None  # while a view holds pairs still
@@ -257,7 +291,8 @@ class CollisionChecker:
         for obj in scene.attached:  # refused here, as when the scene was built at once
             self.robot.tool_frame(obj.arm)
         # The caller may change theirs in place later (not one of the checker's own).
-        copy = scene if self._copies.get(id(scene)) is scene else scene.model_copy(deep=True)
+        own = self._copies.get(id(scene))
+        copy, contents = own if own is not None and own[0] is scene else (scene.model_copy(deep=True), None)
         try:
             humans = {spec.name: self._posed(spec) for spec in copy.humans}
         except HriplanError:  # a reach out of range: the people stay where the scene has them
@@ -265,8 +300,9 @@ class CollisionChecker:
                 self._posed(spec)
             raise
         self.scene, self.zones, self.humans = copy, zones, humans
-        self._copies.put(id(copy), copy)  # held here, so its id is not reused while it is
-        self._key = self._build_key()
+        contents = contents or copy.model_dump_json(exclude=_BUILD_KEY)
+        self._copies.put(id(copy), (copy, contents))  # held here, so its id is not reused while it is
+        self._key = self._build_key(contents)
         self._stale = self._people_stale = True
 
     def _posed(self, spec: HumanSpec) -> Human:
@@ -287,14 +323,19 @@ class CollisionChecker:
 
     def _placed(self, name: str) -> list[pin.SE3]:
         """Where the person's capsules are in the world as the Human is posed now, in `capsules` order."""
+        return self._placing(name)[0]
+
+    def _placing(self, name: str) -> tuple[list[pin.SE3], np.ndarray]:
+        """`_placed`, and the same as homogeneous matrices (k, 4, 4) for `_where`."""
         if name not in self._placements:
-            self._placements[name] = self.humans[name].capsule_placements()
+            placements = self.humans[name].capsule_placements()
+            self._placements[name] = placements, np.array([p.homogeneous for p in placements]).reshape(-1, 4, 4)
         return self._placements[name]
 
-    def _build_key(self) -> str:
-        """What makes a build: the scene's contents and the zones (not where things stand)."""
+    def _build_key(self, contents: str) -> str:
+        """What makes a build: the scene's `contents` (JSON, not where things stand) and the zones."""
         key = (
-            self.scene.model_dump_json(exclude=_BUILD_KEY),
+            contents,
             None
             if self.zones is None
             else (
@@ -367,6 +408,9 @@ class CollisionChecker:
             self._kind += ["human"] * len(self._human_slots[spec.name])
         self._zone_slots = self._add_zones(gm)
         self._geom_model = gm
+        # Where each geometry is placed in the model, kept as the checker places those on no
+        # joint (`_place_obstacle`, `_place_person`): the certifier reads them here.
+        self._where = np.array([g.placement.homogeneous for g in gm.geometryObjects])
         self._pair_up()
         self._index = {g.name: i for i, g in enumerate(gm.geometryObjects)}
 
@@ -606,8 +650,18 @@ class CollisionChecker:
         if motion.fixed is not None and q[motion.fixed].tobytes() != motion.at_base:
             return self._still_touch(q)
         if held.answer is None:
-            held.answer = self._still_touch(motion.base)
+            held.answer = self._still_at_base()
         return held.answer
+
+    def _still_at_base(self) -> bool:
+        """Does a still pair touch at the motion's base? Kept on the view with the base and where
+        everything on no joint stood (`_where`): a build used again where nothing moved (every
+        scene switch places its people anew) answers as before, without coal (~130 us)."""
+        motion, view = self._motion, self._view
+        stood = self._where.tobytes()
+        if view.still_asked is None or view.still_asked[:2] != (motion.at_base, stood):
+            view.still_asked = (motion.at_base, stood, self._still_touch(motion.base))
+        return view.still_asked[2]
 
     def _first_held(self, qs: np.ndarray) -> int | None:
         """The first of the states `qs` at which a pair the motion holds still touches, or None."""
@@ -643,13 +697,24 @@ class CollisionChecker:
         """Put obstacle `i` at `pose` in the current build; True if a part on the fixed base
         touches it now and did not before, or the other way round (its pairs must change)."""
         placement = pose.se3()
-        if np.array_equal(self._geom_model.geometryObjects[i].placement.homogeneous, placement.homogeneous):
+        matrix = placement.homogeneous
+        if np.array_equal(self._where[i], matrix):
             return False
         self._geom_model.geometryObjects[i].placement = placement
-        fixed = self._robot.fixed_shapes
+        self._where[i] = matrix
         before = {p for p, o in self._fixed_contacts if o == i}
         self._fixed_contacts -= {(p, i) for p in before}
-        return {p for p in fixed if self._fixed_part_touches(p, i)} != before
+        return {p for p in self._near_base(i) if self._fixed_part_touches(p, i)} != before
+
+    def _near_base(self, obstacle: int) -> list[int]:
+        """The parts on the fixed base whose ball comes within `_BALLS_APART` of the obstacle's
+        where it stands: no other can touch it (a moved obstacle asked coal about each of
+        MADAR's nine, ~10 us each; a keep-out follows its person, away from the base)."""
+        other = self._geom_model.geometryObjects[obstacle]
+        centre, radius = _local_ball(other.geometry)
+        centres, radii = self._robot.fixed_balls
+        gaps = np.linalg.norm(centres - other.placement.act(centre), axis=1) - radii - radius
+        return [p for p, gap in zip(self._robot.fixed_shapes, gaps.tolist()) if gap < _BALLS_APART]
 
     def pose_human(self, spec: HumanSpec) -> None:
         """Re-pose a person already in the scene: only capsule placements change (and the scene).
@@ -671,12 +736,16 @@ class CollisionChecker:
         """Set the person's capsules, and the separation zones grown from them, where the Human
         stands now, in the build. Builds are remembered without the people's poses (a person who
         moved changes no pair), so using one places them."""
-        placements = self._placed(name)
+        placements, where = self._placing(name)
         self._placed_statics()
-        for slot, placement in zip(self._human_slots[name], placements):
-            self._geom_model.geometryObjects[slot].placement = placement
-        for slot, k in self._zone_slots.get(name, []):
-            self._geom_model.geometryObjects[slot].placement = placements[k]
+        objects = self._geom_model.geometryObjects
+        slots, zones = self._human_slots[name], self._zone_slots.get(name, [])
+        for slot, placement in zip(slots, placements):
+            objects[slot].placement = placement
+        for slot, k in zones:
+            objects[slot].placement = placements[k]
+        self._where[slots] = where
+        self._where[[slot for slot, _ in zones]] = where[[k for _, k in zones]]
 
     def _place_person_models(self, name: str) -> None:
         """The same in the distance model and the person's model."""
@@ -759,7 +828,7 @@ class CollisionChecker:
             made = FreeCertifier.of(self.robot.model, self._geom_model, pairs.reshape(-1, 2)[ids], tables, people, ids)
             view.certifier, view.placed = made or False, self._statics_placed  # False: none for this robot
         elif view.certifier and view.placed != self._statics_placed:
-            view.certifier.place(self._geom_model)
+            view.certifier.place(self._where)
             view.placed = self._statics_placed
         return view.certifier or None
 

@@ -22,7 +22,6 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from hriplan.recent import Recent
 from hriplan.robots.certifier_kernels import LEVELS, PAIR, REACH, ROW, verdict_one, verdicts
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.mesh_clearance import ClearanceTable
@@ -70,34 +69,29 @@ def _geometry_row(geometry: pin.GeometryObject) -> np.ndarray:
     return np.concatenate([capsule, box, [np.linalg.norm(end - start) / 2.0 + radius]])
 
 
-# Rows of primitive shapes on no joint, by shape and placement: every certifier of every build
-# places a re-posed person's capsules anew (~100 rows a re-plan, 32 of them different).
-_STATIC_ROWS: Recent[tuple, np.ndarray] = Recent(256)
+def _placed(points: np.ndarray, where: np.ndarray) -> np.ndarray:
+    """Points (m, k, 3), each of m sets in its own frame, placed at `where` (m, 4, 4): R p + t
+    added up as pinocchio's `SE3.act` adds them (x and y left to right, z right to left), so
+    that a row made here is `_geometry_row`'s to the bit."""
+    rotation, origin = where[:, None, :3, :3], where[:, None, :3, 3]
+    terms = rotation * points[:, :, None, :]  # (m, k, axis, column)
+    a, b, c = terms[..., 0], terms[..., 1], terms[..., 2]
+    out = np.empty(a.shape)
+    out[..., :2] = (a[..., :2] + b[..., :2]) + c[..., :2]
+    out[..., 2] = a[..., 2] + (b[..., 2] + c[..., 2])
+    return out + origin
 
 
-def _shape_key(shape: coal.CollisionGeometry) -> tuple | None:
-    """What `_held_by` reads of a primitive shape; None for a mesh or hull (its row is not kept)."""
-    if isinstance(shape, coal.Capsule | coal.Cylinder):
-        return type(shape), shape.radius, shape.halfLength
-    if isinstance(shape, coal.Sphere):
-        return coal.Sphere, shape.radius
-    if isinstance(shape, coal.Box):
-        return coal.Box, tuple(shape.halfSide.tolist())
-    return None
-
-
-def _static_row(geometry: pin.GeometryObject, where: bytes) -> np.ndarray:
-    """`_geometry_row` of a geometry on no joint placed at `where` (its homogeneous matrix's
-    bytes), kept by its shape's values and `where` (read-only: rows are copied into a certifier's)."""
-    shape = _shape_key(geometry.geometry)
-    if shape is None:
-        return _geometry_row(geometry)
-    row = _STATIC_ROWS.get((shape, where))
-    if row is None:
-        row = _geometry_row(geometry)
-        row.flags.writeable = False
-        _STATIC_ROWS.put((shape, where), row)
-    return row
+def _static_rows(rows: np.ndarray, points: np.ndarray, where: np.ndarray) -> np.ndarray:
+    """Rows (m, ROW) of geometries on no joint placed at `where` (m, 4, 4), in one pass: `rows`
+    as they were (their radii, half sides and reach stay), their capsule's ends and box centre
+    from `points` (m, 3, 3), those in the geometry's own frame. A re-posed person moves ~40
+    geometries of every certifier of a re-plan: one call each cost ~7 us."""
+    out = rows.copy()
+    ends = _placed(points, where)
+    out[:, 0:3], out[:, 3:6], out[:, 16:19] = ends[:, 0], ends[:, 1], ends[:, 2]
+    out[:, 7:16] = where[:, :3, :3].reshape(-1, 9)
+    return out
 
 
 def _mesh_pieces(geometry: pin.GeometryObject, leaves: int = _LEAVES) -> list[np.ndarray]:
@@ -141,28 +135,26 @@ def _pieces_of(geometry: pin.GeometryObject) -> list[np.ndarray]:
     return _PIECES[key][1]
 
 
-def _sphere_row(centre: np.ndarray, radius: float) -> np.ndarray:
-    """A row holding only a sphere (a capsule of no length, no box)."""
-    return np.concatenate([centre, centre, [radius], np.eye(3).reshape(9), np.zeros(3), np.full(3, np.inf), [radius]])
+def _sphere_rows(centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """Rows (m, ROW) each holding only a sphere (a capsule of no length, no box)."""
+    out = np.zeros((len(centres), ROW))
+    out[:, 0:3] = out[:, 3:6] = centres
+    out[:, 6] = out[:, REACH] = radii
+    out[:, 7:16] = np.eye(3).reshape(9)
+    out[:, 19:22] = np.inf
+    return out
 
 
-# Spheres about groups of rows, by the rows' bytes: every certifier a re-plan builds places the
-# same re-posed person's groups (~30 us a sphere, 25 a re-plan, 5 of them different).
-_GROUP_SPHERES: Recent[bytes, np.ndarray] = Recent(64)
-
-
-def _sphere_about(members: np.ndarray) -> np.ndarray:
-    """A sphere row holding the spheres of `members` (rows in one frame): about the middle of
-    their centres' box; kept by the rows' values (read-only: rows are copied into a certifier's)."""
-    key = np.ascontiguousarray(members).tobytes()
-    row = _GROUP_SPHERES.get(key)
-    if row is None:
-        centres = (members[:, 0:3] + members[:, 3:6]) / 2.0
-        middle = (centres.min(axis=0) + centres.max(axis=0)) / 2.0
-        row = _sphere_row(middle, float(np.max(np.linalg.norm(centres - middle, axis=1) + members[:, REACH])))
-        row.flags.writeable = False
-        _GROUP_SPHERES.put(key, row)
-    return row
+def _spheres_about(rows: np.ndarray, members: np.ndarray) -> np.ndarray:
+    """Sphere rows (g, ROW), each holding the spheres of its members (`members` (g, len(rows)):
+    a flag a row, one at least) about the middle of their centres' box, in one pass: every
+    certifier a re-plan places holds the re-posed person's five (~30 us each, one by one)."""
+    centres = (rows[:, 0:3] + rows[:, 3:6]) / 2.0
+    inside = members[:, :, None]
+    low = np.where(inside, centres, np.inf).min(axis=1, initial=np.inf)
+    middle = (low + np.where(inside, centres, -np.inf).max(axis=1, initial=-np.inf)) / 2.0
+    reach = np.linalg.norm(centres - middle[:, None], axis=-1) + rows[:, REACH]
+    return _sphere_rows(middle, np.where(members, reach, -np.inf).max(axis=1, initial=-np.inf))
 
 
 class FreeCertifier:
@@ -208,13 +200,13 @@ class FreeCertifier:
         carrier = [objects[i].parentJoint for i in used]
         self._links = _links_of(carrier)
         self._link_rows = list(range(len(rows), len(rows) + len(self._links)))
-        rows += [_sphere_about(np.array(rows)[members]) for members in self._links]
+        rows += list(_spheres_about(np.array(rows).reshape(-1, ROW), _flags(self._links, len(rows))))
         carrier += [carrier[members[0]] for members in self._links]
         self._children = np.zeros((len(used), 2), dtype=np.int64)  # per geometry: first piece, count
         for k, g in enumerate(used):
-            pieces = _pieces_of(objects[g])
+            pieces = np.array(_pieces_of(objects[g])).reshape(-1, 4)
             self._children[k] = (len(rows), len(pieces))
-            rows += [_sphere_row(p[:3], p[3]) for p in pieces]
+            rows += list(_sphere_rows(pieces[:, :3], pieces[:, 3]))
             carrier += [carrier[k]] * len(pieces)
         self._groups = [[slot[g] for g in group if g in slot] for group in groups]
         self._groups = [group for group in self._groups if group]
@@ -237,8 +229,19 @@ class FreeCertifier:
         self._axis_ints = np.array([(i, n, wrap) for i, _, _, n, wrap in axes], dtype=np.int64).reshape(-1, 3)
         self._axis_floats = np.array([(lower, step) for _, lower, step, _, _ in axes], dtype=float).reshape(-1, 2)
         self._bits = np.concatenate([np.asarray(t.free, dtype=np.uint8) for t in tables] or [np.zeros(0, np.uint8)])
-        self._statics = [k for k, g in enumerate(used) if objects[g].parentJoint == 0]
-        self._where = {k: objects[used[k]].placement.homogeneous.tobytes() for k in self._statics}
+        # The geometries on no joint: their rows' slots, ids, points in their own frame
+        # (`_static_rows`) and where they were placed, as the checker gives it (`place`).
+        self._statics = np.array([k for k, g in enumerate(used) if objects[g].parentJoint == 0], dtype=np.int64)
+        self._static_ids = np.array(used, dtype=np.int64)[self._statics]
+        held = [_held_by(objects[g].geometry) for g in self._static_ids.tolist()]
+        self._static_points = np.array([(start, end, centre) for start, end, _, centre, _ in held]).reshape(-1, 3, 3)
+        self._where = np.array([objects[g].placement.homogeneous for g in self._static_ids.tolist()]).reshape(-1, 4, 4)
+        # Per group, then part (`_group_rows + _part_rows`): which of the rows in a group
+        # (`_grouped`) are its members.
+        members = _flags(self._groups + self._parts, len(self._rows))
+        self._grouped = np.flatnonzero(members.any(axis=0))
+        self._members = members[:, self._grouped]
+        self._static_grouped = members.any(axis=0)[self._statics]  # per geometry on no joint: in a group?
         self._place_groups()
         self._floats, self._ints = self._packed()
 
@@ -270,25 +273,29 @@ class FreeCertifier:
         return np.array(out, dtype=np.int64).reshape(-1, PAIR)
 
     def _place_groups(self) -> None:
-        """Each group's sphere, where its members stand now."""
-        for row, group in zip(self._group_rows + self._part_rows, self._groups + self._parts):
-            self._rows[row] = _sphere_about(self._rows[group])
+        """Each group's and part's sphere, where its members stand now."""
+        if len(self._members):
+            self._rows[self._group_rows + self._part_rows] = _spheres_about(self._rows[self._grouped], self._members)
 
-    def place(self, geom_model: pin.GeometryModel) -> None:
-        """Read again where the geometries on no joint stand (an obstacle moved, a person
-        re-posed): only those that moved are made again (~30 us each), and nothing if none did
-        (planning sets scenes around every call, most of them where they were)."""
-        objects = geom_model.geometryObjects
-        moved = False
-        for k in self._statics:
-            where = objects[self._used[k]].placement.homogeneous.tobytes()
-            if where != self._where[k]:
-                self._rows[k], self._where[k], moved = _static_row(objects[self._used[k]], where), where, True
-        if moved:
+    def place(self, where: np.ndarray) -> None:
+        """Where the geometries on no joint stand now (an obstacle moved, a person re-posed):
+        `where` (ngeoms, 4, 4) holds every geometry's placement in the collision model (those on
+        a joint are not read). Only the rows of those that moved are made again, with the
+        spheres of the groups they are in, and nothing if none moved (planning sets scenes
+        around every call, most of them where they were). The checker keeps `where` as it
+        places them: reading each placement through pinocchio cost ~3 us."""
+        now = where[self._static_ids]
+        moved = (now.reshape(-1, 16).view(np.uint64) != self._where.reshape(-1, 16).view(np.uint64)).any(axis=1)
+        if not moved.any():
+            return
+        slots = self._statics[moved]
+        self._rows[slots] = _static_rows(self._rows[slots], self._static_points[moved], now[moved])
+        self._where[moved] = now[moved]
+        if (moved & self._static_grouped).any():
             self._place_groups()
-            # Only the float array holds rows; the int array (sizes, where each part begins, the
-            # pairs) is the same: packed again, it cost ~0.1 ms a place, five a re-plan.
-            self._floats = np.concatenate([a.reshape(-1) for a in self._float_parts()])
+        # Only the float array holds rows; the int array (sizes, where each part begins, the
+        # pairs) is the same: packed again, it cost ~0.1 ms a place, five a re-plan.
+        self._floats = np.concatenate([a.reshape(-1) for a in self._float_parts()])
 
     def _float_parts(self) -> list[np.ndarray]:
         """The float array's parts. The kernel's scratch ends it: the joints' frames, the state
@@ -358,6 +365,14 @@ def _decoded(code: int, left: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
     if code < 0:
         return None
     return code & 0xFFFFFFFF, tuple(left[1 : (code >> 32) + 1].tolist())
+
+
+def _flags(members: Sequence[Sequence[int]], count: int) -> np.ndarray:
+    """Per list of `members`, a flag each of `count` rows: is it one of them?"""
+    flags = np.zeros((len(members), count), dtype=bool)
+    for k, listed in enumerate(members):
+        flags[k, listed] = True
+    return flags
 
 
 def _links_of(carrier: list[int]) -> list[list[int]]:

@@ -40,6 +40,9 @@ class View:
     placed: int = -1  # the checker's count of statics placings when the certifier last read them
     still_map: np.ndarray | None = None  # the still pairs as `active` has the others
     still_broadphase: pin.BroadPhaseManager_NaiveCollisionManager | None = None  # made when first asked
+    # The still pairs' last answer at a base: (its fixed entries' bytes, `Motion.at_base`; where
+    # everything on no joint stood, the checker's `_where` bytes; the answer).
+    still_asked: tuple[bytes, bytes, bool] | None = None
 
     @property
     def holds(self) -> bool:
