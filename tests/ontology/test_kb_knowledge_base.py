@@ -10,7 +10,7 @@ from pydantic import ValidationError
 from hriplan import HriplanError
 from hriplan.ontology import pellet as reasoner
 from hriplan.ontology.assertions import situation_assertions
-from hriplan.ontology.cache import ReasoningCache, default_cache_dir, reasoning_key
+from hriplan.ontology.cache import ReasoningCache, default_cache, default_cache_dir, reasoning_key
 from hriplan.ontology.knowledge_base import KnowledgeBase
 from hriplan.ontology.pellet import InconsistentSituation
 from hriplan.ontology.reasoners import use_reasoner
@@ -133,6 +133,16 @@ def test_the_cache_directory_follows_xdg(monkeypatch, tmp_path):
     monkeypatch.delenv("XDG_CACHE_HOME")
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
     assert default_cache_dir() == tmp_path / "home" / ".cache" / "hriplan" / "reasoning"
+
+
+def test_the_default_cache_follows_xdg_and_home_as_they_change(monkeypatch, tmp_path):
+    for xdg, home in ((None, "h1"), (None, "h2"), ("x1", "h2"), ("x2", "h2"), (None, "h1"), ("x1", "h1")):
+        if xdg is None:
+            monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+        else:
+            monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / xdg))
+        monkeypatch.setenv("HOME", str(tmp_path / home))
+        assert default_cache().directory == default_cache_dir()
 
 
 @pytest.fixture(scope="module")

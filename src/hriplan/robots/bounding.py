@@ -9,14 +9,16 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from hriplan.robots.spatial import cross
+
 
 def frame_with_z(axis: np.ndarray) -> np.ndarray:
     """A rotation whose z column is `axis` (unit)."""
     z = axis / np.linalg.norm(axis)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(helper, z)
+    helper = (1.0, 0.0, 0.0) if abs(z[0]) < 0.9 else (0.0, 1.0, 0.0)
+    x = np.array(cross(helper, z.tolist()))
     x /= np.linalg.norm(x)
-    return np.column_stack([x, np.cross(z, x), z])
+    return np.column_stack([x, cross(z.tolist(), x.tolist()), z])
 
 
 def _capsule_along(

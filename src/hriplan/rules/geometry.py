@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from hriplan import HriplanError
-from hriplan.robots.spatial import Pose
+from hriplan.robots.spatial import Pose, cross
 
 AXES = "xyz"
 
@@ -30,7 +30,7 @@ def rotation_with_axis(signed_axis: str, direction: np.ndarray) -> np.ndarray:
     rotation = np.zeros((3, 3))
     rotation[:, i] = axis
     rotation[:, (i + 1) % 3] = following
-    rotation[:, (i + 2) % 3] = np.cross(axis, following)
+    rotation[:, (i + 2) % 3] = cross(axis.tolist(), following.tolist())
     return rotation
 
 

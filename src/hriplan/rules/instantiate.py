@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -53,6 +53,8 @@ class Arm:
 class Context:
     situation: Situation
     facts: Facts
+    # Each arm as `arm` read it from `facts`: a derivation asks for an arm once per constraint on it.
+    _arms: dict[str, Arm] = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def task(self) -> str:
@@ -63,6 +65,11 @@ class Context:
 
     def arm(self, individual: str) -> Arm:
         """An arm's name, joints in chain order, tool frame and usual grasp axis, from the ontology."""
+        if individual not in self._arms:
+            self._arms[individual] = self._read_arm(individual)
+        return self._arms[individual]
+
+    def _read_arm(self, individual: str) -> Arm:
         facts = self.facts
         joints = sorted(facts.get(individual, "hasJoint"), key=lambda j: facts.number(str(j), "hasChainIndex"))
         tool_link = str(facts.one(individual, "hasToolLink"))
