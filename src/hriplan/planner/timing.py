@@ -409,8 +409,12 @@ class _PathSpeedLimit(toppra.constraint.JointVelocityConstraintVarying):
     `compute_constraint_params`, on its own helper."""
 
     def __init__(self, path: NaturalSpline, vmax: np.ndarray, at: np.ndarray, sd_max: np.ndarray) -> None:
+        """TOPP-RA's set-up of the class without its call of vlim at s = 0 to learn the joint count
+        (a path evaluation and a `limits` pass, ~25 us a timing): that is len(vmax)."""
         self._path, self._vmax, self._at, self._sd_max = path, vmax, at, sd_max
-        super().__init__(lambda s: self.limits(np.array([s]))[0])
+        toppra.constraint.LinearConstraint.__init__(self)
+        self.dof, self.vlim_func = len(vmax), lambda s: self.limits(np.array([s]))[0]
+        self._format_string = "    Varying Velocity limit: \n"
 
     def limits(self, s: np.ndarray) -> np.ndarray:
         """vlim at arc lengths `s`: (len(s), dof, 2), lower and upper."""
@@ -481,7 +485,8 @@ def _subdivided(points: np.ndarray, pieces: np.ndarray) -> np.ndarray:
     """`points` (k, ...) with segment i split into max(1, pieces[i]) equal parts."""
     pieces = np.maximum(1, pieces).astype(int)
     segment = np.repeat(np.arange(len(pieces)), pieces)
-    fraction = np.concatenate([np.arange(p) / p for p in pieces]).reshape((-1,) + (1,) * (points.ndim - 1))
+    step = np.arange(len(segment)) - (np.cumsum(pieces) - pieces)[segment]  # 0 .. pieces - 1 in each segment
+    fraction = (step / pieces[segment]).reshape((-1,) + (1,) * (points.ndim - 1))
     return np.concatenate([points[segment] + fraction * (points[segment + 1] - points[segment]), points[-1:]])
 
 
