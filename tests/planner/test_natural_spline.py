@@ -29,6 +29,7 @@ def test_it_interpolates_with_zero_curvature_at_the_ends_and_is_twice_differenti
     s, knots = _path(30, seed=1)
     spline = NaturalSpline(s, knots)
     assert np.max(np.abs(spline(s) - knots)) < 1e-14
+    np.testing.assert_array_equal(spline(s[:-1]), knots[:-1])  # a knot starts its interval: exactly its knot
     assert np.max(np.abs(spline(s[[0, -1]], 2))) < 1e-12
     inner, eps = s[1:-1], 1e-9
     for order in (0, 1, 2):  # continuous across every inner knot

@@ -176,6 +176,10 @@ def test_the_path_speed_limit_gives_toppras_per_gridpoint_bounds():
     theirs = toppra.constraint.JointVelocityConstraintVarying(vlim).compute_constraint_params(path, grid)
     np.testing.assert_allclose(ours[-1], theirs[-1], rtol=1e-12, atol=0.0)
     assert all(a is None and b is None for a, b in zip(ours[:-1], theirs[:-1]))
+    made = _PathSpeedLimit(path, VMAX, at, sd_max)  # set up without asking vlim: the same joints, the same vlim
+    assert made.get_dof() == 6 and made.get_constraint_type() == toppra.constraint.ConstraintType.CanonicalLinear
+    np.testing.assert_allclose(made.vlim_func(grid[7]), vlim(grid[7]), rtol=1e-12, atol=0.0)
+    assert made.vlim_func(grid[7]).shape == (6, 2)
 
 
 def test_joint_limit_constraints_are_made_once_per_limits():
@@ -189,3 +193,18 @@ def test_joint_limit_constraints_are_made_once_per_limits():
     assert other[0] is not first[0]
     np.testing.assert_array_equal(other[0].vlim, np.stack([-VMAX, VMAX], axis=1))
     np.testing.assert_array_equal(other[1].alim, np.stack([-2 * AMAX, 2 * AMAX], axis=1))
+
+
+def test_segments_are_subdivided_into_equal_parts():
+    """Segment i of a polyline split into max(1, pieces[i]) equal parts, the last point kept: the
+    parts' fractions k / p of each segment, as numbers (2/3 of a segment, not a rounding of it)."""
+    from hriplan.planner.timing import _subdivided
+
+    points = np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 6.0], [4.0, 6.0], [4.0, 8.0]])
+    split = _subdivided(points, np.array([3.0, 0.0, 1.0, 2.0]))
+    expected = [[0, 0], [1, 0], [2, 0], [3, 0], [4, 6], [4, 7], [4, 8]]
+    np.testing.assert_array_equal(split[[0, 1, 2, 3, 5, 6, 7]], expected)
+    np.testing.assert_array_equal(split[4], [3.0, 6.0])
+    assert len(split) == 8
+    fine = _subdivided(np.array([0.0, 1.0, 2.0]), np.array([7.0, 3.0]))  # 1-D points, uneven parts
+    np.testing.assert_array_equal(fine, np.concatenate([np.arange(7) / 7, 1 + np.arange(3) / 3, [2.0]]))

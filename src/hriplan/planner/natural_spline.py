@@ -68,7 +68,9 @@ class NaturalSpline:
 
     def _evaluated(self, points: np.ndarray, order: int) -> np.ndarray:
         flat = points.reshape(-1)
-        interval = np.clip(np.searchsorted(self.s, flat, side="right") - 1, 0, len(self.s) - 2)
+        # The interval's index is the count of inner knots at or before the point (before the
+        # first knot: 0, from the last on: the last interval); np.clip's Python wrapper cost more.
+        interval = np.searchsorted(self.s[1:-1], flat, side="right")
         t = (flat - self.s[interval])[:, None]
         c0, c1, c2, c3 = self._coefficients[:, interval]
         if order == 0:

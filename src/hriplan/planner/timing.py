@@ -322,57 +322,60 @@ class _TOPPRA(toppra.algorithm.TOPPRA):
         if not controlled or x + small < controllable[0, 0] or controllable[0, 1] + small < x:
             data.return_code = toppra.algorithm.ParameterizationReturnCode.FailUncontrollable
             return (None, None, None, controllable) if return_data else (None, None, None)
-        deltas = solver.get_deltas()
-        xs, us = np.zeros(stages + 1), np.zeros(stages)
-        v_vec = np.zeros((stages, solver.get_no_vars() - 2))
+        solve, deltas, bounds = solver.solve_stagewise_optim, solver.get_deltas().tolist(), controllable.tolist()
+        tiny, max_tries = toppra.constants.TINY, toppra.constants.MAX_TRIES
+        xs, us = [float(x)] + [0.0] * stages, [0.0] * stages
         objective = np.zeros(solver.get_no_vars())
         objective[1] = -1.0
-        xs[0], tries, i = x, 0, 0
+        tries, i = 0, 0
         solver.setup_solver()
         while i < stages:
-            low, high = controllable[i + 1]
+            low, high = bounds[i + 1]
             objective[0] = -2 * deltas[i]
-            found = (
-                _NOT_FOUND
-                if np.isnan(xs[i])
-                else solver.solve_stagewise_optim(i, None, objective, xs[i], xs[i], low, high)
-            )
-            if np.isnan(found[0]):  # toppra lowers x slightly and tries again
-                if tries == toppra.constants.MAX_TRIES:
-                    xs[i + 1 :] = np.nan
+            x = xs[i]
+            found = _NOT_FOUND if x != x else solve(i, None, objective, x, x, low, high)
+            if found[0] != found[0]:  # NaN: toppra lowers x slightly and tries again
+                if tries == max_tries:
+                    xs[i + 1 :] = [np.nan] * (stages - i)
                     break
-                xs[i], tries = max(xs[i] - toppra.constants.TINY, 0.999 * xs[i]), tries + 1
+                xs[i], tries = max(x - tiny, 0.999 * x), tries + 1
                 continue
             us[i], tries = found[0], 0
-            reached = xs[i] + 2 * deltas[i] * us[i]
-            xs[i + 1] = min(high, max(low, max(reached - toppra.constants.TINY, 0.9999 * reached)))
-            v_vec[i] = found[2:]
+            reached = x + 2 * deltas[i] * us[i]
+            xs[i + 1] = min(high, max(low, max(reached - tiny, 0.9999 * reached)))
             i += 1
         solver.close_solver()
-        data.sd_vec, data.sdd_vec = np.sqrt(xs), us.copy()
+        data.sd_vec, data.sdd_vec = np.sqrt(xs), np.array(us, dtype=float)
+        v_vec = np.zeros((stages, solver.get_no_vars() - 2))  # the seidel solver has no further variables
         codes = toppra.algorithm.ParameterizationReturnCode
         data.return_code = codes.ErrUnknown if np.isnan(data.sd_vec).any() else codes.Ok
         return (data.sdd_vec, data.sd_vec, v_vec, controllable) if return_data else (data.sdd_vec, data.sd_vec, v_vec)
 
     def _controllable(self, x_end: float) -> np.ndarray:
         """The controllable sets of squared path speed (stages + 1, 2), ending at `x_end`; filled
-        from the end back to the first NaN (not controllable, or badly conditioned), as toppra's."""
+        from the end back to the first NaN (not controllable, or badly conditioned), as toppra's.
+        The bounds pass between the solver's calls as Python floats (numpy's scalars, rows and
+        NaN checks cost as much as the solver here)."""
         solver, stages = self.solver_wrapper, self._N
-        sets = np.zeros((stages + 1, 2))
-        sets[stages] = x_end
+        solve, nan = solver.solve_stagewise_optim, np.nan
         upward = np.zeros(solver.get_no_vars())
         upward[0], upward[1] = 1e-9, -1.0
         downward = -upward
+        low = high = float(x_end)
+        sets = [(low, high)]
         solver.setup_solver()
         for i in range(stages - 1, -1, -1):
-            low, high = sets[i + 1]
-            upper = solver.solve_stagewise_optim(i, None, upward, np.nan, np.nan, low, high)[1]
-            lower = solver.solve_stagewise_optim(i, None, downward, np.nan, np.nan, low, high)[1]
-            sets[i] = 0.0 if lower < 0 else lower, upper
-            if np.isnan(lower) or np.isnan(upper):
-                return sets
-        solver.close_solver()
-        return sets
+            upper = solve(i, None, upward, nan, nan, low, high)[1]
+            lower = solve(i, None, downward, nan, nan, low, high)[1]
+            low, high = 0.0 if lower < 0 else lower, upper
+            sets.append((low, high))
+            if lower != lower or upper != upper:  # NaN
+                break
+        else:
+            solver.close_solver()
+        filled = np.zeros((stages + 1, 2))
+        filled[stages + 1 - len(sets) :] = sets[::-1]
+        return filled
 
 
 # The joint-limit constraints made lately, by limits (`_joint_limits`).
@@ -406,8 +409,12 @@ class _PathSpeedLimit(toppra.constraint.JointVelocityConstraintVarying):
     `compute_constraint_params`, on its own helper."""
 
     def __init__(self, path: NaturalSpline, vmax: np.ndarray, at: np.ndarray, sd_max: np.ndarray) -> None:
+        """TOPP-RA's set-up of the class without its call of vlim at s = 0 to learn the joint count
+        (a path evaluation and a `limits` pass, ~25 us a timing): that is len(vmax)."""
         self._path, self._vmax, self._at, self._sd_max = path, vmax, at, sd_max
-        super().__init__(lambda s: self.limits(np.array([s]))[0])
+        toppra.constraint.LinearConstraint.__init__(self)
+        self.dof, self.vlim_func = len(vmax), lambda s: self.limits(np.array([s]))[0]
+        self._format_string = "    Varying Velocity limit: \n"
 
     def limits(self, s: np.ndarray) -> np.ndarray:
         """vlim at arc lengths `s`: (len(s), dof, 2), lower and upper."""
@@ -478,7 +485,8 @@ def _subdivided(points: np.ndarray, pieces: np.ndarray) -> np.ndarray:
     """`points` (k, ...) with segment i split into max(1, pieces[i]) equal parts."""
     pieces = np.maximum(1, pieces).astype(int)
     segment = np.repeat(np.arange(len(pieces)), pieces)
-    fraction = np.concatenate([np.arange(p) / p for p in pieces]).reshape((-1,) + (1,) * (points.ndim - 1))
+    step = np.arange(len(segment)) - (np.cumsum(pieces) - pieces)[segment]  # 0 .. pieces - 1 in each segment
+    fraction = (step / pieces[segment]).reshape((-1,) + (1,) * (points.ndim - 1))
     return np.concatenate([points[segment] + fraction * (points[segment + 1] - points[segment]), points[-1:]])
 
 
