@@ -168,7 +168,8 @@ def test_an_inconsistency_is_cached_too(full_and_empty, cache, no_java):
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        ({"robot": "pr2"}, "unknown robot 'pr2'; the ontology knows: madar, ur5"),
+        # The robots it knows are the registry's: robot files loaded by earlier tests add theirs.
+        ({"robot": "pr2"}, r"unknown robot 'pr2'; the ontology knows: (.*, )?madar, (.*, )?ur5(, .*)?$"),
         ({"task": {"kind": "Juggling", "arms": ["right"]}}, "task 'task' has kind 'Juggling', not a Task class"),
         ({"task": {"kind": "Transport", "arms": ["middle"]}}, "robot 'madar' has no arm 'middle'; arms: left, right"),
         ({"objects": [{"name": "can1", "kind": "Mug"}]}, "object 'can1' has kind 'Mug', not a PhysicalObject class"),
