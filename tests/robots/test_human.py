@@ -207,3 +207,19 @@ def test_a_seed_closing_in_slowly_near_the_target_is_not_left(human, monkeypatch
     spec = HumanSpec(position=(0.906, -0.713), yaw=1.774, reach={"right": (1.323, -0.588, 1.372)})
     human.pose(spec)
     assert np.linalg.norm(human.frame("right_hand").translation - spec.reach_point("right")) < 1e-3
+
+
+@pytest.mark.parametrize(
+    "spec",
+    [
+        HumanSpec(position=(0.23, -0.233), yaw=2.983, reach={"left": (0.131, -0.703, 1.667)}),  # up, behind
+        HumanSpec(position=(-0.119, 0.909), yaw=0.0, reach={"left": (-0.302, 1.111, 1.481)}),  # over the head
+    ],
+)
+def test_a_reach_the_first_postures_miss_is_reached_from_the_later_ones(human, monkeypatch, spec):
+    """Points the arm reaches (made from arm joints within their limits) that the hanging, bent and
+    raised starts all miss (c5881fc refused them, 1 cm and 14 cm short): a later start reaches."""
+    monkeypatch.setattr(human_module, "_CONFIGURATIONS", Recent(4))
+    human.pose(spec)
+    side = next(iter(spec.reach))
+    assert np.linalg.norm(human.frame(f"{side}_hand").translation - spec.reach_point(side)) < 1e-4
