@@ -29,7 +29,7 @@ from hriplan.robots.human import Human, HumanSpec
 from hriplan.robots.kernel_switch import kernels_on
 from hriplan.robots.mesh_clearance import ClearanceTable, clearance_tables
 from hriplan.robots.model import Robot
-from hriplan.robots.part_spheres import PartSpheres
+from hriplan.robots.part_spheres import PartSpheres, box_sphere
 from hriplan.robots.robot_geometry import NO_COLLISION_SHAPES, ask_contacts, part_collision_shapes, robot_parts
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
@@ -174,14 +174,6 @@ _BY_ROBOT: dict[tuple[object, float], _RobotGeometry] = {}  # by robot spec and 
 _BALLS_APART = 1e-3
 
 
-def _local_ball(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, float]:
-    """A ball (centre, radius) holding `geometry` in its own frame, about its local box: computed
-    on a copy, as the model's own shape is left as it is (coal computes its box when first asked)."""
-    shape = geometry.clone()
-    shape.computeLocalAABB()
-    return np.array(shape.aabb_center), float(shape.aabb_radius)
-
-
 def _fixed_balls(
     fixed_shapes: dict[int, list[tuple[coal.CollisionGeometry, coal.Transform3s]]],
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -191,7 +183,7 @@ def _fixed_balls(
         balls = [
             (placement.transform(centre), radius)
             for shape, placement in shapes
-            for centre, radius in [_local_ball(shape)]
+            for centre, radius in [box_sphere(shape)]
         ]
         middle = np.mean([centre for centre, _ in balls], axis=0) if balls else np.zeros(3)
         centres.append(middle)
@@ -711,7 +703,7 @@ class CollisionChecker:
         where it stands: no other can touch it (a moved obstacle asked coal about each of
         MADAR's nine, ~10 us each; a keep-out follows its person, away from the base)."""
         other = self._geom_model.geometryObjects[obstacle]
-        centre, radius = _local_ball(other.geometry)
+        centre, radius = box_sphere(other.geometry)
         centres, radii = self._robot.fixed_balls
         gaps = np.linalg.norm(centres - other.placement.act(centre), axis=1) - radii - radius
         return [p for p, gap in zip(self._robot.fixed_shapes, gaps.tolist()) if gap < _BALLS_APART]

@@ -24,6 +24,7 @@ from hriplan.recent import Recent
 from hriplan.robots.assets import resolve_package_uri
 from hriplan.robots.bounding import fit_box, fit_capsule
 from hriplan.robots.fit_cache import array, array_data, cached_fit, se3, se3_data
+from hriplan.robots.spatial import norm
 
 Side = Literal["left", "right"]
 SEGMENTS = (
@@ -328,7 +329,7 @@ class Human:
             for iteration in range(200):
                 pin.forwardKinematics(self.model, self.data, qs)
                 err = target - (self.data.oMi[joint] * offset).translation
-                distance = math.sqrt(err @ err)  # np.linalg.norm's arithmetic, without its checks
+                distance = norm(err)
                 if distance < 1e-4:
                     break
                 closest, stalled = (distance, 0) if distance < _PROGRESS * closest else (closest, stalled + 1)

@@ -28,6 +28,7 @@ from hriplan.robots import numeric_ik_search
 from hriplan.robots.collision import ZONE_NAMING
 from hriplan.robots.descriptions.description import IK_KINDS, NUMERIC_IK, UR_MODELS
 from hriplan.robots.model import Robot
+from hriplan.robots.spatial import norm
 
 AXES = {"x": 0, "y": 1, "z": 2}
 ORTHONORMAL_TOLERANCE = 1e-6
@@ -215,16 +216,11 @@ def _fit_limits(
 
 def _errors(pose: np.ndarray, target: np.ndarray, axis: int | None) -> tuple[float, float]:
     """Position error (m) and orientation error (rad); with a free axis only its direction counts."""
-    position = _norm(target[:3, 3] - pose[:3, 3])
+    position = norm(target[:3, 3] - pose[:3, 3])
     if axis is None:
-        return position, _norm(pin.log3(target[:3, :3].T @ pose[:3, :3]))
+        return position, norm(pin.log3(target[:3, :3].T @ pose[:3, :3]))
     a, b = target[:3, axis], pose[:3, axis]
     return position, float(math.atan2(np.linalg.norm(np.cross(a, b)), float(a @ b)))
-
-
-def _norm(v: np.ndarray) -> float:
-    """np.linalg.norm of a vector, its arithmetic (sqrt of the dot) without its checks."""
-    return math.sqrt(v.dot(v))
 
 
 def _polish(
@@ -319,7 +315,7 @@ def solve_ik(
     if not tolerance > 0:
         raise HriplanError(f"IK tolerance must be positive, got {tolerance}")
     info = _Arm(robot, arm, base_q)
-    distance = _norm(target[:3, 3] - info.shoulder)
+    distance = norm(target[:3, 3] - info.shoulder)
     if info.kind == NUMERIC_IK:
         length = numeric_ik_search.reach(robot, info, arm)
         if length is not None and distance > length + tolerance:

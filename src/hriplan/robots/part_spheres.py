@@ -77,6 +77,13 @@ def bounding_sphere(part: pin.GeometryObject) -> tuple[np.ndarray, float]:
     joint frame, radius."""
     if isinstance(part.geometry, coal.Capsule):  # its own sphere is tighter than its box's
         return part.placement.translation.copy(), float(part.geometry.halfLength + part.geometry.radius)
-    shape = part.geometry.clone()  # computing the box on the model's own shape would change it
+    centre, radius = box_sphere(part.geometry)
+    return part.placement.act(centre), radius
+
+
+def box_sphere(shape: coal.CollisionGeometry) -> tuple[np.ndarray, float]:
+    """A sphere holding `shape` about its local bounding box: centre in the shape's own frame,
+    radius. Computed on a copy: computing the box on the model's own shape would change it."""
+    shape = shape.clone()
     shape.computeLocalAABB()
-    return part.placement.act(np.asarray(shape.aabb_center, dtype=float)), float(shape.aabb_radius)
+    return np.asarray(shape.aabb_center, dtype=float), float(shape.aabb_radius)

@@ -20,6 +20,7 @@ import numpy as np
 
 from hriplan.planner.outcome import Status
 from hriplan.planner.search.result import Counters, SearchResult
+from hriplan.robots.spatial import norm
 
 Margins = Callable[[np.ndarray], np.ndarray]
 Gradients = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]  # x -> (margins, a gradient row each)
@@ -139,7 +140,7 @@ class _Search:
         x = tree.nodes[index].copy()
         delta = self.p.delta
         ahead = target - x
-        distance = _norm(ahead)
+        distance = norm(ahead)
         for _ in range(max_steps):
             if distance <= 1e-9:
                 return index, True
@@ -148,10 +149,10 @@ class _Search:
             if moved is None:
                 return index, False
             ahead = target - moved
-            new_distance = _norm(ahead)
+            new_distance = norm(ahead)
             # No progress, or projection threw the state far from the step: blocked. (A step
             # that needed no projection is the step itself, at most delta from x.)
-            if new_distance >= distance - 1e-6 or (moved is not step and _norm(moved - x) > 2.0 * delta):
+            if new_distance >= distance - 1e-6 or (moved is not step and norm(moved - x) > 2.0 * delta):
                 return index, False
             if not self.valid(moved):
                 return index, False
@@ -213,7 +214,7 @@ def shortcut(
             continue
         old = float(steps[i:j].sum())  # _length(path[i : j + 1]), to the bit
         across = path[j] - path[i]
-        if old <= 1.02 * math.sqrt(across.dot(across)) + 1e-3:  # np.linalg.norm's arithmetic
+        if old <= 1.02 * norm(across) + 1e-3:  # np.linalg.norm's arithmetic
             continue
         tree = _Tree(path[i])
         end, reached = search.extend(tree, 0, path[j], max_steps=int(math.ceil(old / search.p.delta)) + 2)
@@ -224,10 +225,6 @@ def shortcut(
             path = path[:i] + middle[:-1] + path[j:]
             steps = _steps(path)
     return path
-
-
-def _norm(v: np.ndarray) -> float:
-    return math.sqrt(float(v @ v))
 
 
 def _length(states: list[np.ndarray]) -> float:
