@@ -42,7 +42,7 @@ def test_every_state_a_plan_its_timing_and_leave_check_ask_is_asked_within_a_mot
 ):
     problem, session = handover
     asked: list[tuple[frozenset[int] | None, bytes | None]] = []
-    for name in ("in_collision", "first_collision"):
+    for name in ("in_collision", "first_collision", "compiled_verdict"):
         original = getattr(CollisionChecker, name)
 
         def spy(self, q, original=original):
@@ -63,7 +63,8 @@ def test_every_state_a_plan_its_timing_and_leave_check_ask_is_asked_within_a_mot
     assert motion.solved, motion.message
     start = session.robot.configuration(problem.start).tobytes()
     moved = session.robot.moved_joints("right_arm")
-    assert len(asked) > 10 and set(asked) == {(moved, start)}
+    # (the compiled walk asks for the certifier once a walk, and the checker about states it cannot clear)
+    assert len(asked) > (2 if either_route else 10) and set(asked) == {(moved, start)}
     asked.clear()
     timed = session.time(motion, problem.options, safety=None)  # dense validation of the timed path
     assert timed.solved and len(asked) >= 1 and set(asked) == {(moved, start)}

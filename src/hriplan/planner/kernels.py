@@ -32,7 +32,8 @@ from hriplan.safety.separation import PersonSeparation, RobotStopping, Separatio
 def load_kernels() -> bool:
     """Turn the kernels on in this process, and load every one of them (compiling any not yet
     cached): the collision certifier's and the constraint terms' called once each on the
-    built-in UR5, the ISO/TS 15066 monitor's on MADAR (robots and checkers stay cached).
+    built-in UR5 and CBiRRT's walk through them, the ISO/TS 15066 monitor's on MADAR (robots
+    and checkers stay cached).
     False (and the kernels stay off) without numba, the `fast` extra."""
     use_kernels(True)
     if not kernels_on():
@@ -50,8 +51,20 @@ def load_kernels() -> bool:
     evaluator.margins(q)  # a whole configuration; gradients take the planned joints' values
     evaluator.gradients(x)
     evaluator.margins_many(np.repeat(q[None], 2, axis=0))
+    _band_walk(evaluator, checker, robot.limits("arm"), x)
     _monitor()
     return True
+
+
+def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds, x: np.ndarray) -> None:
+    """CBiRRT's compiled projection and walk (`band_kernels.py`), with and without bands."""
+    from hriplan.planner.search.band_kernels import BandWalker
+
+    walker = BandWalker.of(evaluator, bounds)
+    certifier = checker.compiled_verdict(evaluator.full(x))
+    walker.project(x, 4e-3, 2e-3)
+    for bands in ((4e-3, 2e-3), None):
+        walker.walk(x, x + 0.1, 0.05, 3, bands, certifier)
 
 
 def _monitor() -> None:

@@ -31,6 +31,7 @@ from hriplan.planner.start_zones import start_zones
 from hriplan.planner.validate import VALIDATION_TOLERANCE, PathValidation, densify, validate_path
 from hriplan.robots.collision import ZONE_NAMING, CollisionChecker, SeparationZones, listed_contacts
 from hriplan.robots.ik import solve_ik
+from hriplan.robots.kernel_switch import kernels_on
 from hriplan.robots.model import JointValues, Robot
 from hriplan.robots.spatial import Pose
 from hriplan.safety.separation import SeparationPolicy
@@ -458,15 +459,23 @@ def _band_problem(problem: _Problem, options: PlanOptions) -> BandProblem:
     from hriplan.planner.search.cbirrt import BandProblem
 
     evaluator, checker = problem.evaluator, problem.checker
+    bounds = problem.robot.limits(problem.group)
+    walker = None
+    if kernels_on():  # the compiled loop where the terms and joints are compiled (band_kernels.py)
+        from hriplan.planner.search.band_kernels import BandWalker
+
+        walker = BandWalker.of(evaluator, bounds)
     return BandProblem(
         lambda x: evaluator.margins(evaluator.full(x)),
         evaluator.gradients,
         lambda x: not checker.in_collision(evaluator.full(x)),
-        problem.robot.limits(problem.group),
+        bounds,
         BAND_OFFSET,
         PLANNING_MARGIN,
         options.delta,
         bool(evaluator.constraints),
+        walker,
+        lambda x: checker.compiled_verdict(evaluator.full(x)),
     )
 
 

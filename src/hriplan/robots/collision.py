@@ -773,6 +773,20 @@ class CollisionChecker:
         values = q.tolist()
         return any(not table.certified(values) and self._meshes_touch(pairs) for table, pairs in self._tabled)
 
+    def compiled_verdict(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """The certifier's packed arrays, for compiled code to ask its verdict
+        (`certifier_kernels.verdict_one`) about states that differ from `q` only in joints that
+        move in the current motion (`moving`; any, outside one): a state it calls free is free
+        for `in_collision`, any other must be asked there.
+        None where `in_collision` must be asked about every state: the kernels off, no certifier
+        for this robot, or a pair the motion holds still touching at `q`."""
+        if self._stale:
+            self._ready()
+        if self._held is not None and self._held_touch(q):
+            return None
+        certifier = self._free_certifier()
+        return None if certifier is None else certifier.packed
+
     def first_collision(self, qs: np.ndarray) -> int | None:
         """The index of the first of the states `qs` (N, nq) in collision, None if none: each
         state checked as `in_collision` does, in order, until one collides; the clearance

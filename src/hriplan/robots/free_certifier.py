@@ -335,6 +335,11 @@ class FreeCertifier:
         self._left = packed[-left.size :]  # a view the kernel writes
         return np.concatenate([a.reshape(-1) for a in floats]), packed
 
+    @property
+    def packed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The float and int arrays `verdict_one` takes (compiled callers ask it themselves)."""
+        return self._floats, self._ints
+
     def verdict(self, q: np.ndarray) -> tuple[int, tuple[int, ...]] | None:
         """(tables, pairs) at `q`: bit k of tables says table k (of those given) does not
         certify it; pairs are the ids of the pairs that may touch; only those can. `FREE`

@@ -48,7 +48,7 @@ def _compiled(names: tuple[str, ...]) -> dict[str, Callable]:
 
 
 _KERNELS = _compiled(G.COMPILED)
-_term_margins, _term_gradients = _KERNELS["term_margins"], _KERNELS["term_gradients"]
+term_margins, term_gradients = _KERNELS["term_margins"], _KERNELS["term_gradients"]
 
 
 class CompiledTerms:
@@ -86,10 +86,25 @@ class CompiledTerms:
         tables = joint_tables(evaluator.model)
         return None if tables is None else cls(evaluator, tables)
 
+    @property
+    def count(self) -> int:
+        """How many terms."""
+        return len(self._ints)
+
+    def base_configuration(self) -> np.ndarray:
+        """A copy of the evaluator's configuration (the joints it does not plan stay there)."""
+        return self._evaluator.q.copy()
+
+    def kernel_arguments(self) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+        """What the compiled kernels take: (the joints' tables and frames' scratch for
+        `place_joints`, the terms' arrays for `term_gradients` with the goals as they are now)."""
+        joints = (self._joint_rows, self._joint_ints, self._rotation, self._origin)
+        return joints, (self._ints, self._current(), self._columns, self._axes, self._carries)
+
     def margins(self, q: np.ndarray) -> np.ndarray:
         """Every term's margin at configuration `q`."""
         self._place(q)
-        _term_margins(self._rotation, self._origin, self._ints, self._current(), self._out)
+        term_margins(self._rotation, self._origin, self._ints, self._current(), self._out)
         return self._out[0].copy()
 
     def margins_many(self, qs: np.ndarray) -> np.ndarray:
@@ -99,7 +114,7 @@ class CompiledTerms:
         for q, r, o in zip(qs, rotation, origin):
             place_joints(q, self._joint_rows, self._joint_ints, r, o)
         out = np.empty((len(qs), len(self._ints)))
-        _term_margins(rotation, origin, self._ints, self._current(), out)
+        term_margins(rotation, origin, self._ints, self._current(), out)
         return out
 
     def gradients(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -107,7 +122,7 @@ class CompiledTerms:
         self._place(q)
         margins, rows = np.empty(len(self._ints)), np.empty((len(self._ints), len(self._columns)))
         floats = self._current()
-        _term_gradients(
+        term_gradients(
             self._rotation[0],
             self._origin[0],
             self._ints,

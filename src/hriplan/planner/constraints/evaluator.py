@@ -260,8 +260,13 @@ class ConstraintEvaluator:
         return np.array(values), rows
 
     def _route(self) -> CompiledTerms | None:
-        """The compiled route (`compiled.py`) with the kernels on, where it covers every term."""
-        if not kernels_on() or not self._terms:
+        """The compiled route (`compiled.py`) of the terms, where there are any."""
+        return self.compiled_terms() if self._terms else None
+
+    def compiled_terms(self) -> CompiledTerms | None:
+        """The terms packed for the compiled kernels (none is a valid packing), with the kernels
+        on and where they cover every term and joint; else None."""
+        if not kernels_on():
             return None
         if self._compiled is None:
             from hriplan.planner.constraints.compiled import CompiledTerms

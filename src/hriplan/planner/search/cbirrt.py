@@ -15,6 +15,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,9 +23,13 @@ from hriplan.planner.outcome import Status
 from hriplan.planner.search.result import Counters, SearchResult
 from hriplan.robots.spatial import norm
 
+if TYPE_CHECKING:
+    from hriplan.planner.search.band_kernels import BandWalker
+
 Margins = Callable[[np.ndarray], np.ndarray]
 Gradients = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]  # x -> (margins, a gradient row each)
 NEWTON_ITERATIONS = 12
+BLOCKED, REACHED, MORE, UNSURE = 0, 1, 2, 3  # how a compiled walk ended (band_kernels.walk)
 LOCAL_SHARE, LOCAL_SPREAD = 0.8, 0.3  # rad: targets sampled near the tree
 SHORTCUT_MIN_STEPS = 300
 
@@ -41,6 +46,9 @@ class BandProblem:
     accept: float  # ... and accept a projected state once margin <= -accept (< offset)
     delta: float
     constrained: bool = True  # False: no band at all, steps are never projected
+    walker: BandWalker | None = None  # the compiled projection and walk (kernels on), else the Python loop
+    # the collision certifier's arrays for states moving from x (CollisionChecker.compiled_verdict), or None
+    certifier: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray] | None] = lambda x: None
 
 
 def _min_norm_step(jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -80,6 +88,15 @@ class _Tree:
         self.parents.append(parent)
         return len(self) - 1
 
+    def add_chain(self, xs: np.ndarray, parent: int) -> int:
+        """Add `xs` (N, n), each the child of the one before, the first of `parent`: the last's index."""
+        first = len(self)
+        while first + len(xs) > len(self.nodes):
+            self.nodes = np.concatenate([self.nodes, np.empty_like(self.nodes)])
+        self.nodes[first : first + len(xs)] = xs
+        self.parents += [parent, *range(first, first + len(xs) - 1)][: len(xs)]
+        return len(self) - 1 if len(xs) else parent
+
     def branch(self, index: int) -> list[np.ndarray]:
         """States from the root to node `index`."""
         out = []
@@ -99,6 +116,10 @@ class _Search:
         p = self.p
         if not p.constrained:
             return x
+        if p.walker is not None:
+            moved = p.walker.project(x, p.offset, p.accept)
+            self._tally()
+            return moved
         self.counters.function += 1
         margins = p.margins(x)
         for _ in range(NEWTON_ITERATIONS):
@@ -137,6 +158,12 @@ class _Search:
 
     def extend(self, tree: _Tree, index: int, target: np.ndarray, max_steps: int) -> tuple[int, bool]:
         """Constrained extension from node `index` towards `target`: (last node, reached)."""
+        if self.p.walker is not None:
+            return self._walked(tree, index, target, max_steps)
+        return self._stepped(tree, index, target, max_steps)
+
+    def _stepped(self, tree: _Tree, index: int, target: np.ndarray, max_steps: int) -> tuple[int, bool]:
+        """`extend` in Python, a step at a time."""
         x = tree.nodes[index].copy()
         delta = self.p.delta
         ahead = target - x
@@ -161,6 +188,40 @@ class _Search:
             if distance <= 1e-6:
                 return index, True
         return index, False
+
+    def _walked(self, tree: _Tree, index: int, target: np.ndarray, max_steps: int) -> tuple[int, bool]:
+        """`extend` by the compiled walk (band_kernels.walk), step for step the Python loop's:
+        the states the certifier clears join the tree in one go; a state it cannot clear is
+        asked of the collision checker, as the loop asks every state, and the walk goes on
+        from it if it is free. Where the checker has no compiled verdict, the Python loop."""
+        p = self.p
+        certifier = p.certifier(tree.nodes[index])
+        if certifier is None:
+            return self._stepped(tree, index, target, max_steps)
+        bands = (p.offset, p.accept) if p.constrained else None
+        while max_steps > 0:
+            states, code, distance, unsure = p.walker.walk(
+                tree.nodes[index], target, p.delta, max_steps, bands, certifier
+            )
+            self._tally()
+            self.counters.validity += len(states)
+            index = tree.add_chain(states, index)
+            if code != UNSURE:
+                return index, code == REACHED
+            max_steps -= len(states) + 1
+            if not self.valid(unsure):
+                return index, False
+            index = tree.add(unsure, index)
+            if distance <= 1e-6:
+                return index, True
+        return index, False
+
+    def _tally(self) -> None:
+        """Move the walker's counts of margins and gradients asked into the counters."""
+        counts = self.p.walker.counts
+        self.counters.function += int(counts[0])
+        self.counters.jacobian += int(counts[1])
+        counts[:] = 0
 
 
 def plan_in_bands(

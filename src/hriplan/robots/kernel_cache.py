@@ -1,0 +1,40 @@
+"""Compiled kernels that call into other files, cached on disk keyed by every file they use.
+
+Why: numba keys a function's disk cache by its own source file only (the file's digest), not
+by its callees in other modules, so a kernel calling the certifier's or the constraint terms'
+code would keep running their old code after those files changed (an upgrade, an edit).
+`njit_keyed` compiles as `njit(cache=True, nogil=True)` and adds the digests of the files the
+kernel depends on to the stamp numba compares before loading a cached kernel: a change in any
+of them compiles it again. Where the numba in use keeps its stamp elsewhere (a future version),
+the kernel is not cached at all rather than cached stale.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
+
+from numba import njit
+from numba.core.caching import NullCache
+
+
+def njit_keyed(*dependencies: ModuleType) -> Callable[[Callable], Callable]:
+    """`njit(cache=True, nogil=True)` with its cache also keyed by the source files of `dependencies`."""
+
+    def compile_keyed(function: Callable) -> Callable:
+        dispatcher = njit(cache=True, nogil=True)(function)
+        index = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+        if index is None or not hasattr(index, "_source_stamp"):
+            dispatcher._cache = NullCache()
+            return dispatcher
+        index._source_stamp = (index._source_stamp, *(file_digest(m.__file__) for m in dependencies))
+        return dispatcher
+
+    return compile_keyed
+
+
+def file_digest(path: str) -> bytes:
+    """The sha256 of a file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).digest()

@@ -1,0 +1,204 @@
+"""CBiRRT's compiled inner loop (planner/search/band_kernels.py) against the Python loop it
+replaces (cbirrt._Search's `_stepped` and `project` on the margins and `in_collision`): the
+same projections, the same trees grown towards the same targets through scenes with
+obstacles and a person, the same counts, to rounding; and its disk cache made again when a
+file it calls into changes."""
+
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hriplan.planner.constraints.binding import bind
+from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+from hriplan.planner.motion import BAND_OFFSET, PLANNING_MARGIN
+from hriplan.planner.problem import load_problem
+from hriplan.planner.search import cbirrt
+from hriplan.planner.search.cbirrt import BandProblem, _min_norm_step, _Search, _Tree
+from hriplan.planner.search.result import Counters
+from hriplan.planner.session import PlanningSession
+
+SCENARIOS = Path(__file__).parents[2] / "benchmarks" / "scenarios"
+REPO_SRC = Path(__file__).parents[2] / "src"
+# Rounding apart: three or more rows near their bands are solved by the normal equations, whose
+# 1e-9 regularisation leaves them ill-conditioned (LAPACK's elimination against the kernel's
+# differ by up to a few 1e-9 rad there); one or two rows agree to ~1e-15.
+TO_ROUNDING = 1e-7
+
+
+@pytest.fixture(scope="module", params=["a_ur5_upright_box", "b_madar_handover", "a_unconstrained"])
+def searches(request):
+    """(the Python loop's search, the compiled walk's, a start, the joint bounds, the collision
+    checker) on one scenario, inside its motion (`moving`)."""
+    from hriplan.planner.search.band_kernels import BandWalker
+    from hriplan.robots import kernel_switch
+
+    before = kernel_switch.kernels_on()
+    kernel_switch.use_kernels(True)
+    name = request.param.replace("a_unconstrained", "a_ur5_upright_box")
+    problem = load_problem(SCENARIOS / f"{name}.json")
+    session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
+    robot, checker, group = session.robot, session.checker, problem.group or session.robot.default_group
+    session.set_constraints([] if request.param == "a_unconstrained" else problem.constraints)
+    specs = list(session.constraints.values())
+    q0 = robot.configuration(problem.start)
+    evaluator = ConstraintEvaluator(robot, bind(specs, robot, checker), group, q0)
+    bounds = robot.limits(group)
+    with checker.moving(group, q0):
+
+        def made(walker):
+            return BandProblem(
+                lambda x: evaluator.margins(evaluator.full(x)),
+                evaluator.gradients,
+                lambda x: not checker.in_collision(evaluator.full(x)),
+                bounds,
+                BAND_OFFSET,
+                PLANNING_MARGIN,
+                problem.options.delta,
+                bool(specs),
+                walker,
+                lambda x: checker.compiled_verdict(evaluator.full(x)),
+            )
+
+        walker = BandWalker.of(evaluator, bounds)
+        assert walker is not None
+        yield _Search(made(None), Counters()), _Search(made(walker), Counters()), q0[evaluator.idx], bounds, checker
+    kernel_switch.use_kernels(before)
+
+
+def _same_counts(a: _Search, b: _Search) -> None:
+    assert (a.counters.function, a.counters.jacobian, a.counters.validity) == (
+        b.counters.function,
+        b.counters.jacobian,
+        b.counters.validity,
+    )
+
+
+def test_the_compiled_projection_is_the_python_projection(searches, rng):
+    python, compiled, start, (low, high), _ = searches
+    if not python.p.constrained:
+        pytest.skip("no band to project into")
+    outcomes = {"inside": 0, "moved": 0, "none": 0}
+    for k in range(300):
+        x = np.clip(start + rng.normal(0.0, 0.6 if k % 2 else 0.01, len(start)), low, high)
+        a, b = python.project(x.copy()), compiled.project(x.copy())
+        assert (a is None) == (b is None)
+        if a is not None:
+            np.testing.assert_allclose(b, a, rtol=0, atol=TO_ROUNDING)
+            outcomes["inside" if np.array_equal(a, x) else "moved"] += 1
+        else:
+            outcomes["none"] += 1
+    _same_counts(python, compiled)
+    assert min(outcomes.values()) > 0, outcomes  # each outcome occurred
+
+
+def test_the_compiled_walk_grows_the_python_loops_tree(searches, rng, monkeypatch):
+    """Random extensions from the tree's nodes towards random targets, the ends the Python loop
+    reaches and the states it adds (each checked for collision before the next step)."""
+    python, compiled, start, (low, high), _ = searches
+    ended = []
+    walk = compiled.p.walker.walk
+
+    def counted(*args):
+        out = walk(*args)
+        ended.append(out[1])
+        return out
+
+    monkeypatch.setattr(compiled.p.walker, "walk", counted)
+    trees = _Tree(start), _Tree(start)
+    reached = 0
+    for k in range(150):
+        index = int(rng.integers(len(trees[0])))
+        target = np.clip(trees[0].nodes[index] + rng.normal(0.0, 0.8, len(start)), low, high)
+        if k % 3 == 0:
+            target = _Search(python.p, Counters()).sample(np.random.default_rng(k), trees[0])
+        steps = int(rng.choice([3, 10, 100]))
+        a = python.extend(trees[0], index, target, steps)
+        b = compiled.extend(trees[1], index, target, steps)
+        assert a == b
+        reached += a[1]
+        assert trees[0].parents == trees[1].parents
+        np.testing.assert_allclose(
+            trees[1].nodes[: len(trees[1])], trees[0].nodes[: len(trees[0])], rtol=0, atol=TO_ROUNDING
+        )
+    _same_counts(python, compiled)
+    assert 0 < reached < 150
+    # each way a walk ends occurred, collision asked of the checker too (unconstrained: no step is blocked)
+    expected = {cbirrt.REACHED, cbirrt.UNSURE, cbirrt.MORE} | ({cbirrt.BLOCKED} if python.p.constrained else set())
+    assert expected <= set(ended), set(ended)
+
+
+def test_a_walk_that_reaches_its_target_on_its_last_step_has_reached_it(searches, rng):
+    python, compiled, start, _, _ = searches
+    if python.p.constrained:
+        pytest.skip("a step into the bands may be moved")
+    delta = python.p.delta
+    for steps in (1, 3, 7):
+        direction = rng.normal(size=len(start))
+        target = start + direction / np.linalg.norm(direction) * (steps - 0.5) * delta
+        assert python.extend(_Tree(start), 0, target, steps) == (steps, True)
+        assert compiled.extend(_Tree(start), 0, target, steps) == (steps, True)
+        assert compiled.extend(_Tree(start), 0, target, steps - 1) == (steps - 1, False)
+
+
+def test_the_loop_is_kept_where_the_checker_has_no_compiled_verdict(searches, rng, monkeypatch):
+    python, compiled, start, (low, high), _ = searches
+    monkeypatch.setattr(compiled.p, "certifier", lambda x: None)
+    monkeypatch.setattr(compiled.p.walker, "walk", lambda *args: pytest.fail("walked without a certifier"))
+    tree = _Tree(start)
+    target = np.clip(start + rng.normal(0.0, 0.8, len(start)), low, high)
+    assert compiled.extend(tree, 0, target, 10) == python.extend(_Tree(start), 0, target, 10)
+
+
+def test_a_pair_held_still_and_touching_leaves_no_compiled_verdict(searches, monkeypatch):
+    """Every state collides where a still pair touches: the verdict of the moving pairs alone
+    would call some free."""
+    _, compiled, _, _, checker = searches
+    q = compiled.p.walker._terms.base_configuration()
+    assert checker.compiled_verdict(q) is not None
+    monkeypatch.setattr(type(checker), "_held_touch", lambda self, q: True)
+    monkeypatch.setattr(checker, "_held", object())
+    assert checker.compiled_verdict(q) is None
+
+
+@pytest.mark.parametrize("rows", [3, 4, 6])
+def test_the_compiled_newton_step_is_the_minimum_norm_solution(rows, rng):
+    from hriplan.planner.search.band_kernels import _min_norm_step as compiled_step
+
+    n = 7
+    grads, values = rng.normal(size=(rows + 2, n)), rng.normal(size=rows + 2)
+    active = np.array([0, 2, 3, 4, 5, 6][:rows], dtype=np.int64)
+    step = np.empty(n)
+    compiled_step(grads, values, active, rows, step)
+    np.testing.assert_allclose(grads[active] @ step, values[active], atol=1e-7)
+    expected = _min_norm_step(grads[active], values[active])
+    np.testing.assert_allclose(step, expected, rtol=0, atol=1e-9)
+    lstsq = np.linalg.lstsq(grads[active], values[active], rcond=None)[0]  # numpy's minimum-norm solution
+    np.testing.assert_allclose(step, lstsq, rtol=0, atol=1e-6)
+
+
+def test_a_kernel_is_compiled_again_when_a_file_it_calls_into_changes(tmp_path):
+    """numba alone would load the caller's cached code, with the callee's old body, after the
+    callee's file changed (only the caller's own file keys its cache)."""
+    (tmp_path / "callee.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 1\n")
+    (tmp_path / "caller.py").write_text(
+        textwrap.dedent(
+            """
+            import callee
+            from hriplan.robots.kernel_cache import njit_keyed
+
+            @njit_keyed(callee)
+            def keyed():
+                return callee.value()
+            """
+        )
+    )
+    run = [sys.executable, "-c", "import caller; print(caller.keyed())"]
+    env = {"PYTHONPATH": f"{tmp_path}:{REPO_SRC}", "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin"}
+    assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip() == "1"
+    assert list((tmp_path / "cache").rglob("*caller*keyed*.nbi"))  # cached
+    (tmp_path / "callee.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 2\n")
+    assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip() == "2"
