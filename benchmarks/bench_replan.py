@@ -206,7 +206,9 @@ def _without_planning_times(value):
 
 def _same_outcome(a, b, rtol: float, widest: list[float], loose: bool = False) -> bool:
     """Two outcomes (JSON trees) equal, every number to `rtol` relatively (the largest relative
-    difference kept in widest[0]) and those under a `max_violation` key (`loose`) also to 1e-12."""
+    difference kept in widest[0]; with an `rtol`, numbers within 1e-15 of zero equal too: a
+    rest's velocities, ~1e-17 of either sign) and those under a `max_violation` key (`loose`)
+    also to 1e-12."""
     if isinstance(a, dict) and isinstance(b, dict):
         return a.keys() == b.keys() and all(
             _same_outcome(a[k], b[k], rtol, widest, loose or k == "max_violation") for k in a
@@ -214,6 +216,8 @@ def _same_outcome(a, b, rtol: float, widest: list[float], loose: bool = False) -
     if isinstance(a, list) and isinstance(b, list):
         return len(a) == len(b) and all(_same_outcome(x, y, rtol, widest, loose) for x, y in zip(a, b))
     if isinstance(a, float) and isinstance(b, float) and a != b:
+        if rtol and max(abs(a), abs(b)) <= 1e-15:
+            return True
         relative = abs(a - b) / max(abs(a), abs(b))
         widest[0] = max(widest[0], relative)
         return relative <= rtol or (loose and abs(a - b) <= 1e-12)
