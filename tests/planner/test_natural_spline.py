@@ -82,3 +82,33 @@ def test_bad_input_is_refused(s, knots, message):
         return
     with pytest.raises(ValueError, match="order"):
         NaturalSpline(np.array([0.0, 1.0]), np.array([[0.0], [1.0]]))(0.5, 3)
+
+
+def _horner(spline: NaturalSpline, at: np.ndarray, order: int) -> np.ndarray:
+    """The spline's value by its coefficients of (s - s_i)^k, each point on its own: the interval
+    found by a scan, the derivatives' factors applied to that interval's coefficients."""
+    out = []
+    for p in at.tolist():
+        i = min(max(int(np.sum(spline.s[1:-1] <= p)), 0), len(spline.s) - 2)
+        t = p - spline.s[i]
+        c0, c1, c2, c3 = spline._coefficients[:, i]
+        if order == 0:
+            out.append(c0 + t * (c1 + t * (c2 + t * c3)))
+        elif order == 1:
+            out.append(c1 + t * (2.0 * c2 + t * (3.0 * c3)))
+        else:
+            out.append(2.0 * c2 + t * (6.0 * c3))
+    return np.array(out)
+
+
+def test_every_order_is_its_horner_form_bit_for_bit_whatever_was_asked_before():
+    """Orders asked in any sequence, at positions that change between the calls (each point's
+    interval and offset are kept for the positions last asked: new positions must not reuse them),
+    are the point-by-point Horner form of the coefficients, to the bit."""
+    s, knots = _path(25, seed=5)
+    spline = NaturalSpline(s, knots)
+    rng = np.random.default_rng(5)
+    places = [np.sort(rng.uniform(s[0] - 0.02, s[-1] + 0.02, k)) for k in (40, 40, 17)] + [s]
+    for at, orders in zip(places, [(2, 1, 0), (0, 2), (1, 1, 2), (2, 0, 1)]):
+        for order in orders:
+            np.testing.assert_array_equal(spline(at, order), _horner(spline, at, order))

@@ -146,6 +146,27 @@ def test_the_trajectory_is_toppras_bit_for_bit(seed):
         np.testing.assert_array_equal(ours(times, order), theirs(times, order))
     for a, b in zip(ours._eval_params(times), theirs._eval_params(times)):
         np.testing.assert_array_equal(a, b)
+    for order, samples in enumerate(_ConstantAcceleration(path, grid, speeds).samples(times)):  # all at once
+        np.testing.assert_array_equal(samples, theirs(times, order))
+
+
+def test_gridpoints_toppra_refuses_are_refused_alike():
+    """The set-up's check of the gridpoints (in one comparison, not toppra's loop): a repeated or
+    decreasing gridpoint, or ends that are not the path's, raise toppra's errors."""
+    path = _path(0)
+    end = path.path_interval[1]
+    grid = np.linspace(0.0, end, 50)
+    for bad, message in (
+        (np.concatenate([grid[:10], grid[9:]]), "Bad input gridpoints"),  # a gridpoint twice
+        (grid[[0, 2, 1, *range(3, 50)]], "Bad input gridpoints"),
+        (grid[:-1], "Invalid manually supplied gridpoints"),
+        (grid + 1e-3, "Invalid manually supplied gridpoints"),
+    ):
+        for algorithm in (_TOPPRA, toppra.algorithm.TOPPRA):
+            with pytest.raises(ValueError, match=message):
+                algorithm(_joint_limits(VMAX, AMAX), path, gridpoints=bad, solver_wrapper="seidel")
+    made = _TOPPRA(_joint_limits(VMAX, AMAX), path, gridpoints=grid)
+    assert made._N == 49 and np.array_equal(made.problem_data.gridpoints, grid) and made.gridpoints is not grid
 
 
 def test_time_parameterize_takes_the_lean_passes_and_trajectory(monkeypatch):

@@ -74,6 +74,9 @@ def test_densify_is_the_segments_one_at_a_time(rng):
             rows[2] = rows[1]
         step = float(rng.choice([0.003, 0.01, 0.05]))
         assert np.array_equal(densify(list(rows), step), densified(rows, step))
+        kept = rows.copy()
+        assert np.array_equal(densify(rows, step), densified(rows, step))  # an array, as is
+        assert np.array_equal(rows, kept)
     assert densify([np.zeros(3)], 0.01).shape == (1, 3)
 
 

@@ -38,7 +38,7 @@ from hriplan.planner.outcome import Status
 from hriplan.planner.replay import MotionSetting
 from hriplan.planner.search.seeds import ompl_seed
 from hriplan.planner.timing import TimedPath, at_rest, joined, time_parameterize
-from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint, TrajectoryReport
+from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryReport
 from hriplan.planner.validate import PathValidation, densify, validate_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, robot_name
@@ -399,7 +399,7 @@ class PlanningSession:
             return joined(
                 [
                     time_parameterize(
-                        densify(list(path[a : b + 1]), step),
+                        densify(path[a : b + 1], step),
                         velocity,
                         acceleration,
                         velocity_scale=options.velocity_scale,
@@ -467,8 +467,10 @@ class PlanningSession:
             calls=motion.calls,
             rests=timed.rests,
         )
+        # The points as dicts, validated as TrajectoryPoints in the file's one validation (one
+        # model each, validated each: ~0.1 ms more for a few hundred points).
         points = [
-            TrajectoryPoint(time_from_start=t, positions=p, velocities=v, accelerations=a)
+            {"time_from_start": t, "positions": p, "velocities": v, "accelerations": a}
             for t, p, v, a in zip(timed.times, timed.positions, timed.velocities, timed.accelerations)
         ]
         constraints = _resolved(bound)

@@ -41,8 +41,9 @@ class PathValidation(BaseModel):
 def densify(states: Sequence[np.ndarray], step: float) -> np.ndarray:
     """Linear interpolation with at most `step` change per joint between consecutive rows: row k
     of a segment from a to b split in n is a + (b - a) * (k / n), k = 1..n, for all segments in
-    one numpy pass (the same floating-point operations as one row at a time, so the same bits)."""
-    rows = np.array([np.asarray(x, dtype=float) for x in states], dtype=float)
+    one numpy pass (the same floating-point operations as one row at a time, so the same bits).
+    `states`: an (m, n) array or m rows, read in one conversion (row by row: ~0.1 ms a timed path)."""
+    rows = np.asarray(states, dtype=float)
     a, change = rows[:-1], np.diff(rows, axis=0)
     counts = np.maximum(1, np.ceil(np.abs(change).max(axis=1, initial=0.0) / step).astype(int))
     segment = np.repeat(np.arange(len(change)), counts)
