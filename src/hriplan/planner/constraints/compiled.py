@@ -29,7 +29,9 @@ import numpy as np
 from numba import njit
 
 from hriplan.planner.constraints import geometry as G
+from hriplan.robots import certifier_kernels
 from hriplan.robots.certifier_kernels import PRISMATIC, place_joints
+from hriplan.robots.kernel_cache import njit_keyed
 from hriplan.robots.kernel_fk import joint_tables
 
 if TYPE_CHECKING:
@@ -49,6 +51,15 @@ def _compiled(names: tuple[str, ...]) -> dict[str, Callable]:
 
 _KERNELS = _compiled(G.COMPILED)
 term_margins, term_gradients = _KERNELS["term_margins"], _KERNELS["term_gradients"]
+
+
+@njit_keyed(G, certifier_kernels)
+def states_margins(qs, joint_rows, joint_ints, rotation, origin, ints, floats, out) -> None:
+    """out[n, k]: term k's margin at configuration qs[n], the joints placed state by state in
+    the scratch rotation[0], origin[0] (a call from Python per state cost ~1 us more)."""
+    for n in range(qs.shape[0]):
+        place_joints(qs[n], joint_rows, joint_ints, rotation[0], origin[0])
+        term_margins(rotation, origin, ints, floats, out[n : n + 1])
 
 
 class CompiledTerms:
@@ -76,7 +87,6 @@ class CompiledTerms:
             [[int(j in model.supports[frame.parentJoint]) for j in joints] for frame in frames], dtype=np.int64
         ).reshape(len(terms), len(joints))
         self._rotation, self._origin = np.empty((1, model.njoints, 3, 3)), np.empty((1, model.njoints, 3))
-        self._out = np.empty((1, len(terms)))
 
     @classmethod
     def of(cls, evaluator: ConstraintEvaluator) -> CompiledTerms | None:
@@ -103,18 +113,21 @@ class CompiledTerms:
 
     def margins(self, q: np.ndarray) -> np.ndarray:
         """Every term's margin at configuration `q`."""
-        self._place(q)
-        term_margins(self._rotation, self._origin, self._ints, self._current(), self._out)
-        return self._out[0].copy()
+        return self.margins_many(np.reshape(q, (1, -1)))[0]
 
     def margins_many(self, qs: np.ndarray) -> np.ndarray:
-        """Every term's margin (N, terms) at configurations `qs` (N, nq)."""
-        qs = np.ascontiguousarray(qs, dtype=float)
-        rotation, origin = np.empty((len(qs), *self._rotation.shape[1:])), np.empty((len(qs), *self._origin.shape[1:]))
-        for q, r, o in zip(qs, rotation, origin):
-            place_joints(q, self._joint_rows, self._joint_ints, r, o)
+        """Every term's margin (N, terms) at configurations `qs` (N, nq), in one compiled call."""
         out = np.empty((len(qs), len(self._ints)))
-        term_margins(rotation, origin, self._ints, self._current(), out)
+        states_margins(
+            np.ascontiguousarray(qs, dtype=float),
+            self._joint_rows,
+            self._joint_ints,
+            self._rotation,
+            self._origin,
+            self._ints,
+            self._current(),
+            out,
+        )
         return out
 
     def gradients(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
