@@ -164,6 +164,17 @@ def test_a_pair_held_still_and_touching_leaves_no_compiled_verdict(searches, mon
     assert checker.compiled_verdict(q) is None
 
 
+def test_the_compiled_nearest_node_is_numpys(rng):
+    from hriplan.planner.search.band_kernels import BandWalker
+
+    nodes = rng.normal(size=(300, 6))
+    nodes[7] = nodes[3]  # equal nodes: the first is taken
+    for count in (1, 2, 50, 300):
+        for x in [*rng.normal(size=(40, 6)), nodes[3] + 1e-9]:
+            expected = int(np.argmin(((nodes[:count] - x) ** 2).sum(axis=1)))
+            assert BandWalker.nearest(nodes, count, x) == expected
+
+
 @pytest.mark.parametrize("rows", [3, 4, 6])
 def test_the_compiled_newton_step_is_the_minimum_norm_solution(rows, rng):
     from hriplan.planner.search.band_kernels import _min_norm_step as compiled_step

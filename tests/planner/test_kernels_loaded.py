@@ -65,7 +65,7 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
     found = json.loads(run.stdout.splitlines()[-1])
     assert found["loaded"] is True and found["solved"] == [True, True, True]
     entries = ("verdict_one", "verdicts", "place_joints", "term_gradients", "capsule_rows")
-    entries += ("fold_rows", "nearest_rows", "walk_frames", "project", "walk", "states_margins")
+    entries += ("fold_rows", "nearest_rows", "walk_frames", "project", "walk", "nearest", "states_margins")
     assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
     # the tasks took the compiled routes (planning, validation, collision), and numba loaded nothing for them
     called = ["_compiled", "margins", "margins_many", "project", "verdict", "verdicts", "walk"]

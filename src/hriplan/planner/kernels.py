@@ -57,12 +57,13 @@ def load_kernels() -> bool:
 
 
 def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds, x: np.ndarray) -> None:
-    """CBiRRT's compiled projection and walk (`band_kernels.py`), with and without bands."""
+    """CBiRRT's compiled projection, walk (with and without bands) and nearest node (`band_kernels.py`)."""
     from hriplan.planner.search.band_kernels import BandWalker
 
     walker = BandWalker.of(evaluator, bounds)
     certifier = checker.compiled_verdict(evaluator.full(x))
     walker.project(x, 4e-3, 2e-3)
+    walker.nearest(np.repeat(x[None], 2, axis=0), 2, x)
     for bands in ((4e-3, 2e-3), None):
         walker.walk(x, x + 0.1, 0.05, 3, bands, certifier)
 

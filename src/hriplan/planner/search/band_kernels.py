@@ -193,6 +193,19 @@ def walk(
     return out.shape[0], MORE, distance
 
 
+@_keyed
+def nearest(nodes, count, x) -> int:
+    """The index of the node among nodes[:count] nearest `x` (the first of equals)."""
+    best, index = math.inf, 0
+    for i in range(count):
+        d = 0.0
+        for c in range(x.shape[0]):
+            d += (nodes[i, c] - x[c]) ** 2
+        if d < best:
+            best, index = d, i
+    return index
+
+
 class BandWalker:
     """The compiled projection and walk for one search: the evaluator's packed terms (none for
     a search without bands), its configuration for the joints not planned, the joint bounds.
@@ -211,6 +224,11 @@ class BandWalker:
         """The walker of `evaluator`'s planned joints, or None where its terms or joints are not compiled."""
         terms = evaluator.compiled_terms()
         return None if terms is None else cls(terms, np.asarray(evaluator.idx, dtype=np.int64), bounds)
+
+    @staticmethod
+    def nearest(nodes: np.ndarray, count: int, x: np.ndarray) -> int:
+        """The index of the node of nodes[:count] nearest `x` (`nearest`)."""
+        return nearest(nodes, count, x)
 
     def project(self, x: np.ndarray, offset: float, accept: float) -> np.ndarray | None:
         """A copy of `x` moved into every band, or None (`project`)."""

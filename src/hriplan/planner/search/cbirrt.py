@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 
 Margins = Callable[[np.ndarray], np.ndarray]
 Gradients = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]  # x -> (margins, a gradient row each)
+Nearest = Callable[[np.ndarray, int, np.ndarray], int]  # (nodes, count, x) -> the nearest of nodes[:count]
 NEWTON_ITERATIONS = 12
 BLOCKED, REACHED, MORE, UNSURE = 0, 1, 2, 3  # how a compiled walk ended (band_kernels.walk)
 LOCAL_SHARE, LOCAL_SPREAD = 0.8, 0.3  # rad: targets sampled near the tree
@@ -69,15 +70,18 @@ def _min_norm_step(jac: np.ndarray, rows: np.ndarray) -> np.ndarray:
 class _Tree:
     """Nodes in a growing array (nearest neighbour by one numpy pass) with parent links."""
 
-    def __init__(self, root: np.ndarray, capacity: int = 4096) -> None:
+    def __init__(self, root: np.ndarray, capacity: int = 4096, nearest: Nearest | None = None) -> None:
         self.nodes = np.empty((capacity, len(root)))
         self.nodes[0] = root
         self.parents = [-1]
+        self._nearest = nearest
 
     def __len__(self) -> int:
         return len(self.parents)
 
     def nearest(self, x: np.ndarray) -> int:
+        if self._nearest is not None:
+            return self._nearest(self.nodes, len(self), x)
         diff = self.nodes[: len(self)] - x
         return int(np.argmin(np.einsum("ij,ij->i", diff, diff)))
 
@@ -232,7 +236,8 @@ def plan_in_bands(
     counters = Counters()
     search = _Search(problem, counters)
     started = time.perf_counter()
-    trees = (_Tree(np.asarray(start, dtype=float)), _Tree(np.asarray(goal, dtype=float)))
+    nearest = None if problem.walker is None else problem.walker.nearest
+    trees = tuple(_Tree(np.asarray(end, dtype=float), nearest=nearest) for end in (start, goal))
     space = "projected" if problem.constrained else "real_vector"
     a, b = trees
     # Try the direct connection first: many band problems are a short slide along the band.
