@@ -5,7 +5,9 @@ Per scenario of benchmarks/scenarios (a without its constraints too): the median
 seconds of `PlanningSession.plan` over seeds, the solved count and a digest of every planned
 path (equal digests: the same paths, bit for bit); per robot and scene, the CPU microseconds of
 `in_collision` on the states of the planned paths and on free states drawn uniformly, and the
-share of those states the certifier passes without coal; "in its motion": the path's states asked
+share of those states the certifier passes without coal; "compiled walk step": a step of
+CBiRRT's compiled walk (projected, margins and collision verdict in one numba call) along the
+planned paths, 2 mm apart; "in its motion": the path's states asked
 as the planner asks them, within `CollisionChecker.moving` of the planned group from the start
 (the full check in a tree without it). Each round runs both trees in turn in
 fresh processes (benchmarks/trees.py); the kernels' compilation is cached, and the first call's
@@ -33,6 +35,40 @@ def _certified(checker, states: np.ndarray) -> float:
     return float(certifier.free_many(states).mean()) if certifier else float("nan")
 
 
+def _walk_step_us(session, problem, results) -> float:
+    """CPU microseconds a step of CBiRRT's compiled walk (band_kernels: the step projected into
+    the bands, its margins, its collision verdict) costs, walking 2 mm steps along the planned
+    paths; nan in a tree without it."""
+    try:
+        from hriplan.planner.search.band_kernels import BandWalker
+    except ImportError:
+        return float("nan")
+    from hriplan.planner.constraints.binding import bind
+    from hriplan.planner.constraints.evaluator import ConstraintEvaluator
+    from hriplan.planner.motion import BAND_OFFSET, PLANNING_MARGIN
+    from hriplan.planner.search.cbirrt import UNSURE
+
+    robot, checker = session.robot, session.checker
+    group = problem.group or robot.default_group
+    q0 = robot.configuration(problem.start)
+    specs = list(session.constraints.values())
+    evaluator = ConstraintEvaluator(robot, bind(specs, robot, checker), group, q0)
+    walker = BandWalker.of(evaluator, robot.limits(group))
+    bands = (BAND_OFFSET, PLANNING_MARGIN) if specs else None
+    paths = [np.array(r.motion.path) for r in results if r.motion is not None and r.motion.solved]
+    best = np.inf
+    with in_motion(checker, session, problem):
+        certifier = checker.compiled_verdict(evaluator.full(q0[evaluator.idx]))
+        for _ in range(3):
+            steps, started = 0, time.process_time()
+            for path in paths:
+                for a, b in zip(path, path[1:]):
+                    states, code, _, _ = walker.walk(a, b, 0.002, 200, bands, certifier)
+                    steps += len(states) + (code == UNSURE)  # an unsure state was verdicted too
+            best = min(best, (time.process_time() - started) / max(steps, 1))
+    return 1e6 * best
+
+
 def measure() -> dict:
     """One tree's numbers (the code on sys.path)."""
     from hriplan.robots.collision import CollisionChecker
@@ -54,6 +90,7 @@ def measure() -> dict:
         out[f"{scenario} plan median (s)"] = float(np.median(seconds))
         out[f"{scenario} solved"] = solved
         out[f"{scenario} paths"] = digest.hexdigest()[:12]
+        out[f"{scenario} compiled walk step (us)"] = _walk_step_us(session, problem, results)
         if len(states):
             out[f"{scenario} path state (us)"] = _cpu_us(session.checker, states)
             out[f"{scenario} path states certified"] = _certified(session.checker, states)
