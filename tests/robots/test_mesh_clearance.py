@@ -6,12 +6,16 @@ checked on the URDF's own meshes, and each slab's reach is checked against how f
 really move under forward kinematics.
 """
 
+import functools
+
+import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.mesh_clearance import (
+    EPSILON,
     FINE,
     ClearanceTable,
     cells_with_clear_corners,
@@ -144,6 +148,83 @@ def test_a_certified_sub_cell_is_free_of_contact_everywhere_inside(ur5, meshes):
             assert pair not in meshes.touching(q), f"{pair} touches in a certified sub-cell at {q.round(4).tolist()}"
             checked += 1
     assert checked > 3500
+
+
+def _blocks_hold(table: ClearanceTable, cell: tuple[int, ...], distances) -> bool:
+    """Is every certified sub-cell of `cell` in an aligned block of 1, 2 or 4 sub-cells a joint, all
+    certified, at each of whose corners every slab is farther from the parent (`distances(node)`,
+    a node in sub-cells from the cell's lower corner: per slab, its distance and reach) than the
+    block's margin: the slab's reach times half the block's steps, plus EPSILON?"""
+    word, axes = int(table.words[np.ravel_multi_index(cell, table.cells)]), len(cell)
+    fine = np.array(table.step) / FINE
+
+    def certified(origin, size) -> bool:
+        bits = [
+            np.ravel_multi_index(tuple(o + k for o, k in zip(origin, sub)), (FINE,) * axes)
+            for sub in np.ndindex(*(size,) * axes)
+        ]
+        return all(word >> int(bit) & 1 for bit in bits)
+
+    def clear(origin, size) -> bool:
+        for corner in np.ndindex(*(2,) * axes):
+            for distance, reach in distances(tuple(o + size * c for o, c in zip(origin, corner))):
+                if distance <= float(reach @ fine) * size / 2.0 + EPSILON - 1e-7:
+                    return False
+        return True
+
+    for sub in np.ndindex(*(FINE,) * axes):
+        if not word >> int(np.ravel_multi_index(sub, (FINE,) * axes)) & 1:
+            continue
+        blocks = [(tuple(s - s % size for s in sub), size) for size in (1, 2, FINE // 2)]
+        if not any(certified(origin, size) and clear(origin, size) for origin, size in blocks):
+            return False
+    return True
+
+
+def _slab_distances(robot, table: ClearanceTable, parent, child, moving, cell, node) -> list:
+    """Per slab of the child, its distance from the parent's shapes (coal's distance) and its
+    reach, at a node of `cell`'s sub-cells."""
+    model = robot.model
+    data = model.createData()
+    q = pin.neutral(model)
+    for axis, i in enumerate(table.q_index):
+        q[i] = table.lower[axis] + table.step[axis] * cell[axis] + table.step[axis] / FINE * node[axis]
+    pin.forwardKinematics(model, data, q)
+    relative = data.oMi[parent[0].parentJoint].actInv(data.oMi[child[0].parentJoint])
+    out = []
+    for slab in moving:
+        where = relative * slab.placement
+        gap = min(
+            coal.distance(
+                shape.geometry,
+                coal.Transform3s(shape.placement.rotation, shape.placement.translation),
+                slab.shape,
+                coal.Transform3s(where.rotation, where.translation),
+                coal.DistanceRequest(),
+                coal.DistanceResult(),
+            )
+            for shape in parent
+        )
+        out.append((gap, slab.reach))
+    return out
+
+
+def test_each_certified_sub_cell_lies_in_a_block_clear_by_its_margin_at_its_corners(ur5):
+    """The sub-cells' certificate re-derived with coal's distances (not its margin checks): in
+    cells not certified whole, each certified sub-cell is in a block of 1, 2 or 4 sub-cells a
+    joint, all certified, whose corners are clear by the block's margin."""
+    robot, checker, tables = ur5
+    model = robot.model
+    parts = {p.name: p for p in checker.parts}
+    rng = np.random.default_rng(8)
+    for table in tables:
+        parent, child = (part_collision_shapes(robot, parts[name]) for name in table.parts)
+        moving = slabs(model, joints_between(model, parent[0].parentJoint, child[0].parentJoint), child)
+        partial = (table.words != 0) & (table.words != np.uint64(full_word(2))) & ~table.free
+        for flat in rng.choice(np.flatnonzero(partial), 25, replace=False).tolist():
+            cell = tuple(int(k) for k in np.unravel_index(flat, table.cells))
+            distances = functools.partial(_slab_distances, robot, table, parent, child, moving, cell)
+            assert _blocks_hold(table, cell, distances), f"{table.parts} cell {cell}"
 
 
 def test_in_collision_answers_as_the_meshes_do_where_a_table_cannot_certify(ur5, meshes):
