@@ -32,6 +32,7 @@ from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.free_certifier import FreeCertifier, _geometry_row, _mesh_pieces, _spheres_about, _static_rows
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.kernel_fk import joint_tables
+from hriplan.robots.mesh_clearance import FINE
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Box, Cone, Cylinder, Obstacle, Scene, Sphere
 from hriplan.robots.spatial import Pose
@@ -242,9 +243,26 @@ def test_tables_are_asked_as_clearance_table_asks_them(robots):
             edges = [lower, lower + step * n, lower - 1e-9, lower + step * n + 1e-9, lower + 2 * np.pi, lower + step]
             rows = slice(100 * (2 * k + a), 100 * (2 * k + a) + 100)
             qs[rows, i] = np.resize(edges, 100)
+    # Sub-cells' edges, exactly and a hair either side, in cells not certified whole.
+    rng = np.random.default_rng(3)
+    for k, table in enumerate(tables):
+        cells = np.argwhere(~table.free.reshape(table.cells))
+        for n, row in enumerate(range(1200 + 400 * k, 1600 + 400 * k)):
+            cell, sub = cells[rng.integers(len(cells))], rng.integers(0, FINE, len(table.cells))
+            for a, (i, lower, step) in enumerate(zip(table.q_index, table.lower, table.step)):
+                qs[row, i] = lower + (cell[a] + (sub[a] + rng.uniform(0.05, 0.95)) / FINE) * step
+            i, lower, step = table.q_index[n % 2], table.lower[n % 2], table.step[n % 2]
+            qs[row, i] = lower + (cell[n % 2] + sub[n % 2] / FINE) * step + (-1e-12, 0.0, 1e-12)[n % 3]
     expected = [sum((not table.certified(q.tolist())) << k for k, table in enumerate(tables)) for q in qs]
     assert [tables for tables, _ in certifier.verdicts(qs)] == expected  # no pairs: never None
     assert 0.1 < np.mean(np.array(expected) == 0) < 0.9
+    # Sub-cells certify states in cells not certified whole, and not all of them.
+    for k, table in enumerate(tables):
+        rows = qs[1200 + 400 * k : 1600 + 400 * k]
+        index = np.floor((rows[:, table.q_index] - table.lower) / table.step).astype(int) % np.array(table.cells)
+        flat = np.ravel_multi_index(tuple(index.T), table.cells)
+        certified = table.certified_many(rows)[~table.free[flat]]  # a hair below a cell's edge: the cell before
+        assert len(certified) > 300 and 0.05 < certified.mean() < 0.95
 
 
 def _scene(robot, name: str) -> Scene:

@@ -6,15 +6,21 @@ checked on the URDF's own meshes, and each slab's reach is checked against how f
 really move under forward kinematics.
 """
 
+import functools
+
+import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.mesh_clearance import (
+    EPSILON,
+    FINE,
     ClearanceTable,
     cells_with_clear_corners,
     clearance_tables,
+    full_word,
     joints_between,
     slabs,
 )
@@ -81,6 +87,146 @@ def test_a_certified_cell_is_free_of_contact_everywhere_inside(ur5, meshes):
     assert checked > 3000
 
 
+def _sub_cell_states(table: ClearanceTable, rng, per_cell: int, bordering: bool) -> np.ndarray:
+    """Random states inside the certified sub-cells of cells that are not certified whole (with
+    `bordering`, only sub-cells next to one that is not certified, within the cell or across its
+    edge); the other joints random."""
+    words = table.words.reshape(table.cells)
+    picked = []
+    for cell in np.argwhere(~table.free.reshape(table.cells)):
+        word = int(words[tuple(cell)])
+        for sub in np.ndindex(*(FINE,) * len(table.cells)):
+            bit = int(np.ravel_multi_index(sub, (FINE,) * len(table.cells)))
+            if not word >> bit & 1:
+                continue
+            if bordering:
+                neighbours = []
+                for axis in range(len(sub)):
+                    for shift in (1, -1):
+                        s, c = list(sub), list(cell)
+                        s[axis] += shift
+                        c[axis] += s[axis] // FINE
+                        s[axis] %= FINE
+                        if table.periodic[axis]:
+                            c[axis] %= table.cells[axis]
+                        elif not 0 <= c[axis] < table.cells[axis]:
+                            continue
+                        other = int(words[tuple(c)])
+                        neighbours.append(other >> int(np.ravel_multi_index(s, (FINE,) * len(sub))) & 1)
+                if all(neighbours):
+                    continue
+            picked.append(np.array(cell) + np.array(sub) / FINE)
+    index = np.repeat(np.array(picked).reshape(-1, len(table.cells)), per_cell, axis=0)
+    q = rng.uniform(-np.pi, np.pi, size=(len(index), 6))
+    for axis, i in enumerate(table.q_index):
+        q[:, i] = table.lower[axis] + (index[:, axis] + rng.uniform(0, 1, len(index)) / FINE) * table.step[axis]
+    return q
+
+
+def test_the_cells_not_certified_whole_have_sub_cells_certified(ur5):
+    """Each table's cells: a free one is certified in every sub-cell; of the others, near contact
+    (the pair's meshes a few mm apart), many have some."""
+    _, _, tables = ur5
+    for table in tables:
+        assert len(table.words) == len(table.free)
+        assert (table.words[table.free] == np.uint64(full_word(2))).all()
+        assert (table.words[~table.free] != 0).mean() > 0.3
+        assert (table.words[~table.free] != np.uint64(full_word(2))).any()
+
+
+def test_a_certified_sub_cell_is_free_of_contact_everywhere_inside(ur5, meshes):
+    """States inside certified sub-cells that border one that is not, checked on the URDF's own
+    meshes: where an error in the sub-cells' margin, corners or bits would show."""
+    robot, _, tables = ur5
+    rng = np.random.default_rng(7)
+    checked = 0
+    for table in tables:
+        pair = f"{table.parts[0]}|{table.parts[1]}"
+        states = _sub_cell_states(table, rng, per_cell=3, bordering=True)
+        for q in states[rng.permutation(len(states))[:2500]]:
+            assert table.certified(q)
+            assert pair not in meshes.touching(q), f"{pair} touches in a certified sub-cell at {q.round(4).tolist()}"
+            checked += 1
+    assert checked > 3500
+
+
+def _blocks_hold(table: ClearanceTable, cell: tuple[int, ...], distances) -> bool:
+    """Is every certified sub-cell of `cell` in an aligned block of 1, 2 or 4 sub-cells a joint, all
+    certified, at each of whose corners every slab is farther from the parent (`distances(node)`,
+    a node in sub-cells from the cell's lower corner: per slab, its distance and reach) than the
+    block's margin: the slab's reach times half the block's steps, plus EPSILON?"""
+    word, axes = int(table.words[np.ravel_multi_index(cell, table.cells)]), len(cell)
+    fine = np.array(table.step) / FINE
+
+    def certified(origin, size) -> bool:
+        bits = [
+            np.ravel_multi_index(tuple(o + k for o, k in zip(origin, sub)), (FINE,) * axes)
+            for sub in np.ndindex(*(size,) * axes)
+        ]
+        return all(word >> int(bit) & 1 for bit in bits)
+
+    def clear(origin, size) -> bool:
+        for corner in np.ndindex(*(2,) * axes):
+            for distance, reach in distances(tuple(o + size * c for o, c in zip(origin, corner))):
+                if distance <= float(reach @ fine) * size / 2.0 + EPSILON - 1e-7:
+                    return False
+        return True
+
+    for sub in np.ndindex(*(FINE,) * axes):
+        if not word >> int(np.ravel_multi_index(sub, (FINE,) * axes)) & 1:
+            continue
+        blocks = [(tuple(s - s % size for s in sub), size) for size in (1, 2, FINE // 2)]
+        if not any(certified(origin, size) and clear(origin, size) for origin, size in blocks):
+            return False
+    return True
+
+
+def _slab_distances(robot, table: ClearanceTable, parent, child, moving, cell, node) -> list:
+    """Per slab of the child, its distance from the parent's shapes (coal's distance) and its
+    reach, at a node of `cell`'s sub-cells."""
+    model = robot.model
+    data = model.createData()
+    q = pin.neutral(model)
+    for axis, i in enumerate(table.q_index):
+        q[i] = table.lower[axis] + table.step[axis] * cell[axis] + table.step[axis] / FINE * node[axis]
+    pin.forwardKinematics(model, data, q)
+    relative = data.oMi[parent[0].parentJoint].actInv(data.oMi[child[0].parentJoint])
+    out = []
+    for slab in moving:
+        where = relative * slab.placement
+        gap = min(
+            coal.distance(
+                shape.geometry,
+                coal.Transform3s(shape.placement.rotation, shape.placement.translation),
+                slab.shape,
+                coal.Transform3s(where.rotation, where.translation),
+                coal.DistanceRequest(),
+                coal.DistanceResult(),
+            )
+            for shape in parent
+        )
+        out.append((gap, slab.reach))
+    return out
+
+
+def test_each_certified_sub_cell_lies_in_a_block_clear_by_its_margin_at_its_corners(ur5):
+    """The sub-cells' certificate re-derived with coal's distances (not its margin checks): in
+    cells not certified whole, each certified sub-cell is in a block of 1, 2 or 4 sub-cells a
+    joint, all certified, whose corners are clear by the block's margin."""
+    robot, checker, tables = ur5
+    model = robot.model
+    parts = {p.name: p for p in checker.parts}
+    rng = np.random.default_rng(8)
+    for table in tables:
+        parent, child = (part_collision_shapes(robot, parts[name]) for name in table.parts)
+        moving = slabs(model, joints_between(model, parent[0].parentJoint, child[0].parentJoint), child)
+        partial = (table.words != 0) & (table.words != np.uint64(full_word(2))) & ~table.free
+        for flat in rng.choice(np.flatnonzero(partial), 25, replace=False).tolist():
+            cell = tuple(int(k) for k in np.unravel_index(flat, table.cells))
+            distances = functools.partial(_slab_distances, robot, table, parent, child, moving, cell)
+            assert _blocks_hold(table, cell, distances), f"{table.parts} cell {cell}"
+
+
 def test_in_collision_answers_as_the_meshes_do_where_a_table_cannot_certify(ur5, meshes):
     """States in uncertified cells where the tabled pair's meshes touch: still a collision, and
     `contacts` names the pair."""
@@ -90,9 +236,9 @@ def test_in_collision_answers_as_the_meshes_do_where_a_table_cannot_certify(ur5,
     for table in tables:
         pair = f"{table.parts[0]}|{table.parts[1]}"
         for q in _cell_states(table, np.flatnonzero(~table.free), robot, rng, per_cell=1)[:1500]:
-            assert not table.certified(q)
             if pair in meshes.touching(q):
                 touching += 1
+                assert not table.certified(q)  # nor any of its sub-cells
                 assert checker.in_collision(q)
                 named = {frozenset((c.a, c.b)) for c in checker.contacts(q)}
                 assert frozenset(f"{part} (mesh)" for part in table.parts) in named
@@ -158,6 +304,25 @@ def test_certified_reads_the_cell_a_joint_value_falls_in():
     last = table(3 * 4 + 3)  # the second joint's last cell, up to its upper limit
     assert last.certified([-0.1, 1.0])
     assert not last.certified([-0.1, 1.01])  # beyond the grid: not certified
+
+
+def test_certified_reads_the_sub_cell_a_joint_value_falls_in():
+    """One cell not certified whole (turn cell 1, second joint's cell 2), its sub-cell (3, 5)
+    certified, and (FINE - 1, FINE - 1) of the second joint's last cell, up to its upper limit."""
+    free = np.zeros(16, bool)
+    words = np.zeros(16, np.uint64)
+    words[1 * 4 + 2] = np.uint64(1 << (3 * FINE + 5))
+    words[1 * 4 + 3] = np.uint64(1 << (FINE * FINE - 1))
+    table = ClearanceTable(("a", "b"), (0, 1), (0.0, -1.0), (np.pi / 2, 0.5), (4, 4), (True, False), free, words)
+    inside = [np.pi / 2 + (3.5 / FINE) * np.pi / 2, 0.0 + 5.5 / FINE * 0.5]
+    assert table.certified(inside)
+    assert table.certified([inside[0] + 4 * np.pi, inside[1]])  # whole turns away
+    assert not table.certified([inside[0] + np.pi / 2 / FINE, inside[1]])  # the next sub-cell along the first joint
+    assert not table.certified([inside[0], inside[1] - 0.5 / FINE])  # and along the second
+    assert table.certified([np.pi - 1e-9, 1.0])  # the upper limit itself: the last sub-cell
+    assert not table.certified([np.pi - 1e-9, 1.0 + 1e-9])
+    qs = np.array([inside, [inside[0] + np.pi / 2 / FINE, inside[1]], [np.pi - 1e-9, 1.0], [0.3, 0.2]])
+    assert table.certified_many(qs).tolist() == [True, False, True, False]
 
 
 def test_a_cell_is_free_only_if_all_its_corners_are_clear():

@@ -173,24 +173,28 @@ def _place_joint(q, rows, ints, rotation, origin, j) -> None:
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _uncertified_tables(q, tables, axis_ints, axis_floats, bits) -> int:
-    """The tables that do not certify `q`, bit k for table k: `ClearanceTable.certified`'s arithmetic."""
+def _uncertified_tables(q, tables, axis_ints, axis_floats, words) -> int:
+    """The tables that do not certify `q`, bit k for table k: `ClearanceTable.certified`'s
+    arithmetic (the cell's word, then the bit of the sub-cell `q` falls in: a table's row is its
+    first axis, its axes, its first word and its sub-cells a joint)."""
     mask = 0
     for k in range(tables.shape[0]):
-        first, count, flat, inside = tables[k, 0], tables[k, 1], 0, True
+        first, count, fine, flat, sub, inside = tables[k, 0], tables[k, 1], tables[k, 3], 0, 0, True
         for a in range(first, first + count):
             i, n, wrap = axis_ints[a, 0], axis_ints[a, 1], axis_ints[a, 2]
             lower, step = axis_floats[a, 0], axis_floats[a, 1]
-            c = math.floor((q[i] - lower) / step)
+            x = (q[i] - lower) / step
+            c = math.floor(x)
+            s = min(max(math.floor((x - c) * fine), 0), fine - 1)
             if wrap:
                 c %= n
             elif c == n and q[i] - lower <= step * n:
-                c = n - 1
+                c, s = n - 1, fine - 1
             elif not 0 <= c < n:
                 inside = False
                 break
-            flat = flat * n + c
-        if not inside or bits[tables[k, 2] + flat] != 1:
+            flat, sub = flat * n + c, sub * fine + s
+        if not inside or (words[tables[k, 2] + flat] >> sub) & 1 != 1:
             mask |= 1 << k
     return mask
 
@@ -368,7 +372,7 @@ def _unpack(floats, ints):
     joint_ints = ints[ints[12] : ints[12] + nj * 3].reshape((nj, 3))
     carrier = ints[ints[13] : ints[13] + ng]
     pairs = ints[ints[14] : ints[14] + npairs * PAIR].reshape((npairs, PAIR))
-    tables = ints[ints[15] : ints[15] + ntables * 3].reshape((ntables, 3))
+    tables = ints[ints[15] : ints[15] + ntables * 4].reshape((ntables, 4))
     axis_ints = ints[ints[16] : ints[16] + naxes * 3].reshape((naxes, 3))
     children = ints[ints[17] : ints[17] + nused * 2].reshape((nused, 2))
     bits = ints[ints[18] : ints[19]]

@@ -24,7 +24,7 @@ import pinocchio as pin
 
 from hriplan.robots.certifier_kernels import LEVELS, PAIR, REACH, ROW, verdict_one, verdicts
 from hriplan.robots.kernel_fk import joint_tables
-from hriplan.robots.mesh_clearance import ClearanceTable
+from hriplan.robots.mesh_clearance import FINE, ClearanceTable
 from hriplan.robots.part_spheres import BOUND_TOLERANCE
 
 _LEAVES = 16  # spheres per mesh
@@ -219,16 +219,19 @@ class FreeCertifier:
         ids = np.arange(len(pairs)) if ids is None else np.asarray(ids, dtype=np.int64)
         slots = np.vectorize(slot.get, otypes=[np.int64])(pairs).reshape(-1, 2)
         self._pairs = self._ordered_pairs(np.column_stack([slots, ids]))
-        # The tables: per table its first axis, number of axes and first bit; per axis (q index,
-        # cells, periodic) and (lower, step); the cells' bits one after another.
+        # The tables: per table its first axis, number of axes, first word and sub-cells a joint;
+        # per axis (q index, cells, periodic) and (lower, step); the cells' words (their
+        # certified sub-cells, `ClearanceTable.words`) one after another.
         axes = [axis for table in tables for axis in table._axes]
         counts = np.cumsum([0] + [len(table._axes) for table in tables])
-        bits = np.cumsum([0] + [len(table.free) for table in tables])
-        self._tables = np.array([(counts[k], len(t._axes), bits[k]) for k, t in enumerate(tables)], dtype=np.int64)
-        self._tables = self._tables.reshape(-1, 3)
+        firsts = np.cumsum([0] + [len(table.words) for table in tables])
+        self._tables = np.array(
+            [(counts[k], len(t._axes), firsts[k], FINE) for k, t in enumerate(tables)], dtype=np.int64
+        ).reshape(-1, 4)
         self._axis_ints = np.array([(i, n, wrap) for i, _, _, n, wrap in axes], dtype=np.int64).reshape(-1, 3)
         self._axis_floats = np.array([(lower, step) for _, lower, step, _, _ in axes], dtype=float).reshape(-1, 2)
-        self._bits = np.concatenate([np.asarray(t.free, dtype=np.uint8) for t in tables] or [np.zeros(0, np.uint8)])
+        words = [np.asarray(t.words, dtype=np.uint64).view(np.int64) for t in tables]
+        self._bits = np.concatenate(words or [np.zeros(0, np.int64)])
         # The geometries on no joint: their rows' slots, ids, points in their own frame
         # (`_static_rows`) and where they were placed, as the checker gives it (`place`).
         self._statics = np.array([k for k, g in enumerate(used) if objects[g].parentJoint == 0], dtype=np.int64)

@@ -31,6 +31,13 @@ from hriplan.robots.robot_geometry import RobotPart, part_collision_shapes
 
 RULES = "v1: 1-2 revolute joints between; median clearance < 5 cm; 128 cells a turn; 8 slabs; 0.1 mm"
 CELLS_PER_TURN = 128
+# Each cell a table does not certify is cut into FINE sub-cells along each joint (FINE^2 = 64: one
+# word a cell) and those certified the same way, at the sub-cells' corners with their smaller
+# margin: a planner's states near contact (MADAR's wrist 2 a few mm from its forearm, with the
+# tool held level) fall in cells the coarse grid cannot certify. Cells whose corners all touch
+# are not cut (they lie in contact).
+FINE = 8
+FINE_RULES = f"v1: {FINE} sub-cells a joint in each uncertified cell, unless every corner touches"
 SLABS = 8
 EPSILON = 1e-4  # m beyond the bound, for coal's own tolerance
 # A pair whose meshes are farther apart than this in half of the sampled states is cheap to
@@ -61,43 +68,60 @@ class ClearanceTable:
     cells: tuple[int, ...]
     periodic: tuple[bool, ...]  # a full turn or more: the grid wraps
     free: np.ndarray  # bool, flat, row-major over `cells`
+    # Per cell, its certified sub-cells (`FINE` a joint, row-major: bit s0 * FINE + s1), as
+    # uint64; None: every sub-cell of a free cell, none of another's.
+    words: np.ndarray | None = None
     _axes: tuple = field(init=False, repr=False, compare=False)
-    _bits: bytes = field(init=False, repr=False, compare=False)
+    _words: list = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:  # plain Python for `certified`, asked at every collision check
         axes = tuple(zip(self.q_index, self.lower, self.step, self.cells, self.periodic))
         object.__setattr__(self, "_axes", axes)
-        object.__setattr__(self, "_bits", self.free.astype(np.uint8).tobytes())
+        if self.words is None:
+            object.__setattr__(self, "words", np.where(self.free, np.uint64(full_word(len(axes))), np.uint64(0)))
+        object.__setattr__(self, "_words", self.words.tolist())
 
     def certified(self, q: Sequence[float]) -> bool:
         """True if the pair cannot touch at `q` (a list is quickest); False says nothing: check the
         meshes."""
-        flat = 0
+        flat, sub = 0, 0
         for i, lower, step, n, wrap in self._axes:
-            c = math.floor((q[i] - lower) / step)
+            x = (q[i] - lower) / step
+            c = math.floor(x)
+            s = min(max(math.floor((x - c) * FINE), 0), FINE - 1)
             if wrap:
                 c %= n
-            elif c == n and q[i] - lower <= step * n:  # the upper limit itself
-                c = n - 1
+            elif c == n and q[i] - lower <= step * n:  # the upper limit itself: its last sub-cell
+                c, s = n - 1, FINE - 1
             elif not 0 <= c < n:
                 return False
-            flat = flat * n + c
-        return self._bits[flat] == 1
+            flat, sub = flat * n + c, sub * FINE + s
+        return self._words[flat] >> sub & 1 == 1
 
     def certified_many(self, qs: np.ndarray) -> np.ndarray:
         """`certified` of every row of `qs` (N, nq) at once, by the same arithmetic (a path's
         states are asked together: one numpy pass instead of a Python loop per state)."""
         certain, flat = np.ones(len(qs), dtype=bool), np.zeros(len(qs), dtype=np.int64)
+        sub = np.zeros(len(qs), dtype=np.uint64)
         for i, lower, step, n, wrap in self._axes:
             offset = qs[:, i] - lower
-            c = np.floor(offset / step)
+            x = offset / step
+            c = np.floor(x)
+            s = np.clip(np.floor((x - c) * FINE), 0, FINE - 1)
             if wrap:
                 c = np.mod(c, n)
             else:
-                c = np.where((c == n) & (offset <= step * n), n - 1, c)
+                top = (c == n) & (offset <= step * n)
+                c, s = np.where(top, n - 1, c), np.where(top, FINE - 1, s)
                 certain &= (c >= 0) & (c < n)
             flat = flat * n + np.where(certain, c, 0).astype(np.int64)
-        return certain & self.free[flat]
+            sub = sub * np.uint64(FINE) + np.where(certain, s, 0).astype(np.uint64)
+        return certain & (self.words[flat] >> sub & np.uint64(1) == 1)
+
+
+def full_word(axes: int) -> int:
+    """The word of a cell whose every sub-cell is certified."""
+    return (1 << FINE**axes) - 1
 
 
 def _chain(model: pin.Model, joint: int) -> list[int]:
@@ -299,6 +323,86 @@ def _free_cells(model: pin.Model, joints: list[int], parent: list[pin.GeometryOb
     return cells_with_clear_corners(clear, grid.periodic).ravel()
 
 
+def _fine_words(model: pin.Model, joints: list[int], parent: list, child: list, free: np.ndarray) -> np.ndarray:
+    """Per cell of the grid (flat), its certified sub-cells as a word (`ClearanceTable.words`):
+    every one of a free cell; in another, each block of sub-cells (halves of the cell along
+    every joint, halved again where not certified, down to a sub-cell) whose corners are all
+    clear of the parent by the block's margin (the slabs' reach times half its steps), as
+    `_free_cells` certifies a cell. A cell whose corners all touch the parent is not cut."""
+    grid = _grid(model, joints)
+    pose = _RelativePose(model, parent[0].parentJoint, child[0].parentJoint, grid.q_index)
+    fixed = [(s.geometry, _transform(s.placement)) for s in parent]
+    moving = slabs(model, joints, child)
+    fine = np.array(grid.step) / FINE
+    axes = len(joints)
+    requests: dict[int, list[coal.CollisionRequest]] = {}  # per block size (sub-cells a joint)
+    for size in (1, 2, FINE // 2):
+        requests[size] = []
+        for slab in moving:
+            request = coal.CollisionRequest()
+            request.security_margin = float(slab.reach @ fine) * size / 2.0 + EPSILON
+            requests[size].append(request)
+    shapes = [(s.geometry, s.placement) for s in child]
+
+    def where(index: tuple[int, ...], node: tuple[int, ...]) -> pin.SE3:  # a node of the sub-cells of a cell
+        return pose(
+            tuple(lower + step * k + f * o for lower, step, k, f, o in zip(grid.lower, grid.step, index, fine, node))
+        )
+
+    def touches(index: tuple[int, ...]) -> bool:  # the child at a node of the grid
+        placed, request = where(index, (0,) * axes), coal.CollisionRequest()
+        return any(
+            coal.collide(g, t, shape, _transform(placed * placement), request, coal.CollisionResult())
+            for shape, placement in shapes
+            for g, t in fixed
+        )
+
+    def clear(index: tuple[int, ...], node: tuple[int, ...], size: int) -> bool:  # by a block's margin
+        placed = where(index, node)
+        return not any(
+            coal.collide(g, t, slab.shape, _transform(placed * slab.placement), request, coal.CollisionResult())
+            for slab, request in zip(moving, requests[size])
+            for g, t in fixed
+        )
+
+    words = np.where(free, np.uint64(full_word(axes)), np.uint64(0))
+    corners = list(itertools.product((0, 1), repeat=axes))
+    touching: dict[tuple[int, ...], bool] = {}
+    for cell in np.flatnonzero(~free).tolist():
+        index = tuple(int(k) for k in np.unravel_index(cell, grid.cells))
+        nodes = [tuple(k + o for k, o in zip(index, corner)) for corner in corners]
+        nodes = [tuple(k % n if wrap else k for k, n, wrap in zip(node, grid.cells, grid.periodic)) for node in nodes]
+        for node in nodes:
+            if node not in touching:
+                touching[node] = touches(node)
+        if all(touching[node] for node in nodes):
+            continue
+        asked: dict[tuple[tuple[int, ...], int], bool] = {}
+        word, blocks = 0, [(origin, FINE // 2) for origin in itertools.product((0, FINE // 2), repeat=axes)]
+        while blocks:
+            origin, size = blocks.pop()
+            ends = [tuple(o + size * c for o, c in zip(origin, corner)) for corner in corners]
+            for node in ends:
+                if (node, size) not in asked:
+                    asked[node, size] = clear(index, node, size)
+            if all(asked[node, size] for node in ends):
+                for sub in itertools.product(range(size), repeat=axes):
+                    word |= 1 << _sub_bit(tuple(o + k for o, k in zip(origin, sub)))
+            elif size > 1:
+                half = size // 2
+                blocks += [(tuple(o + half * c for o, c in zip(origin, corner)), half) for corner in corners]
+        words[cell] = np.uint64(word)
+    return words
+
+
+def _sub_bit(sub: tuple[int, ...]) -> int:
+    """A sub-cell's bit in its cell's word (row-major)."""
+    bit = 0
+    for s in sub:
+        bit = bit * FINE + s
+    return bit
+
+
 def cells_with_clear_corners(clear: np.ndarray, periodic: tuple[bool, ...]) -> np.ndarray:
     """Per cell, whether all its corner nodes are clear. A wrapped axis has as many nodes as
     cells (its last cell closes on node 0); another has one node more."""
@@ -315,7 +419,7 @@ def clearance_tables(robot: Robot, parts: tuple[RobotPart, ...], acm: dict[str, 
     read of one file) and per pair's content (shared by arms mounted elsewhere, computed once per
     machine: a few seconds a pair)."""
     pairs = sorted(pair for pair, reason in acm.items() if reason == MESH)
-    key = (RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, robot.model_key, pairs)
+    key = (RULES, FINE_RULES, robot.urdf, robot.spec.hand_postures, robot.finger_values, robot.model_key, pairs)
     tables = cached_fit("clearance-robot", key, lambda: {"tables": _robot_tables(robot, parts, pairs)})["tables"]
     made = [
         ClearanceTable(
@@ -326,6 +430,7 @@ def clearance_tables(robot: Robot, parts: tuple[RobotPart, ...], acm: dict[str, 
             tuple(t["cells"]),
             tuple(t["periodic"]),
             _bits(t["free"], math.prod(t["cells"])),
+            np.frombuffer(base64.b64decode(t["words"]), dtype="<u8").astype(np.uint64),
         )
         for t in tables
     ]
@@ -355,10 +460,24 @@ def _robot_tables(robot: Robot, parts: tuple[RobotPart, ...], pairs: list[str]) 
             free = _free_cells(robot.model, joints, *shapes)
             return {"free": None if free is None else base64.b64encode(np.packbits(free).tobytes()).decode()}
 
-        free = cached_fit("clearance", _content_key(robot.model, joints, *shapes), compute)["free"]
+        content = _content_key(robot.model, joints, *shapes)
+        free = cached_fit("clearance", content, compute)["free"]
         if free is not None:
             grid = _grid(robot.model, joints)
+
+            def refine(
+                joints: list[int] = joints, shapes: list = shapes, free: str = free, cells: int = math.prod(grid.cells)
+            ) -> dict:
+                words = _fine_words(robot.model, joints, *shapes, _bits(free, cells))
+                return {"words": base64.b64encode(words.astype("<u8").tobytes()).decode()}
+
+            words = cached_fit("clearance-fine", (FINE_RULES, content), refine)["words"]
             tables.append(
-                {"parts": names, **{f: list(getattr(grid, f)) for f in _Grid.__dataclass_fields__}, "free": free}
+                {
+                    "parts": names,
+                    **{f: list(getattr(grid, f)) for f in _Grid.__dataclass_fields__},
+                    "free": free,
+                    "words": words,
+                }
             )
     return tables
