@@ -4,6 +4,7 @@ same projections, the same trees grown towards the same targets through scenes w
 obstacles and a person, the same counts, to rounding; and its disk cache made again when a
 file it calls into changes."""
 
+import dataclasses
 import subprocess
 import sys
 import textwrap
@@ -13,11 +14,10 @@ import numpy as np
 import pytest
 
 from hriplan.planner.constraints.binding import bind
-from hriplan.planner.constraints.evaluator import ConstraintEvaluator
-from hriplan.planner.motion import BAND_OFFSET, PLANNING_MARGIN
+from hriplan.planner.motion import _band_problem, _Problem
 from hriplan.planner.problem import load_problem
 from hriplan.planner.search import cbirrt
-from hriplan.planner.search.cbirrt import BandProblem, _min_norm_step, _Search, _Tree
+from hriplan.planner.search.cbirrt import _min_norm_step, _Search, _Tree
 from hriplan.planner.search.result import Counters
 from hriplan.planner.session import PlanningSession
 
@@ -33,7 +33,6 @@ TO_ROUNDING = 1e-7
 def searches(request):
     """(the Python loop's search, the compiled walk's, a start, the joint bounds, the collision
     checker) on one scenario, inside its motion (`moving`)."""
-    from hriplan.planner.search.band_kernels import BandWalker
     from hriplan.robots import kernel_switch
 
     before = kernel_switch.kernels_on()
@@ -45,27 +44,18 @@ def searches(request):
     session.set_constraints([] if request.param == "a_unconstrained" else problem.constraints)
     specs = list(session.constraints.values())
     q0 = robot.configuration(problem.start)
-    evaluator = ConstraintEvaluator(robot, bind(specs, robot, checker), group, q0)
-    bounds = robot.limits(group)
+    planning = _Problem(robot, checker, bind(specs, robot, checker), group, q0)
     with checker.moving(group, q0):
-
-        def made(walker):
-            return BandProblem(
-                lambda x: evaluator.margins(evaluator.full(x)),
-                evaluator.gradients,
-                lambda x: not checker.in_collision(evaluator.full(x)),
-                bounds,
-                BAND_OFFSET,
-                PLANNING_MARGIN,
-                problem.options.delta,
-                bool(specs),
-                walker,
-                lambda x: checker.compiled_verdict(evaluator.full(x)),
-            )
-
-        walker = BandWalker.of(evaluator, bounds)
-        assert walker is not None
-        yield _Search(made(None), Counters()), _Search(made(walker), Counters()), q0[evaluator.idx], bounds, checker
+        compiled = _band_problem(planning, problem.options)  # the planner's own, with its walker
+        assert compiled.walker is not None
+        python = dataclasses.replace(compiled, walker=None)
+        yield (
+            _Search(python, Counters()),
+            _Search(compiled, Counters()),
+            q0[planning.evaluator.idx],
+            python.bounds,
+            checker,
+        )
     kernel_switch.use_kernels(before)
 
 
