@@ -1,6 +1,7 @@
 """Fitted shapes kept on disk (robots/fit_cache.py): the same shapes, fitted once per machine."""
 
 import base64
+import gzip
 import json
 import subprocess
 import sys
@@ -163,3 +164,34 @@ def test_parts_are_fitted_again_when_a_robot_file_changes_its_arm(cache, tmp_pat
         assert np.linalg.norm(link.translation - part_at.translation) < 0.1  # the capsule's centre near its link
     assert joints_of == {"wrist_3_link": 7, "forearm_link": 4}
     assert len(list(cache.glob("parts-cached_arm-*.json"))) == 2
+
+
+def test_a_shipped_fit_is_read_copied_into_the_cache_and_a_broken_one_fitted(cache, tmp_path, monkeypatch):
+    from hriplan.robots import fit_cache
+
+    seeds = tmp_path / "seeds"
+    seeds.mkdir()
+    monkeypatch.setattr(fit_cache, "SEEDS", seeds)
+    name = fit_cache.fit_name("thing", ("rules", 1))
+    (seeds / f"{name}.gz").write_bytes(gzip.compress(json.dumps({"value": [3.0]}).encode()))
+    assert cached_fit("thing", ("rules", 1), lambda: pytest.fail("fitted though shipped")) == {"value": [3.0]}
+    assert json.loads((cache / name).read_text()) == {"value": [3.0]}  # kept in the cache since
+    other = fit_cache.fit_name("thing", ("rules", 2))
+    (seeds / f"{other}.gz").write_bytes(b"not gzip")
+    assert cached_fit("thing", ("rules", 2), lambda: {"value": [4.0]}) == {"value": [4.0]}
+
+
+def test_the_built_in_robots_clearance_sub_cells_are_shipped_current(cache, monkeypatch):
+    """A machine that never fitted them reads every built-in robot's sub-cells from the shipped
+    files (tools/seed_fits.py writes them again when the rules or the meshes change), and so
+    certifies the same states as where they were computed."""
+    from hriplan.robots import mesh_clearance
+    from hriplan.robots.collision import CollisionChecker
+
+    monkeypatch.setattr(mesh_clearance, "_fine_words", lambda *args: pytest.fail("sub-cells computed, not shipped"))
+    for name in ("ur5", "madar"):
+        checker = CollisionChecker(load_robot(name))
+        checker._ready()
+        tables = [table for table, _ in checker._tabled]
+        assert tables and all(table.words is not None for table in tables)
+        assert any(((table.words != 0) & ~table.free).any() for table in tables)  # sub-cells certified

@@ -10,6 +10,7 @@ the allowed-collision matrices (acm.py); a file that cannot be read is fitted ag
 from __future__ import annotations
 
 import base64
+import gzip
 import hashlib
 import json
 import os
@@ -25,20 +26,36 @@ import pinocchio as pin
 from hriplan.files import write_atomically
 
 
+# Fits shipped with hriplan (`tools/seed_fits.py` writes them), gzipped under the names the cache
+# gives them: those that take long (a built-in robot's clearance sub-cells, ~25 s of CPU) are
+# read from here on a machine that has not fitted them yet, instead of computed at a first use.
+SEEDS = Path(__file__).parent / "data" / "fits"
+
+
 def cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hriplan"
 
 
+def fit_name(kind: str, key: object) -> str:
+    """The file name of `kind`'s fit for `key` with this mesh package and these pinocchio and
+    coal versions."""
+    text = repr((key, version("example-robot-data"), pin.__version__, coal.__version__))
+    return f"{kind}-{hashlib.sha256(text.encode()).hexdigest()[:16]}.json"
+
+
 def cached_fit(kind: str, key: object, fit: Callable[[], dict[str, Any]]) -> dict[str, Any]:
     """`fit()`'s JSON-able result for `key` (anything with a stable repr), from disk if fitted
-    before with the same mesh package and pinocchio/coal versions."""
-    text = repr((key, version("example-robot-data"), pin.__version__, coal.__version__))
-    path = cache_dir() / f"{kind}-{hashlib.sha256(text.encode()).hexdigest()[:16]}.json"
+    before with the same mesh package and pinocchio/coal versions, or shipped (`SEEDS`)."""
+    name = fit_name(kind, key)
+    path = cache_dir() / name
     try:
         return json.loads(path.read_text())
     except (OSError, ValueError):
         pass
-    result = fit()
+    try:
+        result = json.loads(gzip.decompress((SEEDS / f"{name}.gz").read_bytes()))
+    except (OSError, ValueError, EOFError):
+        result = fit()
     write_atomically(path, json.dumps(result))
     return result
 
