@@ -25,7 +25,6 @@ import pinocchio as pin
 
 from hriplan.files import write_atomically
 
-
 # Fits shipped with hriplan (`tools/seed_fits.py` writes them), gzipped under the names the cache
 # gives them: those that take long (a built-in robot's clearance sub-cells, ~25 s of CPU) are
 # read from here on a machine that has not fitted them yet, instead of computed at a first use.
