@@ -3,7 +3,8 @@ robots' mesh pairs (`mesh_clearance`, ~25 s of CPU on a machine that has not fit
 that a first `hriplan plan` reads them instead of computing them.
 
 Run: PYTHONPATH=src python tools/seed_fits.py
-It fits them in an empty cache directory and gzips the files of the kinds below into SEEDS; run
+It fits them in an empty cache directory and gzips the files of the kinds below into SEEDS, with
+the versions of the mesh package, pinocchio and coal they were fitted with (their names hold them); run
 it again when a fit's rules, the mesh package or pinocchio/coal change (tests/robots/
 test_fit_seeds.py fails until then: the shipped files no longer match).
 """
@@ -11,6 +12,7 @@ test_fit_seeds.py fails until then: the shipped files no longer match).
 from __future__ import annotations
 
 import gzip
+import json
 import os
 import sys
 import tempfile
@@ -32,6 +34,7 @@ def main() -> None:
         fit_cache.SEEDS.mkdir(parents=True, exist_ok=True)
         for old in fit_cache.SEEDS.glob("*.json.gz"):
             old.unlink()
+        (fit_cache.SEEDS / "versions.json").write_text(json.dumps(fit_cache.fit_versions()) + "\n")
         for path in sorted(Path(cache, "hriplan").glob("*.json")):
             if path.name.rsplit("-", 1)[0] in KINDS:
                 (fit_cache.SEEDS / f"{path.name}.gz").write_bytes(gzip.compress(path.read_bytes(), mtime=0))

@@ -185,9 +185,12 @@ def test_the_built_in_robots_clearance_sub_cells_are_shipped_current(cache, monk
     """A machine that never fitted them reads every built-in robot's sub-cells from the shipped
     files (tools/seed_fits.py writes them again when the rules or the meshes change), and so
     certifies the same states as where they were computed."""
-    from hriplan.robots import mesh_clearance
+    from hriplan.robots import fit_cache, mesh_clearance
     from hriplan.robots.collision import CollisionChecker
 
+    shipped = json.loads((fit_cache.SEEDS / "versions.json").read_text())
+    if shipped != fit_cache.fit_versions():  # a newer mesh package or library: they are computed, as before
+        pytest.skip(f"the shipped fits are for {shipped}, this machine has {fit_cache.fit_versions()}")
     monkeypatch.setattr(mesh_clearance, "_fine_words", lambda *args: pytest.fail("sub-cells computed, not shipped"))
     for name in ("ur5", "madar"):
         checker = CollisionChecker(load_robot(name))

@@ -35,10 +35,15 @@ def cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hriplan"
 
 
+def fit_versions() -> dict[str, str]:
+    """What a fit depends on besides its key: the mesh package's, pinocchio's and coal's versions."""
+    return {"example-robot-data": version("example-robot-data"), "pin": pin.__version__, "coal": coal.__version__}
+
+
 def fit_name(kind: str, key: object) -> str:
     """The file name of `kind`'s fit for `key` with this mesh package and these pinocchio and
     coal versions."""
-    text = repr((key, version("example-robot-data"), pin.__version__, coal.__version__))
+    text = repr((key, *fit_versions().values()))
     return f"{kind}-{hashlib.sha256(text.encode()).hexdigest()[:16]}.json"
 
 
