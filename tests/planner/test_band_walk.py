@@ -198,7 +198,13 @@ def test_a_kernel_is_compiled_again_when_a_file_it_calls_into_changes(tmp_path):
         )
     )
     run = [sys.executable, "-c", "import caller; print(caller.keyed())"]
-    env = {"PYTHONPATH": f"{tmp_path}:{REPO_SRC}", "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PATH": "/usr/bin"}
+    # no .pyc: a callee rewritten within the same second at the same size would load its old bytecode
+    env = {
+        "PYTHONPATH": f"{tmp_path}:{REPO_SRC}",
+        "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
+        "PATH": "/usr/bin",
+        "PYTHONDONTWRITEBYTECODE": "1",
+    }
     assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip() == "1"
     assert list((tmp_path / "cache").rglob("*caller*keyed*.nbi"))  # cached
     (tmp_path / "callee.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 2\n")
