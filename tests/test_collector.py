@@ -1,4 +1,4 @@
-"""The collector paused while a command imports (cli/collector.py): on again after, whatever happens
+"""The collector paused while a command imports (hriplan/collector.py): on again after, whatever happens
 in the block, and frozen only when the block loaded modules. In fresh processes, so that what
 the tests' process has imported and frozen does not count."""
 
@@ -14,7 +14,7 @@ def _run(code: str) -> list[str]:
     return out.stdout.split()
 
 
-PRELUDE = "import gc, sys\nfrom hriplan.cli.collector import collector_paused_while_importing as paused\n"
+PRELUDE = "import gc, sys\nfrom hriplan.collector import collector_paused_while_importing as paused\n"
 
 
 def test_paused_while_importing_then_frozen_and_on_again():
