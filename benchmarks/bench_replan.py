@@ -5,7 +5,9 @@ motion manager derives and plans the handover again on the same session.
 Run: .venv/bin/python benchmarks/bench_replan.py [--updates 10] [--switch-kernels] [--switch-still] [--freeze]
 Prints, per update, the wall time of `run_task` (derive + plan + time, warm session and
 reasoner) and of its parts, then the medians, and the median CPU time per re-plan of each stage
-(STAGES: inclusive, a stage inside another is indented under it). Times are seconds on this
+(STAGES: inclusive, a stage inside another is indented under it), the full garbage collections
+during the re-plans, the objects frozen and left to them, and the resident memory after update
+10 and the last. Times are seconds on this
 machine; compare the parts with each other, in one run. Last, the ISO/TS 15066 monitor on the
 last re-plan's own calls: the batched `ApproachMonitor.speed_scale` against the per-point route it
 replaced (coal on every pair through `CollisionChecker.person_pairs`, pinocchio Jacobians), same
@@ -26,6 +28,7 @@ import argparse
 import contextlib
 import gc
 import json
+import os
 import statistics
 import time
 from collections.abc import Callable
@@ -77,7 +80,10 @@ def main() -> None:
     parser.add_argument("--against", type=Path, help="compare each update's outcome with this --save file")
     parser.add_argument("--rtol", type=float, default=0.0, help="--against: numbers may differ by this, relatively")
     parser.add_argument(
-        "--freeze", action="store_true", help="gc.freeze() after the warm-up re-plan, as docs/api.md recommends"
+        "--freeze",
+        action="store_true",
+        help="gc.collect() and gc.freeze() after the warm-up re-plan (a tree with hriplan/collector.py's "
+        "freeze_after_first_plan has done so in the warm-up: the flag then adds nothing but a second freeze)",
     )
     parser.add_argument(
         "--switch-kernels",
@@ -127,6 +133,8 @@ def main() -> None:
         gc.collect()
         gc.freeze()
     totals, cpu, stages, by_stage, outcomes, kernels, held = [], [], [], [], [], [], []
+    full = _full_collections()
+    resident = {}
     bob = task.humans[0]
     for k in range(args.updates):
         # 10 cm to and fro, plus 1 mm more each time: every update is a place she has not been
@@ -148,13 +156,23 @@ def main() -> None:
         cpu.append(time.process_time() - started_cpu)
         stages.append(timing["time"])
         by_stage.append(dict(spent))
-        outcomes.append(_without_planning_times(outcome.model_dump(mode="json")))
+        if args.save or args.against:  # kept only then: the resident memory below is the session's
+            outcomes.append(_without_planning_times(outcome.model_dump(mode="json")))
+        if k + 1 in (min(10, args.updates), args.updates):
+            resident[k + 1] = _resident_mb()
         print(
             f"update {k + 1}: {outcome.steps[-1].status:>8} in {totals[-1]:.3f} s, CPU {cpu[-1]:.3f} s (timing stage {stages[-1]:.3f} s)"
         )
     print(
         f"median: {statistics.median(totals):.3f} s per re-plan (CPU {statistics.median(cpu):.3f} s, the most "
         f"{max(cpu):.3f} s), of which the timing stage {statistics.median(stages):.3f} s"
+    )
+    gc.callbacks.remove(full.pop())
+    print(
+        f"full garbage collections during the re-plans: {len(full)}, {1e3 * sum(full):.0f} ms in all "
+        f"({', '.join(f'{1e3 * t:.0f}' for t in full) or '-'} ms); objects frozen {gc.get_freeze_count()}, "
+        f"traversed by a full collection {len(gc.get_objects())}; resident memory "
+        + ", ".join(f"{mb:.1f} MB after update {k}" for k, mb in resident.items())
     )
     if args.switch_kernels:
         on, off = ([t for t, k in zip(cpu, kernels) if k == side] for side in (True, False))
@@ -193,6 +211,30 @@ def main() -> None:
         f"{1e3 * c['point']:.1f} ms ({c['point'] / c['batch']:.1f}x); largest relative difference {c['worst']:.1e} (coal's points "
         f"on a cylinder, GJK run to 1e-12, are ~1e-6 m from the exact ones the compiled route finds)"
     )
+
+
+def _full_collections() -> list:
+    """The seconds each full (generation 2) garbage collection takes from now on; its last item is
+    the gc callback that measures them, to remove."""
+    seconds: list = []
+    began = [0.0]
+
+    def measure(phase: str, info: dict) -> None:
+        if info["generation"] == 2:
+            if phase == "start":
+                began[0] = time.perf_counter()
+            else:
+                seconds.insert(len(seconds) - 1, time.perf_counter() - began[0])
+
+    seconds.append(measure)
+    gc.callbacks.append(measure)
+    return seconds
+
+
+def _resident_mb() -> float:
+    """This process's resident memory (Linux), MB."""
+    with open("/proc/self/statm") as statm:
+        return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
 
 
 def _without_planning_times(value):

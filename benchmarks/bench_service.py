@@ -2,6 +2,7 @@
 
 Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_service.py [--requests 200] [--concurrency 8] [--workers 2] [--reps 20]
      [--before CHECKOUT] [--only-hostile] [--only-kernels] [--solves 12]
+     [--only-tail --before CHECKOUT --tail-requests 200]
 - engines: the same queries on the ontology and on a task step's reasoned graph, by rdflib as
   hriplan runs it (with its deadline and row guards), by plain rdflib, and by pyoxigraph (if
   installed); median over --reps. rdflib-endpoint evaluates with one of these two engines.
@@ -20,6 +21,13 @@ Run: PYTHONPATH=src .venv/bin/python benchmarks/bench_service.py [--requests 200
   --solves problems of benchmarks/scenarios (a, b, c; seeds 0, 1, ...) sent to both, alternating
   which goes first: median latency per scenario, and how many answers planned the same motion
   (positions within 1e-9 rad).
+- tail (--only-tail): the latency tail of re-plans, where a full garbage collection in a worker
+  or the server lands: a server from this checkout and one from --before (required), one
+  planning worker each, get --tail-requests requests one at a time, alternating between the
+  two servers (which goes first alternates too): /solve of b_madar_handover with its receiver
+  moved (10 cm to and fro plus 1 mm more each time, as bench_replan) and a new seed, and /plan
+  of the handover task renamed. Median, p95, the most, and how many took over twice the median,
+  per kind and server.
 """
 
 from __future__ import annotations
@@ -255,6 +263,59 @@ def kernels(solves: int) -> list[str]:
     return lines
 
 
+def _moved(k: int) -> dict:
+    """The handover problem with its receiver moved as bench_replan moves her, and seed k."""
+    problem = copy.deepcopy(PROBLEM)
+    person = problem["scene"]["humans"][0]
+    dx = (0.1 if k % 2 == 0 else 0.0) + 0.001 * k
+    person["position"][0] += dx
+    person["reach"] = {side: [x + dx, y, z] for side, (x, y, z) in person["reach"].items()}
+    problem["options"]["seed"] = k
+    return problem
+
+
+def _timed(client: httpx.Client, kind: str, k: int) -> float:
+    began = time.perf_counter()
+    if kind == "solve":
+        response = client.post("/solve", json=_moved(k))
+    else:
+        response = client.post("/plan", json={**TASK, "name": f"tail{k + 1}"})
+    assert response.status_code == 200, response.text[:200]
+    return time.perf_counter() - began
+
+
+def tail(before: Path, requests: int) -> list[str]:
+    """Latency of re-plans one at a time on two one-worker servers, alternating: median, p95, most."""
+    servers = {}
+    with contextlib.ExitStack() as stack:
+        for label, src in (("before", before / "src"), ("after", ROOT / "src")):
+            servers[label] = stack.enter_context(running_server("--workers", "1", src=src))
+        clients = {
+            label: stack.enter_context(httpx.Client(base_url=url, timeout=120)) for label, url in servers.items()
+        }
+        for client in clients.values():  # each worker's session, reasoner and caches made before timing
+            _timed(client, "solve", -1)
+            _timed(client, "plan", -1)
+        times: dict[tuple[str, str], list[float]] = {}
+        for k in range(requests):
+            kind = "solve" if k % 2 == 0 else "plan"
+            for label in list(clients) if k // 2 % 2 == 0 else list(clients)[::-1]:
+                times.setdefault((label, kind), []).append(_timed(clients[label], kind, k))
+    lines = [
+        f"{requests} requests, one at a time, alternating between the servers (one planning worker each)",
+        "| server | kind | n | median ms | p95 ms | most ms | over twice the median |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for (label, kind), values in sorted(times.items(), key=lambda item: (item[0][1], item[0][0] != "before")):
+        ordered = sorted(values)
+        p95 = ordered[min(len(ordered) - 1, int(0.95 * len(ordered)))]
+        lines.append(
+            f"| {label} | {kind} | {len(values)} | {1e3 * statistics.median(values):.0f} | {1e3 * p95:.0f}"
+            f" | {1e3 * ordered[-1]:.0f} | {sum(v > 2 * statistics.median(values) for v in values)} |"
+        )
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--requests", type=int, default=200)
@@ -265,7 +326,14 @@ def main() -> None:
     parser.add_argument("--only-hostile", action="store_true", help="skip the engine, load and kernels parts")
     parser.add_argument("--only-kernels", action="store_true", help="only the kernels part")
     parser.add_argument("--solves", type=int, default=12, help="problems per scenario in the kernels part")
+    parser.add_argument("--only-tail", action="store_true", help="only the tail part (needs --before)")
+    parser.add_argument("--tail-requests", type=int, default=200, help="requests per server in the tail part")
     args = parser.parse_args()
+    if args.only_tail:
+        if args.before is None:
+            parser.error("--only-tail compares with --before CHECKOUT")
+        print("\n".join(tail(args.before, args.tail_requests)), flush=True)
+        return
     if not args.only_hostile:
         print("\n".join(kernels(args.solves)), flush=True)
     if args.only_kernels:

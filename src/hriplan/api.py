@@ -29,8 +29,9 @@ with `PERSON_FRAMES` the frame names every person has. Any robot from its URDF a
 A long-running process (a motion manager re-planning as people move): `load_kernels()` once at
 start plans with the compiled kernels (numba, the `fast` extra): ~1 s then, the ISO/TS 15066
 monitor x0.44-0.47 and constrained solves x0.59-0.86 after (`hriplan serve` does it; a seed then
-reproduces with them on only); `gc.freeze()` after the first plan keeps full garbage collections
-out of the re-plans (docs/api.md).
+reproduces with them on only). After the process's first timed motion a session freezes what
+exists, once (`gc.freeze()`, hriplan/collector.py): full garbage collections then skip the
+robots', kernels' and ontology's objects, out of the re-plans' time (docs/api.md).
 
 BLAS: importing this module before numpy asks one BLAS thread (`blas_threads.py`, as the
 command line does), unless the environment names a number (OPENBLAS_NUM_THREADS and the like).

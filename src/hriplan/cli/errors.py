@@ -22,9 +22,9 @@ from typer._click import exceptions as click_errors  # typer vendors click: its 
 from typer.core import TyperGroup
 
 from hriplan import HriplanError
-from hriplan.cli.collector import collector_paused_while_importing
 from hriplan.cli.outputs import remove_partial_outputs
 from hriplan.cli.quick_exit import exit_now
+from hriplan.collector import collector_paused_while_importing
 
 F = TypeVar("F", bound=Callable)
 INTERRUPTED = 130  # 128 + SIGINT, what a shell reports for Ctrl-C

@@ -104,6 +104,7 @@ def serve(
         field = ".".join(str(p) for p in first["loc"])
         option = OPTIONS.get(field, field.replace("_", "-"))
         raise HriplanError(f"--{option}: {first['msg'].removeprefix('Value error, ')}") from None
+    from hriplan.collector import freeze_what_lives
     from hriplan.robots.descriptions.registry import load_robot_file
 
     for path in config.robot_files:  # a bad robot file is one line now, not at a request
@@ -113,8 +114,10 @@ def serve(
             raise HriplanError(f"--robot-file: {exc}") from None
     config.check_binding()
     _enough_file_descriptors(config.max_connections)
+    app = create_app(config)
+    freeze_what_lives()  # the server's ~100 000 objects (FastAPI, the schemas) out of its collections
     uvicorn.run(
-        create_app(config),
+        app,
         host=config.host,
         port=config.port,
         log_level="info",

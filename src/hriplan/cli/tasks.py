@@ -14,9 +14,9 @@ from typing import Annotated, Literal
 import typer
 
 from hriplan import HriplanError
-from hriplan.cli.collector import collector_paused_while_importing
 from hriplan.cli.outputs import directory_output, file_output
 from hriplan.cli.progress import progress
+from hriplan.collector import collector_paused_while_importing
 from hriplan.ontology.reasoners import Reasoner, use_reasoner
 from hriplan.planner.outcome import Status
 

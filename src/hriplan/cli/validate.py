@@ -11,9 +11,9 @@ from typing import Annotated
 import typer
 
 from hriplan import HriplanError
-from hriplan.cli.collector import collector_paused_while_importing
 from hriplan.cli.progress import progress
 from hriplan.cli.tasks import Quiet, TaskOption, _runner, load_for_task
+from hriplan.collector import collector_paused_while_importing
 
 StepOption = Annotated[
     str | None, typer.Option("--step", help="With --task: the task step a JointTrajectory message moves in.")

@@ -20,6 +20,7 @@ import numpy as np
 from pydantic import BaseModel, model_validator
 
 from hriplan import HriplanError
+from hriplan.collector import freeze_after_first_plan
 from hriplan.planner.constraints.binding import BoundConstraint, bind, resolve_frame, set_goal_positions
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import ConstraintSet, ConstraintSpec, OrientationConstraint
@@ -371,6 +372,8 @@ class PlanningSession:
                 }
             )
             trajectory = trajectory.model_copy(update={"report": report})
+        # The process's robot, kernels and caches are made: once, out of full collections (collector.py).
+        freeze_after_first_plan()
         return PlanResult(
             status=Status.SOLVED,
             motion=motion,

@@ -2,7 +2,8 @@
 
 BLAS thread pools are capped before numpy loads: a planning worker uses one core, and the pool
 size says how many cores planning may take. Once set up the worker sends ("ready", pid, kernels
-on). Each request is a (kind, payload) pair on the pipe;
+on), having frozen what it holds then out of later full garbage collections (hriplan/collector.py;
+its first plan adds no second freeze). Each request is a (kind, payload) pair on the pipe;
 the worker first answers ("accepted",) (a job never accepted is retried elsewhere), may announce
 ("deadline", seconds, why) (past it the server kills it), and ends with ("ok", body, media type)
 or ("error", status, one-line message). A traceback goes to the server's log, never into an
@@ -103,6 +104,7 @@ def serve(
     die_with(parent)
     _Serving.pipe, _Serving.memory_limit = conn, memory_limit
     from hriplan import HriplanError
+    from hriplan.collector import freeze_what_lives
     from hriplan.ontology.sparql import QueryTimeout, UpdateRefused
     from hriplan.service.errors import RequestError
 
@@ -112,7 +114,9 @@ def serve(
         from hriplan.service.jobs import JOBS
     from hriplan.service.negotiation import NotAcceptable
 
-    conn.send(("ready", os.getpid(), kernels_for_worker(kernels)))
+    kernels_on = kernels_for_worker(kernels)
+    freeze_what_lives()  # what the imports and kernels made, out of the requests' full collections
+    conn.send(("ready", os.getpid(), kernels_on))
     while True:
         try:
             kind, payload = conn.recv()
