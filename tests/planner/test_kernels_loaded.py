@@ -73,7 +73,17 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
     entries += ("controllable", "forward")  # TOPP-RA's passes (toppra_kernels.py)
     assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
     # the tasks took the compiled routes (planning, validation, collision), and numba loaded nothing for them
-    called = ["_compiled", "controllable", "forward", "margins", "margins_many", "project", "verdict", "verdicts", "walk"]
+    called = [
+        "_compiled",
+        "controllable",
+        "forward",
+        "margins",
+        "margins_many",
+        "project",
+        "verdict",
+        "verdicts",
+        "walk",
+    ]
     assert sorted(found["calls"]) == called, found["calls"]
     assert found["after"] == found["before"]
 
