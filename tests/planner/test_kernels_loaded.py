@@ -72,7 +72,7 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
     entries += ("fold_rows", "nearest_rows", "walk_frames", "project", "walk", "nearest", "states_margins")
     entries += ("controllable", "forward")  # TOPP-RA's passes (toppra_kernels.py)
     assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
-    # the tasks took the compiled routes (planning, validation, collision), and numba loaded nothing for them
+    # the tasks took the compiled routes (planning, validation, collision, TOPP-RA), and numba loaded nothing for them
     called = [
         "_compiled",
         "controllable",

@@ -307,8 +307,11 @@ class _TOPPRA(toppra.algorithm.TOPPRA):
     driving its own seidel solver with the same calls, in the same order, on the same numbers as
     toppra 0.6's `compute_parameterization`, so the same bits; without the per-stage arrays,
     NaN scans and logging around each call, which cost about as much as the solver itself
-    (~4 us a call, two calls a stage per pass). Its trajectory is toppra's constant path
-    acceleration between gridpoints, evaluated in numpy (`_ConstantAcceleration`)."""
+    (~4 us a call, two calls a stage per pass). With the kernels on (`kernels_on()`) the solver
+    is toppra's ported to numba and each pass is one compiled call (`toppra_kernels.py`, the same
+    bits; a solver put in its place, as tests do, is driven stage by stage as toppra's). Its
+    trajectory is toppra's constant path acceleration between gridpoints, evaluated in numpy
+    (`_ConstantAcceleration`)."""
 
     def __init__(self, constraints: list, path: object, gridpoints: np.ndarray, solver_wrapper: str = "seidel") -> None:
         """toppra's set-up with its seidel solver, made here: toppra's first asks which solvers
