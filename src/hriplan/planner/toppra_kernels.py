@@ -3,17 +3,19 @@ controllable sets (backwards) and the greedy forward pass each as one kernel ove
 
 Why a port of toppra's solver and not toppra's: hriplan already drives toppra's Cython seidel
 solver itself (`timing._TOPPRA`), one `solve_stagewise_optim` call a stage and pass from a
-Python loop; each call costs ~1-2 us of solving and ~3-5 us of Python and Cython's argument
-handling (memoryviews, the returned list, the loop), so Python, not the LP, is most of the
-passes' time (benchmarks/REPORT-toppra.md, 2026-12-05). toppra has no call that runs a whole
+Python loop, ~1.7 us a call of which the LP itself is ~0.1-0.3 us (compiled here: two 2-D LPs
+~0.5 us a stage); the rest is Python and Cython's argument handling (memoryviews, the returned
+list, the loop): the passes of a 334-gridpoint problem 1.66 -> 0.23 ms
+(benchmarks/REPORT-toppra.md, 2026-12-05). toppra has no call that runs a whole
 pass in compiled code, and its solver's coefficients (`a_arr`, ...) are private to its Cython
 class, so a compiled pass needs its own copy of the solver and of its set-up (`Stagewise`).
 
 The port is toppra 0.6's `cy_seidel_solverwrapper.pyx` (the same release line as the installed
 0.6.10): `cy_solve_lp1d`, `cy_solve_lp2d` and `seidelWrapper.solve_stagewise_optim`, with the
-same arithmetic in the same order (`pow(x, 2)` is x * x, as gcc compiles it), the same warm
-start (the last active constraints of the upper and of the lower solver, kept between calls)
-and the same answers on failure (NaN), so the passes give toppra's bits
+same arithmetic in the same order (`pow(x, 2)` as x * x, which gcc folds it to, and the tests
+find no difference), the same warm start (the last active constraints of the upper and of the
+lower solver, kept between calls) and the same answers on failure (NaN; ZeroDivisionError where
+toppra's Cython divides by zero, a violated all-zero row), so the passes give toppra's bits
 (tests/planner/test_toppra_kernels.py compares it with toppra's solver). Its set-up is
 `seidelWrapper.__init__`'s with the same numpy products. Every jitted function lives in this
 one file (numba keys a function's disk cache by its own file only); numba is imported only
