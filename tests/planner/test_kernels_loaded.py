@@ -25,6 +25,7 @@ from hriplan.planner.kernels import load_kernels
 from hriplan.robots import certifier_kernels
 from hriplan.planner.constraints import compiled
 from hriplan.planner.search import band_kernels
+from hriplan.planner import toppra_kernels
 from hriplan.safety import approach_kernels
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.api import PlanningSession, load_task, run_task
@@ -39,11 +40,14 @@ def counted(owner, name):
     setattr(owner, name, wrapper)
 for owner, name in [(compiled.CompiledTerms, n) for n in ("margins", "gradients", "margins_many")] + [
     (FreeCertifier, n) for n in ("verdict", "verdicts")
-] + [(ApproachMonitor, "_compiled")] + [(band_kernels.BandWalker, n) for n in ("project", "walk")]:
+] + [(ApproachMonitor, "_compiled")] + [(band_kernels.BandWalker, n) for n in ("project", "walk")] + [
+    (toppra_kernels.Stagewise, n) for n in ("controllable", "forward")
+]:
     counted(owner, name)
 
 def signatures():
-    kernels = {**vars(certifier_kernels), **compiled._KERNELS, **vars(compiled), **vars(approach_kernels), **vars(band_kernels)}
+    kernels = {**vars(certifier_kernels), **compiled._KERNELS, **vars(compiled), **vars(approach_kernels), **vars(band_kernels),
+               **vars(toppra_kernels)}
     return {name: len(f.signatures) for name, f in kernels.items() if isinstance(f, CPUDispatcher)}
 
 loaded = load_kernels()
@@ -66,9 +70,20 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
     assert found["loaded"] is True and found["solved"] == [True, True, True]
     entries = ("verdict_one", "verdicts", "place_joints", "term_gradients", "capsule_rows")
     entries += ("fold_rows", "nearest_rows", "walk_frames", "project", "walk", "nearest", "states_margins")
+    entries += ("controllable", "forward")  # TOPP-RA's passes (toppra_kernels.py)
     assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
-    # the tasks took the compiled routes (planning, validation, collision), and numba loaded nothing for them
-    called = ["_compiled", "margins", "margins_many", "project", "verdict", "verdicts", "walk"]
+    # the tasks took the compiled routes (planning, validation, collision, TOPP-RA), and numba loaded nothing for them
+    called = [
+        "_compiled",
+        "controllable",
+        "forward",
+        "margins",
+        "margins_many",
+        "project",
+        "verdict",
+        "verdicts",
+        "walk",
+    ]
     assert sorted(found["calls"]) == called, found["calls"]
     assert found["after"] == found["before"]
 

@@ -32,8 +32,8 @@ from hriplan.safety.separation import PersonSeparation, RobotStopping, Separatio
 def load_kernels() -> bool:
     """Turn the kernels on in this process, and load every one of them (compiling any not yet
     cached): the collision certifier's and the constraint terms' called once each on the
-    built-in UR5 and CBiRRT's walk through them, the ISO/TS 15066 monitor's on MADAR (robots
-    and checkers stay cached).
+    built-in UR5 and CBiRRT's walk through them, the ISO/TS 15066 monitor's on MADAR, TOPP-RA's
+    passes on a short UR5 motion (robots and checkers stay cached).
     False (and the kernels stay off) without numba, the `fast` extra."""
     use_kernels(True)
     if not kernels_on():
@@ -53,6 +53,7 @@ def load_kernels() -> bool:
     evaluator.margins_many(np.repeat(q[None], 2, axis=0))
     _band_walk(evaluator, checker, robot.limits("arm"), x)
     _monitor()
+    _toppra(x)
     return True
 
 
@@ -66,6 +67,15 @@ def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds
     walker.nearest(np.repeat(x[None], 2, axis=0), 2, x)
     for bands in ((4e-3, 2e-3), None):
         walker.walk(x, x + 0.1, 0.05, 3, bands, certifier)
+
+
+def _toppra(x: np.ndarray) -> None:
+    """TOPP-RA's compiled passes (`toppra_kernels.py`: the controllable sets and the forward pass):
+    a short motion of the UR5's arm timed."""
+    from hriplan.planner.timing import time_parameterize
+
+    velocity, acceleration = np.full(len(x), 1.0), np.full(len(x), 2.0)
+    time_parameterize(x + np.linspace(0.0, 0.3, 5)[:, None], velocity, acceleration)
 
 
 def _monitor() -> None:

@@ -22,6 +22,7 @@ from pydantic import BaseModel, ConfigDict
 from hriplan import HriplanError
 from hriplan.planner.natural_spline import NaturalSpline
 from hriplan.recent import Recent
+from hriplan.robots.kernel_switch import kernels_on
 from hriplan.safety.separation import SPEED_LIMIT_SLACK
 
 
@@ -306,8 +307,11 @@ class _TOPPRA(toppra.algorithm.TOPPRA):
     driving its own seidel solver with the same calls, in the same order, on the same numbers as
     toppra 0.6's `compute_parameterization`, so the same bits; without the per-stage arrays,
     NaN scans and logging around each call, which cost about as much as the solver itself
-    (~4 us a call, two calls a stage per pass). Its trajectory is toppra's constant path
-    acceleration between gridpoints, evaluated in numpy (`_ConstantAcceleration`)."""
+    (~4 us a call, two calls a stage per pass). With the kernels on (`kernels_on()`) the solver
+    is toppra's ported to numba and each pass is one compiled call (`toppra_kernels.py`, the same
+    bits; a solver put in its place, as tests do, is driven stage by stage as toppra's). Its
+    trajectory is toppra's constant path acceleration between gridpoints, evaluated in numpy
+    (`_ConstantAcceleration`)."""
 
     def __init__(self, constraints: list, path: object, gridpoints: np.ndarray, solver_wrapper: str = "seidel") -> None:
         """toppra's set-up with its seidel solver, made here: toppra's first asks which solvers
@@ -325,10 +329,20 @@ class _TOPPRA(toppra.algorithm.TOPPRA):
         self._N = len(gridpoints) - 1  # stages; gridpoints: N + 1
         if np.any(self.gridpoints[1:] <= self.gridpoints[:-1]):
             raise ValueError("Bad input gridpoints.")
-        self.solver_wrapper = toppra.solverwrapper.seidelWrapper(
-            self.constraints, self.path, self.gridpoints, solve_lp1d=True
-        )
+        if kernels_on():  # the same solver compiled, each pass one call (planner/toppra_kernels.py)
+            from hriplan.planner.toppra_kernels import Stagewise
+
+            self.solver_wrapper = Stagewise(self.constraints, self.path, self.gridpoints, solve_lp1d=True)
+        else:
+            self.solver_wrapper = toppra.solverwrapper.seidelWrapper(
+                self.constraints, self.path, self.gridpoints, solve_lp1d=True
+            )
         self.parametrizer = _ConstantAcceleration
+
+    def _compiled(self):
+        """The solver if it runs whole passes compiled (`toppra_kernels.Stagewise`), else None."""
+        kernels, solver = sys.modules.get("hriplan.planner.toppra_kernels"), self.solver_wrapper
+        return solver if kernels is not None and type(solver) is kernels.Stagewise else None
 
     def compute_parameterization(self, sd_start, sd_end, return_data=False):
         if sd_end < 0 or sd_start < 0:
@@ -341,8 +355,12 @@ class _TOPPRA(toppra.algorithm.TOPPRA):
         if not controlled or x + small < controllable[0, 0] or controllable[0, 1] + small < x:
             data.return_code = toppra.algorithm.ParameterizationReturnCode.FailUncontrollable
             return (None, None, None, controllable) if return_data else (None, None, None)
-        solve, deltas, bounds = solver.solve_stagewise_optim, solver.get_deltas().tolist(), controllable.tolist()
         tiny, max_tries = toppra.constants.TINY, toppra.constants.MAX_TRIES
+        compiled = self._compiled()
+        if compiled is not None:
+            xs, us = compiled.forward(float(x), controllable, tiny, max_tries)
+            return self._parameterized(xs, us, controllable, return_data)
+        solve, deltas, bounds = solver.solve_stagewise_optim, solver.get_deltas().tolist(), controllable.tolist()
         xs, us = [float(x)] + [0.0] * stages, [0.0] * stages
         objective = np.zeros(solver.get_no_vars())
         objective[1] = -1.0
@@ -364,8 +382,14 @@ class _TOPPRA(toppra.algorithm.TOPPRA):
             xs[i + 1] = min(high, max(low, max(reached - tiny, 0.9999 * reached)))
             i += 1
         solver.close_solver()
+        return self._parameterized(xs, us, controllable, return_data)
+
+    def _parameterized(self, xs, us, controllable: np.ndarray, return_data: bool):
+        """toppra's ending of `compute_parameterization` on the squared speeds `xs` and path
+        accelerations `us` (lists or arrays) of the forward pass."""
+        data, stages = self._problem_data, self._N
         data.sd_vec, data.sdd_vec = np.sqrt(xs), np.array(us, dtype=float)
-        v_vec = np.zeros((stages, solver.get_no_vars() - 2))  # the seidel solver has no further variables
+        v_vec = np.zeros((stages, self.solver_wrapper.get_no_vars() - 2))  # the seidel solver has no further variables
         codes = toppra.algorithm.ParameterizationReturnCode
         data.return_code = codes.ErrUnknown if np.isnan(data.sd_vec).any() else codes.Ok
         return (data.sdd_vec, data.sd_vec, v_vec, controllable) if return_data else (data.sdd_vec, data.sd_vec, v_vec)
@@ -376,6 +400,9 @@ class _TOPPRA(toppra.algorithm.TOPPRA):
         The bounds pass between the solver's calls as Python floats (numpy's scalars, rows and
         NaN checks cost as much as the solver here)."""
         solver, stages = self.solver_wrapper, self._N
+        compiled = self._compiled()
+        if compiled is not None:
+            return compiled.controllable(x_end)
         solve, nan = solver.solve_stagewise_optim, np.nan
         upward = np.zeros(solver.get_no_vars())
         upward[0], upward[1] = 1e-9, -1.0
