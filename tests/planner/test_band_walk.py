@@ -116,8 +116,10 @@ def test_the_compiled_walk_grows_the_python_loops_tree(searches, rng, monkeypatc
         )
     _same_counts(python, compiled)
     assert 0 < reached < 150
-    # each way a walk ends occurred, collision asked of the checker too (unconstrained: no step is blocked)
-    expected = {cbirrt.REACHED, cbirrt.UNSURE, cbirrt.MORE} | ({cbirrt.BLOCKED} if python.p.constrained else set())
+    # each way a walk ends occurred: collision asked of the checker too, and proven by the
+    # certifier (a capsule in a box); unconstrained, no step is blocked
+    expected = {cbirrt.REACHED, cbirrt.UNSURE, cbirrt.MORE, cbirrt.COLLIDED}
+    expected |= {cbirrt.BLOCKED} if python.p.constrained else set()
     assert expected <= set(ended), set(ended)
 
 

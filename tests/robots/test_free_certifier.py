@@ -22,14 +22,25 @@ from hriplan.robots import kernel_switch
 from hriplan.robots.certifier_kernels import (
     PAIR,
     REACH,
+    TOUCHING,
     capsule_beyond_face,
     capsule_clears_box,
+    capsule_in_box,
     place_joints,
     segment_floor,
+    touching,
 )
+from hriplan.robots.certifier_kernels import verdicts as verdict_codes
 from hriplan.robots.collision import CollisionChecker, SeparationZones
 from hriplan.robots.descriptions.registry import load_robot_file
-from hriplan.robots.free_certifier import FreeCertifier, _geometry_row, _mesh_pieces, _spheres_about, _static_rows
+from hriplan.robots.free_certifier import (
+    ASKED_OF_COAL,
+    FreeCertifier,
+    _geometry_row,
+    _mesh_pieces,
+    _spheres_about,
+    _static_rows,
+)
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.mesh_clearance import FINE
@@ -213,6 +224,51 @@ def test_capsule_clear_of_a_box_only_where_coal_keeps_them_apart():
     assert cleared > 0.3 * len(capsules)
 
 
+def test_a_capsule_is_proven_in_a_box_exactly_where_coal_finds_it_deeper_than_the_depth():
+    """Proven where coal's signed distance is below -depth, not where it is above (1e-7 of
+    rounding and search apart): each proof is a contact coal finds, and a capsule reaching into a
+    box is proven wherever it reaches deeper than the depth."""
+    rng = np.random.default_rng(11)
+    proven = 0
+    for row in _capsule_rows(rng, 4000):
+        placed, distance, _ = _capsule_and_box(rng, row)
+        touches = capsule_in_box(placed, 0, 1, 1e-4)
+        if abs(distance + 1e-4) > 1e-7:
+            assert touches == (distance < -1e-4), distance
+        proven += touches
+    assert 0.1 < proven / 4000 < 0.9
+
+
+def test_only_a_capsule_or_sphere_reaching_into_a_box_is_proven_to_touch():
+    """A cylinder is held by its row's capsule and a mesh or cone by its row's box, so neither
+    proves a contact there; a capsule and a sphere do, against a box, whichever row comes first."""
+    rows = {
+        kind: _geometry_row(pin.GeometryObject(kind, 0, pin.SE3.Identity(), shape))
+        for kind, shape in {
+            "box": coal.Box(0.2, 0.2, 0.2),
+            "capsule": coal.Capsule(0.05, 0.2),
+            "sphere": coal.Sphere(0.05),
+            "cylinder": coal.Cylinder(0.05, 0.2),
+            "cone": coal.Cone(0.05, 0.2),
+        }.items()
+    }
+
+    def touches(kind: str, z: float, other: str = "box") -> bool:
+        """`kind` along z, its centre at z, against `other` at the origin (both ways round)."""
+        placed = np.array([rows[kind], rows[other]])
+        placed[0, [2, 5, 18]] += z
+        answers = {touching(placed, placed, 0, 1, 1e-4), touching(placed[::-1], placed[::-1], 1, 0, 1e-4)}
+        assert len(answers) == 1
+        return answers.pop()
+
+    # The capsule's end cap reaches 0.1 + 0.05 from its centre, the box's top is at 0.1.
+    assert touches("capsule", 0.25 - 2e-4) and not touches("capsule", 0.25 - 0.5e-4)
+    assert touches("sphere", 0.15 - 2e-4) and not touches("sphere", 0.15 - 0.5e-4)
+    # The cylinder's flat end is at 0.1 from its centre: its capsule reaches 0.05 beyond it.
+    assert not touches("cylinder", 0.22) and not touches("cone", 0.15)
+    assert not touches("capsule", 0.0, "capsule") and not touches("box", 0.0)
+
+
 def test_capsule_beyond_a_face_only_where_a_plane_and_coal_keep_them_apart():
     """Clear exactly where both ends of the segment lie past one face's plane by more than the
     radius (here in the box's frame, by numpy), and coal finds them apart there."""
@@ -309,6 +365,12 @@ def test_certified_states_are_free_for_coal_and_answers_are_the_same(robots, nam
     assert [checker.in_collision(q) for q in states[asked]] == collides[asked].tolist()
     assert [certifier.verdict(q) for q in states[:500]] == certifier.verdicts(states[:500])
     assert checker.first_collision(states[~certified][:50]) == first
+    # A state where a pair is proven to touch collides for coal; the robots' capsules reach
+    # into the boxes in some (Baxter's links are meshes: none is proven).
+    codes = verdict_codes(states, *certifier.packed, np.empty((len(states), ASKED_OF_COAL + 1), dtype=np.int64))
+    proven = codes == TOUCHING
+    assert collides[proven].all()
+    assert proven.mean() > (0.0 if name == "baxter" else 0.01)
 
 
 def test_moved_people_and_obstacles_are_where_the_certifier_looks(robots, kernels):

@@ -22,7 +22,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from hriplan.robots.certifier_kernels import LEVELS, PAIR, REACH, ROW, verdict_one, verdicts
+from hriplan.robots.certifier_kernels import EXACT_BOX, EXACT_CAPSULE, LEVELS, PAIR, REACH, ROW, verdict_one, verdicts
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.mesh_clearance import FINE, ClearanceTable
 from hriplan.robots.part_spheres import BOUND_TOLERANCE
@@ -61,12 +61,20 @@ def _held_by(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, np.ndarray, 
 
 
 def _geometry_row(geometry: pin.GeometryObject) -> np.ndarray:
-    """The row (23,) of a geometry: its capsule and box in its joint's frame."""
+    """The row (ROW,) of a geometry: its capsule and box in its joint's frame, and which of them
+    is the geometry itself (`certifier_kernels.EXACT`)."""
     start, end, radius, centre, half = _held_by(geometry.geometry)
     placement = geometry.placement
     capsule = np.concatenate([placement.act(start), placement.act(end), [radius]])
     box = np.concatenate([placement.rotation.reshape(9), placement.act(centre), half])
-    return np.concatenate([capsule, box, [np.linalg.norm(end - start) / 2.0 + radius]])
+    return np.concatenate([capsule, box, [np.linalg.norm(end - start) / 2.0 + radius, _exact(geometry.geometry)]])
+
+
+def _exact(geometry: coal.CollisionGeometry) -> float:
+    """EXACT_CAPSULE for a capsule or sphere (its row's capsule is it), EXACT_BOX for a box, else 0."""
+    if isinstance(geometry, coal.Capsule | coal.Sphere):
+        return EXACT_CAPSULE
+    return EXACT_BOX if isinstance(geometry, coal.Box) else 0.0
 
 
 def _placed(points: np.ndarray, where: np.ndarray) -> np.ndarray:

@@ -22,9 +22,9 @@ import numpy as np
 
 from hriplan.planner.constraints import compiled, geometry
 from hriplan.planner.constraints.compiled import term_gradients, term_margins
-from hriplan.planner.search.cbirrt import BLOCKED, MORE, NEWTON_ITERATIONS, REACHED, UNSURE
+from hriplan.planner.search.cbirrt import BLOCKED, COLLIDED, MORE, NEWTON_ITERATIONS, REACHED, UNSURE
 from hriplan.robots import certifier_kernels
-from hriplan.robots.certifier_kernels import place_joints, verdict_one
+from hriplan.robots.certifier_kernels import TOUCHING, place_joints, verdict_one
 from hriplan.robots.kernel_cache import njit_keyed
 
 if TYPE_CHECKING:
@@ -152,7 +152,8 @@ def walk(
     (`certifier_kernels.verdict_one` on the certifier's arrays `certifier`) goes to out[count].
     Returns (count, how it ended, the distance left from the last state to the target): REACHED
     at the target, BLOCKED where a step cannot be projected, makes no progress or is thrown more
-    than 2 delta, MORE after out.shape[0] steps, UNSURE where the certifier cannot clear a step:
+    than 2 delta, COLLIDED where the certifier proves a step in collision (as the checker would
+    find it), MORE after out.shape[0] steps, UNSURE where the certifier cannot clear a step:
     that state is out[count], for the caller to ask the collision checker."""
     low, high = bounds
     floats, ints = certifier
@@ -184,7 +185,10 @@ def walk(
             return count, BLOCKED, distance
         for c in range(n):
             q[slots[c]] = step[c]
-        if verdict_one(q, floats, ints) != 0:
+        verdict = verdict_one(q, floats, ints)
+        if verdict == TOUCHING:
+            return count, COLLIDED, distance
+        if verdict != 0:
             return count, UNSURE, new_distance
         x[:] = step
         distance = new_distance

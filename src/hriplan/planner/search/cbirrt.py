@@ -30,7 +30,7 @@ Margins = Callable[[np.ndarray], np.ndarray]
 Gradients = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]  # x -> (margins, a gradient row each)
 Nearest = Callable[[np.ndarray, int, np.ndarray], int]  # (nodes, count, x) -> the nearest of nodes[:count]
 NEWTON_ITERATIONS = 12
-BLOCKED, REACHED, MORE, UNSURE = 0, 1, 2, 3  # how a compiled walk ended (band_kernels.walk)
+BLOCKED, REACHED, MORE, UNSURE, COLLIDED = 0, 1, 2, 3, 4  # how a compiled walk ended (band_kernels.walk)
 LOCAL_SHARE, LOCAL_SPREAD = 0.8, 0.3  # rad: targets sampled near the tree
 SHORTCUT_MIN_STEPS = 300
 SETTLED_STATES = 40  # paths up to this many states are checked for a sub-path left to shorten
@@ -196,9 +196,10 @@ class _Search:
 
     def _walked(self, tree: _Tree, index: int, target: np.ndarray, max_steps: int) -> tuple[int, bool]:
         """`extend` by the compiled walk (band_kernels.walk), step for step the Python loop's:
-        the states the certifier clears join the tree in one go; a state it cannot clear is
-        asked of the collision checker, as the loop asks every state, and the walk goes on
-        from it if it is free. Where the checker has no compiled verdict, the Python loop."""
+        the states the certifier clears join the tree in one go, one it proves in collision
+        ends the walk; a state it cannot clear is asked of the collision checker, as the loop
+        asks every state, and the walk goes on from it if it is free. Where the checker has no
+        compiled verdict, the Python loop."""
         p = self.p
         certifier = p.certifier(tree.nodes[index])
         if certifier is None:
@@ -209,7 +210,7 @@ class _Search:
                 tree.nodes[index], target, p.delta, max_steps, bands, certifier
             )
             self._tally()
-            self.counters.validity += len(states)
+            self.counters.validity += len(states) + (code == COLLIDED)  # the collision, asked as `valid` asks
             index = tree.add_chain(states, index)
             if code != UNSURE:
                 return index, code == REACHED
