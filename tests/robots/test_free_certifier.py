@@ -27,8 +27,11 @@ from hriplan.robots.certifier_kernels import (
     capsule_clears_box,
     capsule_in_box,
     place_joints,
+    same_joints,
     segment_floor,
     touching,
+    verdict_of_placed,
+    verdict_one,
 )
 from hriplan.robots.certifier_kernels import verdicts as verdict_codes
 from hriplan.robots.collision import CollisionChecker, SeparationZones
@@ -563,6 +566,36 @@ def test_frames_kept_from_the_last_state_are_those_placed_anew(robots, kernels):
         assert np.array_equal(certifier._work[frames], anew._work[frames])
         assert np.array_equal(certifier._work[placed], anew._work[placed])
     assert certifier._work[nj * 12 + 1] == qs[-1, 1]  # the last state is kept
+
+
+def test_frames_placed_by_the_caller_are_taken_as_placed_here(robots, kernels):
+    """`verdict_of_placed` (CBiRRT's walk: its joints placed for the margins) gives the verdict,
+    frames, placed rows and kept state of `verdict_one` to the bit, over states that keep none,
+    some, most or all of the last one's coordinates; tables not the certifier's are told apart."""
+    robot = robots["madar"]
+    checker = CollisionChecker(robot, _scene(robot, "madar"))
+    qs, rng = _random_states(robot, 1000, 13), np.random.default_rng(13)
+    for k in range(1, len(qs)):
+        keep = rng.uniform(size=qs.shape[1]) < rng.choice([0.0, 0.5, 0.9, 1.0])
+        qs[k, keep] = qs[k - 1, keep]
+    checker.in_collision(qs[0])
+    floats, ints = checker._free_certifier().packed
+    given = floats.copy(), ints.copy()  # a scratch of its own
+    rows, joint_ints = joint_tables(robot.model)
+    assert same_joints(*given, rows, joint_ints)
+    other = rows.copy()
+    other[3, 9] += 1e-12
+    assert not same_joints(*given, other, joint_ints) and not same_joints(*given, rows[:-1], joint_ints[:-1])
+    rotation, origin = np.empty((len(rows), 3, 3)), np.empty((len(rows), 3))
+    scratch = slice(ints[11], None)
+    codes = set()
+    for q in qs:
+        place_joints(q, rows, joint_ints, rotation, origin)
+        code = verdict_one(q, floats, ints)
+        assert verdict_of_placed(q, *given, rotation, origin) == code
+        assert floats[scratch].tobytes() == given[0][scratch].tobytes()
+        codes.add(min(code, 1))
+    assert {0, 1, TOUCHING} <= codes  # free, pairs left, a pair proven to touch: all taken
 
 
 @pytest.mark.parametrize("name", ["ur5", "madar"])

@@ -133,14 +133,37 @@ def _place_moved_joints(q, rows, ints, rotation, origin, last, moved) -> None:
     _world(rotation, origin)
     moved[0] = 0.0
     for j in range(1, rows.shape[0]):
-        p, kind, iq = ints[j, 0], ints[j, 1], ints[j, 2]
-        if moved[p] != 0.0 or q[iq] != last[iq] or (kind == CONTINUOUS and q[iq + 1] != last[iq + 1]):
-            moved[j] = 1.0
+        if _joint_moved(q, ints, last, moved, j):
             _place_joint(q, rows, ints, rotation, origin, j)
-        else:
-            moved[j] = 0.0
     for i in range(q.shape[0]):
         last[i] = q[i]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _take_moved_joints(q, ints, rotation, origin, last, moved, frames) -> None:
+    """`_place_moved_joints` where every joint's frame at `q` is placed already (`frames`:
+    rotation and origin from `place_joints` on the same tables, the same arithmetic): those of
+    the joints that moved are copied, not computed again."""
+    given_rotation, given_origin = frames
+    _world(rotation, origin)
+    moved[0] = 0.0
+    for j in range(1, ints.shape[0]):
+        if _joint_moved(q, ints, last, moved, j):
+            for r in range(3):
+                origin[j, r] = given_origin[j, r]
+                for c in range(3):
+                    rotation[j, r, c] = given_rotation[j, r, c]
+    for i in range(q.shape[0]):
+        last[i] = q[i]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _joint_moved(q, ints, last, moved, j) -> bool:
+    """Sets and returns moved[j]: did joint j's coordinates or its parent's frame change since `last`?"""
+    p, kind, iq = ints[j, 0], ints[j, 1], ints[j, 2]
+    changed = moved[p] != 0.0 or q[iq] != last[iq] or (kind == CONTINUOUS and q[iq + 1] != last[iq + 1])
+    moved[j] = 1.0 if changed else 0.0
+    return changed
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -467,18 +490,22 @@ def _pieces_clear(rows, carrier, children, rotation, origin, placed, a, b, toler
 
 
 @njit(cache=True, nogil=True)
-def _verdict(q, floats, ints, work, left) -> int:
+def _verdict(q, floats, ints, work, left, frames) -> int:
     """TOUCHING if a pair surely touches at `q` (`touching`, the first found: coal would find it
     collide); -1 if more pairs may touch than `left` holds (stopped there); else the tables
     that do not certify `q` (bit k for table k) plus 2^32 times the count of pairs that may
     touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs passes at once when
     its level's rows are clear: two nodes' spheres, a geometry and a node's sphere as a pair, a
     geometry and a part's. `work` holds the joints' frames and the rows as the last state asked
-    left them (those on no joint placed once, when packed)."""
+    left them (those on no joint placed once, when packed). `frames`: None, or every joint's
+    frame at `q` placed by the caller (`_take_moved_joints`)."""
     joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = _unpack(floats, ints)
     tolerance = floats[0]
     rotation, origin, last, moved, placed = _scratch(work, joint_rows.shape[0])
-    _place_moved_joints(q, joint_rows, joint_ints, rotation, origin, last, moved)
+    if frames is None:
+        _place_moved_joints(q, joint_rows, joint_ints, rotation, origin, last, moved)
+    else:
+        _take_moved_joints(q, joint_ints, rotation, origin, last, moved, frames)
     for g in range(ints[6]):  # the geometries and the links' spheres on a joint that moved
         if carrier[g] != 0 and moved[carrier[g]] != 0.0:
             _place(rows, g, rotation, origin, carrier[g], placed)
@@ -512,7 +539,25 @@ def _verdict(q, floats, ints, work, left) -> int:
 def verdict_one(q, floats, ints) -> int:
     """`_verdict` of one state (a call from Python: three arrays, the scratch and the pairs left
     at the ends of the float and int arrays, as each array costs the call ~0.05 us)."""
-    return _verdict(q, floats, ints, floats[ints[11] :], ints[ints[19] :])
+    return _verdict(q, floats, ints, floats[ints[11] :], ints[ints[19] :], None)
+
+
+@njit(cache=True, nogil=True)
+def verdict_of_placed(q, floats, ints, rotation, origin) -> int:
+    """`verdict_one` where the caller placed every joint at `q` already (`place_joints`, into
+    `rotation` and `origin`) with the certifier's own joint tables (`same_joints`): CBiRRT's walk
+    places them for the constraints' margins, and placing them again cost ~0.2 us a state."""
+    return _verdict(q, floats, ints, floats[ints[11] :], ints[ints[19] :], (rotation, origin))
+
+
+@njit(cache=True, nogil=True)
+def same_joints(floats, ints, rows, joint_ints) -> bool:
+    """Are `rows` and `joint_ints` (`place_joints`' tables) the certifier's own?"""
+    parts = _unpack(floats, ints)
+    own_rows, own_ints = parts[0], parts[3]
+    if own_rows.shape != rows.shape or own_ints.shape != joint_ints.shape:
+        return False
+    return (own_rows == rows).all() and (own_ints == joint_ints).all()
 
 
 @njit(cache=True, nogil=True)
@@ -520,5 +565,5 @@ def verdicts(qs, floats, ints, left) -> np.ndarray:
     """Per state (row n of `left` its pairs that may touch)."""
     out = np.empty(qs.shape[0], dtype=np.int64)
     for n in range(qs.shape[0]):
-        out[n] = _verdict(qs[n], floats, ints, floats[ints[11] :], left[n])
+        out[n] = _verdict(qs[n], floats, ints, floats[ints[11] :], left[n], None)
     return out

@@ -24,7 +24,7 @@ from hriplan.planner.constraints import compiled, geometry
 from hriplan.planner.constraints.compiled import term_gradients, term_margins
 from hriplan.planner.search.cbirrt import BLOCKED, COLLIDED, MORE, NEWTON_ITERATIONS, REACHED, UNSURE
 from hriplan.robots import certifier_kernels
-from hriplan.robots.certifier_kernels import TOUCHING, place_joints, verdict_one
+from hriplan.robots.certifier_kernels import TOUCHING, place_joints, same_joints, verdict_of_placed, verdict_one
 from hriplan.robots.kernel_cache import njit_keyed
 
 if TYPE_CHECKING:
@@ -157,6 +157,9 @@ def walk(
     that state is out[count], for the caller to ask the collision checker."""
     low, high = bounds
     floats, ints = certifier
+    joint_rows, joint_ints, rotation, origin = joints
+    # A projected step's joints are placed (its margins): the verdict takes their frames.
+    placed = constrained and same_joints(floats, ints, joint_rows, joint_ints)
     n = start.shape[0]
     x = start.copy()
     distance = 0.0
@@ -185,7 +188,10 @@ def walk(
             return count, BLOCKED, distance
         for c in range(n):
             q[slots[c]] = step[c]
-        verdict = verdict_one(q, floats, ints)
+        if placed:
+            verdict = verdict_of_placed(q, floats, ints, rotation[0], origin[0])
+        else:
+            verdict = verdict_one(q, floats, ints)
         if verdict == TOUCHING:
             return count, COLLIDED, distance
         if verdict != 0:
