@@ -3,11 +3,13 @@ replacement changes the path: it shortens a path as measuring every sub-path afr
 
 import math
 from types import SimpleNamespace
+from unittest import mock
 
 import numpy as np
 import pytest
 
-from hriplan.planner.search.cbirrt import SETTLED_STATES, _length, _settled, _steps, _Tree, shortcut
+from hriplan.planner.search import cbirrt
+from hriplan.planner.search.cbirrt import SETTLED_STATES, _length, _pair, _settled, _steps, _Tree, shortcut
 from hriplan.planner.search.result import Counters
 
 
@@ -66,12 +68,13 @@ def _short_path_both_ways(seed: int) -> int:
     line = np.linspace(0.0, 1.0, 3 + seed)[:, None] * rng.normal(size=6)
     path = list(line + rng.normal(0.0, 0.002 if seed % 2 else 0.05, line.shape))
     kept, afresh = _Straight(0.05), _Straight(0.05)
-    draws = _Draws(np.random.default_rng(seed))
-    shortened = shortcut(kept, path, draws, 10**9, math.inf)
+    draws = []
+    with mock.patch.object(cbirrt, "_pair", side_effect=lambda rng, n: draws.append(n) or _pair(rng, n)):
+        shortened = shortcut(kept, path, np.random.default_rng(seed), 10**9, math.inf)
     reference = _measured_afresh(afresh, path, np.random.default_rng(seed))
     assert len(shortened) == len(reference) and all(np.array_equal(a, b) for a, b in zip(shortened, reference))
     assert kept.counters.validity == afresh.counters.validity
-    return draws.count
+    return len(draws)
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -81,15 +84,20 @@ def test_a_short_path_left_with_nothing_to_shorten_stops_as_the_attempts_would_h
     _short_path_both_ways(seed)
 
 
-class _Draws:
-    """A generator's `choice`, counted."""
-
-    def __init__(self, rng: np.random.Generator) -> None:
-        self.rng, self.count = rng, 0
-
-    def choice(self, *args, **kwargs):
-        self.count += 1
-        return self.rng.choice(*args, **kwargs)
+def test_a_pair_is_the_one_numpys_choice_draws_and_leaves_the_generator_as_it_does():
+    """Pairs of 3 to 5000 states, between other draws (numpy keeps half of a 64-bit draw for the
+    next 32-bit one): the same pair as sorted(choice(n, 2, replace=False)), the same state after."""
+    for seed in range(200):
+        ours, numpys = np.random.default_rng(seed), np.random.default_rng(seed)
+        for k in range(25):
+            n = 3 + k
+            if k % 2:
+                n = int(numpys.integers(3, 5000))
+                assert ours.integers(3, 5000) == n
+            if k % 3 == 0:
+                assert ours.integers(0, 7) == numpys.integers(0, 7)
+            assert _pair(ours, n) == tuple(int(x) for x in sorted(numpys.choice(n, size=2, replace=False)))
+        assert ours.bit_generator.state == numpys.bit_generator.state
 
 
 def test_the_attempts_stop_once_a_path_is_settled():
