@@ -5,6 +5,7 @@ once (`ClearanceTable.certified_many`, the same cells as `certified`)."""
 import numpy as np
 import pytest
 
+from hriplan.robots import kernel_switch
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.human import HumanSpec
 from hriplan.robots.mesh_clearance import ClearanceTable
@@ -75,9 +76,10 @@ def test_tables_of_any_kind_certify_the_same_cells_at_once(periodic, rng):
     assert found.any() and not found.all()
 
 
-def test_first_collision_is_the_first_state_in_collision(madar, checker, rng):
+def test_first_collision_is_the_first_state_in_collision(madar, checker, rng, either_route):
     """Chunks of random states and of paths of the right arm from CLEAR: the first colliding
-    state or None, as state-by-state `in_collision` says; some collide on a mesh pair alone."""
+    state or None, as state-by-state `in_collision` says with the kernels off (coal alone); some
+    collide on a mesh pair alone, and with the kernels, some where the certifier proves a contact."""
     q0 = madar.configuration(CLEAR)
     assert checker.geom_model.ngeoms  # built
     arm = madar.group_indices("right_arm")
@@ -89,9 +91,13 @@ def test_first_collision_is_the_first_state_in_collision(madar, checker, rng):
     tabled = {
         (objects[listed[k].first].name, objects[listed[k].second].name) for _, pairs in checker._tabled for k in pairs
     }
-    meshes_only = 0
+    meshes_only, proven = 0, 0
     for states in (random, walks):
+        kernel_switch.use_kernels(False)
         colliding = [checker.in_collision(q) for q in states]
+        kernel_switch.use_kernels(either_route)
+        if either_route:
+            proven += sum(checker._free_certifier().left_over(states)[1])
         for start in range(0, len(states), 40):
             chunk = slice(start, start + 40)
             expected = next((k for k, hit in enumerate(colliding[chunk]) if hit), None)
@@ -100,6 +106,7 @@ def test_first_collision_is_the_first_state_in_collision(madar, checker, rng):
             hit and {(c.a, c.b) for c in checker.contacts(q)} <= tabled for q, hit in zip(states, colliding)
         )
     assert meshes_only  # states only a table's meshes collide in were among them
+    assert proven or not either_route
     assert checker.first_collision(np.zeros((0, madar.model.nq))) is None
     assert checker.first_collision(np.array([q0])) is None
     assert any(colliding) and not all(colliding)

@@ -797,17 +797,24 @@ class CollisionChecker:
         qs = qs[:held]
         model, data, broadphase = self.robot.model, self.robot.data, self._broadphase
         certifier = self._free_certifier()
-        verdicts = certifier.verdicts(qs) if certifier is not None else [None] * len(qs)
-        # The tables are asked about the states the certifier left to coal (all, with it off).
-        undecided = np.array([verdict is None for verdict in verdicts], dtype=bool)
+        # The states the certifier does not call free, in order (all, with it off).
+        if certifier is not None:
+            asked, touching, verdicts = certifier.left_over(qs)
+        else:
+            asked, touching, verdicts = list(range(len(qs))), [False] * len(qs), [None] * len(qs)
+        # The tables are asked about the states the certifier left to coal whole.
+        undecided = [k for k, proven, verdict in zip(asked, touching, verdicts) if verdict is None and not proven]
         certified = np.ones((len(qs), len(self._tabled)), dtype=bool)
-        if undecided.any() and self._tabled:
-            asked = np.asarray(qs)[undecided]
-            answers = np.array([table.certified_many(asked) for table, _ in self._tabled], dtype=bool)
-            certified[undecided] = answers.reshape(len(self._tabled), len(asked)).T
-        for k, q in enumerate(qs):
-            if verdicts[k] is not None:
-                if (verdicts[k][0] or verdicts[k][1]) and self._left_touch(q, *verdicts[k]):
+        if undecided and self._tabled:
+            states = np.asarray(qs)[undecided]
+            answers = np.array([table.certified_many(states) for table, _ in self._tabled], dtype=bool)
+            certified[undecided] = answers.reshape(len(self._tabled), len(states)).T
+        for k, proven, verdict in zip(asked, touching, verdicts):
+            q = qs[k]
+            if proven:  # a capsule in a box: coal finds it collide
+                return k
+            if verdict is not None:  # not free: some pairs or tables left to coal
+                if self._left_touch(q, *verdict):
                     return k
                 continue
             if pin.computeCollisions(model, data, broadphase, q, True):

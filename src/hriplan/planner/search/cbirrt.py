@@ -154,12 +154,11 @@ class _Search:
         (LOCAL_SHARE) are near a node of the tree, in the IK branch it explores; uniform
         targets in the joint box mostly lie in other branches, where extensions stall."""
         if rng.random() < LOCAL_SHARE:
-            x = np.clip(
-                tree.nodes[rng.integers(len(tree))] + rng.normal(0.0, LOCAL_SPREAD, len(self.low)), self.low, self.high
-            )
+            x = tree.nodes[rng.integers(len(tree))] + rng.normal(0.0, LOCAL_SPREAD, len(self.low))
+            np.minimum(np.maximum(x, self.low, out=x), self.high, out=x)  # np.clip's values, ~3 us sooner
         else:
             x = rng.uniform(self.low, self.high)
-        inside = self.project(x.copy())
+        inside = self.project(x)  # (a copy, or x untouched)
         return x if inside is None else inside
 
     def valid(self, x: np.ndarray) -> bool:
