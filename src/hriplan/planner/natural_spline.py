@@ -73,15 +73,16 @@ class NaturalSpline:
             interval = np.searchsorted(self.s[1:-1], flat, side="right")
             self._place = interval, (flat - self.s[interval])[:, None]
         interval, t = self._place
-        if order == 0:
-            c0, c1, c2, c3 = self._horner[0][:, interval]
-            value = c0 + t * (c1 + t * (c2 + t * c3))
-        elif order == 1:
-            c1, d2, d3 = self._horner[1][:, interval]  # c1, 2 c2, 3 c3
-            value = c1 + t * (d2 + t * d3)
-        else:
-            d2, d3 = self._horner[2][:, interval]  # 2 c2, 6 c3
-            value = d2 + t * d3
+        # The Horner form c0 + t (c1 + t (c2 + t c3)) (order 1: c1, 2 c2, 3 c3; order 2: 2 c2,
+        # 6 c3) in place, each product and sum as written (the same bits): the coefficients
+        # gathered by np.take into one contiguous block (indexing gives strided rows, and a new
+        # array at every step cost 2-4 times as much, on a thousand points).
+        coefficients = np.take(self._horner[order], interval, axis=1)
+        value = coefficients[-1] * t
+        for c in coefficients[-2:0:-1]:
+            value += c
+            value *= t
+        value += coefficients[0]
         return value.reshape(points.shape + (self.dof,))
 
 
