@@ -6,19 +6,22 @@ it) for a tridiagonal solve and a piecewise cubic. Tests check this spline again
 
 It offers what TOPP-RA asks of a geometric path: positions and their first and second
 derivatives at path positions (`path(s, order)`), `dof` and `path_interval`. Beyond the ends each
-end's cubic goes on, as scipy's does.
+end's cubic goes on, as scipy's does. With the kernels on (`kernels_on()`) its solve and its
+evaluation are compiled (`spline_kernels.py`, the same bits).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from hriplan.robots.kernel_switch import kernels_on
+
 
 class NaturalSpline:
     """The C2 piecewise cubic through (s_i, knots_i) with zero second derivative at both ends."""
 
     def __init__(self, s: np.ndarray, knots: np.ndarray) -> None:
-        self.s = np.asarray(s, dtype=float)
+        self.s = np.ascontiguousarray(s, dtype=float)  # as the compiled route reads it
         knots = np.asarray(knots, dtype=float)
         if self.s.ndim != 1 or len(self.s) < 2 or knots.shape[:1] != self.s.shape or knots.ndim != 2:
             raise ValueError(
@@ -66,6 +69,12 @@ class NaturalSpline:
         return kept.copy()
 
     def _evaluated(self, points: np.ndarray, order: int) -> np.ndarray:
+        if kernels_on():
+            from hriplan.planner import spline_kernels  # numba: imported with the kernels on
+
+            value = np.empty((points.size, self.dof))
+            spline_kernels.evaluate(self.s, self._horner[order], np.ascontiguousarray(points.reshape(-1)), value)
+            return value.reshape(points.shape + (self.dof,))
         if self._place is None:  # each point's interval and offset, found once for every order
             flat = points.reshape(-1)
             # The interval's index is the count of inner knots at or before the point (before the
@@ -90,9 +99,15 @@ def _second_derivatives(h: np.ndarray, slope: np.ndarray) -> np.ndarray:
     """The spline's second derivative at every knot (n, dof): 0 at the natural ends; inside, the
     continuity of the first derivative, a symmetric, strictly diagonally dominant tridiagonal
     system (row i: h[i], 2 (h[i] + h[i + 1]), h[i + 1]) solved by Thomas' algorithm without
-    pivoting. On Python floats: paths have tens of knots, where numpy's per-call cost dominates."""
+    pivoting. On Python floats: paths have tens of knots, where numpy's per-call cost dominates
+    (compiled with the kernels on)."""
     n = len(h) + 1
     second = np.zeros((n, slope.shape[1]))
+    if kernels_on():
+        from hriplan.planner import spline_kernels  # numba: imported with the kernels on
+
+        spline_kernels.second_derivatives(h, np.ascontiguousarray(slope), second)
+        return second
     off, diagonal = h[1:-1].tolist(), (2.0 * (h[:-1] + h[1:])).tolist()
     factors = []
     for i in range(1, n - 2):  # eliminate the sub-diagonal
