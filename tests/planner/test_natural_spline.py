@@ -112,3 +112,30 @@ def test_every_order_is_its_horner_form_bit_for_bit_whatever_was_asked_before():
     for at, orders in zip(places, [(2, 1, 0), (0, 2), (1, 1, 2), (2, 0, 1)]):
         for order in orders:
             np.testing.assert_array_equal(spline(at, order), _horner(spline, at, order))
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5, 40, 300])
+def test_the_compiled_route_gives_the_same_bits(n):
+    """With the kernels on the solve and the evaluation are compiled (`spline_kernels.py`): the
+    same coefficients and values as the Python and numpy route, to the bit, at positions inside,
+    at the knots and beyond both ends, as a number and in any shape."""
+    pytest.importorskip("numba")
+    from hriplan.robots.kernel_switch import kernels_on, use_kernels
+
+    s, knots = _path(n, seed=10 + n)
+    rng = np.random.default_rng(n)
+    places = [rng.uniform(s[0] - 0.05, s[-1] + 0.05, 333), s, np.sort(rng.uniform(s[0], s[-1], 24)).reshape(4, 6)]
+    before = kernels_on()
+    try:
+        found = {}
+        for on in (False, True):
+            use_kernels(on)
+            spline = NaturalSpline(s, knots)
+            found[on] = [spline._coefficients] + [spline(at, order) for at in places for order in (0, 1, 2)]
+            found[on] += [spline(float(s[-1]) / 3, order) for order in (2, 0)]
+    finally:
+        use_kernels(before)
+    assert len(found[True]) == len(found[False]) == 12
+    for compiled, numpy_route in zip(found[True], found[False]):
+        assert compiled.shape == numpy_route.shape and compiled.tobytes() == numpy_route.tobytes()  # -0.0 too
+    assert (n == 2) == np.all(found[True][0][2] == 0.0)  # curved but for two knots: the solve answered

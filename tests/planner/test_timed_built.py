@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from hriplan.planner import session as session_module
+from hriplan.planner.session import PlanningSession, PlanResult
 from hriplan.planner.timing import TimedPath
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
@@ -15,18 +16,25 @@ EXAMPLE = Path(__file__).parents[2] / "examples" / "handover_full_can_receiver.y
 
 
 @pytest.fixture(scope="module")
-def timed_paths() -> list[TimedPath]:
-    """Every TimedPath the example's handover timed: each part, then the parts joined."""
-    made = []
-    originals = session_module.time_parameterize, session_module.joined
+def handover() -> tuple[list[TimedPath], list[PlanResult]]:
+    """Every TimedPath the example's handover timed (each part, then the parts joined) and every
+    result `PlanningSession.time` gave."""
+    made, results = [], []
+    originals = session_module.time_parameterize, session_module.joined, PlanningSession.time
     session_module.time_parameterize = lambda *a, **k: made.append(originals[0](*a, **k)) or made[-1]
     session_module.joined = lambda parts: made.append(originals[1](parts)) or made[-1]
+    PlanningSession.time = lambda *a, **k: results.append(originals[2](*a, **k)) or results[-1]
     try:
         outcome = TaskRunner(load_task(EXAMPLE), EXAMPLE.parent).run()
     finally:
-        session_module.time_parameterize, session_module.joined = originals
+        session_module.time_parameterize, session_module.joined, PlanningSession.time = originals
     assert [s.status for s in outcome.steps] == ["solved", "solved"]
-    return made
+    return made, results
+
+
+@pytest.fixture(scope="module")
+def timed_paths(handover) -> list[TimedPath]:
+    return handover[0]
 
 
 def _types(value: object) -> object:
@@ -42,3 +50,13 @@ def test_a_built_timed_path_is_the_validated_one(timed_paths):
         assert built.model_dump_json() == validated.model_dump_json()
         for name in TimedPath.model_fields:
             assert _types(getattr(built, name)) == _types(getattr(validated, name)), name
+
+
+def test_a_solved_result_is_the_validated_one(handover):
+    solved = [r for r in handover[1] if r.solved]
+    assert len(solved) >= 2  # the two motions
+    for built in solved:
+        validated = PlanResult(**{name: getattr(built, name) for name in built.model_fields_set})
+        assert built.model_fields_set == validated.model_fields_set
+        assert built == validated
+        assert built.model_dump_json() == validated.model_dump_json()

@@ -208,3 +208,58 @@ def test_segments_are_subdivided_into_equal_parts():
     assert len(split) == 8
     fine = _subdivided(np.array([0.0, 1.0, 2.0]), np.array([7.0, 3.0]))  # 1-D points, uneven parts
     np.testing.assert_array_equal(fine, np.concatenate([np.arange(7) / 7, 1 + np.arange(3) / 3, [2.0]]))
+
+
+def test_overshooting_intervals_are_those_whose_quarter_points_exceed_a_limit():
+    """`_overshooting` against the motion it describes, point by point: in each grid interval,
+    constant path acceleration u = (x1 - x0) / (2 ds) from x0 = sd0^2; at its quarter points the
+    joint velocity q' sqrt(x) and acceleration q'' x + q' u over the limits, flagged past the grid
+    tolerances. Speeds scaled so that some intervals overshoot and some do not, by either limit."""
+    from hriplan.planner import timing
+    from hriplan.planner.natural_spline import NaturalSpline
+
+    knots = _curved_path(40)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))])
+    path = NaturalSpline(s, knots)
+    rng = np.random.default_rng(3)
+    grid = np.sort(np.concatenate([s[[0, -1]], rng.uniform(s[0], s[-1], 150)]))
+    sd = rng.uniform(0.2, 1.2, len(grid))  # jumps: accelerations over
+    sd[len(grid) // 2 :] = np.linspace(0.7, 1.0, len(grid) - len(grid) // 2)  # smooth and fast: velocities over
+    vmax = VMAX / 3
+    found = timing._overshooting(path, grid, sd, vmax, AMAX)
+    expected, by = [], set()
+    for i in range(len(grid) - 1):
+        x0, ds = sd[i] ** 2, grid[i + 1] - grid[i]
+        u = (sd[i + 1] ** 2 - x0) / (2 * ds)
+        worst_v = worst_a = 0.0
+        for f in (0.25, 0.5, 0.75):
+            x = max(x0 + 2 * u * f * ds, 0.0)
+            d1, d2 = path(grid[i] + f * ds, 1), path(grid[i] + f * ds, 2)
+            worst_v = max(worst_v, float(np.max(np.abs(d1) * np.sqrt(x) / vmax)))
+            worst_a = max(worst_a, float(np.max(np.abs(d2 * x + d1 * u) / AMAX)))
+        over_v, over_a = worst_v > 1 + 5e-4 + 1e-9, worst_a > 1 + 5e-3 + 1e-9
+        near = abs(worst_v - 1 - 5e-4) < 1e-9 or abs(worst_a - 1 - 5e-3) < 1e-9
+        expected.append(None if near else over_v or over_a)
+        by |= {"velocity"} if over_v and not over_a else {"acceleration"} if over_a and not over_v else set()
+    assert [e for e in expected if e is not None] == [bool(f) for f, e in zip(found, expected) if e is not None]
+    assert 0 < sum(found) < len(found) and by == {"velocity", "acceleration"}
+
+
+@pytest.mark.parametrize("mirror", [1.0, -1.0])  # the largest gap on either side of the polyline
+def test_the_deviation_is_the_largest_gap_at_sixteenths_of_every_knot_interval(mirror):
+    """`_deviation` against the spline and the polyline compared point by point: at 1/16 .. 15/16
+    of each knot interval (of a corner path, where the spline strays), the largest |difference|
+    of any joint."""
+    from hriplan.planner import timing
+    from hriplan.planner.natural_spline import NaturalSpline
+
+    knots = timing._densified(mirror * np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.2, 1.3]]))
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))])
+    path = NaturalSpline(s, knots)
+    gaps = [
+        path(s[i] + f * (s[i + 1] - s[i])) - (knots[i] + f * (knots[i + 1] - knots[i]))
+        for i in range(len(s) - 1)
+        for f in np.arange(1, 16) / 16
+    ]
+    largest = max(np.abs(gaps).ravel())
+    assert largest > 1e-4 and timing._deviation(path, s, knots) == pytest.approx(largest, rel=1e-12, abs=0.0)

@@ -33,7 +33,7 @@ def load_kernels() -> bool:
     """Turn the kernels on in this process, and load every one of them (compiling any not yet
     cached): the collision certifier's and the constraint terms' called once each on the
     built-in UR5 and CBiRRT's walk through them, the ISO/TS 15066 monitor's on MADAR, TOPP-RA's
-    passes on a short UR5 motion (robots and checkers stay cached).
+    passes and its spline on a short UR5 motion (robots and checkers stay cached).
     False (and the kernels stay off) without numba, the `fast` extra."""
     use_kernels(True)
     if not kernels_on():
@@ -70,8 +70,8 @@ def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds
 
 
 def _toppra(x: np.ndarray) -> None:
-    """TOPP-RA's compiled passes (`toppra_kernels.py`: the controllable sets and the forward pass):
-    a short motion of the UR5's arm timed."""
+    """TOPP-RA's compiled passes (`toppra_kernels.py`: the controllable sets and the forward pass)
+    and its path's solve and evaluation (`spline_kernels.py`): a short motion of the UR5's arm timed."""
     from hriplan.planner.timing import time_parameterize
 
     velocity, acceleration = np.full(len(x), 1.0), np.full(len(x), 2.0)

@@ -6,19 +6,22 @@ it) for a tridiagonal solve and a piecewise cubic. Tests check this spline again
 
 It offers what TOPP-RA asks of a geometric path: positions and their first and second
 derivatives at path positions (`path(s, order)`), `dof` and `path_interval`. Beyond the ends each
-end's cubic goes on, as scipy's does.
+end's cubic goes on, as scipy's does. With the kernels on (`kernels_on()`) its solve and its
+evaluation are compiled (`spline_kernels.py`, the same bits).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from hriplan.robots.kernel_switch import kernels_on
+
 
 class NaturalSpline:
     """The C2 piecewise cubic through (s_i, knots_i) with zero second derivative at both ends."""
 
     def __init__(self, s: np.ndarray, knots: np.ndarray) -> None:
-        self.s = np.asarray(s, dtype=float)
+        self.s = np.ascontiguousarray(s, dtype=float)  # as the compiled route reads it
         knots = np.asarray(knots, dtype=float)
         if self.s.ndim != 1 or len(self.s) < 2 or knots.shape[:1] != self.s.shape or knots.ndim != 2:
             raise ValueError(
@@ -66,6 +69,12 @@ class NaturalSpline:
         return kept.copy()
 
     def _evaluated(self, points: np.ndarray, order: int) -> np.ndarray:
+        if kernels_on():
+            from hriplan.planner import spline_kernels  # numba: imported with the kernels on
+
+            value = np.empty((points.size, self.dof))
+            spline_kernels.evaluate(self.s, self._horner[order], np.ascontiguousarray(points.reshape(-1)), value)
+            return value.reshape(points.shape + (self.dof,))
         if self._place is None:  # each point's interval and offset, found once for every order
             flat = points.reshape(-1)
             # The interval's index is the count of inner knots at or before the point (before the
@@ -73,15 +82,16 @@ class NaturalSpline:
             interval = np.searchsorted(self.s[1:-1], flat, side="right")
             self._place = interval, (flat - self.s[interval])[:, None]
         interval, t = self._place
-        if order == 0:
-            c0, c1, c2, c3 = self._horner[0][:, interval]
-            value = c0 + t * (c1 + t * (c2 + t * c3))
-        elif order == 1:
-            c1, d2, d3 = self._horner[1][:, interval]  # c1, 2 c2, 3 c3
-            value = c1 + t * (d2 + t * d3)
-        else:
-            d2, d3 = self._horner[2][:, interval]  # 2 c2, 6 c3
-            value = d2 + t * d3
+        # The Horner form c0 + t (c1 + t (c2 + t c3)) (order 1: c1, 2 c2, 3 c3; order 2: 2 c2,
+        # 6 c3) in place, each product and sum as written (the same bits): the coefficients
+        # gathered by np.take into one contiguous block (indexing gives strided rows, and a new
+        # array at every step cost 2-4 times as much, on a thousand points).
+        coefficients = np.take(self._horner[order], interval, axis=1)
+        value = coefficients[-1] * t
+        for c in coefficients[-2:0:-1]:
+            value += c
+            value *= t
+        value += coefficients[0]
         return value.reshape(points.shape + (self.dof,))
 
 
@@ -89,9 +99,15 @@ def _second_derivatives(h: np.ndarray, slope: np.ndarray) -> np.ndarray:
     """The spline's second derivative at every knot (n, dof): 0 at the natural ends; inside, the
     continuity of the first derivative, a symmetric, strictly diagonally dominant tridiagonal
     system (row i: h[i], 2 (h[i] + h[i + 1]), h[i + 1]) solved by Thomas' algorithm without
-    pivoting. On Python floats: paths have tens of knots, where numpy's per-call cost dominates."""
+    pivoting. On Python floats: paths have tens of knots, where numpy's per-call cost dominates
+    (compiled with the kernels on)."""
     n = len(h) + 1
     second = np.zeros((n, slope.shape[1]))
+    if kernels_on():
+        from hriplan.planner import spline_kernels  # numba: imported with the kernels on
+
+        spline_kernels.second_derivatives(h, np.ascontiguousarray(slope), second)
+        return second
     off, diagonal = h[1:-1].tolist(), (2.0 * (h[:-1] + h[1:])).tolist()
     factors = []
     for i in range(1, n - 2):  # eliminate the sub-diagonal

@@ -96,6 +96,7 @@ _DUPLICATE_TOL = 1e-9
 _MAX_KNOT_SPACING = 0.05
 # Spline samples per knot interval when measuring its deviation from the polyline.
 _DEVIATION_SAMPLES = 16
+_DEVIATION_FRACTIONS = np.linspace(0.0, 1.0, _DEVIATION_SAMPLES + 1)[1:-1]  # where inside each interval
 # TOPP-RA gridpoints: at most this far apart (arc length, rad; durations come out within ~0.5% of
 # a 30000-point grid's), at least this many; the cap bounds the runtime (~25-50 us per gridpoint)
 # on pathological input, which the final limit check then catches.
@@ -542,10 +543,11 @@ def _deviation(path: NaturalSpline, s: np.ndarray, knots: np.ndarray) -> float:
     Both are parameterised by the same arc length, so this compares points at equal parameter:
     an upper bound on the distance from the spline to the polyline.
     """
-    fraction = np.linspace(0.0, 1.0, _DEVIATION_SAMPLES + 1)[1:-1]
+    fraction = _DEVIATION_FRACTIONS
     at = s[:-1, None] + np.diff(s)[:, None] * fraction
     linear = knots[:-1, None, :] + fraction[None, :, None] * np.diff(knots, axis=0)[:, None, :]
-    return float(np.max(np.abs(path(at.ravel()).reshape(linear.shape) - linear)))
+    linear -= path(at.ravel()).reshape(linear.shape)  # |spline - polyline|: the same bits negated
+    return float(np.abs(linear, out=linear).max())
 
 
 def _gridpoints(path: NaturalSpline, s: np.ndarray, vmax: np.ndarray, amax: np.ndarray) -> np.ndarray:

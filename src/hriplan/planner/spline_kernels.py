@@ -1,0 +1,57 @@
+"""The natural spline's tridiagonal solve and its evaluation compiled (numba), for
+`natural_spline.NaturalSpline` with the kernels on.
+
+Why: a timing builds one spline (its solve is a loop over the knots on Python floats, ~0.1 ms for
+a UR5 motion's ~90 knots and 6 joints) and evaluates it about ten times at hundreds to a thousand
+path positions (numpy's gathers and Horner steps on (points, dof) arrays, ~0.2 ms in all). Each
+is a scalar loop here, with the same operations in the same order as `natural_spline.py`'s
+(divisions, products and sums as written, no fused multiply-add), so the same bits
+(tests/planner/test_natural_spline.py compares both routes). Every jitted function lives in this
+one file (numba keys a function's disk cache by its own file only); numba is imported only
+when the kernels are on (`natural_spline.py` imports this module then).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def second_derivatives(h: np.ndarray, slope: np.ndarray, second: np.ndarray) -> None:
+    """`natural_spline._second_derivatives` into `second` (n, dof, zeros): Thomas' algorithm on
+    the rows h[i], 2 (h[i] + h[i + 1]), h[i + 1], the sub-diagonal eliminated once for every joint."""
+    inner = h.shape[0] - 1  # the unknowns: the second derivatives at the inner knots
+    if inner < 1:
+        return
+    diagonal = 2.0 * (h[:-1] + h[1:])
+    factors = np.empty(inner)
+    for i in range(1, inner):
+        factors[i - 1] = h[i] / diagonal[i - 1]
+        diagonal[i] -= factors[i - 1] * h[i]
+    for joint in range(slope.shape[1]):
+        rhs = 6.0 * (slope[1:, joint] - slope[:-1, joint])
+        for i in range(1, inner):
+            rhs[i] -= factors[i - 1] * rhs[i - 1]
+        rhs[inner - 1] /= diagonal[inner - 1]
+        for i in range(inner - 2, -1, -1):
+            rhs[i] = (rhs[i] - h[i + 1] * rhs[i + 1]) / diagonal[i]
+        second[1:-1, joint] = rhs
+
+
+@njit(cache=True, nogil=True)
+def evaluate(s: np.ndarray, coefficients: np.ndarray, points: np.ndarray, out: np.ndarray) -> None:
+    """The Horner form of `coefficients` (k, intervals, dof: of (s - s_i)^0..k-1, an order's) at
+    the path positions `points` into `out` (len(points), dof): each point in the interval of the
+    inner knots at or before it (before the first: 0, from the last on: the last), as
+    `NaturalSpline._evaluated`'s numpy route."""
+    inner = s[1:-1]
+    last = coefficients.shape[0] - 1
+    for p in range(points.shape[0]):
+        i = np.searchsorted(inner, points[p], side="right")
+        t = points[p] - s[i]
+        for j in range(coefficients.shape[2]):
+            value = coefficients[last, i, j] * t
+            for c in range(last - 1, 0, -1):
+                value = (value + coefficients[c, i, j]) * t
+            out[p, j] = value + coefficients[0, i, j]
