@@ -1,5 +1,6 @@
 """What a constraint evaluator makes when it is made (a plan makes two): its pinocchio workspace
-only when the Python route asks, its own; its joints' slots as slices where they follow one another."""
+and its terms' frames as rows of floats only when the Python route asks, the workspace its own;
+its joints' slots as slices where they follow one another."""
 
 import numpy as np
 import pytest
@@ -33,7 +34,8 @@ def test_the_workspace_is_made_only_for_the_python_route_and_is_each_evaluators_
     a, b = (ConstraintEvaluator(madar, bound, "right_arm", q) for _ in range(2))
     x = madar.group_values(q, "right_arm") + 0.1
     compiled = a.margins(a.full(x)), a.gradients(x)
-    assert "data" not in vars(a)  # the compiled route needs none
+    assert "data" not in vars(a)  # the compiled route needs none, nor the terms' frames as rows of floats
+    assert not any(name in vars(t) for t in a.terms for name in ("frame", "frame_t", "origin_xyz"))
     equality = a.equality(x)  # the Python route's rows: made now
     assert "data" in vars(a) and a.data is not b.data and a.data is not madar.data
     tool = madar.model.getFrameId("right_tool")
