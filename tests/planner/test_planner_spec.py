@@ -1,5 +1,7 @@
 """Constraint specifications: JSON round trip, configuration errors named clearly."""
 
+from pathlib import Path
+
 import pytest
 
 from hriplan import HriplanError
@@ -12,6 +14,8 @@ from hriplan.planner.constraints.spec import (
     OrientationConstraint,
 )
 from hriplan.robots.collision import CollisionChecker
+from hriplan.robots.descriptions.registry import load_robot_file
+from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Scene
 from hriplan.robots.spatial import Pose
 
@@ -107,3 +111,23 @@ def test_binding_checks_chain_link_and_frame(madar):
         spec = BoxConstraint.model_validate({"id": "c", "target_link": "right_tool", "size": (1, 1, 1), **changes})
         with pytest.raises(HriplanError, match=message):
             bind([spec], madar, checker)
+
+
+def test_a_chain_checked_before_is_this_robots_and_this_targets(madar, robot_registry):
+    """Binding remembers a checked chain's link per robot and (joints, target link): another
+    target, another robot with the same joints (its frames numbered apart) or another joint list
+    is found and checked afresh, never given a link remembered for something else."""
+    bare = load_robot(load_robot_file(Path(__file__).parents[2] / "examples" / "robots" / "madar_bare.yaml").name)
+
+    def link(robot, target: str, joints: list[str] = RIGHT) -> int:
+        spec = BoxConstraint(id="c", joints=joints, target_link=target, size=(1, 1, 1))
+        return bind([spec], robot, CollisionChecker(robot, Scene()))[0].link
+
+    for _ in range(2):  # made, then remembered
+        assert link(madar, "right_tool") == madar.model.getFrameId("right_tool") == 127
+        assert link(madar, "right_wrist_3_link") == madar.model.getFrameId("right_wrist_3_link") == 81
+        assert link(bare, "right_wrist_3_link") == bare.model.getFrameId("right_wrist_3_link") == 35
+        with pytest.raises(HriplanError, match="does not move rigidly with the last joint"):
+            link(madar, "right_tool", RIGHT[:3])  # the target of a chain remembered, with fewer joints
+        with pytest.raises(HriplanError, match="no link 'right_tool'"):
+            link(bare, "right_tool")  # remembered for MADAR with its hands, which the bare one lacks

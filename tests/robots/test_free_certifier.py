@@ -18,7 +18,7 @@ import pytest
 
 pytest.importorskip("numba")
 
-from hriplan.robots import kernel_switch
+from hriplan.robots import free_certifier, kernel_switch
 from hriplan.robots.certifier_kernels import (
     PAIR,
     REACH,
@@ -194,6 +194,21 @@ def test_mesh_pieces_hold_every_triangle(robots):
         held = (gaps <= pieces[:, 3] + 1e-12).all(axis=1).any(axis=1)
         assert held.all()
         assert len(pieces) == 16 and pieces[:, 3].max() < 0.75 * np.linalg.norm(np.ptp(placed, axis=0))
+
+
+def test_pieces_are_found_again_only_for_their_own_mesh_and_placement(robots, monkeypatch):
+    """Pieces are kept by the mesh and its placement themselves: with every digest alike (hash
+    made constant), each mesh, and one mesh placed elsewhere, still gets the pieces made for it."""
+    monkeypatch.setattr(free_certifier, "_PIECES", {})
+    monkeypatch.setattr(free_certifier, "hash", lambda _: 0, raising=False)
+    checker = CollisionChecker(robots["ur5"])
+    meshes = [g for g in checker.geom_model.geometryObjects if isinstance(g.geometry, coal.BVHModelBase)][:3]
+    moved = pin.GeometryObject(meshes[0])
+    moved.placement = pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.5])) * meshes[0].placement
+    assert len(meshes) == 3
+    for _ in range(2):  # made, then found again
+        for mesh in [*meshes, moved]:
+            assert np.array_equal(np.array(free_certifier._pieces_of(mesh)), np.array(_mesh_pieces(mesh)))
 
 
 def _capsule_and_box(rng, row: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:

@@ -140,14 +140,16 @@ def _mesh_pieces(geometry: pin.GeometryObject, leaves: int = _LEAVES) -> list[np
     return [np.array([*geometry.placement.act(centre), radius]) for _, centre, radius in groups]
 
 
-_PIECES: dict[int, tuple[coal.CollisionGeometry, list[np.ndarray]]] = {}  # by mesh, kept alive with it
+# By mesh (its id, the mesh kept alive with its pieces so that no other takes the id) and
+# placement: the key itself, not a digest of it, which two meshes could share.
+_PIECES: dict[tuple[int, bytes], tuple[coal.CollisionGeometry, list[np.ndarray]]] = {}
 
 
 def _pieces_of(geometry: pin.GeometryObject) -> list[np.ndarray]:
     """`_mesh_pieces` of a mesh (made once per mesh and placement: ~10 ms), none for another shape."""
     if not isinstance(geometry.geometry, coal.BVHModelBase):
         return []
-    key = hash((id(geometry.geometry), geometry.placement.homogeneous.tobytes()))
+    key = (id(geometry.geometry), geometry.placement.homogeneous.tobytes())
     if key not in _PIECES:
         _PIECES[key] = (geometry.geometry, _mesh_pieces(geometry))
     return _PIECES[key][1]

@@ -15,10 +15,15 @@ import pinocchio as pin
 
 from hriplan import HriplanError
 from hriplan.planner.constraints.spec import ConstraintSpec, FrameRef, OrientationConstraint
+from hriplan.recent import MadeFor
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.model import Robot
 
 AXES = {"x": 0, "y": 1, "z": 2}
+# Per robot, per (joints, target link): the link's frame id, the chain checked. Every plan binds
+# its constraints twice (planning, timing), and checking a chain asks pinocchio a dozen times
+# (~8 us a constraint); a robot's model never changes once loaded.
+_CHAINS: MadeFor[int] = MadeFor(64)
 
 
 @dataclass
@@ -70,6 +75,16 @@ def _base_link(robot: Robot) -> str:
 
 
 def _check_chain(robot: Robot, spec: ConstraintSpec) -> int:
+    """The frame id of `spec`'s target link, its joints checked to be a chain the link hangs from."""
+    key = (tuple(spec.joints), spec.target_link)
+    link = _CHAINS.get((robot,), key)
+    if link is None:
+        link = _checked_chain(robot, spec)
+        _CHAINS.put((robot,), link, key)
+    return link
+
+
+def _checked_chain(robot: Robot, spec: ConstraintSpec) -> int:
     model = robot.model
     ids = []
     for name in spec.joints:

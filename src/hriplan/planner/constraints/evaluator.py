@@ -10,6 +10,7 @@ Two formulations of the same constraints:
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, NamedTuple
@@ -68,16 +69,28 @@ class _Pose(NamedTuple):
 
 class _Term:
     """What the hot path needs of one constraint, precomputed: the frame as numpy (equality
-    rows) and as rows of floats (margins)."""
+    rows, the compiled route's packing) and, when the Python route's margins first ask, as rows
+    of floats (the compiled route never does: ~5 us a term, every evaluator)."""
 
     def __init__(self, c: BoundConstraint) -> None:
         self.bound, self.link = c, c.link
         self.rf = c.frame.rotation.copy()  # constraint frame rotation (world)
         self.rf_t = c.frame.rotation.T.copy()
         self.origin = c.frame.translation.copy()  # constraint frame origin (world)
-        self.frame, self.frame_t, self.origin_xyz = _rows(self.rf), _rows(self.rf_t), tuple(self.origin.tolist())
         self.free: tuple[int, ...] = ()
         self.target: np.ndarray | None = None
+
+    @functools.cached_property
+    def frame(self) -> Rows:
+        return _rows(self.rf)
+
+    @functools.cached_property
+    def frame_t(self) -> Rows:
+        return _rows(self.rf_t)
+
+    @functools.cached_property
+    def origin_xyz(self) -> G.Vec:
+        return tuple(self.origin.tolist())
 
 
 class _Volume(_Term):
@@ -160,8 +173,9 @@ def equality_row_count(c: BoundConstraint) -> int:
 
 def _slot(indices: np.ndarray) -> slice | np.ndarray:
     """A slice where the indices are consecutive (numpy's fancy indexing costs ~1 us more)."""
-    if len(indices) and np.array_equal(indices, np.arange(indices[0], indices[0] + len(indices))):
-        return slice(int(indices[0]), int(indices[0]) + len(indices))
+    listed = np.asarray(indices).tolist()  # compared as ints: numpy's comparison costs ~3 us an evaluator
+    if listed and listed == list(range(listed[0], listed[0] + len(listed))):
+        return slice(listed[0], listed[0] + len(listed))
     return indices
 
 
@@ -171,11 +185,10 @@ class ConstraintEvaluator:
     def __init__(self, robot: Robot, constraints: Sequence[BoundConstraint], group: str, base_q: np.ndarray) -> None:
         self.robot, self.group = robot, group
         self.model = robot.model
-        self.data = robot.model.createData()  # own workspace: evaluators never share pinocchio data
         self.constraints = list(constraints)
         self.idx = robot.group_indices(group)
         self.vidx = robot.velocity_indices(group)  # the robot's own (read once): 20 us less an evaluator
-        self._q_slot, self._v_slot = _slot(np.asarray(self.idx)), _slot(self.vidx)
+        self._q_slot, self._v_slot = _slot(self.idx), _slot(self.vidx)
         self.q = np.array(base_q, dtype=float)
         self.links = sorted({c.link for c in self.constraints})
         self.n = len(self.idx)
@@ -194,6 +207,13 @@ class ConstraintEvaluator:
         self._has_jacobians = False
         self._poses: dict[int, _Pose] = {}
         self._compiled: CompiledTerms | bool | None = None  # made when first asked (`_route`); False: none
+
+    @functools.cached_property
+    def data(self) -> pin.Data:
+        """The evaluator's own pinocchio workspace (evaluators never share one), made when the
+        Python route first asks: the compiled route never does, and a plan makes two evaluators
+        (~15-20 us each)."""
+        return self.model.createData()
 
     @property
     def terms(self) -> list[_Term]:
