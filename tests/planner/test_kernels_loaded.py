@@ -39,7 +39,7 @@ def counted(owner, name):
         return method(*args, **kwargs)
     setattr(owner, name, wrapper)
 for owner, name in [(compiled.CompiledTerms, n) for n in ("margins", "gradients", "margins_many")] + [
-    (FreeCertifier, n) for n in ("verdict", "verdicts")
+    (FreeCertifier, n) for n in ("verdict", "left_over")
 ] + [(ApproachMonitor, "_compiled")] + [(band_kernels.BandWalker, n) for n in ("project", "walk")] + [
     (toppra_kernels.Stagewise, n) for n in ("controllable", "forward")
 ]:
@@ -78,11 +78,11 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
         "_compiled",
         "controllable",
         "forward",
+        "left_over",
         "margins",
         "margins_many",
         "project",
         "verdict",
-        "verdicts",
         "walk",
     ]
     assert sorted(found["calls"]) == called, found["calls"]
