@@ -4,7 +4,6 @@ same projections, the same trees grown towards the same targets through scenes w
 obstacles and a person, the same counts, to rounding; and its disk cache made again when a
 file it calls into changes."""
 
-import dataclasses
 import subprocess
 import sys
 import textwrap
@@ -13,50 +12,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hriplan.planner.constraints.binding import bind
-from hriplan.planner.motion import _band_problem, _Problem
-from hriplan.planner.problem import load_problem
 from hriplan.planner.search import cbirrt
 from hriplan.planner.search.cbirrt import _min_norm_step, _Search, _Tree
 from hriplan.planner.search.result import Counters
-from hriplan.planner.session import PlanningSession
 
-SCENARIOS = Path(__file__).parents[2] / "benchmarks" / "scenarios"
 REPO_SRC = Path(__file__).parents[2] / "src"
 # Rounding apart: three or more rows near their bands are solved by the normal equations, whose
 # 1e-9 regularisation leaves them ill-conditioned (LAPACK's elimination against the kernel's
 # differ by up to a few 1e-9 rad there); one or two rows agree to ~1e-15.
 TO_ROUNDING = 1e-7
-
-
-@pytest.fixture(scope="module", params=["a_ur5_upright_box", "b_madar_handover", "a_unconstrained"])
-def searches(request):
-    """(the Python loop's search, the compiled walk's, a start, the joint bounds, the collision
-    checker) on one scenario, inside its motion (`moving`)."""
-    from hriplan.robots import kernel_switch
-
-    before = kernel_switch.kernels_on()
-    kernel_switch.use_kernels(True)
-    name = request.param.replace("a_unconstrained", "a_ur5_upright_box")
-    problem = load_problem(SCENARIOS / f"{name}.json")
-    session = PlanningSession(problem.robot, problem.scene, problem.hands or None)
-    robot, checker, group = session.robot, session.checker, problem.group or session.robot.default_group
-    session.set_constraints([] if request.param == "a_unconstrained" else problem.constraints)
-    specs = list(session.constraints.values())
-    q0 = robot.configuration(problem.start)
-    planning = _Problem(robot, checker, bind(specs, robot, checker), group, q0)
-    with checker.moving(group, q0):
-        compiled = _band_problem(planning, problem.options)  # the planner's own, with its walker
-        assert compiled.walker is not None
-        python = dataclasses.replace(compiled, walker=None)
-        yield (
-            _Search(python, Counters()),
-            _Search(compiled, Counters()),
-            q0[planning.evaluator.idx],
-            python.bounds,
-            checker,
-        )
-    kernel_switch.use_kernels(before)
 
 
 def _same_counts(a: _Search, b: _Search) -> None:
@@ -68,7 +32,7 @@ def _same_counts(a: _Search, b: _Search) -> None:
 
 
 def test_the_compiled_projection_is_the_python_projection(searches, rng):
-    python, compiled, start, (low, high), _ = searches
+    python, compiled, start, (low, high), _, _ = searches
     if not python.p.constrained:
         pytest.skip("no band to project into")
     outcomes = {"inside": 0, "moved": 0, "none": 0}
@@ -88,7 +52,7 @@ def test_the_compiled_projection_is_the_python_projection(searches, rng):
 def test_the_compiled_walk_grows_the_python_loops_tree(searches, rng, monkeypatch):
     """Random extensions from the tree's nodes towards random targets, the ends the Python loop
     reaches and the states it adds (each checked for collision before the next step)."""
-    python, compiled, start, (low, high), _ = searches
+    python, compiled, start, (low, high), _, _ = searches
     ended = []
     walk = compiled.p.walker.walk
 
@@ -124,7 +88,7 @@ def test_the_compiled_walk_grows_the_python_loops_tree(searches, rng, monkeypatc
 
 
 def test_a_walk_that_reaches_its_target_on_its_last_step_has_reached_it(searches, rng):
-    python, compiled, start, _, _ = searches
+    python, compiled, start, _, _, _ = searches
     if python.p.constrained:
         pytest.skip("a step into the bands may be moved")
     delta = python.p.delta
@@ -137,7 +101,7 @@ def test_a_walk_that_reaches_its_target_on_its_last_step_has_reached_it(searches
 
 
 def test_the_loop_is_kept_where_the_checker_has_no_compiled_verdict(searches, rng, monkeypatch):
-    python, compiled, start, (low, high), _ = searches
+    python, compiled, start, (low, high), _, _ = searches
     monkeypatch.setattr(compiled.p, "certifier", lambda x: None)
     monkeypatch.setattr(compiled.p.walker, "walk", lambda *args: pytest.fail("walked without a certifier"))
     tree = _Tree(start)
@@ -148,7 +112,7 @@ def test_the_loop_is_kept_where_the_checker_has_no_compiled_verdict(searches, rn
 def test_a_pair_held_still_and_touching_leaves_no_compiled_verdict(searches, monkeypatch):
     """Every state collides where a still pair touches: the verdict of the moving pairs alone
     would call some free."""
-    _, compiled, _, _, checker = searches
+    _, compiled, _, _, checker, _ = searches
     q = compiled.p.walker._terms.base_configuration()
     assert checker.compiled_verdict(q) is not None
     monkeypatch.setattr(type(checker), "_held_touch", lambda self, q: True)

@@ -24,7 +24,7 @@ from numba.core.registry import CPUDispatcher
 from hriplan.planner.kernels import load_kernels
 from hriplan.robots import certifier_kernels
 from hriplan.planner.constraints import compiled
-from hriplan.planner.search import band_kernels
+from hriplan.planner.search import band_kernels, loop_kernels
 from hriplan.planner import spline_kernels, toppra_kernels
 from hriplan.safety import approach_kernels
 from hriplan.safety.approach import ApproachMonitor
@@ -40,13 +40,13 @@ def counted(owner, name):
     setattr(owner, name, wrapper)
 for owner, name in [(compiled.CompiledTerms, n) for n in ("margins", "gradients", "margins_many")] + [
     (FreeCertifier, n) for n in ("verdict", "left_over")
-] + [(ApproachMonitor, "_compiled")] + [(band_kernels.BandWalker, n) for n in ("project", "walk")] + [
+] + [(ApproachMonitor, "_compiled"), (loop_kernels, "searched")] + [
     (toppra_kernels.Stagewise, n) for n in ("controllable", "forward")
 ]:
     counted(owner, name)
 
 def signatures():
-    kernels = {**vars(certifier_kernels), **compiled._KERNELS, **vars(compiled), **vars(approach_kernels), **vars(band_kernels),
+    kernels = {**vars(certifier_kernels), **compiled._KERNELS, **vars(compiled), **vars(approach_kernels), **vars(band_kernels), **vars(loop_kernels),
                **vars(toppra_kernels), **vars(spline_kernels)}
     return {name: len(f.signatures) for name, f in kernels.items() if isinstance(f, CPUDispatcher)}
 
@@ -69,7 +69,7 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
     found = json.loads(run.stdout.splitlines()[-1])
     assert found["loaded"] is True and found["solved"] == [True, True, True]
     entries = ("verdict_one", "verdicts", "place_joints", "term_gradients", "capsule_rows")
-    entries += ("fold_rows", "nearest_rows", "walk_frames", "project", "walk", "nearest", "states_margins")
+    entries += ("fold_rows", "nearest_rows", "walk_frames", "project", "walk", "nearest", "states_margins", "search")
     entries += ("controllable", "forward")  # TOPP-RA's passes (toppra_kernels.py)
     entries += ("second_derivatives", "evaluate")  # the path it retimes (spline_kernels.py)
     assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
@@ -81,9 +81,8 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
         "left_over",
         "margins",
         "margins_many",
-        "project",
+        "searched",
         "verdict",
-        "walk",
     ]
     assert sorted(found["calls"]) == called, found["calls"]
     assert found["after"] == found["before"]

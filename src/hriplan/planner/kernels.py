@@ -58,8 +58,10 @@ def load_kernels() -> bool:
 
 
 def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds, x: np.ndarray) -> None:
-    """CBiRRT's compiled projection, walk (with and without bands) and nearest node (`band_kernels.py`)."""
+    """CBiRRT's compiled projection, walk (with and without bands) and nearest node
+    (`band_kernels.py`), and its whole loop (`loop_kernels.py`, given no time: compiled, not run)."""
     from hriplan.planner.search.band_kernels import BandWalker
+    from hriplan.planner.search.loop_kernels import search
 
     walker = BandWalker.of(evaluator, bounds)
     certifier = checker.compiled_verdict(evaluator.full(x))
@@ -67,6 +69,8 @@ def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds
     walker.nearest(np.repeat(x[None], 2, axis=0), 2, x)
     for bands in ((4e-3, 2e-3), None):
         walker.walk(x, x + 0.1, 0.05, 3, bands, certifier)
+    arguments = walker.arguments(0.05, True, 4e-3, 2e-3, certifier)
+    search(x, x + 0.1, np.random.default_rng(0), 0.0, 0.0, 10, arguments, np.zeros(1, dtype=np.int64))
 
 
 def _toppra(x: np.ndarray) -> None:

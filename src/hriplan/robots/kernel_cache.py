@@ -20,11 +20,12 @@ from numba import njit
 from numba.core.caching import NullCache
 
 
-def njit_keyed(*dependencies: ModuleType) -> Callable[[Callable], Callable]:
-    """`njit(cache=True, nogil=True)` with its cache also keyed by the source files of `dependencies`."""
+def njit_keyed(*dependencies: ModuleType, nogil: bool = True) -> Callable[[Callable], Callable]:
+    """`njit(cache=True, nogil=nogil)` with its cache also keyed by the source files of
+    `dependencies` (nogil=False for kernels that call back into Python: they hold the GIL)."""
 
     def compile_keyed(function: Callable) -> Callable:
-        dispatcher = njit(cache=True, nogil=True)(function)
+        dispatcher = njit(cache=True, nogil=nogil)(function)
         index = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
         if index is None or not hasattr(index, "_source_stamp"):
             dispatcher._cache = NullCache()

@@ -235,6 +235,14 @@ class BandWalker:
         terms = evaluator.compiled_terms()
         return None if terms is None else cls(terms, np.asarray(evaluator.idx, dtype=np.int64), bounds)
 
+    def arguments(
+        self, delta: float, constrained: bool, offset: float, accept: float, certifier: tuple[np.ndarray, np.ndarray]
+    ) -> tuple:
+        """What the compiled loop passes its walks and projections (`loop_kernels`), in `walk`'s order."""
+        joints, terms = self._terms.kernel_arguments()
+        q, slots, bounds, work, counts = self._q, self._slots, self._bounds, self._work, self.counts
+        return (delta, constrained, bounds, offset, accept, q, slots, joints, terms, work, counts, certifier)
+
     @staticmethod
     def nearest(nodes: np.ndarray, count: int, x: np.ndarray) -> int:
         """The index of the node of nodes[:count] nearest `x` (`nearest`)."""

@@ -239,7 +239,14 @@ class _Search:
 def plan_in_bands(
     problem: BandProblem, start: np.ndarray, goal: np.ndarray, time_limit: float, seed: int | None, max_steps: int = 10
 ) -> SearchResult:
-    """Bidirectional constrained search; the path's consecutive states are <= ~delta apart."""
+    """Bidirectional constrained search; the path's consecutive states are <= ~delta apart.
+    With the compiled walker, the whole loop compiled (`loop_kernels.searched`), step for step this one."""
+    if problem.walker is not None:
+        from hriplan.planner.search.loop_kernels import searched
+
+        result = searched(problem, start, goal, time_limit, seed, max_steps)
+        if result is not None:
+            return result
     rng = np.random.default_rng(seed)
     search = _Search(problem, Counters())
     started = time.perf_counter()
