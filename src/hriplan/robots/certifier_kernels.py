@@ -312,12 +312,9 @@ def capsule_beyond_face(rows: np.ndarray, a: int, b: int, tolerance: float) -> b
     return False
 
 
-@njit(cache=True, nogil=True)
-def capsule_clears_box(rows, a, b, tolerance) -> bool:
-    """True if row a's capsule (ends, radius: 0:7) is more than `tolerance` from row b's box
-    (rotation 7:16, centre 16:19, half sides 19:22): its segment's pieces, halved where near,
-    each in a sphere clear of the box. The pieces are the nodes of a binary tree walked depth
-    first (piece i of level l spans [i, i + 1] / 2^l), with no stack."""
+@njit(cache=True, nogil=True, inline="always")
+def _segment_in_box(rows, a, b):
+    """Row a's capsule segment in row b's box frame: its first end and its end minus its first."""
     ox, oy, oz = rows[a, 0] - rows[b, 16], rows[a, 1] - rows[b, 17], rows[a, 2] - rows[b, 18]
     x0 = rows[b, 7] * ox + rows[b, 10] * oy + rows[b, 13] * oz
     y0 = rows[b, 8] * ox + rows[b, 11] * oy + rows[b, 14] * oz
@@ -326,6 +323,16 @@ def capsule_clears_box(rows, a, b, tolerance) -> bool:
     dx = rows[b, 7] * ox + rows[b, 10] * oy + rows[b, 13] * oz
     dy = rows[b, 8] * ox + rows[b, 11] * oy + rows[b, 14] * oz
     dz = rows[b, 9] * ox + rows[b, 12] * oy + rows[b, 15] * oz
+    return x0, y0, z0, dx, dy, dz
+
+
+@njit(cache=True, nogil=True)
+def capsule_clears_box(rows, a, b, tolerance) -> bool:
+    """True if row a's capsule (ends, radius: 0:7) is more than `tolerance` from row b's box
+    (rotation 7:16, centre 16:19, half sides 19:22): its segment's pieces, halved where near,
+    each in a sphere clear of the box. The pieces are the nodes of a binary tree walked depth
+    first (piece i of level l spans [i, i + 1] / 2^l), with no stack."""
+    x0, y0, z0, dx, dy, dz = _segment_in_box(rows, a, b)
     hx, hy, hz, radius = rows[b, 19], rows[b, 20], rows[b, 21], rows[a, 6]
     length = math.sqrt(dx * dx + dy * dy + dz * dz)
     level, i = 0, 0
@@ -351,14 +358,7 @@ def capsule_in_box(rows, a, b, depth) -> bool:
     segment nearer the box than its radius less `depth`. A point's distance to a convex box is
     convex along a segment, so a golden-section search finds the least; every distance is a
     point's own, so a True holds however far the search got."""
-    ox, oy, oz = rows[a, 0] - rows[b, 16], rows[a, 1] - rows[b, 17], rows[a, 2] - rows[b, 18]
-    x0 = rows[b, 7] * ox + rows[b, 10] * oy + rows[b, 13] * oz
-    y0 = rows[b, 8] * ox + rows[b, 11] * oy + rows[b, 14] * oz
-    z0 = rows[b, 9] * ox + rows[b, 12] * oy + rows[b, 15] * oz
-    ox, oy, oz = rows[a, 3] - rows[a, 0], rows[a, 4] - rows[a, 1], rows[a, 5] - rows[a, 2]
-    dx = rows[b, 7] * ox + rows[b, 10] * oy + rows[b, 13] * oz
-    dy = rows[b, 8] * ox + rows[b, 11] * oy + rows[b, 14] * oz
-    dz = rows[b, 9] * ox + rows[b, 12] * oy + rows[b, 15] * oz
+    x0, y0, z0, dx, dy, dz = _segment_in_box(rows, a, b)
     hx, hy, hz, reach = rows[b, 19], rows[b, 20], rows[b, 21], rows[a, 6] - depth
     low, high = 0.0, 1.0
     s, t = high - _GOLDEN, _GOLDEN
