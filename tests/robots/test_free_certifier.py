@@ -559,16 +559,22 @@ def _flat(certifier: FreeCertifier) -> FreeCertifier:
     return flat
 
 
+def _partly_kept_states(robot, seed: int) -> np.ndarray:
+    """1000 random states, each keeping none, some, most or all of the last one's coordinates."""
+    qs, rng = _random_states(robot, 1000, seed), np.random.default_rng(seed)
+    for k in range(1, len(qs)):
+        keep = rng.uniform(size=qs.shape[1]) < rng.choice([0.0, 0.5, 0.9, 1.0])
+        qs[k, keep] = qs[k - 1, keep]
+    return qs
+
+
 def test_frames_kept_from_the_last_state_are_those_placed_anew(robots, kernels):
     """A joint whose coordinate and ancestors' are those of the last state keeps its frame and
     its rows: the same verdicts, frames and placed rows, to the bit, as placing all anew, over
     states that keep none, some, most or all of the last one's coordinates."""
     robot = robots["madar"]
     checker = CollisionChecker(robot, _scene(robot, "madar"))
-    qs, rng = _random_states(robot, 1000, 12), np.random.default_rng(12)
-    for k in range(1, len(qs)):
-        keep = rng.uniform(size=qs.shape[1]) < rng.choice([0.0, 0.5, 0.9, 1.0])
-        qs[k, keep] = qs[k - 1, keep]
+    qs = _partly_kept_states(robot, 12)
     checker.in_collision(qs[0])
     certifier = checker._free_certifier()
     anew = copy.copy(certifier)
@@ -589,10 +595,7 @@ def test_frames_placed_by_the_caller_are_taken_as_placed_here(robots, kernels):
     some, most or all of the last one's coordinates; tables not the certifier's are told apart."""
     robot = robots["madar"]
     checker = CollisionChecker(robot, _scene(robot, "madar"))
-    qs, rng = _random_states(robot, 1000, 13), np.random.default_rng(13)
-    for k in range(1, len(qs)):
-        keep = rng.uniform(size=qs.shape[1]) < rng.choice([0.0, 0.5, 0.9, 1.0])
-        qs[k, keep] = qs[k - 1, keep]
+    qs = _partly_kept_states(robot, 13)
     checker.in_collision(qs[0])
     floats, ints = checker._free_certifier().packed
     given = floats.copy(), ints.copy()  # a scratch of its own
