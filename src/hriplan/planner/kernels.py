@@ -32,7 +32,7 @@ from hriplan.safety.separation import PersonSeparation, RobotStopping, Separatio
 def load_kernels() -> bool:
     """Turn the kernels on in this process, and load every one of them (compiling any not yet
     cached): the collision certifier's and the constraint terms' called once each on the
-    built-in UR5 and CBiRRT's walk through them, the mesh contacts' proof, the ISO/TS 15066 monitor's on MADAR, TOPP-RA's
+    built-in UR5 and CBiRRT's walk through them, the ISO/TS 15066 monitor's on MADAR, TOPP-RA's
     passes and its spline on a short UR5 motion (robots and checkers stay cached).
     False (and the kernels stay off) without numba, the `fast` extra."""
     use_kernels(True)
@@ -52,7 +52,6 @@ def load_kernels() -> bool:
     evaluator.gradients(x)
     evaluator.margins_many(np.repeat(q[None], 2, axis=0))
     _band_walk(evaluator, checker, robot.limits("arm"), x)
-    _contact_witness()
     _monitor()
     _toppra(x)
     return True
@@ -68,17 +67,6 @@ def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds
     walker.nearest(np.repeat(x[None], 2, axis=0), 2, x)
     for bands in ((4e-3, 2e-3), None):
         walker.walk(x, x + 0.1, 0.05, 3, bands, certifier)
-
-
-def _contact_witness() -> None:
-    """The proof of a tabled mesh pair's contact from kept triangles (`contact_witness.crossing`),
-    on placements as pinocchio gives them."""
-    import pinocchio as pin
-
-    from hriplan.robots.contact_witness import crossing
-
-    corners, at = np.zeros((1, 3, 3)), pin.SE3.Identity().homogeneous
-    crossing(corners, at, corners, at, np.zeros((1, 2), dtype=np.int64))
 
 
 def _toppra(x: np.ndarray) -> None:

@@ -36,7 +36,6 @@ from hriplan.robots.spatial import Pose
 from hriplan.robots.still_pairs import Held, Motion, Views
 
 if TYPE_CHECKING:
-    from hriplan.robots.contact_witness import ContactWitnesses
     from hriplan.robots.free_certifier import FreeCertifier
 
 # How a separation zone is named in contacts and messages: "bob/left_upperleg (minimum separation 0.225 m)".
@@ -227,7 +226,6 @@ class CollisionChecker:
         self._statics_placed = 0  # counts placings of what is on no joint: a certifier placed before reads them again
         self._motion: Motion | None = None  # the joints that move, and where the rest stay (`moving`)
         self._held: Held | None = None  # while a view holds pairs still
-        self._witnesses: ContactWitnesses | None = None  # the tabled mesh pairs' last contacts (kernels on)
         self.scene: Scene | None = None
         self.set_scene(scene or Scene())
 
@@ -857,26 +855,8 @@ class CollisionChecker:
         return any(uncertified >> k & 1 and self._meshes_touch(ks) for k, (_, ks) in enumerate(self._tabled))
 
     def _meshes_touch(self, pairs: list[int]) -> bool:
-        """Does any of a table's mesh pairs collide, where the broad phase placed them? With the
-        kernels on, the triangles that touched last are tried first (`_witnessed_touch`)."""
-        if not kernels_on():
-            return any(pin.computeCollision(self._geom_model, self._geom_data, k) for k in pairs)
-        return any(self._witnessed_touch(k) for k in pairs)
-
-    def _witnessed_touch(self, pair: int) -> bool:
-        """Does mesh pair `pair` collide: proven by the triangles that touched last
-        (`contact_witness`: coal would find it collide), else asked of coal, whose contacts are
-        then kept. Near contact, coal takes ~50 us a mesh pair."""
-        if self._witnesses is None:
-            from hriplan.robots.contact_witness import ContactWitnesses  # numba: only with the kernels on
-
-            self._witnesses = ContactWitnesses()
-        if self._witnesses.proven(self._geom_model, self._geom_data, pair):
-            return True
-        if pin.computeCollision(self._geom_model, self._geom_data, pair):
-            self._witnesses.remember(self._geom_model, self._geom_data, pair)
-            return True
-        return False
+        """Does any of a table's mesh pairs collide, where the broad phase placed them?"""
+        return any(pin.computeCollision(self._geom_model, self._geom_data, k) for k in pairs)
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
         """Every colliding pair at `q`, by name (for error messages and reports). A free state
