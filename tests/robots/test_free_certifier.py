@@ -37,6 +37,7 @@ from hriplan.robots.certifier_kernels import verdicts as verdict_codes
 from hriplan.robots.collision import CollisionChecker, SeparationZones
 from hriplan.robots.descriptions.registry import load_robot_file
 from hriplan.robots.free_certifier import (
+    _LEAF,
     ASKED_OF_COAL,
     FreeCertifier,
     _geometry_row,
@@ -179,21 +180,144 @@ def test_segment_bound_is_never_above_coals_capsule_distance(kind):
     assert apart > 0 and tight >= {"any": 0.99, "parallel": 0.1, "crossing": 0.0}[kind] * apart
 
 
+def _inside(points: np.ndarray, capsules: np.ndarray) -> np.ndarray:
+    """Per point (k, 3) and capsule (m, 7: ends, radius): does the capsule hold the point?"""
+    start, span = capsules[None, :, 0:3], capsules[None, :, 3:6] - capsules[None, :, 0:3]
+    length = np.maximum((span**2).sum(axis=-1), 1e-300)
+    t = np.clip(((points[:, None, :] - start) * span).sum(axis=-1) / length, 0.0, 1.0)
+    gaps = np.linalg.norm(points[:, None, :] - start - t[..., None] * span, axis=-1)
+    return gaps <= capsules[None, :, 6]
+
+
 def test_mesh_pieces_hold_every_triangle(robots):
-    """Each triangle of a mesh lies in one of its pieces' spheres (its three corners do)."""
+    """Each triangle of a mesh lies in the capsules of every node on a path from the root to a
+    leaf (its three corners do): the kernel, finding a node clear, passes only triangles that
+    node holds, and tests the leaves of the nodes it does not pass."""
     checker = CollisionChecker(robots["madar"])
     meshes = [g for g in checker.geom_model.geometryObjects if isinstance(g.geometry, coal.BVHModelBase)][:6]
     assert meshes
     for mesh in meshes:
-        pieces = np.array(_mesh_pieces(mesh))
+        pieces, ends = _mesh_pieces(mesh)
         shape = mesh.geometry
         corners = np.asarray(shape.vertices())
         triangles = np.array([[t[0], t[1], t[2]] for t in (shape.tri_indices(i) for i in range(shape.num_tris))])
         placed = corners @ mesh.placement.rotation.T + mesh.placement.translation
-        gaps = np.linalg.norm(placed[triangles][:, :, None, :] - pieces[None, None, :, :3], axis=-1)  # (T, 3, P)
-        held = (gaps <= pieces[:, 3] + 1e-12).all(axis=1).any(axis=1)
-        assert held.all()
-        assert len(pieces) == 16 and pieces[:, 3].max() < 0.75 * np.linalg.norm(np.ptp(placed, axis=0))
+        held = _inside(placed[triangles].reshape(-1, 3), pieces).reshape(len(triangles), 3, -1).all(axis=1)
+        assert ends[0] == len(pieces) and (ends > np.arange(len(pieces))).all()
+        reached = np.zeros_like(held)  # held by the node and every node above it
+        reached[:, 0] = held[:, 0]
+        for node in np.flatnonzero(ends > np.arange(1, len(pieces) + 1)):
+            first, second = node + 1, ends[node + 1]  # its children: the next node, and the one after its subtree
+            assert ends[second] == ends[node]
+            for child in (first, second):
+                reached[:, child] = reached[:, node] & held[:, child]
+        leaves = np.flatnonzero(ends == np.arange(1, len(pieces) + 1))
+        assert reached[:, leaves].any(axis=1).all()
+        assert len(leaves) >= len(triangles) / _LEAF
+
+
+def _mesh_pairs(checker) -> list[int]:
+    """The broad phase's active pairs (ids) of which a geometry is a mesh."""
+    objects, active = checker.geom_model.geometryObjects, checker.geom_data.activeCollisionPairs
+    return [
+        k
+        for k, p in enumerate(checker.geom_model.collisionPairs)
+        if active[k] and any(isinstance(objects[g].geometry, coal.BVHModelBase) for g in (p.first, p.second))
+    ]
+
+
+def _pair_touches(checker, q: np.ndarray, ids: list[int]) -> np.ndarray:
+    """Per pair of `ids`: does coal find it collide at `q` (placed as the broad phase places it)?"""
+    pin.updateGeometryPlacements(checker.robot.model, checker.robot.data, checker.geom_model, checker.geom_data, q)
+    return np.array([pin.computeCollision(checker.geom_model, checker.geom_data, int(k)) for k in ids])
+
+
+def _near_contact(checker, ids: list[int], seed: int, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """States (n, nq) where a mesh pair is at the edge of contact, and which pair: a random
+    state where it touches and one where it does not, bisected along the segment between them to
+    2^-22 of it, then the states at the edge and 1e-4 to 1e-2 of the segment either side."""
+    rng = np.random.default_rng(seed)
+    states = _random_states(checker.robot, 3000, seed)
+    touches = np.array([_pair_touches(checker, q, ids) for q in states])
+    out, which = [], []
+    for k in np.flatnonzero(touches.any(axis=0) & ~touches.all(axis=0)):
+        inside, outside = np.flatnonzero(touches[:, k]), np.flatnonzero(~touches[:, k])
+        for _ in range(count):
+            a, b = states[rng.choice(inside)], states[rng.choice(outside)]
+            low, high = 0.0, 1.0  # touching at low, apart at high
+            for _ in range(22):
+                middle = (low + high) / 2.0
+                inside_now = _pair_touches(checker, a + middle * (b - a), [ids[k]])[0]
+                low, high = (middle, high) if inside_now else (low, middle)
+            for step in (0.0, 1e-4, -1e-4, 1e-3, -1e-3, 1e-2, -1e-2):
+                out.append(a + (high + step) * (b - a))
+                which.append(ids[k])
+    return np.array(out), np.array(which)
+
+
+@pytest.mark.parametrize("name", ["ur5", "madar"])
+def test_mesh_pairs_cleared_near_contact_are_apart_for_coal(robots, name, kernels):
+    """At states where a mesh pair is at the edge of contact, on either side of it and up to a
+    few centimetres away, a pair the certifier does not leave to coal is one coal finds apart;
+    both sides occur, and the pieces' tree clears such pairs under 2 cm apart."""
+    robot = robots[name]
+    checker = CollisionChecker(robot)
+    checker.in_collision(_random_states(robot, 1, 12)[0])
+    ids = _mesh_pairs(checker)
+    states, which = _near_contact(checker, ids, 12, 40)
+    certifier = checker._free_certifier()
+    touching, near_cleared = 0, 0
+    for q, k in zip(states, which):
+        touches = _pair_touches(checker, q, [k])[0]
+        touching += touches
+        verdict = certifier.verdict(q)
+        if verdict is None or k in verdict[1]:
+            continue  # left to coal (or too many pairs left: the broad phase decides)
+        assert not touches
+        near_cleared += pin.computeDistance(checker.geom_model, checker.geom_data, int(k)).min_distance < 0.02
+    assert touching > 0.2 * len(states) and near_cleared >= 10
+
+
+def test_a_mesh_against_larger_and_smaller_shapes_is_cleared_only_where_coal_keeps_them_apart(robots, kernels):
+    """MADAR's forearm and wrist 3 meshes each paired with a box, a capsule and a ball standing
+    about them, larger and smaller than the mesh (the kernel walks the larger one's tree first):
+    on states about the one they were placed at, a pair the certifier clears is one coal finds
+    apart, and both answers occur."""
+    robot = robots["madar"]
+    objects = CollisionChecker(robot).geom_model.geometryObjects
+    meshes = [o for o in objects if o.name in ("right_fore_arm_link (mesh)", "right_wrist_3_link (mesh)")]
+    assert len(meshes) == 2
+    rng = np.random.default_rng(14)
+    model, data = robot.model, robot.data
+    q0 = _random_states(robot, 1, 14)[0]
+    pin.forwardKinematics(model, data, q0)
+    where = [data.oMi[mesh.parentJoint] * mesh.placement for mesh in meshes]  # the meshes at q0
+    shapes = [coal.Box(0.5, 0.4, 0.6), coal.Capsule(0.03, 0.7), coal.Sphere(0.02), coal.Box(0.02, 0.03, 0.04)]
+    geom_model = pin.GeometryModel()
+    for k, shape in enumerate(shapes * 3):  # the meshes between the shapes: pairs come in both orders
+        near = where[k % 2].translation + rng.uniform(-0.15, 0.15, 3)
+        turned = pin.SE3(pin.Quaternion(*rng.normal(size=4)).normalized().matrix(), near)
+        geom_model.addGeometryObject(pin.GeometryObject(f"shape {k}", 0, turned, shape))
+        if k in (3, 7):
+            geom_model.addGeometryObject(meshes[k // 4].copy())
+    is_mesh = np.array([o.name.endswith("(mesh)") for o in geom_model.geometryObjects])
+    pairs = np.array([(m, s) for m in np.flatnonzero(is_mesh) for s in np.flatnonzero(~is_mesh)])
+    for m, s in pairs:
+        geom_model.addCollisionPair(pin.CollisionPair(int(m), int(s)))
+    geom_data = pin.GeometryData(geom_model)
+    certifier = FreeCertifier.of(model, geom_model, pairs, [])
+    states = q0 + rng.normal(scale=0.3, size=(1500, model.nq))
+    cleared, touched = 0, 0
+    for q in states:
+        verdict = certifier.verdict(q)
+        pin.updateGeometryPlacements(model, data, geom_model, geom_data, q)
+        for k in range(len(pairs)):
+            touches = pin.computeCollision(geom_model, geom_data, k)
+            touched += touches
+            if verdict is not None and k not in verdict[1]:
+                assert not touches
+                cleared += 1
+    assert cleared > 0.2 * len(states) * len(pairs) and touched > 0.02 * len(states) * len(pairs)
 
 
 def test_pieces_are_found_again_only_for_their_own_mesh_and_placement(robots, monkeypatch):
@@ -208,7 +332,8 @@ def test_pieces_are_found_again_only_for_their_own_mesh_and_placement(robots, mo
     assert len(meshes) == 3
     for _ in range(2):  # made, then found again
         for mesh in [*meshes, moved]:
-            assert np.array_equal(np.array(free_certifier._pieces_of(mesh)), np.array(_mesh_pieces(mesh)))
+            found, made = free_certifier._pieces_of(mesh), _mesh_pieces(mesh)  # (capsules, subtree ends)
+            assert all(np.array_equal(a, b) for a, b in zip(found, made, strict=True))
 
 
 def _capsule_and_box(rng, row: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:

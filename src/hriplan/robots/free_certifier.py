@@ -37,7 +37,7 @@ from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.mesh_clearance import FINE, ClearanceTable
 from hriplan.robots.part_spheres import BOUND_TOLERANCE
 
-_LEAVES = 16  # spheres per mesh
+_LEAF = 64  # triangles a mesh piece holds at most
 _PARTS = 4  # parts of a person, each a node of the capsules near one another
 ASKED_OF_COAL = 8  # pairs a state may leave to coal one by one; more: the whole broad phase
 
@@ -112,54 +112,75 @@ def _static_rows(rows: np.ndarray, points: np.ndarray, where: np.ndarray) -> np.
     return out
 
 
-def _mesh_pieces(geometry: pin.GeometryObject, leaves: int = _LEAVES) -> list[np.ndarray]:
-    """Spheres (centre in the joint's frame, radius: 4) holding every triangle of a mesh: the
-    widest group of triangles halved along its centres' widest spread until there are `leaves`,
-    each group in the sphere about its vertices' box. coal tests a mesh by its triangles, so
-    spheres clear of the other geometry mean coal finds no contact."""
+def _mesh_pieces(geometry: pin.GeometryObject, leaf: int = _LEAF) -> tuple[np.ndarray, np.ndarray]:
+    """A tree of capsules holding a mesh's triangles: rows (m, 7: ends in the joint's frame,
+    radius) in depth-first order, and per node where its subtree ends (its index plus one for a
+    leaf). The root holds every triangle; a node's group of triangles is halved along its
+    centres' widest spread into its two children, down to `leaf` triangles, and each node's
+    capsule holds its group's corners. coal tests a mesh by its triangles, so a node clear of
+    the other geometry means coal finds no contact with any of its triangles."""
     shape = geometry.geometry
-    vertices = np.asarray(shape.vertices(), dtype=float)
+    placement = geometry.placement
+    vertices = np.asarray(shape.vertices(), dtype=float) @ placement.rotation.T + placement.translation
     triangles = np.array([[t[0], t[1], t[2]] for t in (shape.tri_indices(i) for i in range(shape.num_tris))])
+    nodes: list[np.ndarray] = []
+    ends: list[int] = []
 
-    def sphere(group: np.ndarray) -> tuple[np.ndarray, float]:
-        points = vertices[np.unique(group)]
-        centre = (points.min(axis=0) + points.max(axis=0)) / 2.0
-        return centre, float(np.sqrt(((points - centre) ** 2).sum(axis=1).max()))
+    def split(group: np.ndarray) -> None:
+        k = len(nodes)
+        nodes.append(_capsule_about(vertices[np.unique(group)]))
+        ends.append(0)
+        if len(group) > leaf:
+            centres = vertices[group].mean(axis=1)
+            order = np.argsort(centres[:, int(np.argmax(np.ptp(centres, axis=0)))], kind="stable")
+            split(group[order[: len(group) // 2]])
+            split(group[order[len(group) // 2 :]])
+        ends[k] = len(nodes)
 
-    groups = [(triangles, *sphere(triangles))]
-    while len(groups) < leaves:
-        widest = max(range(len(groups)), key=lambda k: groups[k][2] if len(groups[k][0]) > 1 else -1.0)
-        group = groups[widest][0]
-        if len(group) < 2:
-            break
-        groups.pop(widest)
-        centres = vertices[group].mean(axis=1)
-        order = np.argsort(centres[:, int(np.argmax(np.ptp(centres, axis=0)))], kind="stable")
-        halves = group[order[: len(group) // 2]], group[order[len(group) // 2 :]]
-        groups += [(half, *sphere(half)) for half in halves]
-    return [np.array([*geometry.placement.act(centre), radius]) for _, centre, radius in groups]
+    split(triangles)
+    return np.array(nodes), np.array(ends, dtype=np.int64)
+
+
+def _capsule_about(points: np.ndarray) -> np.ndarray:
+    """A capsule (ends, radius: 7) holding `points` (k, 3): along their principal axis through
+    their mean, radius their farthest from that axis, its ends drawn in as far as every point
+    allows (a sphere where they meet). The radius is then the farthest point's distance from
+    the segment itself, a hair more for rounding: it holds them whatever the fit did."""
+    centre = points.mean(axis=0)
+    axis = np.linalg.svd(points - centre, full_matrices=False)[2][0]
+    along = (points - centre) @ axis
+    across = np.linalg.norm(points - centre - along[:, None] * axis, axis=1)
+    slack = np.sqrt(np.maximum(across.max() ** 2 - across**2, 0.0))
+    low, high = (along + slack).min(), (along - slack).max()
+    if low > high:
+        low = high = (low + high) / 2.0
+    start, end = centre + low * axis, centre + high * axis
+    span = end - start
+    t = np.clip((points - start) @ span / max(span @ span, 1e-300), 0.0, 1.0)
+    reach = np.linalg.norm(points - start - t[:, None] * span, axis=1).max()
+    return np.array([*start, *end, reach * (1.0 + 1e-9) + 1e-9])
 
 
 # By mesh (its id, the mesh kept alive with its pieces so that no other takes the id) and
 # placement: the key itself, not a digest of it, which two meshes could share.
-_PIECES: dict[tuple[int, bytes], tuple[coal.CollisionGeometry, list[np.ndarray]]] = {}
+_PIECES: dict[tuple[int, bytes], tuple[coal.CollisionGeometry, tuple[np.ndarray, np.ndarray]]] = {}
 
 
-def _pieces_of(geometry: pin.GeometryObject) -> list[np.ndarray]:
-    """`_mesh_pieces` of a mesh (made once per mesh and placement: ~10 ms), none for another shape."""
+def _pieces_of(geometry: pin.GeometryObject) -> tuple[np.ndarray, np.ndarray]:
+    """`_mesh_pieces` of a mesh (made once per mesh and placement), none for another shape."""
     if not isinstance(geometry.geometry, coal.BVHModelBase):
-        return []
+        return np.zeros((0, 7)), np.zeros(0, dtype=np.int64)
     key = (id(geometry.geometry), geometry.placement.homogeneous.tobytes())
     if key not in _PIECES:
         _PIECES[key] = (geometry.geometry, _mesh_pieces(geometry))
     return _PIECES[key][1]
 
 
-def _sphere_rows(centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
-    """Rows (m, ROW) each holding only a sphere (a capsule of no length, no box)."""
-    out = np.zeros((len(centres), ROW))
-    out[:, 0:3] = out[:, 3:6] = centres
-    out[:, 6] = out[:, REACH] = radii
+def _capsule_rows(capsules: np.ndarray) -> np.ndarray:
+    """Rows (m, ROW) each holding only a capsule (m, 7: ends, radius; no box)."""
+    out = np.zeros((len(capsules), ROW))
+    out[:, 0:7] = capsules
+    out[:, REACH] = np.linalg.norm(capsules[:, 3:6] - capsules[:, 0:3], axis=1) / 2.0 + capsules[:, 6]
     out[:, 7:16] = np.eye(3).reshape(9)
     out[:, 19:22] = np.inf
     return out
@@ -174,7 +195,8 @@ def _spheres_about(rows: np.ndarray, members: np.ndarray) -> np.ndarray:
     low = np.where(inside, centres, np.inf).min(axis=1, initial=np.inf)
     middle = (low + np.where(inside, centres, -np.inf).max(axis=1, initial=-np.inf)) / 2.0
     reach = np.linalg.norm(centres - middle[:, None], axis=-1) + rows[:, REACH]
-    return _sphere_rows(middle, np.where(members, reach, -np.inf).max(axis=1, initial=-np.inf))
+    radii = np.where(members, reach, -np.inf).max(axis=1, initial=-np.inf)
+    return _capsule_rows(np.column_stack([middle, middle, radii]))
 
 
 class FreeCertifier:
@@ -223,10 +245,12 @@ class FreeCertifier:
         rows += list(_spheres_about(np.array(rows).reshape(-1, ROW), _flags(self._links, len(rows))))
         carrier += [carrier[members[0]] for members in self._links]
         self._children = np.zeros((len(used), 2), dtype=np.int64)  # per geometry: first piece, count
+        subtrees = [np.zeros(len(rows), dtype=np.int64)]  # per row: where its piece's subtree ends
         for k, g in enumerate(used):
-            pieces = np.array(_pieces_of(objects[g])).reshape(-1, 4)
+            pieces, ends = _pieces_of(objects[g])
             self._children[k] = (len(rows), len(pieces))
-            rows += list(_sphere_rows(pieces[:, :3], pieces[:, 3]))
+            subtrees.append(ends + len(rows))
+            rows += list(_capsule_rows(pieces))
             carrier += [carrier[k]] * len(pieces)
         self._groups = [[slot[g] for g in group if g in slot] for group in groups]
         self._groups = [group for group in self._groups if group]
@@ -234,6 +258,8 @@ class FreeCertifier:
         self._group_rows = list(range(len(rows), len(rows) + len(self._groups)))
         self._part_rows = list(range(len(rows) + len(self._groups), len(rows) + len(self._groups) + len(self._parts)))
         rows += [np.zeros(ROW)] * (len(self._groups) + len(self._parts))
+        subtrees.append(np.zeros(len(self._groups) + len(self._parts), dtype=np.int64))
+        self._subtrees = np.concatenate(subtrees)
         carrier += [0] * (len(self._groups) + len(self._parts))
         self._rows, self._carrier = np.array(rows).reshape(-1, ROW), np.array(carrier, dtype=np.int64)
         ids = np.arange(len(pairs)) if ids is None else np.asarray(ids, dtype=np.int64)
@@ -340,7 +366,7 @@ class FreeCertifier:
         floats = self._float_parts()
         left = np.zeros(ASKED_OF_COAL + 1)
         ints = [self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children]
-        ints += [self._bits, left]
+        ints += [self._subtrees, self._bits, left]
         sizes = [
             len(self._joint_rows),
             len(self._rows),
