@@ -252,7 +252,6 @@ def plan_in_bands(
     started = time.perf_counter()
     nearest = None if problem.walker is None else problem.walker.nearest
     trees = tuple(_Tree(np.asarray(end, dtype=float), nearest=nearest) for end in (start, goal))
-    space = "projected" if problem.constrained else "real_vector"
     a, b = trees
     # Try the direct connection first: many band problems are a short slide along the band.
     target = b.nodes[0]
@@ -273,9 +272,17 @@ def plan_in_bands(
             checked = search.counters.validity
             budget = checked + max(SHORTCUT_MIN_STEPS, checked)
             path = shortcut(search, path, rng, budget, deadline=started + time_limit)
-            return SearchResult(Status.SOLVED, path, space, "", search.counters)
+            return searched_result(problem, path, search.counters)
         a, b = b, a
-    return SearchResult(Status.TIMEOUT, [], space, "no exact solution within the time limit", search.counters)
+    return searched_result(problem, None, search.counters)
+
+
+def searched_result(problem: BandProblem, path: list[np.ndarray] | None, counters: Counters) -> SearchResult:
+    """A search's result, however it ran: SOLVED with `path`, or TIMEOUT where it found none."""
+    space = "projected" if problem.constrained else "real_vector"
+    if path is None:
+        return SearchResult(Status.TIMEOUT, [], space, "no exact solution within the time limit", counters)
+    return SearchResult(Status.SOLVED, path, space, "", counters)
 
 
 def shortcut(

@@ -29,7 +29,6 @@ import numpy as np
 from numba import objmode
 
 from hriplan.planner.constraints import compiled, geometry
-from hriplan.planner.outcome import Status
 from hriplan.planner.search import band_kernels
 from hriplan.planner.search.band_kernels import nearest, project, walk
 from hriplan.planner.search.cbirrt import (
@@ -40,6 +39,7 @@ from hriplan.planner.search.cbirrt import (
     SETTLED_STATES,
     SHORTCUT_MIN_STEPS,
     UNSURE,
+    searched_result,
 )
 from hriplan.planner.search.result import Counters, SearchResult
 from hriplan.robots import certifier_kernels
@@ -386,7 +386,4 @@ def searched(
     counts = problem.walker.counts
     counters = Counters(int(counts[0]), int(counts[1]), int(tally[0]))
     counts[:] = 0
-    space = "projected" if problem.constrained else "real_vector"
-    if code == SOLVED:
-        return SearchResult(Status.SOLVED, list(path), space, "", counters)
-    return SearchResult(Status.TIMEOUT, [], space, "no exact solution within the time limit", counters)
+    return searched_result(problem, list(path) if code == SOLVED else None, counters)
