@@ -110,3 +110,25 @@ def test_the_question_goes_to_the_searchs_own_collision_check():
             assert not loop_kernels._asked_free(np.zeros(6))
         assert loop_kernels._asked_free(np.zeros(6))
     assert loop_kernels._asked.collision_free is None
+
+
+def test_the_time_limit_counts_from_the_loops_start_not_from_its_loading(searches, monkeypatch):
+    """Time spent before the compiled loop runs (its code loaded or compiled: ~20 s where a cache
+    went stale) is not the search's: 10 s passing there leave a 5 s search its whole budget."""
+    _, compiled, start, _, _, goal = searches
+    now = [0.0]
+
+    def clock() -> float:
+        now[0] += 1e-6
+        return now[0]
+
+    loaded = loop_kernels.search
+
+    def slow_to_load(*args):
+        now[0] += 10.0
+        return loaded(*args)
+
+    monkeypatch.setattr(loop_kernels.time, "perf_counter", clock)  # every clock the search could read
+    monkeypatch.setattr(loop_kernels, "search", slow_to_load)
+    result = loop_kernels.searched(compiled.p, start, goal, 5.0, 0, 10)
+    assert result is not None and result.solved and now[0] > 10.0

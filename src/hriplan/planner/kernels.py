@@ -70,7 +70,7 @@ def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds
     for bands in ((4e-3, 2e-3), None):
         walker.walk(x, x + 0.1, 0.05, 3, bands, certifier)
     arguments = walker.arguments(0.05, True, 4e-3, 2e-3, certifier)
-    search(x, x + 0.1, np.random.default_rng(0), 0.0, 0.0, 10, arguments, np.zeros(1, dtype=np.int64))
+    search(x, x + 0.1, np.random.default_rng(0), 0.0, 10, arguments, np.zeros(1, dtype=np.int64))
 
 
 def _toppra(x: np.ndarray) -> None:

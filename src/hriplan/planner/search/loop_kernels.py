@@ -325,8 +325,11 @@ def shortcut(path, rng, budget, deadline, walker, tally):
 
 
 @_keyed
-def search(start, goal, rng, started, time_limit, max_steps, walker, tally):
-    """`cbirrt.plan_in_bands`'s loop: (SOLVED, the shortened path) or (TIMEOUT, no states)."""
+def search(start, goal, rng, time_limit, max_steps, walker, tally):
+    """`cbirrt.plan_in_bands`'s loop: (SOLVED, the shortened path) or (TIMEOUT, no states).
+    Its clock starts here, once the code is loaded: a first call that compiles it (a cache made
+    stale) would otherwise spend the time limit compiling and plan differently."""
+    started = _clock()
     n = start.shape[0]
     a_nodes, a_parents = np.empty((_CAPACITY, n)), np.empty(_CAPACITY, dtype=np.int64)
     b_nodes, b_parents = np.empty((_CAPACITY, n)), np.empty(_CAPACITY, dtype=np.int64)
@@ -371,13 +374,11 @@ def searched(
     walker = problem.walker.arguments(problem.delta, problem.constrained, problem.offset, problem.accept, certifier)
     problem.walker.counts[:] = 0
     tally = np.zeros(1, dtype=np.int64)
-    started = time.perf_counter()
     with asking(problem.collision_free):
         code, path = search(
             np.ascontiguousarray(start, dtype=float),
             np.ascontiguousarray(goal, dtype=float),
             rng,
-            started,
             float(time_limit),
             max_steps,
             walker,
