@@ -32,7 +32,7 @@ def test_the_nearest_is_the_full_scans(rng):
     for _ in range(60):
         dims = int(rng.integers(1, 13))
         nodes = _grown(rng, int(rng.integers(1, 700)), dims, 400)
-        low, high = np.empty((1, dims)), np.empty((1, dims))
+        low, high = np.empty((dims, 1)), np.empty((dims, 1))
         count = 0
         while count < len(nodes):
             grown = min(len(nodes), count + int(rng.integers(1, 30)))
@@ -44,16 +44,17 @@ def test_the_nearest_is_the_full_scans(rng):
                 index = nearest_boxed(nodes, count, x, low, high)
                 assert index == nearest(nodes, count, x)
                 answers += index > 0
-        assert low.shape[0] * BLOCK >= len(nodes)
+        assert low.shape[1] * BLOCK >= len(nodes)
     assert answers > 1000
 
 
 def test_boxes_hold_their_nodes(rng):
-    """Box b is the bounding box of nodes b*BLOCK.. (b+1)*BLOCK - 1, exactly."""
+    """Box b is the bounding box of nodes b*BLOCK.. (b+1)*BLOCK - 1, exactly (a coordinate's
+    bounds of every box in a row)."""
     nodes = rng.normal(size=(5 * BLOCK + 3, 4))
-    low, high = boxes_room(np.empty((1, 4)), np.empty((1, 4)), len(nodes))
+    low, high = boxes_room(np.empty((4, 1)), np.empty((4, 1)), len(nodes))
     boxed(nodes, 0, 7, low, high)
     boxed(nodes, 7, len(nodes), low, high)
     for b in range(6):
         run = nodes[b * BLOCK : (b + 1) * BLOCK]
-        assert (low[b] == run.min(axis=0)).all() and (high[b] == run.max(axis=0)).all()
+        assert (low[:, b] == run.min(axis=0)).all() and (high[:, b] == run.max(axis=0)).all()

@@ -335,8 +335,8 @@ def search(start, goal, rng, started, time_limit, max_steps, walker, tally):
     a_nodes, a_parents = np.empty((_CAPACITY, n)), np.empty(_CAPACITY, dtype=np.int64)
     b_nodes, b_parents = np.empty((_CAPACITY, n)), np.empty(_CAPACITY, dtype=np.int64)
     a_nodes[0], a_parents[0], b_nodes[0], b_parents[0] = start, -1, goal, -1
-    a_low, a_high = np.empty((_CAPACITY // BLOCK, n)), np.empty((_CAPACITY // BLOCK, n))
-    b_low, b_high = np.empty((_CAPACITY // BLOCK, n)), np.empty((_CAPACITY // BLOCK, n))
+    a_low, a_high = np.empty((n, _CAPACITY // BLOCK)), np.empty((n, _CAPACITY // BLOCK))
+    b_low, b_high = np.empty((n, _CAPACITY // BLOCK)), np.empty((n, _CAPACITY // BLOCK))
     boxed(a_nodes, 0, 1, a_low, a_high)
     boxed(b_nodes, 0, 1, b_low, b_high)
     a_count, b_count, a_first = 1, 1, True
