@@ -138,8 +138,8 @@ def test_the_compiled_newton_step_is_the_minimum_norm_solution(rows, rng):
     n = 7
     grads, values = rng.normal(size=(rows + 2, n)), rng.normal(size=rows + 2)
     active = np.array([0, 2, 3, 4, 5, 6][:rows], dtype=np.int64)
-    step = np.empty(n)
-    compiled_step(grads, values, active, rows, step)
+    step, system = np.empty(n), np.full((rows + 2, rows + 3), np.nan)  # the scratch: every term's size
+    compiled_step(grads, values, active, rows, step, system)
     np.testing.assert_allclose(grads[active] @ step, values[active], atol=1e-7)
     expected = _min_norm_step(grads[active], values[active])
     np.testing.assert_allclose(step, expected, rtol=0, atol=1e-9)

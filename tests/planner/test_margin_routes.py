@@ -217,3 +217,24 @@ def test_the_compiled_gradients_of_a_sliding_joint_and_of_a_joint_off_the_chain(
         carrier = robot.model.supports[robot.model.frames[robot.frame_id(tool)].parentJoint]
         moved = np.array([robot.model.getJointId(j) in carrier for j in robot.group_joints(group)])
         assert (~moved).any() == (group == "both_arms") and all(not rows[:, ~moved].any() for _, rows in compiled)
+
+
+def test_the_active_rows_gradients_are_the_gradient_pass_rows_to_the_bit(evaluators, setup):
+    """`rows_gradients` (a Newton step's rows near their band) writes those rows of
+    `term_gradients`, bit for bit, and leaves the others as they were."""
+    from hriplan.planner.constraints.compiled import rows_gradients, term_gradients
+
+    terms = CompiledTerms.of(evaluators[1][0])
+    (joint_rows, joint_ints, rotation, origin), (ints, floats, columns, axes, carries) = terms.kernel_arguments()
+    rng = np.random.default_rng(3)
+    for x in setup[2]:
+        q = evaluators[1][0].full(x)
+        terms._place(q)
+        margins, full = np.empty(terms.count), np.empty((terms.count, len(columns)))
+        term_gradients(rotation[0], origin[0], ints, floats, columns, axes, carries, margins, full)
+        rows = rng.permutation(terms.count)
+        count = int(rng.integers(0, terms.count + 1))
+        out = np.full_like(full, np.nan)
+        rows_gradients(rotation[0], origin[0], ints, floats, columns, axes, carries, rows, count, out)
+        assert out[rows[:count]].tobytes() == full[rows[:count]].tobytes()
+        assert np.isnan(out[rows[count:]]).all()

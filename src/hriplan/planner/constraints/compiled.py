@@ -51,6 +51,7 @@ def _compiled(names: tuple[str, ...]) -> dict[str, Callable]:
 
 _KERNELS = _compiled(G.COMPILED)
 term_margins, term_gradients = _KERNELS["term_margins"], _KERNELS["term_gradients"]
+rows_gradients = _KERNELS["rows_gradients"]
 
 
 @njit_keyed(G, certifier_kernels)

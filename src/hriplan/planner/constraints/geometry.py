@@ -283,33 +283,66 @@ def term_gradients(
     gradients: np.ndarray,
 ) -> None:
     """At one state (joints' world rotations (J, 3, 3) and origins (J, 3)): margins[k] and
-    gradients[k, c], term k's derivative along planned joint c: its velocity gradient times the
-    link's Jacobian column (world axis a, lever a x (p - joint origin); a sliding joint moves it
-    along a). columns[c]: the joint and 1 if it slides; axes[c]: its axis in its own frame;
-    carries[k, c]: 1 if joint c moves term k's link."""
+    gradients[k, c], term k's derivative along planned joint c (`gradient_row`)."""
     for k in range(ints.shape[0]):
-        j = ints[k, JOINT]
-        rotation, p = _link_pose(joint_rotation[j], joint_origin[j], floats[k])
-        margin, linear, angular = _term(ints[k, KIND], ints[k, AXIS], floats[k], rotation, p, True)
-        margins[k] = margin
-        for c in range(columns.shape[0]):
-            if carries[k, c] == 0:
-                gradients[k, c] = 0.0
-                continue
-            r, o = joint_rotation[columns[c, 0]], joint_origin[columns[c, 0]]
-            a = times(_rows3(r.reshape(9), 0), _vec3(axes[c], 0))
-            if columns[c, 1] == 1:
-                gradients[k, c] = linear[0] * a[0] + linear[1] * a[1] + linear[2] * a[2]
-                continue
-            lever = cross(a, (p[0] - o[0], p[1] - o[1], p[2] - o[2]))
-            gradients[k, c] = (
-                linear[0] * lever[0]
-                + linear[1] * lever[1]
-                + linear[2] * lever[2]
-                + angular[0] * a[0]
-                + angular[1] * a[1]
-                + angular[2] * a[2]
-            )
+        margins[k] = gradient_row(joint_rotation, joint_origin, ints, floats, columns, axes, carries, k, gradients)
+
+
+def rows_gradients(
+    joint_rotation: np.ndarray,
+    joint_origin: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    columns: np.ndarray,
+    axes: np.ndarray,
+    carries: np.ndarray,
+    rows: np.ndarray,
+    count: int,
+    gradients: np.ndarray,
+) -> None:
+    """`term_gradients`' rows rows[:count] only (the others' gradients[k] left as they were): a
+    Newton step solves on the rows near their band, ~1-2 of MADAR's 4, and has their margins."""
+    for r in range(count):
+        gradient_row(joint_rotation, joint_origin, ints, floats, columns, axes, carries, rows[r], gradients)
+
+
+def gradient_row(
+    joint_rotation: np.ndarray,
+    joint_origin: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    columns: np.ndarray,
+    axes: np.ndarray,
+    carries: np.ndarray,
+    k: int,
+    gradients: np.ndarray,
+) -> float:
+    """Term k's margin, with gradients[k, c], its derivative along planned joint c: its velocity
+    gradient times the link's Jacobian column (world axis a, lever a x (p - joint origin); a
+    sliding joint moves it along a). columns[c]: the joint and 1 if it slides; axes[c]: its axis
+    in its own frame; carries[k, c]: 1 if joint c moves term k's link."""
+    j = ints[k, JOINT]
+    rotation, p = _link_pose(joint_rotation[j], joint_origin[j], floats[k])
+    margin, linear, angular = _term(ints[k, KIND], ints[k, AXIS], floats[k], rotation, p, True)
+    for c in range(columns.shape[0]):
+        if carries[k, c] == 0:
+            gradients[k, c] = 0.0
+            continue
+        r, o = joint_rotation[columns[c, 0]], joint_origin[columns[c, 0]]
+        a = times(_rows3(r.reshape(9), 0), _vec3(axes[c], 0))
+        if columns[c, 1] == 1:
+            gradients[k, c] = linear[0] * a[0] + linear[1] * a[1] + linear[2] * a[2]
+            continue
+        lever = cross(a, (p[0] - o[0], p[1] - o[1], p[2] - o[2]))
+        gradients[k, c] = (
+            linear[0] * lever[0]
+            + linear[1] * lever[1]
+            + linear[2] * lever[2]
+            + angular[0] * a[0]
+            + angular[1] * a[1]
+            + angular[2] * a[2]
+        )
+    return margin
 
 
 # What compiled.py compiles, callees before their callers: scalar code only (no numpy calls, no pinocchio).
@@ -335,5 +368,7 @@ COMPILED = (
     "_link_pose",
     "_term",
     "term_margins",
+    "gradient_row",
     "term_gradients",
+    "rows_gradients",
 )

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hriplan.planner.constraints import compiled, geometry
-from hriplan.planner.constraints.compiled import term_gradients, term_margins
+from hriplan.planner.constraints.compiled import rows_gradients, term_margins
 from hriplan.planner.search.cbirrt import BLOCKED, COLLIDED, MORE, NEWTON_ITERATIONS, REACHED, UNSURE
 from hriplan.robots import certifier_kernels
 from hriplan.robots.certifier_kernels import TOUCHING, place_joints, same_joints, verdict_of_placed, verdict_one
@@ -43,10 +43,11 @@ def _placed(x, q, slots, joint_rows, joint_ints, rotation, origin) -> None:
 
 
 @_keyed
-def _min_norm_step(grads, rows, active, count, step) -> None:
+def _min_norm_step(grads, rows, active, count, step, system) -> None:
     """step = the smallest dx with grads[a] dx = rows[a] over the `count` active rows `a`: one or
     two rows in closed form (cbirrt._min_norm_step's), more by the normal equations
-    (grads grads^T + 1e-9 I) l = rows, solved by elimination with partial pivoting."""
+    (grads grads^T + 1e-9 I) l = rows, solved by elimination with partial pivoting in the
+    scratch `system` (at least count x count + 1)."""
     n = step.shape[0]
     if count == 1:
         a = active[0]
@@ -71,7 +72,6 @@ def _min_norm_step(grads, rows, active, count, step) -> None:
         for c in range(n):
             step[c] = la * grads[a, c] + lb * grads[b, c]
         return
-    system = np.empty((count, count + 1))
     for i in range(count):
         for j in range(count):
             s = 0.0
@@ -109,10 +109,10 @@ def project(x, low, high, offset, accept, q, slots, joints, terms, work, counts)
     the joint bounds or is not inside after NEWTON_ITERATIONS.
     joints: (rows, ints, rotation, origin) of `place_joints`; terms: (ints, floats, columns,
     axes, carries) of `term_gradients`; work: (margins (1, K), gradients (K, n), active (K,),
-    step (n,)); counts[0] margins asked, counts[1] gradients."""
+    step (n,), the normal equations (K, K + 1)); counts[0] margins asked, counts[1] gradients."""
     joint_rows, joint_ints, rotation, origin = joints
     ints, floats, columns, axes, carries = terms
-    margins, grads, active, step = work
+    margins, grads, active, step, system = work
     counts[0] += 1
     _placed(x, q, slots, joint_rows, joint_ints, rotation, origin)
     term_margins(rotation, origin, ints, floats, margins)
@@ -123,14 +123,15 @@ def project(x, low, high, offset, accept, q, slots, joints, terms, work, counts)
         if worst <= -accept:
             return True
         counts[1] += 1
-        term_gradients(rotation[0], origin[0], ints, floats, columns, axes, carries, margins[0], grads)
         count = 0
         for k in range(margins.shape[1]):
             if margins[0, k] > -offset:
                 active[count] = k
                 count += 1
                 margins[0, k] += offset
-        _min_norm_step(grads, margins[0], active, count, step)
+        # The margins are those of the joints just placed: the gradients of the active rows only.
+        rows_gradients(rotation[0], origin[0], ints, floats, columns, axes, carries, active, count, grads)
+        _min_norm_step(grads, margins[0], active, count, step, system)
         inside = True
         for c in range(x.shape[0]):
             x[c] -= step[c]
@@ -226,7 +227,13 @@ class BandWalker:
         self._q = terms.base_configuration()
         self._bounds = tuple(np.ascontiguousarray(b, dtype=float) for b in bounds)
         k, n = terms.count, len(slots)
-        self._work = (np.empty((1, k)), np.empty((k, n)), np.empty(k, dtype=np.int64), np.empty(n))
+        self._work = (
+            np.empty((1, k)),
+            np.empty((k, n)),
+            np.empty(k, dtype=np.int64),
+            np.empty(n),
+            np.empty((k, k + 1)),
+        )
         self.counts = np.zeros(2, dtype=np.int64)
 
     @classmethod

@@ -29,8 +29,8 @@ import numpy as np
 from numba import objmode
 
 from hriplan.planner.constraints import compiled, geometry
-from hriplan.planner.search import band_kernels
-from hriplan.planner.search.band_kernels import nearest, project, walk
+from hriplan.planner.search import band_kernels, tree_kernels
+from hriplan.planner.search.band_kernels import project, walk
 from hriplan.planner.search.cbirrt import (
     COLLIDED,
     LOCAL_SHARE,
@@ -42,13 +42,16 @@ from hriplan.planner.search.cbirrt import (
     searched_result,
 )
 from hriplan.planner.search.result import Counters, SearchResult
+from hriplan.planner.search.tree_kernels import BLOCK, boxed, boxes_room, nearest_boxed
 from hriplan.robots import certifier_kernels
 from hriplan.robots.kernel_cache import njit_keyed
 
 if TYPE_CHECKING:
     from hriplan.planner.search.cbirrt import BandProblem
 
-_keyed = njit_keyed(band_kernels, geometry, compiled, certifier_kernels, nogil=False)  # it asks Python back
+_keyed = njit_keyed(
+    band_kernels, tree_kernels, geometry, compiled, certifier_kernels, nogil=False
+)  # it asks Python back
 SOLVED, TIMEOUT = 0, 1
 _CAPACITY = 4096  # a tree's first rows (doubled when full), as cbirrt._Tree's
 _ATTEMPTS = 60  # cbirrt.shortcut's
@@ -327,28 +330,38 @@ def shortcut(path, rng, budget, deadline, walker, tally):
 @_keyed
 def search(start, goal, rng, time_limit, max_steps, walker, tally):
     """`cbirrt.plan_in_bands`'s loop: (SOLVED, the shortened path) or (TIMEOUT, no states).
-    Its clock starts here, once the code is loaded: a first call that compiles it (a cache made
-    stale) would otherwise spend the time limit compiling and plan differently."""
+    Each tree keeps its runs' boxes for its nearest node (`tree_kernels`). Its clock starts
+    here, once the code is loaded: a first call that compiles it (a cache made stale) would
+    otherwise spend the time limit compiling and plan differently."""
     started = _clock()
     n = start.shape[0]
     a_nodes, a_parents = np.empty((_CAPACITY, n)), np.empty(_CAPACITY, dtype=np.int64)
     b_nodes, b_parents = np.empty((_CAPACITY, n)), np.empty(_CAPACITY, dtype=np.int64)
     a_nodes[0], a_parents[0], b_nodes[0], b_parents[0] = start, -1, goal, -1
+    a_low, a_high = np.empty((n, _CAPACITY // BLOCK)), np.empty((n, _CAPACITY // BLOCK))
+    b_low, b_high = np.empty((n, _CAPACITY // BLOCK)), np.empty((n, _CAPACITY // BLOCK))
+    boxed(a_nodes, 0, 1, a_low, a_high)
+    boxed(b_nodes, 0, 1, b_low, b_high)
     a_count, b_count, a_first = 1, 1, True
     target = goal.copy()
     while _clock() - started < time_limit:
         size = a_count
-        near = nearest(a_nodes, a_count, target)
+        near = nearest_boxed(a_nodes, a_count, target, a_low, a_high)
         a_nodes, a_parents, a_count, reached_a, _ = _extend(
             a_nodes, a_parents, a_count, near, target, max_steps, walker, tally
         )
+        a_low, a_high = boxes_room(a_low, a_high, a_count)
+        boxed(a_nodes, size, a_count, a_low, a_high)
         target = _sample(rng, b_nodes, b_count, walker)
         if a_count != size:
             joint = a_nodes[reached_a].copy()
-            near = nearest(b_nodes, b_count, joint)
+            near = nearest_boxed(b_nodes, b_count, joint, b_low, b_high)
+            grown = b_count
             b_nodes, b_parents, b_count, reached_b, connected = _extend(
                 b_nodes, b_parents, b_count, near, joint, 10 * max_steps, walker, tally
             )
+            b_low, b_high = boxes_room(b_low, b_high, b_count)
+            boxed(b_nodes, grown, b_count, b_low, b_high)
             if connected:
                 path_a, path_b = _branch(a_nodes, a_parents, reached_a), _branch(b_nodes, b_parents, reached_b)
                 path = _joined(path_a, path_b) if a_first else _joined(path_b, path_a)
@@ -358,6 +371,7 @@ def search(start, goal, rng, time_limit, max_steps, walker, tally):
         a_nodes, a_parents, a_count, b_nodes, b_parents, b_count = (
             b_nodes, b_parents, b_count, a_nodes, a_parents, a_count
         )  # fmt: skip
+        a_low, a_high, b_low, b_high = b_low, b_high, a_low, a_high
         a_first = not a_first
     return TIMEOUT, np.empty((0, n))
 
