@@ -47,6 +47,11 @@ class NaturalSpline:
     def dof(self) -> int:
         return self._coefficients.shape[2]
 
+    def horner(self, order: int) -> np.ndarray:
+        """The Horner coefficients of the derivative of `order` (0, 1, 2): (terms, intervals, dof),
+        of (s - s_i)^0.. on interval i, as `spline_kernels.evaluate` reads them (not a copy)."""
+        return self._horner[order]
+
     @property
     def path_interval(self) -> np.ndarray:
         return np.array([self.s[0], self.s[-1]])

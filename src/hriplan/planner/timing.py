@@ -248,6 +248,8 @@ def _retimed(
     limit: tuple[tuple[np.ndarray, np.ndarray], float] | None,
 ):
     """TOPP-RA under the joint limits (and a path-speed limit times a factor), grid refined."""
+    if limit is None and kernels_on():
+        return _retimed_compiled(path, s, vmax, amax)
     constraints = _joint_limits(vmax, amax)
     if limit is not None:
         (at, sd_max), factor = limit
@@ -262,15 +264,50 @@ def _retimed(
         )
         trajectory = algorithm.compute_trajectory(0.0, 0.0)
         if trajectory is None:
-            raise HriplanError(
-                f"TOPP-RA found no time parameterisation within the joint limits "
-                f"({algorithm.problem_data.return_code.value}); the path may be too sharply curved"
-            )
+            raise _untimed(algorithm.problem_data.return_code)
         overshooting = _overshooting(path, grid, algorithm.problem_data.sd_vec, vmax, amax)
         if not overshooting.any() or refinement == _REFINEMENTS or len(grid) > _MAX_GRIDPOINTS:
             break
         grid = _subdivided(grid, np.where(overshooting, 4, 1))
     return trajectory
+
+
+def _retimed_compiled(path: NaturalSpline, s: np.ndarray, vmax: np.ndarray, amax: np.ndarray):
+    """`_retimed` under the joint limits alone with the kernels on: each try of a grid one
+    compiled call for TOPP-RA (its rows from the path, its passes, its verdict) and one for the
+    check between gridpoints (`retime_kernels.py`, the same bits as toppra's objects and
+    `_overshooting`), without toppra's constraint, solver and algorithm objects (~0.6 ms a UR5
+    timing). The grid is checked as toppra checks it (`_TOPPRA.__init__`)."""
+    from hriplan.planner import retime_kernels as kernels  # numba: imported with the kernels on
+
+    knots, velocity, acceleration = path.s, path.horner(1), path.horner(2)
+    codes = toppra.algorithm.ParameterizationReturnCode
+    grid = _gridpoints(path, s, vmax, amax)
+    for refinement in range(_REFINEMENTS + 1):
+        if grid[0] != knots[0] or grid[-1] != knots[-1]:
+            raise ValueError("Invalid manually supplied gridpoints.")
+        if np.any(grid[1:] <= grid[:-1]):
+            raise ValueError("Bad input gridpoints.")
+        xs = np.empty(len(grid))
+        verdict = kernels.passes(knots, velocity, acceleration, grid, vmax, amax, xs)
+        if verdict != kernels.OK:
+            raise _untimed(codes.FailUncontrollable if verdict == kernels.UNCONTROLLABLE else codes.ErrUnknown)
+        sd = np.sqrt(xs)
+        overshooting = np.empty(len(grid) - 1, dtype=np.bool_)
+        tolerances = (_GRID_VELOCITY_TOL, _GRID_ACCELERATION_TOL)
+        kernels.overshooting(knots, velocity, acceleration, grid, sd, vmax, amax, *tolerances, overshooting)
+        if not overshooting.any() or refinement == _REFINEMENTS or len(grid) > _MAX_GRIDPOINTS:
+            break
+        grid = _subdivided(grid, np.where(overshooting, 4, 1))
+    return _ConstantAcceleration(path, grid, sd)
+
+
+def _untimed(code) -> HriplanError:
+    """The error for TOPP-RA's failure `code` (its ParameterizationReturnCode)."""
+    return HriplanError(
+        f"TOPP-RA found no time parameterisation within the joint limits ({code.value}); "
+        "the path may be too sharply curved"
+    )
 
 
 class _ConstantAcceleration(toppra.parametrizer.ParametrizeConstAccel):
