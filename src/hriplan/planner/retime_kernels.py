@@ -194,3 +194,41 @@ def overshooting(
                 fastest = speed if speed > fastest else fastest
                 strongest = push if push > strongest else strongest
         out[i] = (not fast_nan and fastest > 1 + velocity_tol) or (not strong_nan and strongest > 1 + acceleration_tol)
+
+
+@_keyed
+def samples(
+    ts: np.ndarray,
+    us: np.ndarray,
+    speeds: np.ndarray,
+    grid: np.ndarray,
+    s: np.ndarray,
+    path: tuple[np.ndarray, np.ndarray, np.ndarray],
+    times: np.ndarray,
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    accelerations: np.ndarray,
+) -> None:
+    """`timing._ConstantAcceleration.samples` into the three (len(times), dof) arrays: the
+    trajectory of path accelerations `us` between the gridpoints `grid`, reached at times `ts`
+    with path speeds `speeds`, on the path of Horner coefficients `path` (orders 0, 1, 2) on
+    knots `s`, at `times` (the same products; a time before ts[0] reads each array's last
+    entry, as numpy's index -1 does)."""
+    count, last = times.shape[0], us.shape[0] - 1
+    ss, vs, accel = np.empty(count), np.empty(count), np.empty(count)
+    for p in range(count):
+        i = np.searchsorted(ts, times[p], side="right") - 1
+        i = i if i < last else last
+        at, u = (i, i) if i >= 0 else (ts.shape[0] - 1, last)  # numpy's index -1 in each array
+        dt = times[p] - ts[at]
+        ss[p] = grid[at] + dt * speeds[at] + 0.5 * (dt * dt) * us[u]
+        vs[p], accel[p] = speeds[at] + dt * us[u], us[u]
+    spline_kernels.evaluate(s, path[0], ss, positions)
+    spline_kernels.evaluate(s, path[1], ss, velocities)
+    spline_kernels.evaluate(s, path[2], ss, accelerations)
+    for p in range(count):
+        v, v2, u = vs[p], vs[p] * vs[p], accel[p]
+        for j in range(positions.shape[1]):
+            d1 = velocities[p, j]
+            velocities[p, j] = d1 * v
+            accelerations[p, j] = accelerations[p, j] * v2 + d1 * u

@@ -108,6 +108,8 @@ _MAX_GRIDPOINTS = 20_000
 _GRID_VELOCITY_TOL = 5e-4
 _GRID_ACCELERATION_TOL = 5e-3
 _REFINEMENTS = 3
+_GRID_TOLERANCES = np.array([_GRID_VELOCITY_TOL, _GRID_ACCELERATION_TOL, _MAX_GRID_SPACING])  # as the kernels take them
+_GRID_COUNTS = np.array([_MIN_GRIDPOINTS, _MAX_GRIDPOINTS], dtype=float)
 # Relative overshoot of the limits allowed in the returned samples (see `time_parameterize`).
 _VELOCITY_SLACK = 1e-3
 _ACCELERATION_SLACK = 5e-2
@@ -164,8 +166,7 @@ def time_parameterize(
     q, vmax, amax = _validated(
         waypoints, velocity_limits, acceleration_limits, velocity_scale, sample_dt, max_deviation
     )
-    knots = _densified(q)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))])
+    knots, s = _knots(q)
     path = NaturalSpline(s, knots)
 
     deviation = _deviation(path, s, knots)
@@ -329,7 +330,27 @@ class _ConstantAcceleration(toppra.parametrizer.ParametrizeConstAccel):
     def samples(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities and accelerations at the times `ts` (an array): `self(ts, 0)`,
         `self(ts, 1)` and `self(ts, 2)` (toppra's products, the same bits) from one evaluation of
-        the path parameters, not three."""
+        the path parameters, not three; with the kernels on one compiled call on hriplan's
+        spline (`retime_kernels.samples`)."""
+        if kernels_on() and isinstance(self._path, NaturalSpline):
+            from hriplan.planner import retime_kernels  # numba: imported with the kernels on
+
+            times, path = np.ascontiguousarray(ts, dtype=float), self._path
+            positions, velocities, accelerations = (np.empty((len(times), path.dof)) for _ in range(3))
+            horner = (path.horner(0), path.horner(1), path.horner(2))
+            retime_kernels.samples(
+                self._ts,
+                self._us,
+                self._velocities,
+                self._ss,
+                path.s,
+                horner,
+                times,
+                positions,
+                velocities,
+                accelerations,
+            )
+            return positions, velocities, accelerations
         ss, vs, us = self._eval_params(ts)
         d1 = self._path(ss, 1)
         velocities = np.multiply(d1, vs[:, np.newaxis])
@@ -560,6 +581,17 @@ def _validated(
     return distinct, limits[0], limits[1]
 
 
+def _knots(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The spline's knots (`_densified(q)`) and their arc lengths from 0; with the kernels on
+    one compiled call (`path_kernels.knots`, the same bits)."""
+    if kernels_on():
+        from hriplan.planner import path_kernels  # numba: imported with the kernels on
+
+        return path_kernels.knots(q, _MAX_KNOT_SPACING)
+    knots = _densified(q)
+    return knots, np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))])
+
+
 def _densified(q: np.ndarray) -> np.ndarray:
     """The same polyline with collinear knots inserted so no segment exceeds _MAX_KNOT_SPACING."""
     return _subdivided(q, np.ceil(np.linalg.norm(np.diff(q, axis=0), axis=1) / _MAX_KNOT_SPACING))
@@ -578,8 +610,13 @@ def _deviation(path: NaturalSpline, s: np.ndarray, knots: np.ndarray) -> float:
     """Max per-joint |spline - polyline| over a fine sampling of every knot interval.
 
     Both are parameterised by the same arc length, so this compares points at equal parameter:
-    an upper bound on the distance from the spline to the polyline.
+    an upper bound on the distance from the spline to the polyline. With the kernels on one
+    compiled call (`path_kernels.deviation`, the same bits).
     """
+    if kernels_on():
+        from hriplan.planner import path_kernels  # numba: imported with the kernels on
+
+        return path_kernels.deviation(path.s, knots, path.horner(0), _DEVIATION_FRACTIONS)
     fraction = _DEVIATION_FRACTIONS
     at = s[:-1, None] + np.diff(s)[:, None] * fraction
     linear = knots[:-1, None, :] + fraction[None, :, None] * np.diff(knots, axis=0)[:, None, :]
@@ -597,8 +634,22 @@ def _gridpoints(path: NaturalSpline, s: np.ndarray, vmax: np.ndarray, amax: np.n
     knot q''' jumps, kinking the acceleration by |jump| x, up to |jump| x h / 4 off the chord: at
     tight corners that is large, so those knots are gridpoints themselves. sd is bounded by the
     velocity limits and, as |q''| x <= |acceleration| on an arc-length path, by the acceleration
-    limits. The count follows path length and curvature, not the number of waypoints.
+    limits. The count follows path length and curvature, not the number of waypoints. With the
+    kernels on one compiled call (`path_kernels.gridpoints`, the same bits).
     """
+    if kernels_on():
+        from hriplan.planner import path_kernels  # numba: imported with the kernels on
+
+        return path_kernels.gridpoints(
+            path.s,
+            path.horner(1),
+            path.horner(2),
+            vmax,
+            amax,
+            float(np.linalg.norm(amax)),
+            _GRID_TOLERANCES,
+            _GRID_COUNTS,
+        )
     h = np.diff(s)
     d1, d2 = path(s, 1), path(s, 2)
     jerk = np.diff(d2, axis=0) / h[:, None]  # q''' per knot interval
