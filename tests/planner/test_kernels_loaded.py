@@ -72,7 +72,7 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
     entries += ("fold_rows", "nearest_rows", "walk_frames", "project", "walk", "nearest", "states_margins", "search")
     entries += ("controllable", "forward")  # TOPP-RA's passes (toppra_kernels.py)
     entries += ("horner", "evaluate")  # the path it retimes (spline_kernels.py)
-    entries += ("passes", "overshooting", "samples")  # TOPP-RA under joint limits alone (retime_kernels.py)
+    entries += ("passes", "constant_acceleration", "overshooting", "samples", "worst")  # retime_kernels.py
     entries += ("knots", "deviation", "gridpoints")  # the path's preparation (path_kernels.py)
     assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
     # the tasks took the compiled routes (planning, validation, collision, TOPP-RA), and numba loaded nothing for them

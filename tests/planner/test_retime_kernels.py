@@ -188,3 +188,50 @@ def test_time_parameterize_is_the_same_either_way(kernels, seed, monkeypatch):
     use_kernels(False)
     off = timing.time_parameterize(waypoints, vmax, amax, velocity_scale=0.7)
     assert on == off and seen
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_trajectorys_set_up_is_toppras(kernels, seed):
+    path, vmax, amax = _path(seed)
+    grid = _grid(path, seed)
+    xs = np.sqrt(np.abs(np.sin(np.linspace(0.0, np.pi, len(grid))))) * (seed + 0.5)
+    xs[0] = xs[-1] = 0.0
+    sd, ts, us = np.empty(len(grid)), np.empty(len(grid)), np.empty(len(grid) - 1)
+    retime_kernels.constant_acceleration(grid, xs, sd, ts, us)
+    theirs = toppra.parametrizer.ParametrizeConstAccel(path, grid, np.sqrt(xs))
+    _identical(sd, np.sqrt(xs))
+    _identical(ts, theirs._ts)
+    _identical(us, theirs._us)
+    made = timing._ConstantAcceleration.made(path, grid, sd, ts, us)
+    times = np.linspace(0.0, theirs.path_interval[1], 50)
+    for order in (0, 1, 2):
+        _identical(made(times, order), theirs(times, order))
+
+
+def test_the_largest_ratio_and_where_are_numpys(kernels):
+    rng = np.random.default_rng(5)
+    limits = rng.uniform(0.5, 2.0, 6)
+    for case in range(40):
+        values = rng.normal(size=(30, 6)) * rng.choice([0.1, 1.0])
+        if case % 4 == 1:  # ties: the first one counts
+            values[[3, 17], 2] = 9.0 * limits[2]
+        if case % 4 == 2:
+            values[rng.integers(30), rng.integers(6)] = np.nan
+        ratio = np.abs(values) / limits
+        sample, joint = np.unravel_index(np.argmax(ratio), ratio.shape)
+        found = retime_kernels.worst(values, limits)
+        assert found[1:] == (sample, joint)
+        assert found[0] == ratio[sample, joint] or np.isnan(found[0]) and np.isnan(ratio[sample, joint])
+
+
+def test_a_limit_exceeded_reads_the_same_either_way(kernels):
+    values = np.array([[0.5, -1.2, 0.3], [0.2, 1.3, -1.3]])
+    limits = np.array([1.0, 1.0, 1.0])
+    messages = []
+    for on in (True, False):
+        use_kernels(on)
+        with pytest.raises(HriplanError, match="exceeds the velocity limit of joint 1 by 30.00% at sample 1") as raised:
+            timing._check_limits(values, limits, 1.001, "velocity")
+        timing._check_limits(values, limits, 1.5, "velocity")  # within the slack
+        messages.append(str(raised.value))
+    assert messages[0] == messages[1]

@@ -232,3 +232,33 @@ def samples(
             d1 = velocities[p, j]
             velocities[p, j] = d1 * v
             accelerations[p, j] = accelerations[p, j] * v2 + d1 * u
+
+
+@_keyed
+def constant_acceleration(grid: np.ndarray, xs: np.ndarray, sd: np.ndarray, ts: np.ndarray, us: np.ndarray) -> None:
+    """toppra's ParametrizeConstAccel set-up as `timing._ConstantAcceleration` makes it, from
+    the forward pass's squared speeds `xs`: the path speeds into `sd` (np.sqrt), the path
+    accelerations between gridpoints into `us` (from the speeds squared again, as toppra's) and
+    the times at the gridpoints into `ts` (from 0, one after the other, as np.cumsum)."""
+    for i in range(grid.shape[0]):
+        sd[i] = np.sqrt(xs[i])
+    ts[0] = 0.0
+    for i in range(grid.shape[0] - 1):
+        ds = grid[i + 1] - grid[i]
+        us[i] = 0.5 * (sd[i + 1] * sd[i + 1] - sd[i] * sd[i]) / ds
+        ts[i + 1] = ts[i] + 2 * ds / (sd[i] + sd[i + 1])
+
+
+@_keyed
+def worst(values: np.ndarray, limits: np.ndarray) -> tuple[float, int, int]:
+    """The largest |value| / its joint's limit of the (samples, joints) `values`, and where:
+    np.argmax's first largest (or first NaN) of that ratio."""
+    best, at_sample, at_joint = -np.inf, 0, 0
+    for i in range(values.shape[0]):
+        for j in range(values.shape[1]):
+            ratio = abs(values[i, j]) / limits[j]
+            if ratio != ratio:
+                return ratio, i, j
+            if ratio > best:
+                best, at_sample, at_joint = ratio, i, j
+    return best, at_sample, at_joint

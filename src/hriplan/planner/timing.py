@@ -293,14 +293,15 @@ def _retimed_compiled(path: NaturalSpline, s: np.ndarray, vmax: np.ndarray, amax
         verdict = kernels.passes(knots, velocity, acceleration, grid, vmax, amax, xs)
         if verdict != kernels.OK:
             raise _untimed(codes.FailUncontrollable if verdict == kernels.UNCONTROLLABLE else codes.ErrUnknown)
-        sd = np.sqrt(xs)
+        sd, ts, us = np.empty(len(grid)), np.empty(len(grid)), np.empty(len(grid) - 1)
+        kernels.constant_acceleration(grid, xs, sd, ts, us)
         overshooting = np.empty(len(grid) - 1, dtype=np.bool_)
         tolerances = (_GRID_VELOCITY_TOL, _GRID_ACCELERATION_TOL)
         kernels.overshooting(knots, velocity, acceleration, grid, sd, vmax, amax, *tolerances, overshooting)
         if not overshooting.any() or refinement == _REFINEMENTS or len(grid) > _MAX_GRIDPOINTS:
             break
         grid = _subdivided(grid, np.where(overshooting, 4, 1))
-    return _ConstantAcceleration(path, grid, sd)
+    return _ConstantAcceleration.made(path, grid, sd, ts, us)
 
 
 def _untimed(code) -> HriplanError:
@@ -315,6 +316,18 @@ class _ConstantAcceleration(toppra.parametrizer.ParametrizeConstAccel):
     """toppra's trajectory of constant path acceleration between gridpoints, its set-up and
     its evaluation at many times in numpy passes with the same operations as its per-point
     Python loops (the same bits): they took ~2 ms a timing (three evaluations at every sample)."""
+
+    @classmethod
+    def made(
+        cls, path: NaturalSpline, grid: np.ndarray, speeds: np.ndarray, ts: np.ndarray, us: np.ndarray
+    ) -> _ConstantAcceleration:
+        """The trajectory toppra's set-up makes from `grid` and `speeds`, given what it would
+        compute (`retime_kernels.constant_acceleration`: the times `ts` at the gridpoints and
+        the path accelerations `us` between them) rather than computing it in numpy."""
+        made = cls.__new__(cls)
+        made._path, made._ss, made._velocities, made._xs = path, grid, speeds, speeds**2
+        made._ts, made._us = ts, us
+        return made
 
     def _process_parametrization(self) -> None:
         ds, speeds = np.diff(self._ss), self._velocities
@@ -690,11 +703,18 @@ def _overshooting(
 
 
 def _check_limits(values: np.ndarray, limits: np.ndarray, slack: float, what: str) -> None:
-    """Raise if a sampled |value| exceeds its joint's limit by more than `slack` (relative)."""
-    ratio = np.abs(values) / limits
-    sample, joint = np.unravel_index(np.argmax(ratio), ratio.shape)
-    if ratio[sample, joint] > slack:
+    """Raise if a sampled |value| exceeds its joint's limit by more than `slack` (relative); with
+    the kernels on the largest ratio is found in one compiled call (`retime_kernels.worst`)."""
+    if kernels_on():
+        from hriplan.planner import retime_kernels  # numba: imported with the kernels on
+
+        largest, sample, joint = retime_kernels.worst(values, limits)
+    else:
+        ratio = np.abs(values) / limits
+        sample, joint = np.unravel_index(np.argmax(ratio), ratio.shape)
+        largest = ratio[sample, joint]
+    if largest > slack:
         raise HriplanError(
             f"time parameterisation exceeds the {what} limit of joint {joint} by "
-            f"{100 * (ratio[sample, joint] - 1):.2f}% at sample {sample}; the waypoint path may be too jagged (smooth or shortcut it)"
+            f"{100 * (largest - 1):.2f}% at sample {sample}; the waypoint path may be too jagged (smooth or shortcut it)"
         )
