@@ -381,7 +381,8 @@ class _TOPPRA(toppra.algorithm.TOPPRA):
     NaN scans and logging around each call, which cost about as much as the solver itself
     (~4 us a call, two calls a stage per pass). With the kernels on (`kernels_on()`) the solver
     is toppra's ported to numba and each pass is one compiled call (`toppra_kernels.py`, the same
-    bits; a solver put in its place, as tests do, is driven stage by stage as toppra's). Its
+    bits; a solver put in its place, as tests do, is driven stage by stage as toppra's); the
+    timing then takes it under a path-speed limit only (joint limits alone: `_retimed_compiled`). Its
     trajectory is toppra's constant path acceleration between gridpoints, evaluated in numpy
     (`_ConstantAcceleration`)."""
 
