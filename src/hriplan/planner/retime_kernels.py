@@ -1,6 +1,8 @@
 """A retiming under joint limits as compiled calls (numba): TOPP-RA's constraint rows made from
-the path, its two passes and its verdict in one call (`passes`), and the grid check between
-gridpoints in another (`overshooting`), for `timing._retimed` with the kernels on.
+the path, its two passes and its verdict in one call (`passes`), toppra's trajectory set-up
+(`constant_acceleration`), the grid check between gridpoints (`overshooting`), the trajectory's
+samples (`samples`) and the limit check's largest ratio (`worst`), for `timing.py` with the
+kernels on.
 
 Why: with the passes compiled (`toppra_kernels.py`, ~0.2 ms a UR5 motion) what was left around
 them was toppra's Python: its constraint objects' parameters (`compute_constraint_params`, the
@@ -16,7 +18,8 @@ are written straight from the path's derivatives at the gridpoints, with the sam
   as matrix products with F = [I; -I] (BLAS: a zero comes out +0.0, `_entry`).
 
 The passes are `toppra_kernels.controllable` and `forward` themselves, so the same bits
-(tests/planner/test_retime_kernels.py compares the rows and the passes with toppra's). Numba
+(tests/planner/test_retime_kernels.py compares the rows and the passes with toppra's, the rest
+with timing.py's numpy). Numba
 is imported only with the kernels on (`timing.py` imports this module then).
 """
 
