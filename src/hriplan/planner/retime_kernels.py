@@ -59,24 +59,20 @@ def joint_limit_rows(
     with derivatives `d1`, `d2` at the gridpoints (stages + 1, dof), `deltas` apart."""
     points, dof = d1.shape
     stages = points - 1
-    at_next = np.empty(2 * dof)  # toppra's a_intp and b_intp rows: gridpoint i, then i + 1 reached
-    b_next = np.empty(2 * dof)
     for i in range(points):
-        for j in range(dof):
-            at_next[j], b_next[j] = d1[i, j], d2[i, j]
+        for j in range(dof):  # F's blocks [I; -I]: on gridpoint i's (q', q''), then on i + 1's reached
+            p, pp = d1[i, j], d2[i, j]
             if i < stages:
-                at_next[dof + j] = d1[i + 1, j] + 2 * deltas[i] * d2[i + 1, j]
-                b_next[dof + j] = d2[i + 1, j]
+                reached, reached_pp = d1[i + 1, j] + 2 * deltas[i] * d2[i + 1, j], d2[i + 1, j]
             else:
-                at_next[dof + j], b_next[dof + j] = d1[i, j], d2[i, j]
-        for half in range(2):  # F's blocks: [I; -I] on the first dof columns, then on the next
-            lo = half * dof
-            for sign in (1.0, -1.0):
-                for j in range(dof):
-                    column = 2 + half * 2 * dof + (0 if sign > 0 else dof) + j
-                    a[i, column] = _entry(at_next, lo + j, sign)
-                    b[i, column] = _entry(b_next, lo + j, sign)
-                    c[i, column] = 0.0 - amax[j]
+                reached, reached_pp = p, pp
+            column = 2 + j
+            a[i, column], b[i, column] = _entry(p, 1.0), _entry(pp, 1.0)
+            a[i, column + dof], b[i, column + dof] = _entry(p, -1.0), _entry(pp, -1.0)
+            a[i, column + 2 * dof], b[i, column + 2 * dof] = _entry(reached, 1.0), _entry(reached_pp, 1.0)
+            a[i, column + 3 * dof], b[i, column + 3 * dof] = _entry(reached, -1.0), _entry(reached_pp, -1.0)
+            for block in range(4):
+                c[i, column + block * dof] = 0.0 - amax[j]
         # x bounds of the velocity limits, toppra's float32 path speeds
         sdmin, sdmax = np.float32(-_MAXSD), np.float32(_MAXSD)
         for j in range(dof):
@@ -95,11 +91,11 @@ def joint_limit_rows(
 
 
 @_keyed
-def _entry(row: np.ndarray, column: int, sign: float) -> float:
-    """toppra's (a_intp F^T) entry for F's row with `sign` at `column` and zeros elsewhere:
-    `sign * row[column]`, and +0.0 for a zero (BLAS sums the row from +0.0, and +0.0 plus
+def _entry(value: float, sign: float) -> float:
+    """toppra's (a_intp F^T) entry where F's row holds `sign` against `value` and zeros
+    elsewhere: `sign * value`, and +0.0 for a zero (BLAS sums the row from +0.0, and +0.0 plus
     zeros of either sign is +0.0)."""
-    found = sign * row[column]
+    found = sign * value
     return found if found != 0.0 else 0.0
 
 
