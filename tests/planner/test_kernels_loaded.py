@@ -25,7 +25,7 @@ from hriplan.planner.kernels import load_kernels
 from hriplan.robots import certifier_kernels
 from hriplan.planner.constraints import compiled
 from hriplan.planner.search import band_kernels, loop_kernels
-from hriplan.planner import spline_kernels, toppra_kernels
+from hriplan.planner import path_kernels, retime_kernels, spline_kernels, timing, toppra_kernels
 from hriplan.safety import approach_kernels
 from hriplan.safety.approach import ApproachMonitor
 from hriplan.api import PlanningSession, load_task, run_task
@@ -40,14 +40,14 @@ def counted(owner, name):
     setattr(owner, name, wrapper)
 for owner, name in [(compiled.CompiledTerms, n) for n in ("margins", "gradients", "margins_many")] + [
     (FreeCertifier, n) for n in ("verdict", "left_over")
-] + [(ApproachMonitor, "_compiled"), (loop_kernels, "searched")] + [
+] + [(ApproachMonitor, "_compiled"), (loop_kernels, "searched"), (timing, "_retimed_compiled")] + [
     (toppra_kernels.Stagewise, n) for n in ("controllable", "forward")
 ]:
     counted(owner, name)
 
 def signatures():
     kernels = {**vars(certifier_kernels), **compiled._KERNELS, **vars(compiled), **vars(approach_kernels), **vars(band_kernels), **vars(loop_kernels),
-               **vars(toppra_kernels), **vars(spline_kernels)}
+               **vars(toppra_kernels), **vars(spline_kernels), **vars(retime_kernels), **vars(path_kernels)}
     return {name: len(f.signatures) for name, f in kernels.items() if isinstance(f, CPUDispatcher)}
 
 loaded = load_kernels()
@@ -71,7 +71,9 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
     entries = ("verdict_one", "verdicts", "place_joints", "term_gradients", "capsule_rows")
     entries += ("fold_rows", "nearest_rows", "walk_frames", "project", "walk", "nearest", "states_margins", "search")
     entries += ("controllable", "forward")  # TOPP-RA's passes (toppra_kernels.py)
-    entries += ("second_derivatives", "evaluate")  # the path it retimes (spline_kernels.py)
+    entries += ("horner", "evaluate")  # the path it retimes (spline_kernels.py)
+    entries += ("passes", "constant_acceleration", "overshooting", "samples", "worst")  # retime_kernels.py
+    entries += ("knots", "deviation", "gridpoints")  # the path's preparation (path_kernels.py)
     assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
     # the tasks took the compiled routes (planning, validation, collision, TOPP-RA), and numba loaded nothing for them
     called = [

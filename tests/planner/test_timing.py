@@ -7,6 +7,7 @@ from scipy.spatial import cKDTree
 
 from hriplan import HriplanError
 from hriplan.planner.timing import TimedPath, time_parameterize
+from hriplan.robots.kernel_switch import kernels_on, use_kernels
 
 VMAX = np.array([1.0, 1.5, 2.0, 2.0, 3.0, 3.0])
 AMAX = np.array([3.0, 4.0, 6.0, 6.0, 8.0, 8.0])
@@ -115,9 +116,15 @@ def test_toppra_is_quiet(caplog):
 
 
 def test_toppra_failure_raises(monkeypatch):
+    """On toppra's objects (the kernels off; the compiled route's failure: test_retime_kernels.py)."""
     monkeypatch.setattr(toppra.algorithm.TOPPRA, "compute_trajectory", lambda self, *args: None)
-    with pytest.raises(HriplanError, match="TOPP-RA found no time parameterisation"):
-        time_parameterize(_curved_path(50), VMAX, AMAX)
+    before = kernels_on()
+    use_kernels(False)
+    try:
+        with pytest.raises(HriplanError, match="TOPP-RA found no time parameterisation"):
+            time_parameterize(_curved_path(50), VMAX, AMAX)
+    finally:
+        use_kernels(before)
 
 
 GOOD = np.array([[0.0, 0.0], [1.0, 0.5]])

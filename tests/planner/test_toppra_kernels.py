@@ -268,7 +268,9 @@ def test_a_path_toppra_cannot_time_fails_alike(kernels):
     assert messages[0] == messages[1] and "not controllable" in messages[0]
 
 
-def test_time_parameterize_takes_the_compiled_passes(kernels, monkeypatch):
+def test_time_parameterize_takes_the_compiled_passes_near_people(kernels, monkeypatch):
+    """With a path-speed limit the timing drives `Stagewise` (joint limits alone take
+    `retime_kernels`, tests/planner/test_retime_kernels.py)."""
     seen = []
     compiled = Stagewise.forward
 
@@ -277,8 +279,9 @@ def test_time_parameterize_takes_the_compiled_passes(kernels, monkeypatch):
         return compiled(self, *args)
 
     monkeypatch.setattr(Stagewise, "forward", forward)
-    on = timing.time_parameterize(np.cumsum(np.full((20, 6), 0.03), axis=0), VMAX, AMAX)
+    waypoints, slow = np.cumsum(np.full((20, 6), 0.03), axis=0), lambda q, dq: np.full(len(q), 2.0)
+    on = timing.time_parameterize(waypoints, VMAX, AMAX, speed_scale=slow)
     assert seen
     use_kernels(False)
-    off = timing.time_parameterize(np.cumsum(np.full((20, 6), 0.03), axis=0), VMAX, AMAX)
+    off = timing.time_parameterize(waypoints, VMAX, AMAX, speed_scale=slow)
     assert on == off and len(seen) == 1

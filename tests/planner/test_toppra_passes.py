@@ -170,8 +170,12 @@ def test_gridpoints_toppra_refuses_are_refused_alike():
 
 
 def test_time_parameterize_takes_the_lean_passes_and_trajectory(monkeypatch):
-    """The timing uses both (else the tests above would prove nothing about hriplan's motions)."""
+    """The timing uses both (else the tests above would prove nothing about hriplan's motions),
+    with the kernels off as the CLI runs (on, joint limits alone take `retime_kernels`)."""
     from hriplan.planner import timing
+    from hriplan.robots import kernel_switch
+
+    monkeypatch.setattr(kernel_switch, "_on", False)
 
     made = []
 

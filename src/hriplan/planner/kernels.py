@@ -74,12 +74,15 @@ def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds
 
 
 def _toppra(x: np.ndarray) -> None:
-    """TOPP-RA's compiled passes (`toppra_kernels.py`: the controllable sets and the forward pass)
-    and its path's solve and evaluation (`spline_kernels.py`): a short motion of the UR5's arm timed."""
+    """TOPP-RA's compiled retiming under joint limits (`retime_kernels.py`), its passes driven
+    stage-wise under a path-speed limit (`toppra_kernels.py`) and its path's solve and
+    evaluation (`spline_kernels.py`): a short motion of the UR5's arm timed without and with one."""
     from hriplan.planner.timing import time_parameterize
 
     velocity, acceleration = np.full(len(x), 1.0), np.full(len(x), 2.0)
-    time_parameterize(x + np.linspace(0.0, 0.3, 5)[:, None], velocity, acceleration)
+    waypoints = x + np.linspace(0.0, 0.3, 5)[:, None]
+    time_parameterize(waypoints, velocity, acceleration)
+    time_parameterize(waypoints, velocity, acceleration, speed_scale=lambda q, dq: np.full(len(q), 2.0))
 
 
 def _monitor() -> None:

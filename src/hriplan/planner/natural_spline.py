@@ -6,8 +6,8 @@ it) for a tridiagonal solve and a piecewise cubic. Tests check this spline again
 
 It offers what TOPP-RA asks of a geometric path: positions and their first and second
 derivatives at path positions (`path(s, order)`), `dof` and `path_interval`. Beyond the ends each
-end's cubic goes on, as scipy's does. With the kernels on (`kernels_on()`) its solve and its
-evaluation are compiled (`spline_kernels.py`, the same bits).
+end's cubic goes on, as scipy's does. With the kernels on (`kernels_on()`) its coefficients (the
+solve) and its evaluation are compiled (`spline_kernels.py`, the same bits).
 """
 
 from __future__ import annotations
@@ -30,15 +30,8 @@ class NaturalSpline:
         h = np.diff(self.s)
         if not np.all(h > 0.0):
             raise ValueError("a natural spline's path positions must increase strictly")
-        slope = np.diff(knots, axis=0) / h[:, None]
-        second = _second_derivatives(h, slope)  # (n, dof)
-        # Per interval, the cubic's coefficients of (s - s_i)^k, k = 0..3, and by order the
-        # coefficients of its Horner form: the derivatives' factors 2, 3 and 6 applied once here,
-        # not to the rows gathered at every evaluation (the same products, so the same bits).
-        c0, c1 = knots[:-1], slope - h[:, None] * (2.0 * second[:-1] + second[1:]) / 6.0
-        c2, c3 = second[:-1] / 2.0, np.diff(second, axis=0) / (6.0 * h[:, None])
-        self._coefficients = np.stack([c0, c1, c2, c3])
-        self._horner = (self._coefficients, np.stack([c1, 2.0 * c2, 3.0 * c3]), np.stack([2.0 * c2, 6.0 * c3]))
+        self._horner = _horner_forms(self.s, h, knots)
+        self._coefficients = self._horner[0]
         self._at: bytes | None = None  # the path positions last asked about, and their values by order
         self._values: dict[int, np.ndarray] = {}
         self._place: tuple[np.ndarray, np.ndarray] | None = None  # their intervals and offsets in them
@@ -46,6 +39,11 @@ class NaturalSpline:
     @property
     def dof(self) -> int:
         return self._coefficients.shape[2]
+
+    def horner(self, order: int) -> np.ndarray:
+        """The Horner coefficients of the derivative of `order` (0, 1, 2): (terms, intervals, dof),
+        of (s - s_i)^0.. on interval i, as `spline_kernels.evaluate` reads them (not a copy)."""
+        return self._horner[order]
 
     @property
     def path_interval(self) -> np.ndarray:
@@ -95,19 +93,34 @@ class NaturalSpline:
         return value.reshape(points.shape + (self.dof,))
 
 
+def _horner_forms(s: np.ndarray, h: np.ndarray, knots: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per knot interval, the cubic's coefficients of (s - s_i)^k, k = 0..3, and by order the
+    coefficients of its Horner form: the derivatives' factors 2, 3 and 6 applied once here, not
+    to the rows gathered at every evaluation (the same products, so the same bits). With the
+    kernels on one compiled call (`spline_kernels.horner`)."""
+    if kernels_on():
+        from hriplan.planner import spline_kernels  # numba: imported with the kernels on
+
+        n, dof = knots.shape
+        forms = (np.empty((4, n - 1, dof)), np.empty((3, n - 1, dof)), np.empty((2, n - 1, dof)))
+        spline_kernels.horner(s, np.ascontiguousarray(knots), *forms)
+        return forms
+    slope = np.diff(knots, axis=0) / h[:, None]
+    second = _second_derivatives(h, slope)  # (n, dof)
+    c0, c1 = knots[:-1], slope - h[:, None] * (2.0 * second[:-1] + second[1:]) / 6.0
+    c2, c3 = second[:-1] / 2.0, np.diff(second, axis=0) / (6.0 * h[:, None])
+    values = np.stack([c0, c1, c2, c3])
+    return values, np.stack([c1, 2.0 * c2, 3.0 * c3]), np.stack([2.0 * c2, 6.0 * c3])
+
+
 def _second_derivatives(h: np.ndarray, slope: np.ndarray) -> np.ndarray:
     """The spline's second derivative at every knot (n, dof): 0 at the natural ends; inside, the
     continuity of the first derivative, a symmetric, strictly diagonally dominant tridiagonal
     system (row i: h[i], 2 (h[i] + h[i + 1]), h[i + 1]) solved by Thomas' algorithm without
     pivoting. On Python floats: paths have tens of knots, where numpy's per-call cost dominates
-    (compiled with the kernels on)."""
+    (compiled with the kernels on: `spline_kernels.horner`)."""
     n = len(h) + 1
     second = np.zeros((n, slope.shape[1]))
-    if kernels_on():
-        from hriplan.planner import spline_kernels  # numba: imported with the kernels on
-
-        spline_kernels.second_derivatives(h, np.ascontiguousarray(slope), second)
-        return second
     off, diagonal = h[1:-1].tolist(), (2.0 * (h[:-1] + h[1:])).tolist()
     factors = []
     for i in range(1, n - 2):  # eliminate the sub-diagonal

@@ -108,6 +108,8 @@ _MAX_GRIDPOINTS = 20_000
 _GRID_VELOCITY_TOL = 5e-4
 _GRID_ACCELERATION_TOL = 5e-3
 _REFINEMENTS = 3
+_GRID_TOLERANCES = np.array([_GRID_VELOCITY_TOL, _GRID_ACCELERATION_TOL, _MAX_GRID_SPACING])  # as the kernels take them
+_GRID_COUNTS = np.array([_MIN_GRIDPOINTS, _MAX_GRIDPOINTS], dtype=float)
 # Relative overshoot of the limits allowed in the returned samples (see `time_parameterize`).
 _VELOCITY_SLACK = 1e-3
 _ACCELERATION_SLACK = 5e-2
@@ -164,8 +166,7 @@ def time_parameterize(
     q, vmax, amax = _validated(
         waypoints, velocity_limits, acceleration_limits, velocity_scale, sample_dt, max_deviation
     )
-    knots = _densified(q)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))])
+    knots, s = _knots(q)
     path = NaturalSpline(s, knots)
 
     deviation = _deviation(path, s, knots)
@@ -248,6 +249,8 @@ def _retimed(
     limit: tuple[tuple[np.ndarray, np.ndarray], float] | None,
 ):
     """TOPP-RA under the joint limits (and a path-speed limit times a factor), grid refined."""
+    if limit is None and kernels_on():
+        return _retimed_compiled(path, s, vmax, amax)
     constraints = _joint_limits(vmax, amax)
     if limit is not None:
         (at, sd_max), factor = limit
@@ -262,10 +265,7 @@ def _retimed(
         )
         trajectory = algorithm.compute_trajectory(0.0, 0.0)
         if trajectory is None:
-            raise HriplanError(
-                f"TOPP-RA found no time parameterisation within the joint limits "
-                f"({algorithm.problem_data.return_code.value}); the path may be too sharply curved"
-            )
+            raise _untimed(algorithm.problem_data.return_code)
         overshooting = _overshooting(path, grid, algorithm.problem_data.sd_vec, vmax, amax)
         if not overshooting.any() or refinement == _REFINEMENTS or len(grid) > _MAX_GRIDPOINTS:
             break
@@ -273,10 +273,61 @@ def _retimed(
     return trajectory
 
 
+def _retimed_compiled(path: NaturalSpline, s: np.ndarray, vmax: np.ndarray, amax: np.ndarray):
+    """`_retimed` under the joint limits alone with the kernels on: each try of a grid one
+    compiled call for TOPP-RA (its rows from the path, its passes, its verdict) and one for the
+    check between gridpoints (`retime_kernels.py`, the same bits as toppra's objects and
+    `_overshooting`), without toppra's constraint, solver and algorithm objects (~0.6 ms a UR5
+    timing). The grid is checked as toppra checks it (`_TOPPRA.__init__`)."""
+    from hriplan.planner import retime_kernels as kernels  # numba: imported with the kernels on
+
+    knots, velocity, acceleration = path.s, path.horner(1), path.horner(2)
+    codes = toppra.algorithm.ParameterizationReturnCode
+    grid = _gridpoints(path, s, vmax, amax)
+    for refinement in range(_REFINEMENTS + 1):
+        if grid[0] != knots[0] or grid[-1] != knots[-1]:
+            raise ValueError("Invalid manually supplied gridpoints.")
+        if np.any(grid[1:] <= grid[:-1]):
+            raise ValueError("Bad input gridpoints.")
+        xs = np.empty(len(grid))
+        verdict = kernels.passes(knots, velocity, acceleration, grid, vmax, amax, xs)
+        if verdict != kernels.OK:
+            raise _untimed(codes.FailUncontrollable if verdict == kernels.UNCONTROLLABLE else codes.ErrUnknown)
+        sd, ts, us = np.empty(len(grid)), np.empty(len(grid)), np.empty(len(grid) - 1)
+        kernels.constant_acceleration(grid, xs, sd, ts, us)
+        overshooting = np.empty(len(grid) - 1, dtype=np.bool_)
+        tolerances = (_GRID_VELOCITY_TOL, _GRID_ACCELERATION_TOL)
+        kernels.overshooting(knots, velocity, acceleration, grid, sd, vmax, amax, *tolerances, overshooting)
+        if not overshooting.any() or refinement == _REFINEMENTS or len(grid) > _MAX_GRIDPOINTS:
+            break
+        grid = _subdivided(grid, np.where(overshooting, 4, 1))
+    return _ConstantAcceleration.made(path, grid, sd, ts, us)
+
+
+def _untimed(code) -> HriplanError:
+    """The error for TOPP-RA's failure `code` (its ParameterizationReturnCode)."""
+    return HriplanError(
+        f"TOPP-RA found no time parameterisation within the joint limits ({code.value}); "
+        "the path may be too sharply curved"
+    )
+
+
 class _ConstantAcceleration(toppra.parametrizer.ParametrizeConstAccel):
     """toppra's trajectory of constant path acceleration between gridpoints, its set-up and
     its evaluation at many times in numpy passes with the same operations as its per-point
     Python loops (the same bits): they took ~2 ms a timing (three evaluations at every sample)."""
+
+    @classmethod
+    def made(
+        cls, path: NaturalSpline, grid: np.ndarray, speeds: np.ndarray, ts: np.ndarray, us: np.ndarray
+    ) -> _ConstantAcceleration:
+        """The trajectory toppra's set-up makes from `grid` and `speeds`, given what it would
+        compute (`retime_kernels.constant_acceleration`: the times `ts` at the gridpoints and
+        the path accelerations `us` between them) rather than computing it in numpy."""
+        made = cls.__new__(cls)
+        made._path, made._ss, made._velocities, made._xs = path, grid, speeds, speeds**2
+        made._ts, made._us = ts, us
+        return made
 
     def _process_parametrization(self) -> None:
         ds, speeds = np.diff(self._ss), self._velocities
@@ -292,7 +343,27 @@ class _ConstantAcceleration(toppra.parametrizer.ParametrizeConstAccel):
     def samples(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities and accelerations at the times `ts` (an array): `self(ts, 0)`,
         `self(ts, 1)` and `self(ts, 2)` (toppra's products, the same bits) from one evaluation of
-        the path parameters, not three."""
+        the path parameters, not three; with the kernels on one compiled call on hriplan's
+        spline (`retime_kernels.samples`)."""
+        if kernels_on() and isinstance(self._path, NaturalSpline):
+            from hriplan.planner import retime_kernels  # numba: imported with the kernels on
+
+            times, path = np.ascontiguousarray(ts, dtype=float), self._path
+            positions, velocities, accelerations = (np.empty((len(times), path.dof)) for _ in range(3))
+            horner = (path.horner(0), path.horner(1), path.horner(2))
+            retime_kernels.samples(
+                self._ts,
+                self._us,
+                self._velocities,
+                self._ss,
+                path.s,
+                horner,
+                times,
+                positions,
+                velocities,
+                accelerations,
+            )
+            return positions, velocities, accelerations
         ss, vs, us = self._eval_params(ts)
         d1 = self._path(ss, 1)
         velocities = np.multiply(d1, vs[:, np.newaxis])
@@ -310,7 +381,8 @@ class _TOPPRA(toppra.algorithm.TOPPRA):
     NaN scans and logging around each call, which cost about as much as the solver itself
     (~4 us a call, two calls a stage per pass). With the kernels on (`kernels_on()`) the solver
     is toppra's ported to numba and each pass is one compiled call (`toppra_kernels.py`, the same
-    bits; a solver put in its place, as tests do, is driven stage by stage as toppra's). Its
+    bits; a solver put in its place, as tests do, is driven stage by stage as toppra's); the
+    timing then takes it under a path-speed limit only (joint limits alone: `_retimed_compiled`). Its
     trajectory is toppra's constant path acceleration between gridpoints, evaluated in numpy
     (`_ConstantAcceleration`)."""
 
@@ -523,6 +595,17 @@ def _validated(
     return distinct, limits[0], limits[1]
 
 
+def _knots(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The spline's knots (`_densified(q)`) and their arc lengths from 0; with the kernels on
+    one compiled call (`path_kernels.knots`, the same bits)."""
+    if kernels_on():
+        from hriplan.planner import path_kernels  # numba: imported with the kernels on
+
+        return path_kernels.knots(q, _MAX_KNOT_SPACING)
+    knots = _densified(q)
+    return knots, np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))])
+
+
 def _densified(q: np.ndarray) -> np.ndarray:
     """The same polyline with collinear knots inserted so no segment exceeds _MAX_KNOT_SPACING."""
     return _subdivided(q, np.ceil(np.linalg.norm(np.diff(q, axis=0), axis=1) / _MAX_KNOT_SPACING))
@@ -541,8 +624,13 @@ def _deviation(path: NaturalSpline, s: np.ndarray, knots: np.ndarray) -> float:
     """Max per-joint |spline - polyline| over a fine sampling of every knot interval.
 
     Both are parameterised by the same arc length, so this compares points at equal parameter:
-    an upper bound on the distance from the spline to the polyline.
+    an upper bound on the distance from the spline to the polyline. With the kernels on one
+    compiled call (`path_kernels.deviation`, the same bits).
     """
+    if kernels_on():
+        from hriplan.planner import path_kernels  # numba: imported with the kernels on
+
+        return path_kernels.deviation(path.s, knots, path.horner(0), _DEVIATION_FRACTIONS)
     fraction = _DEVIATION_FRACTIONS
     at = s[:-1, None] + np.diff(s)[:, None] * fraction
     linear = knots[:-1, None, :] + fraction[None, :, None] * np.diff(knots, axis=0)[:, None, :]
@@ -560,8 +648,22 @@ def _gridpoints(path: NaturalSpline, s: np.ndarray, vmax: np.ndarray, amax: np.n
     knot q''' jumps, kinking the acceleration by |jump| x, up to |jump| x h / 4 off the chord: at
     tight corners that is large, so those knots are gridpoints themselves. sd is bounded by the
     velocity limits and, as |q''| x <= |acceleration| on an arc-length path, by the acceleration
-    limits. The count follows path length and curvature, not the number of waypoints.
+    limits. The count follows path length and curvature, not the number of waypoints. With the
+    kernels on one compiled call (`path_kernels.gridpoints`, the same bits).
     """
+    if kernels_on():
+        from hriplan.planner import path_kernels  # numba: imported with the kernels on
+
+        return path_kernels.gridpoints(
+            path.s,
+            path.horner(1),
+            path.horner(2),
+            vmax,
+            amax,
+            float(np.linalg.norm(amax)),
+            _GRID_TOLERANCES,
+            _GRID_COUNTS,
+        )
     h = np.diff(s)
     d1, d2 = path(s, 1), path(s, 2)
     jerk = np.diff(d2, axis=0) / h[:, None]  # q''' per knot interval
@@ -602,11 +704,18 @@ def _overshooting(
 
 
 def _check_limits(values: np.ndarray, limits: np.ndarray, slack: float, what: str) -> None:
-    """Raise if a sampled |value| exceeds its joint's limit by more than `slack` (relative)."""
-    ratio = np.abs(values) / limits
-    sample, joint = np.unravel_index(np.argmax(ratio), ratio.shape)
-    if ratio[sample, joint] > slack:
+    """Raise if a sampled |value| exceeds its joint's limit by more than `slack` (relative); with
+    the kernels on the largest ratio is found in one compiled call (`retime_kernels.worst`)."""
+    if kernels_on():
+        from hriplan.planner import retime_kernels  # numba: imported with the kernels on
+
+        largest, sample, joint = retime_kernels.worst(values, limits)
+    else:
+        ratio = np.abs(values) / limits
+        sample, joint = np.unravel_index(np.argmax(ratio), ratio.shape)
+        largest = ratio[sample, joint]
+    if largest > slack:
         raise HriplanError(
             f"time parameterisation exceeds the {what} limit of joint {joint} by "
-            f"{100 * (ratio[sample, joint] - 1):.2f}% at sample {sample}; the waypoint path may be too jagged (smooth or shortcut it)"
+            f"{100 * (largest - 1):.2f}% at sample {sample}; the waypoint path may be too jagged (smooth or shortcut it)"
         )
