@@ -1,0 +1,97 @@
+"""Box trees over a mesh's triangles, and a mesh pair decided on them (`mesh_pair_kernels.py`)
+before coal is asked.
+
+Why: the mesh pairs a clearance table does not certify at a state (MADAR's forearm and wrist 2
+near contact) were coal's to decide, ~74 us a free state and ~18 us a colliding one. The
+compiled walk over two trees proves most of them either way in a few microseconds; the few it
+cannot prove (triangles within the margin of touching) still go to coal, so the answer is
+always coal's.
+"""
+
+from __future__ import annotations
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from hriplan.robots import mesh_pair_kernels as kernels
+
+# Triangles closer than this (m) or overlapping by less are left to coal: far above rounding
+# (~1e-15 m) and coal's GJK tolerance (~1e-6 m), far below the gaps a search meets.
+MARGIN = 1e-5
+_LEAF = 1
+
+
+class MeshTree:
+    """A mesh's triangles in its frame, in leaf order (T, 9: their vertices), under a tree of
+    boxes (N, 6: centre, half sides) whose nodes (N, 4) are rows of `mesh_pair_kernels` (LEFT,
+    RIGHT, FIRST, COUNT), the root first, a child after its parent. A leaf holds one triangle
+    (more made the free states ~1.2-1.7x slower: a triangle pair costs more than a box pair)."""
+
+    def __init__(self, geometry: coal.BVHModelBase) -> None:
+        vertices = np.asarray(geometry.vertices(), dtype=float)
+        indices = np.array([[geometry.tri_indices(t)[k] for k in range(3)] for t in range(geometry.num_tris)])
+        triangles = vertices[indices.reshape(-1, 3)].reshape(-1, 9)
+        boxes: list[np.ndarray] = []
+        nodes: list[list[int]] = []
+        order: list[int] = []
+        centres = triangles.reshape(-1, 3, 3).mean(axis=1)
+
+        def build(chosen: np.ndarray) -> int:
+            node = len(nodes)
+            points = triangles[chosen].reshape(-1, 3)
+            lower, upper = points.min(axis=0), points.max(axis=0)
+            boxes.append(np.concatenate([(lower + upper) / 2.0, (upper - lower) / 2.0]))
+            nodes.append([-1, -1, len(order), len(chosen)])
+            if len(chosen) <= _LEAF:
+                order.extend(chosen.tolist())
+                return node
+            axis = int(np.argmax(np.ptp(centres[chosen], axis=0)))
+            ranked = chosen[np.argsort(centres[chosen, axis], kind="stable")]
+            half = len(ranked) // 2
+            nodes[node][kernels.LEFT] = build(ranked[:half])
+            nodes[node][kernels.RIGHT] = build(ranked[half:])
+            return node
+
+        build(np.arange(len(triangles)))
+        self.boxes = np.array(boxes)
+        self.nodes = np.array(nodes, dtype=np.int64)
+        self.triangles = np.ascontiguousarray(triangles[np.array(order, dtype=np.int64)])
+
+
+class MeshPair:
+    """Two meshes (coal's first and second of a collision pair) and the last pair of their
+    triangles found touching."""
+
+    def __init__(self, first: coal.BVHModelBase, second: coal.BVHModelBase) -> None:
+        self.first, self.second = MeshTree(first), MeshTree(second)
+        self.last = np.full(2, -1, dtype=np.int64)
+
+    @staticmethod
+    def of(first: coal.CollisionGeometry, second: coal.CollisionGeometry) -> MeshPair | None:
+        """The pair's trees if both are triangle meshes (a table's part may be a box: coal's)."""
+        meshes = all(isinstance(g, coal.BVHModelBase) and g.num_tris > 0 for g in (first, second))
+        return MeshPair(first, second) if meshes else None
+
+    def touches(self, first: pin.SE3, second: pin.SE3) -> bool | None:
+        """Do the meshes, placed at `first` and `second`, collide as coal's `collide` would say;
+        None when not proven either way (ask coal)."""
+        relative = first.actInv(second)
+        pose = np.concatenate([relative.rotation.ravel(), relative.translation])
+        a, b = self.first, self.second
+        verdict = kernels.decide(a.boxes, a.nodes, a.triangles, b.boxes, b.nodes, b.triangles, pose, MARGIN, self.last)
+        return None if verdict == kernels.UNDECIDED else verdict == kernels.TOUCHING
+
+
+def load_kernel() -> None:
+    """Compile (or load from numba's cache) the walk, deciding two one-triangle meshes apart: a
+    process that loads its kernels at start (`planner/kernels.py`) pays it there, not at the
+    first state a search asks."""
+    meshes = []
+    for corners in (np.eye(3), np.eye(3) + 1.0):
+        mesh = coal.BVHModelOBBRSS()
+        mesh.beginModel(1, 3)
+        mesh.addTriangle(*corners)
+        mesh.endModel()
+        meshes.append(mesh)
+    MeshPair(*meshes).touches(pin.SE3.Identity(), pin.SE3.Identity())
