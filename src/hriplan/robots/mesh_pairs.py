@@ -76,10 +76,11 @@ class MeshPair:
     def touches(self, first: pin.SE3, second: pin.SE3) -> bool | None:
         """Do the meshes, placed at `first` and `second`, collide as coal's `collide` would say;
         None when not proven either way (ask coal)."""
-        relative = first.actInv(second)
-        pose = np.concatenate([relative.rotation.ravel(), relative.translation])
+        placement = first.actInv(second).homogeneous
         a, b = self.first, self.second
-        verdict = kernels.decide(a.boxes, a.nodes, a.triangles, b.boxes, b.nodes, b.triangles, pose, MARGIN, self.last)
+        verdict = kernels.decide(
+            a.boxes, a.nodes, a.triangles, b.boxes, b.nodes, b.triangles, placement, MARGIN, self.last
+        )
         return None if verdict == kernels.UNDECIDED else verdict == kernels.TOUCHING
 
 
