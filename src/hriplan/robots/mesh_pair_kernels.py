@@ -21,8 +21,9 @@ bounding boxes:
 - else undecided.
 A pair touching proves a collision (coal tests every pair its volumes do not part, and a
 touching pair's volumes overlap); every pair apart proves the meshes free; else coal decides.
-The last touching pair is tried first next time (a search asks many states in a row that
-collide the same way). Rounding errs by ~1e-15 m on metre-sized links, far below the margin.
+The last 16 touching pairs found are tried first, the latest first (a search's colliding states
+touch in a few places: on the peg-in-hole's, one of them proves 98 % of its colliding states,
+the last one alone 12 %). Rounding errs by ~1e-15 m on metre-sized links, far below the margin.
 """
 
 from __future__ import annotations
@@ -176,6 +177,14 @@ def _decide_pair(a_tris, b_tris, i, j, pose, margin, q) -> int:
     return UNDECIDED
 
 
+@njit(cache=True, inline="always")
+def _to_front(witnesses: np.ndarray, w: int, i: int, j: int) -> None:
+    """Pair (i, j) at the front of `witnesses`, those before row `w` one row down (row w dropped)."""
+    for k in range(w, 0, -1):
+        witnesses[k, 0], witnesses[k, 1] = witnesses[k - 1, 0], witnesses[k - 1, 1]
+    witnesses[0, 0], witnesses[0, 1] = i, j
+
+
 @njit(cache=True)
 def decide(
     a_boxes: np.ndarray,
@@ -186,14 +195,15 @@ def decide(
     b_tris: np.ndarray,
     placement: np.ndarray,
     margin: float,
-    last: np.ndarray,
+    witnesses: np.ndarray,
 ) -> int:
     """TOUCHING, FREE or UNDECIDED for mesh a and mesh b placed in a's frame by `placement`
     (4x4), each as its tree: boxes (N, 6: centre, half sides), nodes (N, 4) and triangles (T, 9)
     in its own frame, node 0 the root. Two nodes are parted when their boxes are farther apart
     than the margin along one of the 15 axes of two boxes (an edge cross is at most a unit
     long: the margin along it is not less than its length times the margin).
-    `last` holds the last touching pair (triangle indices, -1: none), tried first and updated."""
+    `witnesses` (W, 2) holds the touching pairs found lately (triangle indices, latest first; -1:
+    none), tried first; one that proves a contact moves to the front, a new one enters there."""
     pose = np.empty(12)
     for i in range(3):
         for j in range(3):
@@ -201,8 +211,12 @@ def decide(
         pose[9 + i] = placement[i, 3]
     spread = np.abs(pose[:9])
     q = np.empty(9)
-    if last[0] >= 0 and _decide_pair(a_tris, b_tris, last[0], last[1], pose, margin, q) == TOUCHING:
-        return TOUCHING
+    for w in range(len(witnesses)):
+        if witnesses[w, 0] < 0:
+            break
+        if _decide_pair(a_tris, b_tris, witnesses[w, 0], witnesses[w, 1], pose, margin, q) == TOUCHING:
+            _to_front(witnesses, w, witnesses[w, 0], witnesses[w, 1])
+            return TOUCHING
     stack = np.empty((_STACK, 2), dtype=np.int64)
     stack[0, 0], stack[0, 1], top = 0, 0, 1
     undecided = False
@@ -217,7 +231,7 @@ def decide(
                 for j in range(b_nodes[b, FIRST], b_nodes[b, FIRST] + b_nodes[b, COUNT]):
                     verdict = _decide_pair(a_tris, b_tris, i, j, pose, margin, q)
                     if verdict == TOUCHING:
-                        last[0], last[1] = i, j
+                        _to_front(witnesses, len(witnesses) - 1, i, j)
                         return TOUCHING
                     undecided |= verdict == UNDECIDED
             continue

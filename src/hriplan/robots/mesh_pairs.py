@@ -19,7 +19,8 @@ from hriplan.robots import mesh_pair_kernels as kernels
 # Triangles closer than this (m) or overlapping by less are left to coal: far above rounding
 # (~1e-15 m) and coal's GJK tolerance (~1e-6 m), far below the gaps a search meets.
 MARGIN = 1e-5
-_LEAF = 1
+_LEAF = 1  # triangles a leaf holds at most (see MeshTree)
+_WITNESSES = 16  # touching pairs kept: 4 proved 80 % of the peg-in-hole's colliding states, 16 98 %
 
 
 class MeshTree:
@@ -83,12 +84,12 @@ def _boxes(triangles: np.ndarray, nodes: np.ndarray) -> np.ndarray:
 
 
 class MeshPair:
-    """Two meshes (coal's first and second of a collision pair) and the last pair of their
-    triangles found touching."""
+    """Two meshes (coal's first and second of a collision pair) and the pairs of their triangles
+    found touching lately (`mesh_pair_kernels.decide`'s witnesses)."""
 
     def __init__(self, first: coal.BVHModelBase, second: coal.BVHModelBase) -> None:
         self.first, self.second = MeshTree(first), MeshTree(second)
-        self.last = np.full(2, -1, dtype=np.int64)
+        self.witnesses = np.full((_WITNESSES, 2), -1, dtype=np.int64)
 
     @staticmethod
     def of(first: coal.CollisionGeometry, second: coal.CollisionGeometry) -> MeshPair | None:
@@ -102,7 +103,7 @@ class MeshPair:
         placement = first.actInv(second).homogeneous
         a, b = self.first, self.second
         verdict = kernels.decide(
-            a.boxes, a.nodes, a.triangles, b.boxes, b.nodes, b.triangles, placement, MARGIN, self.last
+            a.boxes, a.nodes, a.triangles, b.boxes, b.nodes, b.triangles, placement, MARGIN, self.witnesses
         )
         return None if verdict == kernels.UNDECIDED else verdict == kernels.TOUCHING
 
