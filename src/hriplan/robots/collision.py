@@ -852,7 +852,8 @@ class CollisionChecker:
     def _left_touch(self, q: np.ndarray, uncertified: int, pairs: tuple[int, ...]) -> bool:
         """With every other broad-phase pair clear at `q` (the certifier's word): does one of
         `pairs` (ids in the collision model) or a mesh pair of a table that does not certify `q`
-        (bit k: `_tabled[k]`) touch? Each asked of coal as the broad phase would, placed here."""
+        (bit k: `_tabled[k]`) touch? Each asked of coal as the broad phase would, placed here (a
+        table's mesh pairs through `_meshes_touch`: their triangle trees first)."""
         pin.updateGeometryPlacements(self.robot.model, self.robot.data, self._geom_model, self._geom_data, q)
         if any(pin.computeCollision(self._geom_model, self._geom_data, k) for k in pairs):
             return True
