@@ -48,6 +48,7 @@ def load_kernels() -> bool:
     x = q[robot.group_indices("arm")]
     checker.in_collision(q)
     checker.first_collision(q[None])
+    _mesh_pairs()
     evaluator.margins(q)  # a whole configuration; gradients take the planned joints' values
     evaluator.gradients(x)
     evaluator.margins_many(np.repeat(q[None], 2, axis=0))
@@ -71,6 +72,13 @@ def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds
         walker.walk(x, x + 0.1, 0.05, 3, bands, certifier)
     arguments = walker.arguments(0.05, True, 4e-3, 2e-3, certifier)
     search(x, x + 0.1, np.random.default_rng(0), 0.0, 10, arguments, np.zeros(1, dtype=np.int64))
+
+
+def _mesh_pairs() -> None:
+    """The tabled mesh pairs' walk over their triangles' trees (`mesh_pair_kernels.py`)."""
+    from hriplan.robots.mesh_pairs import load_kernel
+
+    load_kernel()
 
 
 def _toppra(x: np.ndarray) -> None:
