@@ -1,5 +1,5 @@
 """CBiRRT's whole search compiled (planner/search/loop_kernels.py) against the Python loop it
-replaces (cbirrt.plan_in_bands with the compiled walk): numpy's sums and norms to the bit, the
+replaces (cbirrt.plan_in_bands with the compiled walk): numpy's norms to the bit, the
 generator's draws in step, the same targets, and on three scenarios the same paths, bit for bit,
 with the same counts; coal asked about the states the certifier leaves, a timeout that ends it."""
 
@@ -12,15 +12,6 @@ pytest.importorskip("numba")
 
 from hriplan.planner.search import cbirrt, loop_kernels
 from hriplan.planner.search.cbirrt import _pair, _settled, _steps, _Tree, plan_in_bands
-
-
-def test_sums_are_numpys_to_the_bit(rng):
-    """Slices of 0 to 3000 terms of any magnitude: numpy's pairwise summation, blocks and halves."""
-    for k in range(2000):
-        n = int(rng.integers(0, 3000 if k % 2 else 300))
-        a = rng.normal(size=n + 9) * 10.0 ** rng.uniform(-3, 3, n + 9)
-        first = int(rng.integers(0, 9))
-        assert loop_kernels.pairwise_sum(a, first, n) == float(a[first : first + n].sum())
 
 
 def test_steps_and_settled_paths_are_the_loops(rng):

@@ -15,9 +15,11 @@ from __future__ import annotations
 import numpy as np
 
 from hriplan.planner import spline_kernels
+from hriplan.robots import pairwise_sums
 from hriplan.robots.kernel_cache import njit_keyed
+from hriplan.robots.pairwise_sums import pairwise_sum
 
-_keyed = njit_keyed(spline_kernels)
+_keyed = njit_keyed(spline_kernels, pairwise_sums)
 
 
 @_keyed
@@ -33,63 +35,12 @@ def _minimum(a: float, b: float) -> float:
 
 
 @_keyed
-def _block(a: np.ndarray, lo: int, n: int) -> float:
-    """numpy's pairwise_sum of a[lo:lo + n] for n <= 128: below 8 terms in turn from -0.0, else
-    in eight running sums combined as a tree, the rest in turn."""
-    if n < 8:
-        total = -0.0
-        for i in range(n):
-            total += a[lo + i]
-        return total
-    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-    i = 8
-    while i < n - n % 8:
-        r0, r1, r2, r3 = r0 + a[lo + i], r1 + a[lo + i + 1], r2 + a[lo + i + 2], r3 + a[lo + i + 3]
-        r4, r5, r6, r7 = r4 + a[lo + i + 4], r5 + a[lo + i + 5], r6 + a[lo + i + 6], r7 + a[lo + i + 7]
-        i += 8
-    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        total += a[lo + i]
-        i += 1
-    return total
-
-
-@_keyed
-def _pairwise(a: np.ndarray) -> float:
-    """numpy's pairwise_sum of `a` (its add.reduce along a row): blocks of up to 128 terms
-    (`_block`), longer runs split in halves (a multiple of 8 first) and their sums added, walked
-    with a stack of its own (numba's disk cache does not take recursive functions)."""
-    if a.shape[0] <= 128:
-        return _block(a, 0, a.shape[0])
-    depth = 64
-    starts, counts = np.empty(depth, dtype=np.int64), np.empty(depth, dtype=np.int64)
-    stages, sums = np.zeros(depth, dtype=np.int64), np.empty(depth)
-    starts[0], counts[0], top, held = 0, a.shape[0], 0, 0
-    while top >= 0:
-        lo, n = starts[top], counts[top]
-        half = n // 2
-        half -= half % 8
-        if n <= 128:
-            sums[held], held, top = _block(a, lo, n), held + 1, top - 1
-        elif stages[top] == 0:  # the first half
-            stages[top], top = 1, top + 1
-            starts[top], counts[top], stages[top] = lo, half, 0
-        elif stages[top] == 1:  # then the second
-            stages[top], top = 2, top + 1
-            starts[top], counts[top], stages[top] = lo + half, n - half, 0
-        else:  # both summed: their sum
-            sums[held - 2], held, top = sums[held - 2] + sums[held - 1], held - 1, top - 1
-    return sums[0]
-
-
-@_keyed
 def _norm(row: np.ndarray, squares: np.ndarray) -> float:
     """np.linalg.norm(rows, axis=1)'s value for one row: the root of its squares' pairwise sum
     (`squares`: room for them)."""
     for j in range(row.shape[0]):
         squares[j] = row[j] * row[j]
-    return np.sqrt(0.0 + _pairwise(squares[: row.shape[0]]))
+    return np.sqrt(pairwise_sum(squares, 0, row.shape[0]))
 
 
 @_keyed

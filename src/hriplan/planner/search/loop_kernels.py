@@ -43,14 +43,15 @@ from hriplan.planner.search.cbirrt import (
 )
 from hriplan.planner.search.result import Counters, SearchResult
 from hriplan.planner.search.tree_kernels import BLOCK, boxed, boxes_room, nearest_boxed
-from hriplan.robots import certifier_kernels
+from hriplan.robots import certifier_kernels, pairwise_sums
 from hriplan.robots.kernel_cache import njit_keyed
+from hriplan.robots.pairwise_sums import pairwise_sum
 
 if TYPE_CHECKING:
     from hriplan.planner.search.cbirrt import BandProblem
 
 _keyed = njit_keyed(
-    band_kernels, tree_kernels, geometry, compiled, certifier_kernels, nogil=False
+    band_kernels, tree_kernels, geometry, compiled, certifier_kernels, pairwise_sums, nogil=False
 )  # it asks Python back
 SOLVED, TIMEOUT = 0, 1
 _CAPACITY = 4096  # a tree's first rows (doubled when full), as cbirrt._Tree's
@@ -89,61 +90,6 @@ def _clock() -> float:
     with objmode(now="float64"):
         now = _now()
     return now
-
-
-@_keyed
-def _block_sum(a, first, n) -> float:
-    """numpy's sum of at most 128 terms: in turn below 8, else eight running sums."""
-    if n < 8:
-        s = 0.0
-        for i in range(n):
-            s += a[first + i]
-        return s
-    r0, r1, r2, r3 = a[first], a[first + 1], a[first + 2], a[first + 3]
-    r4, r5, r6, r7 = a[first + 4], a[first + 5], a[first + 6], a[first + 7]
-    i = 8
-    while i < n - n % 8:
-        k = first + i
-        r0, r1, r2, r3 = r0 + a[k], r1 + a[k + 1], r2 + a[k + 2], r3 + a[k + 3]
-        r4, r5, r6, r7 = r4 + a[k + 4], r5 + a[k + 5], r6 + a[k + 6], r7 + a[k + 7]
-        i += 8
-    s = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        s += a[first + i]
-        i += 1
-    return s
-
-
-@_keyed
-def pairwise_sum(a, first, n) -> float:
-    """numpy's sum of a[first : first + n] (1-D, contiguous), to the bit: blocks of at most 128
-    terms (`_block_sum`), longer runs halved at a multiple of 8 and their sums added. numpy
-    recurses; here a stack of frames (start, size, phase, left half's sum) does, as numba's
-    cached code crashes on recursion."""
-    starts, sizes = np.empty(64, dtype=np.int64), np.empty(64, dtype=np.int64)
-    phases, lefts = np.zeros(64, dtype=np.int64), np.empty(64)
-    top, result = 0, 0.0
-    starts[0], sizes[0] = first, n
-    while top >= 0:
-        start, size = starts[top], sizes[top]
-        if size <= 128:
-            result = _block_sum(a, start, size)
-            top -= 1
-            continue
-        half = size // 2
-        half -= half % 8
-        if phases[top] == 0:  # sum the left half first
-            phases[top] = 1
-            top += 1
-            starts[top], sizes[top], phases[top] = start, half, 0
-        elif phases[top] == 1:  # the left half's sum is back: the right half
-            lefts[top], phases[top] = result, 2
-            top += 1
-            starts[top], sizes[top], phases[top] = start + half, size - half, 0
-        else:
-            result = lefts[top] + result
-            top -= 1
-    return result
 
 
 @_keyed
