@@ -21,6 +21,15 @@ def rng():
     return np.random.default_rng(7)
 
 
+@pytest.fixture
+def kernels():
+    """The compiled kernels on for the test, as they were after it."""
+    before = kernel_switch.kernels_on()
+    kernel_switch.use_kernels(True)
+    yield
+    kernel_switch.use_kernels(before)
+
+
 @pytest.fixture(scope="module")
 def problem():
     """The UR5 keeping a box upright (benchmarks/scenarios): the planner tests' shared problem."""

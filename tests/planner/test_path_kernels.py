@@ -13,14 +13,6 @@ from hriplan.planner.natural_spline import NaturalSpline
 from hriplan.robots.kernel_switch import kernels_on, use_kernels
 
 
-@pytest.fixture
-def kernels():
-    before = kernels_on()
-    use_kernels(True)
-    yield
-    use_kernels(before)
-
-
 def _numpy(function, *args):
     """`function` on timing's numpy route (the kernels off)."""
     before = kernels_on()

@@ -18,17 +18,9 @@ from hriplan import HriplanError
 from hriplan.planner import retime_kernels, timing
 from hriplan.planner.natural_spline import NaturalSpline
 from hriplan.planner.toppra_kernels import Stagewise
-from hriplan.robots.kernel_switch import kernels_on, use_kernels
+from hriplan.robots.kernel_switch import use_kernels
 
 CODES = toppra.algorithm.ParameterizationReturnCode
-
-
-@pytest.fixture
-def kernels():
-    before = kernels_on()
-    use_kernels(True)
-    yield
-    use_kernels(before)
 
 
 def _path(seed: int, waypoints: int = 30, still: int = 0) -> tuple[NaturalSpline, np.ndarray, np.ndarray]:

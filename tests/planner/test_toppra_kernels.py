@@ -18,19 +18,11 @@ import toppra.constraint
 from hriplan import HriplanError
 from hriplan.planner import timing
 from hriplan.planner.toppra_kernels import Stagewise
-from hriplan.robots.kernel_switch import kernels_on, use_kernels
+from hriplan.robots.kernel_switch import use_kernels
 
 VMAX = np.array([1.0, 1.5, 2.0, 2.0, 3.0, 3.0])
 AMAX = np.array([3.0, 4.0, 6.0, 6.0, 8.0, 8.0])
 CODES = toppra.algorithm.ParameterizationReturnCode
-
-
-@pytest.fixture
-def kernels():
-    before = kernels_on()
-    use_kernels(True)
-    yield
-    use_kernels(before)
 
 
 def _path(seed: int, waypoints: int = 30) -> toppra.SplineInterpolator:

@@ -63,13 +63,6 @@ def robots():
     return {"ur5": load_robot("ur5"), "madar": load_robot("madar"), "baxter": load_robot(load_robot_file(BAXTER).name)}
 
 
-@pytest.fixture
-def kernels():
-    kernel_switch.use_kernels(True)
-    yield
-    kernel_switch.use_kernels(False)
-
-
 def _random_states(robot, n: int, seed: int) -> np.ndarray:
     model = robot.model
     return np.random.default_rng(seed).uniform(model.lowerPositionLimit, model.upperPositionLimit, (n, model.nq))
