@@ -541,7 +541,7 @@ def test_a_certifier_placed_anew_answers_as_one_made_there(robots, kernels):
     checker.move_obstacle("ball", Pose(xyz=(0.3, 0.1, 0.5)))
     assert checker._free_certifier() is certifier
     floats, ints = copy.deepcopy(certifier)._packed()
-    scratch = len(certifier._left)  # the ids of the pairs left: the kernel's to write
+    scratch = certifier.kernel_written  # the mesh pairs' witnesses and the ids of the pairs left
     assert np.array_equal(certifier._floats, floats, equal_nan=True)
     assert np.array_equal(certifier._ints[:-scratch], ints[:-scratch])
     made = CollisionChecker(robot, checker.scene)

@@ -222,6 +222,29 @@ def test_in_collision_with_the_trees_is_coal_s(robots):
     try:
         assert [checker.in_collision(q) for q in states] == expected
         assert checker.first_collision(np.array(states)) == (expected.index(True) if any(expected) else None)
+        # The compiled verdict decides them itself (`certifier_kernels._decided_tables`): proven
+        # touching only where coal finds a collision, and a table left to coal exactly where the
+        # trees asked from Python (`MeshPair.touches`, pinocchio's placements) prove nothing.
+        asked, touching, verdicts = checker._free_certifier().left_over(np.array(states))
+        assert all(expected[k] for k, proven in zip(asked, touching) if proven) and any(touching)
+        assert all(not expected[k] for k in set(range(len(states))) - set(asked))
+        left = {k for k, verdict in zip(asked, verdicts) if verdict is not None and verdict[0]}
+        assert left == set(np.flatnonzero([_trees_undecided(checker, q) for q in states]).tolist())
     finally:
         kernel_switch.use_kernels(False)
     assert 0.2 < np.mean(expected) < 0.8
+
+
+def _trees_undecided(checker: CollisionChecker, q: np.ndarray) -> bool:
+    """Do the trees of a tabled pair whose table does not certify `q` prove nothing there?"""
+    model, data = checker.robot.model, checker.robot.data
+    pin.updateGeometryPlacements(model, data, checker._geom_model, checker._geom_data, q)
+    placed = checker._geom_data.oMg
+    for table, ks in checker._tabled:
+        if table.certified(q.tolist()):
+            continue
+        for k in ks:
+            first, second = (int(i) for i in checker._pair_table[k])
+            if checker._mesh_pair(first, second).touches(placed[first], placed[second]) is None:
+                return True
+    return False

@@ -39,6 +39,14 @@ import math
 import numpy as np
 from numba import njit
 
+from hriplan.robots import mesh_pair_kernels
+from hriplan.robots.kernel_cache import njit_keyed
+from hriplan.robots.mesh_pair_kernels import FREE as MESHES_FREE
+from hriplan.robots.mesh_pair_kernels import TOUCHING as MESHES_TOUCH
+from hriplan.robots.mesh_pair_kernels import decide
+
+KEYED_BY = (mesh_pair_kernels,)  # the verdict walks tabled mesh pairs' triangles (`_decided_tables`)
+
 REVOLUTE, CONTINUOUS, PRISMATIC = 0, 1, 2
 JOINT_ROW = 15  # a joint's row: placement rotation (9, row-major), translation (3), unit axis (3)
 _DEPTH = 6  # a capsule against a box: pieces of 1/64 of its segment at the finest
@@ -60,6 +68,13 @@ _SEARCHES = 40  # golden-section steps along a segment: 1e-8 of it
 # ends (on its first pair; 0 elsewhere and where the level tests nothing).
 PAIR_ID, NODES, NODE, PART = 2, 3, 6, 9
 LEVELS, PAIR = 3, 12
+# A tabled mesh pair's row (`FreeCertifier._mesh_rows`): per mesh (the pair's first, then its
+# second) its joint, where its placement in that joint's frame starts in the float array (12:
+# rotation row-major, translation), and its tree's boxes (floats), nodes (ints), triangles
+# (floats) and their counts; then where its 16 witnesses (ints, 2 each) start.
+MESH_JOINT, MESH_PLACED, MESH_BOXES, MESH_NODES, MESH_TRIS, MESH_NODE_COUNT, MESH_TRI_COUNT = range(7)
+MESH_SIDE, MESH_WITNESSES = 7, 14
+MESH_ROW, WITNESSES = 15, 16
 
 
 @njit(cache=True, nogil=True)
@@ -452,7 +467,7 @@ def _unpack(floats, ints):
     tables = ints[ints[15] : ints[15] + ntables * 4].reshape((ntables, 4))
     axis_ints = ints[ints[16] : ints[16] + naxes * 3].reshape((naxes, 3))
     children = ints[ints[17] : ints[17] + nused * 2].reshape((nused, 2))
-    bits = ints[ints[19] : ints[20]]
+    bits = ints[ints[19] : ints[24]]  # the words run to the mesh pairs' witnesses
     return joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits
 
 
@@ -511,11 +526,85 @@ def _tree_clear(rows, carrier, children, subtrees, rotation, origin, placed, x, 
     return True
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
+def _mesh_placed(floats, row, side, rotation, origin, out) -> None:
+    """out (3, 4): the world placement of a mesh pair's side (0 its first, MESH_SIDE its second):
+    its joint's frame times its placement in that frame."""
+    j, at = row[side + MESH_JOINT], row[side + MESH_PLACED]
+    for r in range(3):
+        for c in range(3):
+            out[r, c] = (
+                rotation[j, r, 0] * floats[at + c]
+                + rotation[j, r, 1] * floats[at + 3 + c]
+                + rotation[j, r, 2] * floats[at + 6 + c]
+            )
+        out[r, 3] = (
+            origin[j, r]
+            + rotation[j, r, 0] * floats[at + 9]
+            + rotation[j, r, 1] * floats[at + 10]
+            + rotation[j, r, 2] * floats[at + 11]
+        )
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _mesh_tree(floats, ints, row, side):
+    """A side's tree as `decide` takes it, views of the packed arrays: boxes, nodes, triangles."""
+    nodes, tris = row[side + MESH_NODE_COUNT], row[side + MESH_TRI_COUNT]
+    boxes = floats[row[side + MESH_BOXES] : row[side + MESH_BOXES] + 6 * nodes].reshape((nodes, 6))
+    links = ints[row[side + MESH_NODES] : row[side + MESH_NODES] + 4 * nodes].reshape((nodes, 4))
+    corners = floats[row[side + MESH_TRIS] : row[side + MESH_TRIS] + 9 * tris].reshape((tris, 9))
+    return boxes, links, corners
+
+
+@njit_keyed(mesh_pair_kernels)
+def _mesh_pair_verdict(floats, ints, row, margin, rotation, origin) -> int:
+    """`mesh_pair_kernels.decide` on a tabled mesh pair (its row of `FreeCertifier`'s mesh rows)
+    placed by the joints' frames: MESHES_FREE, MESHES_TOUCH or undecided (its witnesses, in
+    `ints`, kept as `decide` leaves them)."""
+    a, b = np.empty((3, 4)), np.empty((3, 4))
+    _mesh_placed(floats, row, 0, rotation, origin, a)
+    _mesh_placed(floats, row, MESH_SIDE, rotation, origin, b)
+    placement = np.zeros((4, 4))  # b in a's frame
+    for r in range(3):
+        for c in range(3):
+            placement[r, c] = a[0, r] * b[0, c] + a[1, r] * b[1, c] + a[2, r] * b[2, c]
+        placement[r, 3] = a[0, r] * (b[0, 3] - a[0, 3]) + a[1, r] * (b[1, 3] - a[1, 3]) + a[2, r] * (b[2, 3] - a[2, 3])
+    placement[3, 3] = 1.0
+    a_boxes, a_nodes, a_tris = _mesh_tree(floats, ints, row, 0)
+    b_boxes, b_nodes, b_tris = _mesh_tree(floats, ints, row, MESH_SIDE)
+    witnesses = ints[row[MESH_WITNESSES] : row[MESH_WITNESSES] + 2 * WITNESSES].reshape((WITNESSES, 2))
+    return decide(a_boxes, a_nodes, a_tris, b_boxes, b_nodes, b_tris, placement, margin, witnesses)
+
+
+@njit_keyed(mesh_pair_kernels)
+def _decided_tables(uncertified, floats, ints, rotation, origin) -> int:
+    """`uncertified` (bit k: table k does not certify the state) less the tables whose mesh
+    pairs their triangles prove apart (`_mesh_pair_verdict`); -1 if one proves a pair touching.
+    A table with a pair that is not two meshes (none packed) keeps its bit: coal's."""
+    ntables, meshes_of, rows = ints[3], ints[ints[22] : ints[22] + 2 * ints[3]], ints[ints[23] :]
+    margin = floats[ints[21]]
+    for k in range(ntables):
+        if not (uncertified >> k) & 1 or meshes_of[2 * k + 1] == 0:
+            continue
+        proven = True
+        for m in range(meshes_of[2 * k], meshes_of[2 * k] + meshes_of[2 * k + 1]):
+            verdict = _mesh_pair_verdict(
+                floats, ints, rows[m * MESH_ROW : (m + 1) * MESH_ROW], margin, rotation, origin
+            )
+            if verdict == MESHES_TOUCH:
+                return -1
+            proven = proven and verdict == MESHES_FREE
+        if proven:
+            uncertified &= ~(1 << k)
+    return uncertified
+
+
+@njit_keyed(mesh_pair_kernels)
 def _verdict(q, floats, ints, work, left, frames) -> int:
-    """TOUCHING if a pair surely touches at `q` (`touching`, the first found: coal would find it
-    collide); -1 if more pairs may touch than `left` holds (stopped there); else the tables
-    that do not certify `q` (bit k for table k) plus 2^32 times the count of pairs that may
+    """TOUCHING if a pair surely touches at `q` (`touching`, the first found, or a tabled mesh
+    pair's triangles: coal would find it collide); -1 if more pairs may touch than `left` holds
+    (stopped there); else the tables that do not certify `q` and whose mesh pairs their triangles
+    do not prove apart (bit k for table k) plus 2^32 times the count of pairs that may
     touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs passes at once when
     its level's rows are clear: two nodes' spheres, a geometry and a node's sphere as a pair, a
     geometry and a part's. `work` holds the joints' frames and the rows as the last state asked
@@ -554,17 +643,22 @@ def _verdict(q, floats, ints, work, left, frames) -> int:
             count += 1
             left[count] = pairs[k, PAIR_ID]
         k += 1
-    return _uncertified_tables(q, tables, axis_ints, axis_floats, bits) + (count << 32)
+    uncertified = _uncertified_tables(q, tables, axis_ints, axis_floats, bits)
+    if uncertified != 0:  # the tables' mesh pairs, on their triangles
+        uncertified = _decided_tables(uncertified, floats, ints, rotation, origin)
+        if uncertified < 0:
+            return TOUCHING
+    return uncertified + (count << 32)
 
 
-@njit(cache=True, nogil=True)
+@njit_keyed(mesh_pair_kernels)
 def verdict_one(q, floats, ints) -> int:
     """`_verdict` of one state (a call from Python: three arrays, the scratch and the pairs left
     at the ends of the float and int arrays, as each array costs the call ~0.05 us)."""
     return _verdict(q, floats, ints, floats[ints[11] :], ints[ints[20] :], None)
 
 
-@njit(cache=True, nogil=True)
+@njit_keyed(mesh_pair_kernels)
 def verdict_of_placed(q, floats, ints, rotation, origin) -> int:
     """`verdict_one` where the caller placed every joint at `q` already (`place_joints`, into
     `rotation` and `origin`) with the certifier's own joint tables (`same_joints`): CBiRRT's walk
@@ -582,7 +676,7 @@ def same_joints(floats, ints, rows, joint_ints) -> bool:
     return (own_rows == rows).all() and (own_ints == joint_ints).all()
 
 
-@njit(cache=True, nogil=True)
+@njit_keyed(mesh_pair_kernels)
 def verdicts(qs, floats, ints, left) -> np.ndarray:
     """Per state (row n of `left` its pairs that may touch)."""
     out = np.empty(qs.shape[0], dtype=np.int64)

@@ -842,7 +842,15 @@ class CollisionChecker:
             tables = [table for table, _ in self._tabled]
             people = [slots + [s for s, _ in self._zone_slots.get(n, [])] for n, slots in self._human_slots.items()]
             ids = np.flatnonzero(active)
-            made = FreeCertifier.of(self.robot.model, self._geom_model, pairs.reshape(-1, 2)[ids], tables, people, ids)
+            made = FreeCertifier.of(
+                self.robot.model,
+                self._geom_model,
+                pairs.reshape(-1, 2)[ids],
+                tables,
+                people,
+                ids,
+                self._tabled_meshes(),
+            )
             view.certifier, view.placed = made or False, self._statics_placed  # False: none for this robot
         elif view.certifier and view.placed != self._statics_placed:
             view.certifier.place(self._where)
@@ -870,18 +878,35 @@ class CollisionChecker:
         coal's."""
         if kernels_on():
             first, second = (int(i) for i in self._pair_table[k])
-            if (first, second) not in self._robot.mesh_pairs:
-                from hriplan.robots.mesh_pairs import MeshPair  # numba's: with the kernels only
-
-                objects = self._geom_model.geometryObjects
-                self._robot.mesh_pairs[first, second] = MeshPair.of(objects[first].geometry, objects[second].geometry)
-            meshes = self._robot.mesh_pairs[first, second]
+            meshes = self._mesh_pair(first, second)
             if meshes is not None:
                 placed = self._geom_data.oMg
                 verdict = meshes.touches(placed[first], placed[second])
                 if verdict is not None:
                     return verdict
         return pin.computeCollision(self._geom_model, self._geom_data, k)
+
+    def _mesh_pair(self, first: int, second: int) -> MeshPair | None:
+        """The trees of geometries `first` and `second` (collision model indices) if both are
+        meshes, made once per robot geometry (8-10 ms a MADAR pair). Kernels on only."""
+        if (first, second) not in self._robot.mesh_pairs:
+            from hriplan.robots.mesh_pairs import MeshPair  # numba's: with the kernels only
+
+            objects = self._geom_model.geometryObjects
+            self._robot.mesh_pairs[first, second] = MeshPair.of(objects[first].geometry, objects[second].geometry)
+        return self._robot.mesh_pairs[first, second]
+
+    def _tabled_meshes(self) -> list[list[tuple[MeshPair, int, int]] | None]:
+        """Per table, its mesh pairs' trees with their geometries, for the certifier to decide
+        them on their triangles (`FreeCertifier`); None for a table with a pair that is not two
+        meshes (coal decides it)."""
+        out = []
+        for _, ks in self._tabled:
+            found = [
+                (self._mesh_pair(*pair), *pair) for pair in (tuple(int(i) for i in self._pair_table[k]) for k in ks)
+            ]
+            out.append(None if any(meshes is None for meshes, _, _ in found) else found)
+        return out
 
     def contacts(self, q: np.ndarray) -> list[Contact]:
         """Every colliding pair at `q`, by name (for error messages and reports). A free state

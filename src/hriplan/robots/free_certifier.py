@@ -26,16 +26,24 @@ from hriplan.robots.certifier_kernels import (
     EXACT_BOX,
     EXACT_CAPSULE,
     LEVELS,
+    MESH_ROW,
+    MESH_SIDE,
+    MESH_WITNESSES,
     PAIR,
     REACH,
     ROW,
     TOUCHING,
+    WITNESSES,
     verdict_one,
     verdicts,
 )
 from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.mesh_clearance import FINE, ClearanceTable
+from hriplan.robots.mesh_pairs import MARGIN as MESH_MARGIN
+from hriplan.robots.mesh_pairs import MeshPair
 from hriplan.robots.part_spheres import BOUND_TOLERANCE
+
+TabledMeshes = tuple[MeshPair, int, int]  # a table's mesh pair: its trees, its first and second geometry
 
 _LEAF = 64  # triangles a mesh piece holds at most
 _PARTS = 4  # parts of a person, each a node of the capsules near one another
@@ -213,14 +221,18 @@ class FreeCertifier:
         tables: Sequence[ClearanceTable],
         groups: Sequence[Sequence[int]] = (),
         ids: Sequence[int] | None = None,
+        meshes: Sequence[Sequence[TabledMeshes] | None] = (),
     ) -> FreeCertifier | None:
         """The certifier of these pairs (k, 2) and tables (at most 31), or None for a robot whose
         joints the kernel does not walk or with more tables. `groups`: geometries on no joint that stand together (a person's
-        capsules), against which a moving geometry is first tested as one sphere."""
+        capsules), against which a moving geometry is first tested as one sphere. `meshes`: per
+        table, its mesh pairs' trees with their geometries (`TabledMeshes`), decided on their
+        triangles by the verdict where the table does not certify a state; None (or none given)
+        for a table whose pairs are not all two meshes: coal's."""
         joints = joint_tables(model)
         if joints is None or len(tables) > 31:
             return None
-        return cls(joints, geom_model, pairs, tables, groups, ids)
+        return cls(joints, geom_model, pairs, tables, groups, ids, meshes)
 
     def __init__(
         self,
@@ -230,6 +242,7 @@ class FreeCertifier:
         tables: Sequence[ClearanceTable],
         groups: Sequence[Sequence[int]] = (),
         ids: Sequence[int] | None = None,
+        meshes: Sequence[Sequence[TabledMeshes] | None] = (),
     ) -> None:
         self._joint_rows, self._joint_ints = joints
         objects = geom_model.geometryObjects
@@ -292,6 +305,10 @@ class FreeCertifier:
         self._members = members[:, self._grouped]
         self._static_grouped = members.any(axis=0)[self._statics]  # per geometry on no joint: in a group?
         self._place_groups()
+        self._meshes = [
+            list(meshes[k]) if k < len(meshes) and meshes[k] is not None else [] for k in range(len(tables))
+        ]
+        self._geometries = objects
         self._floats, self._ints = self._packed()
 
     def _ordered_pairs(self, pairs: np.ndarray) -> np.ndarray:
@@ -352,7 +369,7 @@ class FreeCertifier:
         joint placed now, for good; the kernel places the others)."""
         nj = len(self._joint_rows)
         work = np.concatenate([np.zeros(nj * 12), np.full(nj * 2, np.nan), np.zeros(nj), self._rows.reshape(-1)])
-        return [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats, work]
+        return [np.array([BOUND_TOLERANCE]), self._joint_rows, self._rows, self._axis_floats, self._mesh_floats, work]
 
     @property
     def _work(self) -> np.ndarray:
@@ -363,10 +380,6 @@ class FreeCertifier:
         """All of it in one float and one int array (a numba call costs ~0.05 us an array): the
         int array starts with the sizes and where each part begins (`_unpack`), and ends with the
         ids of the pairs left (the kernel's); the float array is `_float_parts`."""
-        floats = self._float_parts()
-        left = np.zeros(ASKED_OF_COAL + 1)
-        ints = [self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children]
-        ints += [self._subtrees, self._bits, left]
         sizes = [
             len(self._joint_rows),
             len(self._rows),
@@ -376,13 +389,66 @@ class FreeCertifier:
             len(self._children),
             len(self._children) + len(self._links),  # rows placed at each state (those on a joint)
         ]
-        header = len(sizes) + len(floats) + len(ints)
+        # The header: the sizes, where each float part starts, then each int part, in the
+        # kernel's order (`_unpack`), then the tabled meshes' parts (`_decided_tables`). The
+        # words run to the meshes' witnesses; the witnesses and the pairs left, which the kernel
+        # writes, end the int array.
+        header = len(sizes) + 5 + 9 + 4
+        before = (self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children)
+        self._mesh_floats, mesh_ints = self._mesh_parts(
+            1 + self._joint_rows.size + self._rows.size + self._axis_floats.size,
+            header + sum(a.size for a in before) + self._subtrees.size,
+            self._bits.size,
+        )
+        floats = self._float_parts()
+        left = np.zeros(ASKED_OF_COAL + 1)
+        ints = [self._joint_ints, self._carrier, self._pairs, self._tables, self._axis_ints, self._children]
+        ints += [self._subtrees, *mesh_ints[:3], self._bits, mesh_ints[3], left]
         float_starts = np.cumsum([0] + [a.size for a in floats])[:-1]
         int_starts = header + np.cumsum([0] + [a.size for a in ints])[:-1]
-        head = np.array([*sizes, *float_starts, *int_starts], dtype=np.int64)
+        kernel_order = [*float_starts[:4], float_starts[5], *int_starts[:7], int_starts[10], int_starts[12]]
+        meshes = [float_starts[4], int_starts[7], int_starts[8], int_starts[11]]
+        head = np.array([*sizes, *kernel_order, *meshes], dtype=np.int64)
         packed = np.concatenate([head, *(a.reshape(-1).astype(np.int64) for a in ints)])
         self._left = packed[-left.size :]  # a view the kernel writes
+        self.kernel_written = packed.size - int(head[24])  # the witnesses, then the pairs left
         return np.concatenate([a.reshape(-1) for a in floats]), packed
+
+    def _mesh_parts(self, float_start: int, int_start: int, words: int) -> tuple[np.ndarray, list[np.ndarray]]:
+        """The tabled meshes packed: their float part starting at `float_start` of the float
+        array (the margin, then per pair its two placements in their joints' frames and its two
+        trees' boxes and triangles), and their int parts (per table its first pair and count;
+        per pair its row, `certifier_kernels.MESH_ROW`; the trees' nodes; then, after the
+        tables' `words`, each pair's witnesses, -1 for none: the kernel writes them) starting at
+        `int_start` of the int array."""
+        pairs = [pair for table in self._meshes for pair in table]
+        table_meshes = np.zeros((len(self._meshes), 2), dtype=np.int64)
+        table_meshes[:, 1] = [len(table) for table in self._meshes]
+        table_meshes[1:, 0] = np.cumsum(table_meshes[:-1, 1])
+        rows = np.zeros((len(pairs), MESH_ROW), dtype=np.int64)
+        floats: list[np.ndarray] = [np.array([MESH_MARGIN])]
+        nodes: list[np.ndarray] = []
+        at_float, at_int = float_start + 1, int_start + table_meshes.size + rows.size
+        for m, (trees, first, second) in enumerate(pairs):
+            for side, tree, g in ((0, trees.first, first), (MESH_SIDE, trees.second, second)):
+                placement = self._geometries[g].placement
+                boxes, triangles = tree.boxes.reshape(-1), tree.triangles.reshape(-1)
+                rows[m, side : side + MESH_SIDE] = (
+                    self._geometries[g].parentJoint,
+                    at_float,
+                    at_float + 12,
+                    at_int,
+                    at_float + 12 + boxes.size,
+                    len(tree.nodes),
+                    len(tree.triangles),
+                )
+                floats += [placement.rotation.reshape(-1), placement.translation, boxes, triangles]
+                nodes.append(tree.nodes.reshape(-1))
+                at_float += 12 + boxes.size + triangles.size
+                at_int += tree.nodes.size
+        rows[:, MESH_WITNESSES] = at_int + words + 2 * WITNESSES * np.arange(len(pairs))
+        witnesses = np.full(2 * WITNESSES * len(pairs), -1, dtype=np.int64)
+        return np.concatenate(floats), [table_meshes, rows, np.concatenate([np.zeros(0, np.int64), *nodes]), witnesses]
 
     @property
     def packed(self) -> tuple[np.ndarray, np.ndarray]:

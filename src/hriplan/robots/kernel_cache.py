@@ -22,7 +22,10 @@ from numba.core.caching import NullCache
 
 def njit_keyed(*dependencies: ModuleType, nogil: bool = True) -> Callable[[Callable], Callable]:
     """`njit(cache=True, nogil=nogil)` with its cache also keyed by the source files of
-    `dependencies` (nogil=False for kernels that call back into Python: they hold the GIL)."""
+    `dependencies` and of the modules they are keyed by in turn (a module's `KEYED_BY`: the
+    certifier's kernels call the mesh pairs' walk, so a kernel calling the certifier's is keyed
+    by both) (nogil=False for kernels that call back into Python: they hold the GIL)."""
+    files = [m.__file__ for m in keyed_by(dependencies)]
 
     def compile_keyed(function: Callable) -> Callable:
         dispatcher = njit(cache=True, nogil=nogil)(function)
@@ -30,10 +33,22 @@ def njit_keyed(*dependencies: ModuleType, nogil: bool = True) -> Callable[[Calla
         if index is None or not hasattr(index, "_source_stamp"):
             dispatcher._cache = NullCache()
             return dispatcher
-        index._source_stamp = (index._source_stamp, *(file_digest(m.__file__) for m in dependencies))
+        index._source_stamp = (index._source_stamp, *(file_digest(f) for f in files))
         return dispatcher
 
     return compile_keyed
+
+
+def keyed_by(modules: tuple[ModuleType, ...]) -> list[ModuleType]:
+    """`modules` and, in turn, every module listed in one's `KEYED_BY`, each once, in order."""
+    found: list[ModuleType] = []
+    waiting = list(modules)
+    while waiting:
+        module = waiting.pop(0)
+        if module not in found:
+            found.append(module)
+            waiting += list(getattr(module, "KEYED_BY", ()))
+    return found
 
 
 def file_digest(path: str) -> bytes:
