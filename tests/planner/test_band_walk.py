@@ -175,3 +175,46 @@ def test_a_kernel_is_compiled_again_when_a_file_it_calls_into_changes(tmp_path):
     assert list((tmp_path / "cache").rglob("*caller*keyed*.nbi"))  # cached
     (tmp_path / "callee.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 2\n")
     assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip() == "2"
+
+
+def test_a_kernel_keyed_by_a_module_is_keyed_by_what_that_module_is_keyed_by(tmp_path):
+    """The certifier's kernels call the mesh pairs' walk (its KEYED_BY): a kernel keyed by the
+    certifier only is compiled again when the walk's file changes, two calls down."""
+    (tmp_path / "leaf.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 1\n")
+    (tmp_path / "middle.py").write_text(
+        textwrap.dedent(
+            """
+            import leaf
+            from hriplan.robots.kernel_cache import njit_keyed
+
+            KEYED_BY = (leaf,)
+
+            @njit_keyed(leaf)
+            def passed():
+                return leaf.value()
+            """
+        )
+    )
+    (tmp_path / "top.py").write_text(
+        textwrap.dedent(
+            """
+            import middle
+            from hriplan.robots.kernel_cache import njit_keyed
+
+            @njit_keyed(middle)
+            def keyed():
+                return middle.passed()
+            """
+        )
+    )
+    run = [sys.executable, "-c", "import top; print(top.keyed())"]
+    env = {
+        "PYTHONPATH": f"{tmp_path}:{REPO_SRC}",
+        "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
+        "PATH": "/usr/bin",
+        "PYTHONDONTWRITEBYTECODE": "1",
+    }
+    assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip() == "1"
+    assert list((tmp_path / "cache").rglob("*top*keyed*.nbi"))  # cached
+    (tmp_path / "leaf.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 2\n")
+    assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip() == "2"
