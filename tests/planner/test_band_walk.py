@@ -163,18 +163,23 @@ def test_a_kernel_is_compiled_again_when_a_file_it_calls_into_changes(tmp_path):
             """
         )
     )
-    run = [sys.executable, "-c", "import caller; print(caller.keyed())"]
-    # no .pyc: a callee rewritten within the same second at the same size would load its old bytecode
+    assert _keyed_value(tmp_path, "caller") == "1"
+    assert list((tmp_path / "cache").rglob("*caller*keyed*.nbi"))  # cached
+    (tmp_path / "callee.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 2\n")
+    assert _keyed_value(tmp_path, "caller") == "2"
+
+
+def _keyed_value(tmp_path, module: str) -> str:
+    """What `module.keyed()` prints in a fresh process caching in tmp_path/cache (no .pyc: a
+    file rewritten within the same second at the same size would load its old bytecode)."""
+    run = [sys.executable, "-c", f"import {module}; print({module}.keyed())"]
     env = {
         "PYTHONPATH": f"{tmp_path}:{REPO_SRC}",
         "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
         "PATH": "/usr/bin",
         "PYTHONDONTWRITEBYTECODE": "1",
     }
-    assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip() == "1"
-    assert list((tmp_path / "cache").rglob("*caller*keyed*.nbi"))  # cached
-    (tmp_path / "callee.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 2\n")
-    assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip() == "2"
+    return subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip()
 
 
 def test_a_kernel_keyed_by_a_module_is_keyed_by_what_that_module_is_keyed_by(tmp_path):
@@ -207,14 +212,7 @@ def test_a_kernel_keyed_by_a_module_is_keyed_by_what_that_module_is_keyed_by(tmp
             """
         )
     )
-    run = [sys.executable, "-c", "import top; print(top.keyed())"]
-    env = {
-        "PYTHONPATH": f"{tmp_path}:{REPO_SRC}",
-        "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
-        "PATH": "/usr/bin",
-        "PYTHONDONTWRITEBYTECODE": "1",
-    }
-    assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip() == "1"
+    assert _keyed_value(tmp_path, "top") == "1"
     assert list((tmp_path / "cache").rglob("*top*keyed*.nbi"))  # cached
     (tmp_path / "leaf.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 2\n")
-    assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.strip() == "2"
+    assert _keyed_value(tmp_path, "top") == "2"
