@@ -248,3 +248,32 @@ def _trees_undecided(checker: CollisionChecker, q: np.ndarray) -> bool:
             if checker._mesh_pair(first, second).touches(placed[first], placed[second]) is None:
                 return True
     return False
+
+
+@pytest.mark.parametrize("count", [1, 2, 3, 7, 64, 1000])
+def test_a_tree_halves_each_node_across_its_widest_spread(count):
+    """Every node's triangles are its children's, the left half the smaller, split where their
+    centres spread most (ties and equal spreads included); leaves hold one triangle; nodes come
+    level by level, a child after its parent."""
+    from hriplan.robots.mesh_pair_kernels import COUNT, FIRST, LEFT, RIGHT
+    from hriplan.robots.mesh_tree_kernels import split
+
+    rng = np.random.default_rng(count)
+    centres = np.round(rng.normal(size=(count, 3)) * [1.0, 3.0, 0.5], 1)  # rounded: equal values
+    order, nodes = split(centres)
+    assert sorted(order.tolist()) == list(range(count))
+    assert nodes.shape == (2 * count - 1, 4) and nodes[0, FIRST] == 0 and nodes[0, COUNT] == count
+    depth = {0: 0}
+    for n, (left, right, first, size) in enumerate(nodes.tolist()):
+        if size == 1:
+            assert left == right == -1
+            continue
+        assert left > n and right == left + 1
+        assert nodes[left, FIRST] == first and nodes[left, COUNT] == size // 2
+        assert nodes[right, FIRST] == first + size // 2 and nodes[right, COUNT] == size - size // 2
+        depth[left] = depth[right] = depth[n] + 1
+        members = centres[order[first : first + size]]
+        axis = int(np.argmax(members.max(axis=0) - members.min(axis=0)))
+        along = members[:, axis]  # the halves are apart along it (their own order is their children's)
+        assert along[: size // 2].max() <= along[size // 2 :].min()
+    assert list(depth) == sorted(depth) and np.all(np.diff([depth[n] for n in sorted(depth)]) >= 0)

@@ -15,11 +15,11 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.robots import mesh_pair_kernels as kernels
+from hriplan.robots.mesh_tree_kernels import split
 
 # Triangles closer than this (m) or overlapping by less are left to coal: far above rounding
 # (~1e-15 m) and coal's GJK tolerance (~1e-6 m), far below the gaps a search meets.
 MARGIN = 1e-5
-_LEAF = 1  # triangles a leaf holds at most (see MeshTree)
 _WITNESSES = 16  # touching pairs kept: 4 proved 80 % of the peg-in-hole's colliding states, 16 98 %
 
 
@@ -33,44 +33,10 @@ class MeshTree:
         vertices = np.asarray(geometry.vertices(), dtype=float)
         indices = np.array([[geometry.tri_indices(t)[k] for k in range(3)] for t in range(geometry.num_tris)])
         triangles = vertices[indices.reshape(-1, 3)].reshape(-1, 9)
-        order, nodes = _split(triangles.reshape(-1, 3, 3).mean(axis=1))
+        order, nodes = split(triangles.reshape(-1, 3, 3).mean(axis=1))
         self.triangles = np.ascontiguousarray(triangles[order])
         self.nodes = nodes
         self.boxes = _boxes(self.triangles.reshape(-1, 3, 3), nodes)
-
-
-def _split(centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The triangles' leaf order and the tree's nodes: each node's triangles halved at the median
-    of their centres along the axis they spread most on, a level of the tree at a time (one numpy
-    pass a level: a node at a time took ~50 ms for a 1000-triangle mesh). Nodes are numbered
-    level by level, the root first."""
-    count = len(centres)
-    order = np.arange(count)
-    nodes = [[-1, -1, 0, count]]
-    level = [0] if count > 1 else []
-    while level:
-        first = np.array([nodes[n][kernels.FIRST] for n in level])
-        size = np.array([nodes[n][kernels.COUNT] for n in level])
-        group = np.arange(count)  # a position's key: its node's first position (a finished leaf, its own)
-        owner = np.repeat(np.arange(len(level)), size)
-        starts = np.cumsum(size) - size
-        positions = np.arange(size.sum()) - np.repeat(starts - first, size)
-        group[positions] = first[owner]
-        placed = centres[order[positions]]
-        spread = np.maximum.reduceat(placed, starts) - np.minimum.reduceat(placed, starts)
-        value = np.zeros(count)
-        value[positions] = placed[np.arange(len(positions)), np.argmax(spread, axis=1)[owner]]
-        order = order[np.lexsort((value, group))]
-        after = []
-        for n, f, c in zip(level, first.tolist(), size.tolist()):
-            half = c // 2
-            for start, length, side in ((f, half, kernels.LEFT), (f + half, c - half, kernels.RIGHT)):
-                nodes[n][side] = len(nodes)
-                if length > _LEAF:
-                    after.append(len(nodes))
-                nodes.append([-1, -1, start, length])
-        level = after
-    return order, np.array(nodes, dtype=np.int64)
 
 
 def _boxes(triangles: np.ndarray, nodes: np.ndarray) -> np.ndarray:
