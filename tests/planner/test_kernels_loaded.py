@@ -22,7 +22,8 @@ import json, sys
 from pathlib import Path
 from numba.core.registry import CPUDispatcher
 from hriplan.planner.kernels import load_kernels
-from hriplan.robots import certifier_kernels
+from numba.core.dispatcher import ObjModeLiftedWith
+from hriplan.robots import certifier_kernels, mesh_pair_kernels, mesh_tree_kernels
 from hriplan.planner.constraints import compiled
 from hriplan.planner.search import band_kernels, loop_kernels
 from hriplan.planner import path_kernels, retime_kernels, spline_kernels, timing, toppra_kernels
@@ -44,10 +45,16 @@ for owner, name in [(compiled.CompiledTerms, n) for n in ("margins", "gradients"
     (toppra_kernels.Stagewise, n) for n in ("controllable", "forward")
 ]:
     counted(owner, name)
+compile_objmode = ObjModeLiftedWith.compile
+def compiled_objmode(self, *args, **kwargs):  # the blocks where compiled code asks Python
+    calls["objmode compiled"] = calls.get("objmode compiled", 0) + 1
+    return compile_objmode(self, *args, **kwargs)
+ObjModeLiftedWith.compile = compiled_objmode
 
 def signatures():
     kernels = {**vars(certifier_kernels), **compiled._KERNELS, **vars(compiled), **vars(approach_kernels), **vars(band_kernels), **vars(loop_kernels),
-               **vars(toppra_kernels), **vars(spline_kernels), **vars(retime_kernels), **vars(path_kernels)}
+               **vars(toppra_kernels), **vars(spline_kernels), **vars(retime_kernels), **vars(path_kernels),
+               **vars(mesh_pair_kernels), **vars(mesh_tree_kernels)}
     return {name: len(f.signatures) for name, f in kernels.items() if isinstance(f, CPUDispatcher)}
 
 loaded = load_kernels()
@@ -74,8 +81,10 @@ def test_after_loading_no_task_of_another_robot_makes_numba_load_anything():
     entries += ("horner", "evaluate")  # the path it retimes (spline_kernels.py)
     entries += ("passes", "constant_acceleration", "overshooting", "samples", "worst")  # retime_kernels.py
     entries += ("knots", "deviation", "gridpoints")  # the path's preparation (path_kernels.py)
+    entries += ("decide", "split")  # mesh pairs (mesh_pair_kernels.py) and their trees (mesh_tree_kernels.py)
     assert [name for name in entries if found["before"].get(name)] == list(entries), found["before"]
-    # the tasks took the compiled routes (planning, validation, collision, TOPP-RA), and numba loaded nothing for them
+    # the tasks took the compiled routes (planning, validation, collision, TOPP-RA), and numba loaded
+    # nothing for them, nor compiled a block where compiled code asks Python
     called = [
         "_compiled",
         "controllable",

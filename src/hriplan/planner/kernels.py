@@ -60,9 +60,10 @@ def load_kernels() -> bool:
 
 def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds, x: np.ndarray) -> None:
     """CBiRRT's compiled projection, walk (with and without bands) and nearest node
-    (`band_kernels.py`), and its whole loop (`loop_kernels.py`, given no time: compiled, not run)."""
+    (`band_kernels.py`), and its whole loop (`loop_kernels.py`, given no time: compiled, not run)
+    with the blocks where it asks Python."""
     from hriplan.planner.search.band_kernels import BandWalker
-    from hriplan.planner.search.loop_kernels import search
+    from hriplan.planner.search.loop_kernels import load_callbacks, search
 
     walker = BandWalker.of(evaluator, bounds)
     certifier = checker.compiled_verdict(evaluator.full(x))
@@ -72,6 +73,7 @@ def _band_walk(evaluator: ConstraintEvaluator, checker: CollisionChecker, bounds
         walker.walk(x, x + 0.1, 0.05, 3, bands, certifier)
     arguments = walker.arguments(0.05, True, 4e-3, 2e-3, certifier)
     search(x, x + 0.1, np.random.default_rng(0), 0.0, 10, arguments, np.zeros(1, dtype=np.int64))
+    load_callbacks()
 
 
 def _mesh_pairs() -> None:

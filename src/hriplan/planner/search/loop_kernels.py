@@ -92,6 +92,15 @@ def _clock() -> float:
     return now
 
 
+def load_callbacks() -> None:
+    """Compile the blocks where the compiled search asks Python (numba compiles an object-mode
+    block at its first run in each process, ~30 ms, and caches none): at load, not in the first
+    plan that asks about a state (`planner/kernels.py`)."""
+    with asking(lambda x: True):
+        _asked_free(np.zeros(1))
+    _clock()
+
+
 @_keyed
 def steps_of(states):
     """The length of each step between consecutive rows of `states`, as `cbirrt._steps`."""
