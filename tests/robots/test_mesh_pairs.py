@@ -255,7 +255,7 @@ def test_a_tree_halves_each_node_across_its_widest_spread(count):
     """Every node's triangles are its children's, the left half the smaller, split where their
     centres spread most (ties and equal spreads included); leaves hold one triangle; nodes come
     level by level, a child after its parent."""
-    from hriplan.robots.mesh_pair_kernels import COUNT, FIRST, LEFT, RIGHT
+    from hriplan.robots.mesh_pair_kernels import COUNT, FIRST
     from hriplan.robots.mesh_tree_kernels import split
 
     rng = np.random.default_rng(count)
