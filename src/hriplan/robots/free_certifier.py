@@ -41,6 +41,7 @@ from hriplan.robots.kernel_fk import joint_tables
 from hriplan.robots.mesh_clearance import FINE, ClearanceTable
 from hriplan.robots.mesh_pairs import MARGIN as MESH_MARGIN
 from hriplan.robots.mesh_pairs import MeshPair
+from hriplan.robots.mesh_tree_kernels import capsule_tree
 from hriplan.robots.part_spheres import BOUND_TOLERANCE
 
 TabledMeshes = tuple[MeshPair, int, int]  # a table's mesh pair: its trees, its first and second geometry
@@ -125,48 +126,16 @@ def _mesh_pieces(geometry: pin.GeometryObject, leaf: int = _LEAF) -> tuple[np.nd
     radius) in depth-first order, and per node where its subtree ends (its index plus one for a
     leaf). The root holds every triangle; a node's group of triangles is halved along its
     centres' widest spread into its two children, down to `leaf` triangles, and each node's
-    capsule holds its group's corners. coal tests a mesh by its triangles, so a node clear of
-    the other geometry means coal finds no contact with any of its triangles."""
+    capsule holds its group's corners (compiled: `mesh_tree_kernels.capsule_tree`). coal tests
+    a mesh by its triangles, so a node clear of the other geometry means coal finds no contact
+    with any of its triangles."""
     shape = geometry.geometry
     placement = geometry.placement
     vertices = np.asarray(shape.vertices(), dtype=float) @ placement.rotation.T + placement.translation
-    triangles = np.array([[t[0], t[1], t[2]] for t in (shape.tri_indices(i) for i in range(shape.num_tris))])
-    nodes: list[np.ndarray] = []
-    ends: list[int] = []
-
-    def split(group: np.ndarray) -> None:
-        k = len(nodes)
-        nodes.append(_capsule_about(vertices[np.unique(group)]))
-        ends.append(0)
-        if len(group) > leaf:
-            centres = vertices[group].mean(axis=1)
-            order = np.argsort(centres[:, int(np.argmax(np.ptp(centres, axis=0)))], kind="stable")
-            split(group[order[: len(group) // 2]])
-            split(group[order[len(group) // 2 :]])
-        ends[k] = len(nodes)
-
-    split(triangles)
-    return np.array(nodes), np.array(ends, dtype=np.int64)
-
-
-def _capsule_about(points: np.ndarray) -> np.ndarray:
-    """A capsule (ends, radius: 7) holding `points` (k, 3): along their principal axis through
-    their mean, radius their farthest from that axis, its ends drawn in as far as every point
-    allows (a sphere where they meet). The radius is then the farthest point's distance from
-    the segment itself, a hair more for rounding: it holds them whatever the fit did."""
-    centre = points.mean(axis=0)
-    axis = np.linalg.svd(points - centre, full_matrices=False)[2][0]
-    along = (points - centre) @ axis
-    across = np.linalg.norm(points - centre - along[:, None] * axis, axis=1)
-    slack = np.sqrt(np.maximum(across.max() ** 2 - across**2, 0.0))
-    low, high = (along + slack).min(), (along - slack).max()
-    if low > high:
-        low = high = (low + high) / 2.0
-    start, end = centre + low * axis, centre + high * axis
-    span = end - start
-    t = np.clip((points - start) @ span / max(span @ span, 1e-300), 0.0, 1.0)
-    reach = np.linalg.norm(points - start - t[:, None] * span, axis=1).max()
-    return np.array([*start, *end, reach * (1.0 + 1e-9) + 1e-9])
+    triangles = np.array(
+        [[t[0], t[1], t[2]] for t in (shape.tri_indices(i) for i in range(shape.num_tris))], dtype=np.int64
+    )
+    return capsule_tree(vertices, triangles.reshape(-1, 3), leaf)
 
 
 # By mesh (its id, the mesh kept alive with its pieces so that no other takes the id) and
