@@ -38,6 +38,7 @@ from hriplan.robots.certifier_kernels import (
     verdicts,
 )
 from hriplan.robots.kernel_fk import joint_tables
+from hriplan.robots.mesh_arrays import mesh_arrays
 from hriplan.robots.mesh_clearance import FINE, ClearanceTable
 from hriplan.robots.mesh_pairs import MARGIN as MESH_MARGIN
 from hriplan.robots.mesh_pairs import MeshPair
@@ -129,13 +130,9 @@ def _mesh_pieces(geometry: pin.GeometryObject, leaf: int = _LEAF) -> tuple[np.nd
     capsule holds its group's corners (compiled: `mesh_tree_kernels.capsule_tree`). coal tests
     a mesh by its triangles, so a node clear of the other geometry means coal finds no contact
     with any of its triangles."""
-    shape = geometry.geometry
+    local, triangles = mesh_arrays(geometry.geometry)
     placement = geometry.placement
-    vertices = np.asarray(shape.vertices(), dtype=float) @ placement.rotation.T + placement.translation
-    triangles = np.array(
-        [[t[0], t[1], t[2]] for t in (shape.tri_indices(i) for i in range(shape.num_tris))], dtype=np.int64
-    )
-    return capsule_tree(vertices, triangles.reshape(-1, 3), leaf)
+    return capsule_tree(local @ placement.rotation.T + placement.translation, triangles, leaf)
 
 
 # By mesh (its id, the mesh kept alive with its pieces so that no other takes the id) and

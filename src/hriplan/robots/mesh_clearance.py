@@ -26,6 +26,7 @@ import pinocchio as pin
 
 from hriplan.robots.acm import MESH
 from hriplan.robots.fit_cache import cached_fit
+from hriplan.robots.mesh_arrays import mesh_arrays
 from hriplan.robots.model import Robot
 from hriplan.robots.robot_geometry import RobotPart, part_collision_shapes
 
@@ -155,11 +156,6 @@ def _points(shape: pin.GeometryObject) -> np.ndarray:
     return local @ shape.placement.rotation.T + shape.placement.translation
 
 
-def _triangles(geometry: coal.BVHModelBase) -> np.ndarray:
-    """A mesh's triangles as rows of three vertex indices."""
-    return np.array([[geometry.tri_indices(t)[k] for k in range(3)] for t in range(geometry.num_tris)])
-
-
 def slabs(model: pin.Model, joints: list[int], shapes: list[pin.GeometryObject], count: int = SLABS) -> list[Slab]:
     """The child's shapes, meshes cut into `count` slabs along their longest extent, each with its
     reach about every joint in `joints`: the offsets of the joints after that joint plus the slab's
@@ -172,7 +168,7 @@ def slabs(model: pin.Model, joints: list[int], shapes: list[pin.GeometryObject],
             pieces.append((geometry, shape.placement, _points(shape)))
             continue
         vertices = _points(shape)
-        triangles = _triangles(geometry)
+        triangles = mesh_arrays(geometry)[1]
         centres = vertices[triangles].mean(axis=1)
         along = np.argsort(centres[:, np.argmax(np.ptp(centres, axis=0))])
         for chosen in np.array_split(along, count):
@@ -261,7 +257,7 @@ def _shape_key(shape: pin.GeometryObject, frame: pin.SE3) -> tuple:
     geometry = shape.geometry
     if isinstance(geometry, coal.BVHModelBase):
         vertices = np.asarray(geometry.vertices()).round(9)
-        content = hashlib.sha256(vertices.tobytes() + _triangles(geometry).astype(np.int64).tobytes()).hexdigest()
+        content = hashlib.sha256(vertices.tobytes() + mesh_arrays(geometry)[1].tobytes()).hexdigest()
     else:
         content = repr(_rounded(_points(shape)))
     return (type(geometry).__name__, content, _rounded(frame.actInv(shape.placement).homogeneous))

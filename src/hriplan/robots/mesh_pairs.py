@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.robots import mesh_pair_kernels as kernels
+from hriplan.robots.mesh_arrays import mesh_arrays
 from hriplan.robots.mesh_tree_kernels import split
 
 # Triangles closer than this (m) or overlapping by less are left to coal: far above rounding
@@ -30,9 +31,8 @@ class MeshTree:
     (more made the free states ~1.2-1.7x slower: a triangle pair costs more than a box pair)."""
 
     def __init__(self, geometry: coal.BVHModelBase) -> None:
-        vertices = np.asarray(geometry.vertices(), dtype=float)
-        indices = np.array([[geometry.tri_indices(t)[k] for k in range(3)] for t in range(geometry.num_tris)])
-        triangles = vertices[indices.reshape(-1, 3)].reshape(-1, 9)
+        vertices, indices = mesh_arrays(geometry)
+        triangles = vertices[indices].reshape(-1, 9)
         order, nodes = split(triangles.reshape(-1, 3, 3).mean(axis=1))
         self.triangles = np.ascontiguousarray(triangles[order])
         self.nodes = nodes

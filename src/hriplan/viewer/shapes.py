@@ -19,6 +19,8 @@ import numpy as np
 import pinocchio as pin
 import umsgpack
 
+from hriplan.robots.mesh_arrays import mesh_arrays
+
 Y_TO_Z = pin.SE3(pin.rpy.rpyToMatrix(math.pi / 2, 0.0, 0.0), np.zeros(3)).homogeneous
 _UINT16_EXT, _UINT32_EXT, _FLOAT32_EXT = 0x14, 0x16, 0x17  # msgpack-lite's typed-array codes
 
@@ -94,16 +96,6 @@ def translation(xyz: tuple[float, float, float] | np.ndarray) -> np.ndarray:
     matrix = np.eye(4)
     matrix[:3, 3] = xyz
     return matrix
-
-
-def mesh_arrays(mesh: coal.BVHModelBase) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (n x 3) and triangles (m x 3) of a loaded coal mesh."""
-    faces = np.fromiter((i for k in range(mesh.num_tris) for i in _corners(mesh.tri_indices(k))), dtype=np.int64)
-    return np.asarray(mesh.vertices()), faces.reshape(-1, 3)
-
-
-def _corners(triangle: coal.Triangle) -> tuple[int, int, int]:
-    return triangle[0], triangle[1], triangle[2]
 
 
 def parts(shape: coal.CollisionGeometry) -> list[Part]:
