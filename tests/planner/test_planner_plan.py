@@ -205,3 +205,15 @@ def test_plan_motion_without_constraints_plans_in_joint_space(problem, session):
         session.robot, session.checker, [], problem.start, problem.goal, PlanOptions(seed=1, time_limit=20.0)
     )
     assert result.solved and result.space == "real_vector" and result.calls["function"] == 0
+
+
+def test_dedupe_drops_each_state_within_1e9_of_the_last_kept():
+    """A chain of states each within 1e-9 of the one before keeps only its first (the last kept
+    is what counts, not the neighbour); a path with no close neighbours comes back whole."""
+    from hriplan.planner.motion import _dedupe
+
+    a = np.zeros(3)
+    chain = [a, a + 6e-10, a + 1.2e-9, a + 1.8e-9, a + 1.0]
+    assert [s.tolist() for s in _dedupe(chain)] == [a.tolist(), (a + 1.2e-9).tolist(), (a + 1.0).tolist()]
+    spread = [a + k for k in range(4)]
+    assert [s.tolist() for s in _dedupe(spread)] == [s.tolist() for s in spread]

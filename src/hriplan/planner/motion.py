@@ -480,8 +480,13 @@ def _band_problem(problem: _Problem, options: PlanOptions) -> BandProblem:
 
 
 def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:
-    out = [np.asarray(states[0], dtype=float)]
-    for s in states[1:]:
-        if np.abs(np.asarray(s) - out[-1]).max() > 1e-9:
-            out.append(np.asarray(s, dtype=float))
+    """`states` less each that is within 1e-9 (every joint) of the last one kept. One numpy pass
+    where no two neighbours are that close (a search's path: ~4 us a state one by one)."""
+    rows = np.array(states, dtype=float)
+    if (np.abs(np.diff(rows, axis=0)).max(axis=1, initial=0.0) > 1e-9).all():
+        return list(rows)
+    out = [rows[0]]
+    for s in rows[1:]:
+        if np.abs(s - out[-1]).max() > 1e-9:
+            out.append(s)
     return out
