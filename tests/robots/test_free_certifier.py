@@ -20,16 +20,22 @@ pytest.importorskip("numba")
 
 from hriplan.robots import free_certifier, kernel_switch
 from hriplan.robots.certifier_kernels import (
+    APART,
+    EXACT,
+    EXACT_BOX,
+    EXACT_CAPSULE,
     PAIR,
     REACH,
+    ROW,
     TOUCHING,
     capsule_beyond_face,
+    capsule_box_floor,
     capsule_clears_box,
     capsule_in_box,
+    exact_verdict,
     place_joints,
     same_joints,
     segment_floor,
-    touching,
     verdict_of_placed,
     verdict_one,
 )
@@ -271,6 +277,47 @@ def test_mesh_pairs_cleared_near_contact_are_apart_for_coal(robots, name, kernel
     assert touching > 0.2 * len(states) and near_cleared >= 10
 
 
+def test_ur5_links_near_a_box_are_left_to_coal_only_within_the_tolerance(robots, kernels):
+    """The UR5 around a block on a table (benchmarks' scenario a): at states where a link's
+    capsule is at the edge of contact with a box, on either side of it and up to centimetres
+    away, the verdict proves the pair touching only where coal finds it collide, clears it only
+    where coal finds it apart, and leaves it to coal only within the tolerance of contact."""
+    robot = robots["ur5"]
+    scene = Scene(
+        obstacles=[
+            Obstacle(name="table", shape=Box(size=(0.6, 1.2, 0.04)), pose=Pose(xyz=(0.5, 0.0, -0.07))),
+            Obstacle(name="block", shape=Box(size=(0.3, 0.08, 0.35)), pose=Pose(xyz=(0.45, 0.0, 0.125))),
+        ]
+    )
+    checker = CollisionChecker(robot, scene)
+    checker.in_collision(_random_states(robot, 1, 14)[0])
+    objects, active = checker.geom_model.geometryObjects, checker.geom_data.activeCollisionPairs
+    ids = [
+        k
+        for k, p in enumerate(checker.geom_model.collisionPairs)
+        if active[k] and {type(objects[p.first].geometry), type(objects[p.second].geometry)} == {coal.Capsule, coal.Box}
+    ]
+    states, which = _near_contact(checker, ids, 14, 30)
+    certifier = checker._free_certifier()
+    outcomes = {"touching": 0, "apart": 0, "left": 0}
+    for q, k in zip(states, which):
+        touches = _pair_touches(checker, q, [k])[0]
+        distance = pin.computeDistance(checker.geom_model, checker.geom_data, int(k)).min_distance
+        verdict = certifier.verdict(q)
+        if verdict_one(q, *certifier.packed) == TOUCHING:
+            kernel_switch.use_kernels(False)
+            assert checker.in_collision(q)
+            kernel_switch.use_kernels(True)
+            outcomes["touching"] += touches
+        elif verdict is not None and k not in verdict[1]:
+            assert not touches
+            outcomes["apart"] += 1
+        elif verdict is not None:
+            assert abs(distance) < 1e-4 + 1e-7
+            outcomes["left"] += 1
+    assert min(outcomes.values()) > 50  # most states touch elsewhere too (proven there, or many pairs left)
+
+
 def test_a_mesh_against_larger_and_smaller_shapes_is_cleared_only_where_coal_keeps_them_apart(robots, kernels):
     """MADAR's forearm and wrist 3 meshes each paired with a box, a capsule and a ball standing
     about them, larger and smaller than the mesh (the kernel walks the larger one's tree first):
@@ -375,9 +422,10 @@ def test_a_capsule_is_proven_in_a_box_exactly_where_coal_finds_it_deeper_than_th
     assert 0.1 < proven / 4000 < 0.9
 
 
-def test_only_a_capsule_or_sphere_reaching_into_a_box_is_proven_to_touch():
+def test_only_a_capsule_or_sphere_and_a_box_are_decided_exactly():
     """A cylinder is held by its row's capsule and a mesh or cone by its row's box, so neither
-    proves a contact there; a capsule and a sphere do, against a box, whichever row comes first."""
+    is decided there; a capsule and a sphere are, against a box, whichever row comes first:
+    touching where they reach more than the tolerance into it, apart where more than it away."""
     rows = {
         kind: _geometry_row(pin.GeometryObject(kind, 0, pin.SE3.Identity(), shape))
         for kind, shape in {
@@ -389,20 +437,87 @@ def test_only_a_capsule_or_sphere_reaching_into_a_box_is_proven_to_touch():
         }.items()
     }
 
-    def touches(kind: str, z: float, other: str = "box") -> bool:
+    def decided(kind: str, z: float, other: str = "box") -> int:
         """`kind` along z, its centre at z, against `other` at the origin (both ways round)."""
         placed = np.array([rows[kind], rows[other]])
         placed[0, [2, 5, 18]] += z
-        answers = {touching(placed, placed, 0, 1, 1e-4), touching(placed[::-1], placed[::-1], 1, 0, 1e-4)}
+        answers = {exact_verdict(placed, placed, 0, 1, 1e-4), exact_verdict(placed[::-1], placed[::-1], 1, 0, 1e-4)}
         assert len(answers) == 1
         return answers.pop()
 
     # The capsule's end cap reaches 0.1 + 0.05 from its centre, the box's top is at 0.1.
-    assert touches("capsule", 0.25 - 2e-4) and not touches("capsule", 0.25 - 0.5e-4)
-    assert touches("sphere", 0.15 - 2e-4) and not touches("sphere", 0.15 - 0.5e-4)
+    assert [decided("capsule", 0.25 + d) for d in (-2e-4, -0.5e-4, 0.5e-4, 2e-4)] == [TOUCHING, 0, 0, APART]
+    assert [decided("sphere", 0.15 + d) for d in (-2e-4, -0.5e-4, 0.5e-4, 2e-4)] == [TOUCHING, 0, 0, APART]
     # The cylinder's flat end is at 0.1 from its centre: its capsule reaches 0.05 beyond it.
-    assert not touches("cylinder", 0.22) and not touches("cone", 0.15)
-    assert not touches("capsule", 0.0, "capsule") and not touches("box", 0.0)
+    assert decided("cylinder", 0.22) == decided("cone", 0.15) == decided("cylinder", 0.5) == 0
+    assert decided("capsule", 0.0, "capsule") == decided("box", 0.0) == 0
+
+
+def _coal_shapes(rows: np.ndarray) -> tuple[coal.Capsule, coal.Transform3s, coal.Box, coal.Transform3s]:
+    """Row 0's capsule and row 1's box as coal's shapes, where they stand."""
+    box = coal.Box(*(2 * rows[1, 19:22]))
+    return *_coal_capsule(rows[0]), box, coal.Transform3s(rows[1, 7:16].reshape(3, 3), rows[1, 16:19])
+
+
+def _near_capsule_and_box(rng, row: np.ndarray) -> tuple[np.ndarray, float]:
+    """Rows (2, ROW): the capsule `row` (exact) and a random exact box, the capsule moved along
+    coal's normal to a distance of +-1e-7 to 3e-2 m (a quarter of them inside); and coal's
+    distance then."""
+    near = np.zeros((2, ROW))
+    near[:, :23] = _capsule_and_box(rng, row)[0]
+    near[0, EXACT], near[1, EXACT] = EXACT_CAPSULE, EXACT_BOX
+    result = coal.DistanceResult()
+    distance = coal.distance(*_coal_shapes(near), coal.DistanceRequest(), result)
+    target = 10.0 ** rng.uniform(-7, -1.5) * (1.0 if rng.uniform() < 0.75 else -1.0)
+    near[0, 0:6] -= np.tile((target - distance) * np.asarray(result.normal), 2)  # the normal: capsule to box
+    return near, coal.distance(*_coal_shapes(near), coal.DistanceRequest(), coal.DistanceResult())
+
+
+def _wrong_decisions(floor) -> tuple[int, int, int]:
+    """Over 4000 random capsules near random boxes (`_near_capsule_and_box`): how many `floor`
+    (rows, a, b: `capsule_box_floor` or a broken one) bounds above coal's distance (0 for those
+    that meet), how many of
+    those it would call apart coal finds colliding (as the checker asks it: with its contact),
+    and how many more than 1e-4 apart it does not call apart."""
+    rng = np.random.default_rng(13)
+    above, wrongly_apart, undecided = 0, 0, 0
+    request = coal.CollisionRequest()
+    request.enable_contact = True
+    for row in _capsule_rows(rng, 4000):
+        near, distance = _near_capsule_and_box(rng, row)
+        bound = floor(near, 0, 1)
+        above += bound > max(distance, 0.0) + 1e-9
+        if bound > 1e-4:
+            wrongly_apart += coal.collide(*_coal_shapes(near), request, coal.CollisionResult()) > 0
+        undecided += distance > 1e-4 + 1e-9 and bound <= 1e-4
+    return above, wrongly_apart, undecided
+
+
+def test_a_capsule_is_called_apart_from_a_box_only_where_coal_keeps_them_apart():
+    """Near contact (from 1e-7 m to 3 cm, either side), the capsule-box bound is never above
+    coal's distance and is it, to rounding: every pair more than the tolerance apart is called
+    apart, none coal finds colliding; and its verdict is the bound's and the proof's. A sign
+    error in the bound (the radius added) calls colliding pairs apart."""
+    assert _wrong_decisions(capsule_box_floor) == (0, 0, 0)
+    rng = np.random.default_rng(17)
+    verdicts = []
+    for row in _capsule_rows(rng, 2000):
+        near, distance = _near_capsule_and_box(rng, row)
+        verdict = exact_verdict(near, near, 0, 1, 1e-4)
+        assert verdict != APART or distance > 1e-4
+        assert verdict != TOUCHING or distance < -1e-4
+        if abs(abs(distance) - 1e-4) > 1e-9:
+            assert (verdict == APART) == (distance > 1e-4) and (verdict == TOUCHING) == (distance < -1e-4)
+        verdicts.append(verdict)
+    assert {APART, TOUCHING, 0} == set(verdicts)
+
+    def radius_added(rows: np.ndarray, a: int, b: int) -> float:
+        flipped = rows.copy()
+        flipped[a, 6] = -flipped[a, 6]
+        return capsule_box_floor(flipped, a, b)
+
+    above, wrongly_apart, _ = _wrong_decisions(radius_added)
+    assert above > 1000 and wrongly_apart > 100
 
 
 def test_capsule_beyond_a_face_only_where_a_plane_and_coal_keep_them_apart():

@@ -25,11 +25,15 @@ below the 1e-4 m tolerance.
 - Capsule to box: beyond a face when both ends of the segment lie past the face's plane by more
   than the radius (the plane separates them). Else each piece of the segment lies in a sphere
   about its middle of radius half its length (plus the capsule's), whose distance to the box is
-  exact; a piece too near is halved, down to `_DEPTH` levels, then the pair is left to coal.
+  exact; a piece too near is halved, down to `_DEPTH` levels.
+- An exact capsule (or sphere) and an exact box still not cleared: the plane through the box's
+  point nearest the segment's nearest point bounds their distance, tight to rounding
+  (`capsule_box_floor`): a UR5 arm walked along a box, a few mm away, no longer goes to coal.
 A pair not cleared is named to the caller, which asks coal about it alone (up to a few; more:
-the whole broad phase); unless it is proven to touch (`touching`): an exact capsule reaching more
-than the tolerance into an exact box, where coal finds a collision too. Most states a search
-walks into an obstacle end there, with no call to coal (the UR5 scenes: ~130 a plan).
+the whole broad phase); unless it is proven to touch (`exact_verdict`): an exact capsule
+reaching more than the tolerance into an exact box, where coal finds a collision too. Most
+states a search walks into an obstacle end there, with no call to coal (the UR5 scenes: ~130 a
+plan).
 """
 
 from __future__ import annotations
@@ -56,13 +60,13 @@ _INSIDE = 1e-3  # margin on the lines' nearest points falling within both segmen
 # centre (3) and half sides (3) in the joint's frame (a box of infinite sides when it has none);
 # the radius of the sphere about the capsule's middle that holds it (half its length + radius);
 # which of its capsule and box is the geometry itself (EXACT_CAPSULE: a capsule or sphere,
-# EXACT_BOX: a box), not a shape holding it: only there can a contact be proven (`touching`).
+# EXACT_BOX: a box), not a shape holding it: only there is a pair decided exactly (`exact_verdict`).
 CAPSULE, BOX, REACH, EXACT = 7, 15, 22, 23
 ROW = EXACT + 1
 EXACT_CAPSULE, EXACT_BOX = 1.0, 2.0
 TOUCHING = -2  # `_verdict`: a pair surely touches
-_GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
-_SEARCHES = 40  # golden-section steps along a segment: 1e-8 of it
+APART = 1  # `exact_verdict`: a pair surely apart
+_HALVINGS = 53  # of [0, 1], to the segment's nearest point to a box: a double's precision
 # A pair's row: its geometries' rows a, b, its id, then per level (coarse to fine: a's node and
 # b's, a and b's node, a and b's part) the two rows tested and where the run of pairs they pass
 # ends (on its first pair; 0 elsewhere and where the level tests nothing).
@@ -368,42 +372,68 @@ def capsule_clears_box(rows, a, b, tolerance) -> bool:
 
 
 @njit(cache=True, nogil=True)
-def capsule_in_box(rows, a, b, depth) -> bool:
-    """True if row a's capsule reaches more than `depth` into row b's box: a point of its
-    segment nearer the box than its radius less `depth`. A point's distance to a convex box is
-    convex along a segment, so a golden-section search finds the least; every distance is a
-    point's own, so a True holds however far the search got."""
-    x0, y0, z0, dx, dy, dz = _segment_in_box(rows, a, b)
-    hx, hy, hz, reach = rows[b, 19], rows[b, 20], rows[b, 21], rows[a, 6] - depth
+def _nearest_along(x0, y0, z0, dx, dy, dz, hx, hy, hz) -> float:
+    """The t in [0, 1] where the segment x0 + t d (in a box's frame) comes nearest the box of
+    half sides h: the squared distance is convex in t, so its slope grows with t and halving
+    [0, 1] on the slope's sign finds where it turns (to rounding)."""
     low, high = 0.0, 1.0
-    s, t = high - _GOLDEN, _GOLDEN
-    gs = _box_gap(x0 + s * dx, y0 + s * dy, z0 + s * dz, hx, hy, hz)
-    gt = _box_gap(x0 + t * dx, y0 + t * dy, z0 + t * dz, hx, hy, hz)
-    for _ in range(_SEARCHES):
-        if min(gs, gt) < reach:
-            return True
-        if gs <= gt:
-            high, t, gt = t, s, gs
-            s = high - _GOLDEN * (high - low)
-            gs = _box_gap(x0 + s * dx, y0 + s * dy, z0 + s * dz, hx, hy, hz)
+    for _ in range(_HALVINGS):
+        t = 0.5 * (low + high)
+        slope = 0.0
+        for p, d, h in ((x0 + t * dx, dx, hx), (y0 + t * dy, dy, hy), (z0 + t * dz, dz, hz)):
+            slope += d * (p - min(max(p, -h), h))
+        if slope > 0.0:
+            high = t
         else:
-            low, s, gs = s, t, gt
-            t = low + _GOLDEN * (high - low)
-            gt = _box_gap(x0 + t * dx, y0 + t * dy, z0 + t * dz, hx, hy, hz)
-    return min(gs, gt, _box_gap(x0, y0, z0, hx, hy, hz), _box_gap(x0 + dx, y0 + dy, z0 + dz, hx, hy, hz)) < reach
+            low = t
+    return 0.5 * (low + high)
 
 
 @njit(cache=True, nogil=True)
-def touching(shapes, placed, a, b, depth) -> bool:
-    """True if geometries a and b (their rows placed in the world) surely touch, by more than
-    `depth`: an exact capsule (or sphere) reaching into an exact box. Other shapes are held by
-    their rows, not equal to them: nothing is proven of them. `shapes`: the rows as packed,
+def capsule_in_box(rows, a, b, depth) -> bool:
+    """True if row a's capsule reaches more than `depth` into row b's box: the point of its
+    segment nearest the box (`_nearest_along`) is nearer than its radius less `depth`. It is a
+    point's own distance, so a True holds wherever the search stopped."""
+    x0, y0, z0, dx, dy, dz = _segment_in_box(rows, a, b)
+    hx, hy, hz = rows[b, 19], rows[b, 20], rows[b, 21]
+    t = _nearest_along(x0, y0, z0, dx, dy, dz, hx, hy, hz)
+    return _box_gap(x0 + t * dx, y0 + t * dy, z0 + t * dz, hx, hy, hz) < rows[a, 6] - depth
+
+
+@njit(cache=True, nogil=True)
+def capsule_box_floor(rows, a, b) -> float:
+    """A lower bound on the distance between row a's capsule and row b's box, tight to rounding:
+    the plane through the box's point nearest the segment's nearest point (`_nearest_along`),
+    facing it, has the segment's ends (so all of it) on one side and the box's corners on the
+    other; their gap along its normal bounds any two points' distance. Any plane would bound
+    it: a nearest point found wrong only loosens the bound. Not above 0 where they meet."""
+    x0, y0, z0, dx, dy, dz = _segment_in_box(rows, a, b)
+    hx, hy, hz = rows[b, 19], rows[b, 20], rows[b, 21]
+    t = _nearest_along(x0, y0, z0, dx, dy, dz, hx, hy, hz)
+    px, py, pz = x0 + t * dx, y0 + t * dy, z0 + t * dz
+    nx, ny, nz = px - min(max(px, -hx), hx), py - min(max(py, -hy), hy), pz - min(max(pz, -hz), hz)
+    norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if norm == 0.0:
+        return -rows[a, 6]
+    ends = min(nx * x0 + ny * y0 + nz * z0, nx * (x0 + dx) + ny * (y0 + dy) + nz * (z0 + dz))
+    return (ends - (abs(nx) * hx + abs(ny) * hy + abs(nz) * hz)) / norm - rows[a, 6]
+
+
+@njit(cache=True, nogil=True)
+def exact_verdict(shapes, placed, a, b, tolerance) -> int:
+    """For geometries a and b (their rows placed in the world) not cleared by their rows' bounds:
+    TOUCHING if one is an exact capsule (or sphere) reaching more than `tolerance` into the
+    other, an exact box (coal finds them collide); APART if they are more than `tolerance` apart
+    (`capsule_box_floor`: coal finds them apart); else 0, left to coal. Other shapes are held by
+    their rows, not equal to them: nothing is proven of them (0). `shapes`: the rows as packed,
     whose EXACT the placed rows do not carry."""
-    if shapes[a, EXACT] == EXACT_CAPSULE and shapes[b, EXACT] == EXACT_BOX:
-        return capsule_in_box(placed, a, b, depth)
     if shapes[b, EXACT] == EXACT_CAPSULE and shapes[a, EXACT] == EXACT_BOX:
-        return capsule_in_box(placed, b, a, depth)
-    return False
+        a, b = b, a
+    elif not (shapes[a, EXACT] == EXACT_CAPSULE and shapes[b, EXACT] == EXACT_BOX):
+        return 0
+    if capsule_in_box(placed, a, b, tolerance):
+        return TOUCHING
+    return APART if capsule_box_floor(placed, a, b) > tolerance else 0
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -601,7 +631,7 @@ def _decided_tables(uncertified, floats, ints, rotation, origin) -> int:
 
 @njit_keyed(mesh_pair_kernels)
 def _verdict(q, floats, ints, work, left, frames) -> int:
-    """TOUCHING if a pair surely touches at `q` (`touching`, the first found, or a tabled mesh
+    """TOUCHING if a pair surely touches at `q` (`exact_verdict`, the first found, or a tabled mesh
     pair's triangles: coal would find it collide); -1 if more pairs may touch than `left` holds
     (stopped there); else the tables that do not certify `q` and whose mesh pairs their triangles
     do not prove apart (bit k for table k) plus 2^32 times the count of pairs that may
@@ -636,12 +666,14 @@ def _verdict(q, floats, ints, work, left, frames) -> int:
             (children[a, 1] == 0 and children[b, 1] == 0)
             or not _pieces_clear(rows, carrier, children, ints, rotation, origin, placed, a, b, tolerance)
         ):
-            if touching(rows, placed, a, b, tolerance):
+            exact = exact_verdict(rows, placed, a, b, tolerance)
+            if exact == TOUCHING:
                 return TOUCHING
-            if count + 1 == left.shape[0]:
-                return -1
-            count += 1
-            left[count] = pairs[k, PAIR_ID]
+            if exact != APART:
+                if count + 1 == left.shape[0]:
+                    return -1
+                count += 1
+                left[count] = pairs[k, PAIR_ID]
         k += 1
     uncertified = _uncertified_tables(q, tables, axis_ints, axis_floats, bits)
     if uncertified != 0:  # the tables' mesh pairs, on their triangles

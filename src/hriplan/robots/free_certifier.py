@@ -445,7 +445,7 @@ class FreeCertifier:
 
     def left_over(self, qs: np.ndarray) -> tuple[list[int], list[bool], list[tuple[int, tuple[int, ...]] | None]]:
         """The states of `qs` (N, nq) it does not certify free, in order: their indices, whether
-        a pair is proven to touch there (`certifier_kernels.touching`: coal finds it collide),
+        a pair is proven to touch there (`certifier_kernels.exact_verdict`: coal finds it collide),
         and `verdict` of each (None where proven). A path's dense validation asks coal about
         these only: a verdict each for the hundreds of free states cost ~1 us apiece."""
         left = np.empty((len(qs), ASKED_OF_COAL + 1), dtype=np.int64)
