@@ -363,7 +363,7 @@ class PlanningSession:
             timed, check, message = self._time_and_check(path, evaluator, motion.group, options, monitor)
         if timed is None:
             return PlanResult(status=Status.TIMING_FAILED, motion=motion, message=message)
-        trajectory = self._file(motion, bound, timed, check, options, scene, evaluator.full(path[0]))
+        trajectory = self._file(motion, path, bound, timed, check, options, evaluator.full(path[0]))
         if monitor is not None:
             report = trajectory.report.model_copy(
                 update={
@@ -454,8 +454,7 @@ class PlanningSession:
             )
         return None, None, message
 
-    def _file(self, motion, bound, timed, check, options, scene, q0) -> TrajectoryFile:
-        path = np.array(motion.path)
+    def _file(self, motion, path, bound, timed, check, options, q0) -> TrajectoryFile:
         report = TrajectoryReport(
             status=Status.SOLVED,
             planner=options.planner,

@@ -92,9 +92,8 @@ def validate_path(
         ConstraintCheck(id=c.id, max_violation=float(w), satisfied=bool(w <= VALIDATION_TOLERANCE))
         for c, w in zip(evaluator.constraints, worst)
     ]
-    sample = dense[_spread(len(dense), DISTANCE_SAMPLES)]
     best = (
-        checker.closest_human(evaluator.full_many(sample), nearest_moving if kernels_on() else None)
+        checker.closest_human(qs[_spread(len(dense), DISTANCE_SAMPLES)], nearest_moving if kernels_on() else None)
         if human_distance
         else (float("inf"), "", "")
     )
