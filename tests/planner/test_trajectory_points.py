@@ -52,6 +52,8 @@ def test_built_points_are_the_validated_ones_around_the_same_lists():
         assert (made.__pydantic_extra__, made.__pydantic_private__) == (valid.__pydantic_extra__, None)
         assert made.positions is positions  # not copied
     assert _file(built).text() == _file(_as_dicts(rows)).text()
+    built[0].positions = [1.0, 2.0, 3.0]  # their fields set is one, holding every field
+    assert built[0].positions == [1.0, 2.0, 3.0] and built[1].model_fields_set == set(TrajectoryPoint.model_fields)
 
 
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), -float("inf")])

@@ -41,6 +41,7 @@ class TrajectoryPoint(BaseModel):
 
 
 _ROWS = ("positions", "velocities", "accelerations")
+# The fields set of every built point, one set: setting a field adds its name, which it holds.
 _POINT_FIELDS = set(TrajectoryPoint.model_fields)
 _set = object.__setattr__
 
@@ -64,7 +65,7 @@ def timed_points(
     for t, p, v, a in zip(times, positions, velocities, accelerations):
         point = object.__new__(TrajectoryPoint)
         _set(point, "__dict__", {"time_from_start": t, "positions": p, "velocities": v, "accelerations": a})
-        _set(point, "__pydantic_fields_set__", _POINT_FIELDS.copy())
+        _set(point, "__pydantic_fields_set__", _POINT_FIELDS)
         _set(point, "__pydantic_extra__", None)
         _set(point, "__pydantic_private__", None)
         points.append(point)
