@@ -46,7 +46,7 @@ def densify(states: Sequence[np.ndarray], step: float) -> np.ndarray:
     With the kernels on one compiled call (`path_kernels.densified`, the same bits; ~20 numpy
     calls cost ~50 us, three a plan)."""
     rows = np.asarray(states, dtype=float)
-    if kernels_on() and rows.ndim == 2 and len(rows):
+    if kernels_on() and rows.ndim == 2 and len(rows) and step > 0.0:  # numba raises on / 0.0
         from hriplan.planner import path_kernels  # numba: imported with the kernels on
 
         return path_kernels.densified(np.ascontiguousarray(rows), float(step))
