@@ -53,8 +53,9 @@ def timed_points(
 
     Every number finite: TrajectoryPoints around those very lists, as validation would make them
     (`model_construct`'s steps) without copying the lists: a third of the objects, so half the
-    young collections of a UR5 timing (~300 points). Else the samples as dicts, for the file's validation to refuse with its
-    message. (A sum of floats is finite only if each is; one that overflows is merely validated.)"""
+    young collections of a UR5 timing (~300 points). Else the samples as dicts, for the file's
+    validation to refuse with its message. (A sum of floats is finite only if each is; one that
+    overflows is merely validated.)"""
     total = sum(chain.from_iterable(positions), sum(chain.from_iterable(velocities), sum(times)))
     if not math.isfinite(sum(chain.from_iterable(accelerations), total)):
         return [
