@@ -1,14 +1,15 @@
 """The path's preparation compiled (`planner/path_kernels.py`) gives timing.py's numpy answers,
 bit for bit: numpy's row norms (pairwise sums, any joint count) and np.interp, the knots and
 their arc lengths, the spline's deviation and the initial gridpoints (corners marked or not),
-on random paths of 1 to 17 joints; and the samples of a timing (`retime_kernels.samples`)."""
+on random paths of 1 to 17 joints; the samples of a timing (`retime_kernels.samples`); and
+validate.py's densified path (NaN, infinities and steps far below the changes included)."""
 
 import numpy as np
 import pytest
 
 pytest.importorskip("numba")
 
-from hriplan.planner import path_kernels, retime_kernels, timing
+from hriplan.planner import path_kernels, retime_kernels, timing, validate
 from hriplan.planner.natural_spline import NaturalSpline
 from hriplan.robots.kernel_switch import kernels_on, use_kernels
 
@@ -118,3 +119,19 @@ def test_time_parameterize_is_the_same_either_way(kernels, dof):
     q = _waypoints(dof, dof, count=20)
     vmax, amax = np.full(dof, 1.5), np.full(dof, 4.0)
     assert timing.time_parameterize(q, vmax, amax) == _numpy(timing.time_parameterize, q, vmax, amax)
+
+
+@pytest.mark.parametrize("dof", [1, 2, 6, 7, 17])
+@pytest.mark.parametrize("step", [0.01, 0.05, 1e-300, 3.0, 0.0])
+def test_the_densified_path_is_validates(kernels, dof, step):
+    q = _waypoints(dof, dof, 12)
+    q[3] = q[2]  # a segment that does not move
+    if step == 0.01:
+        q[5, 0], q[8, -1], q[9, 0] = np.nan, np.inf, -np.inf  # one piece each, as numpy's cast gives
+    if step == 1e-300:
+        q = q[:4]  # pieces beyond int64: one each
+    with np.errstate(invalid="ignore", divide="ignore"):  # numpy's cast of NaN, inf - inf, / 0 (step 0: numpy's)
+        found = validate.densify(q, step)
+        _identical(found, _numpy(validate.densify, q, step))
+    assert len(found) > len(q) or step != 0.01  # segments were split
+    _identical(validate.densify(list(q[:1]), step), q[:1])  # one row: itself

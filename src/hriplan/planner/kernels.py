@@ -17,6 +17,7 @@ from hriplan.planner.constraints.binding import bind
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import BoxConstraint, FrameRef, OrientationConstraint
 from hriplan.planner.session import PlanningSession
+from hriplan.planner.validate import densify
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import posture
 from hriplan.robots.human import HumanSpec
@@ -52,6 +53,7 @@ def load_kernels() -> bool:
     evaluator.margins(q)  # a whole configuration; gradients take the planned joints' values
     evaluator.gradients(x)
     evaluator.margins_many(np.repeat(q[None], 2, axis=0))
+    densify(np.repeat(x[None], 2, axis=0), 0.01)  # the validated and the timed paths' interpolation
     _band_walk(evaluator, checker, robot.limits("arm"), x)
     _monitor()
     _toppra(x)

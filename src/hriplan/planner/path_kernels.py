@@ -1,6 +1,7 @@
 """The path's preparation for TOPP-RA as compiled calls (numba), for `timing.py` with the kernels
 on: the knots and their arc lengths (`knots`), the spline's deviation from the polyline
-(`deviation`) and the initial gridpoints (`gridpoints`).
+(`deviation`) and the initial gridpoints (`gridpoints`); and `validate.densify`'s interpolation
+(`densified`), of the paths timed and of the states validated.
 
 Why: each is a few dozen numpy calls on arrays of tens to hundreds of rows, where numpy's cost
 per call dominates (~0.3 ms a UR5 timing in all). Here they are loops with the same operations
@@ -81,6 +82,30 @@ def _subdivided(points: np.ndarray, pieces: np.ndarray) -> np.ndarray:
                 out[row, j] = points[i, j] + fraction * (points[i + 1, j] - points[i, j])
             row += 1
     out[row] = points[-1]
+    return out
+
+
+@_keyed
+def densified(rows: np.ndarray, step: float) -> np.ndarray:
+    """`validate.densify` of rows (m >= 1, dof): segment i split in n_i = ceil(its largest
+    |change| / step) parts, at least 1 (also where numpy's cast to int gives its minimum: NaN,
+    infinite or beyond int64), row k of it a + change * (k / n_i)."""
+    counts = np.empty(rows.shape[0] - 1, dtype=np.int64)
+    for i in range(counts.shape[0]):
+        largest = 0.0
+        for j in range(rows.shape[1]):
+            largest = _maximum(largest, abs(rows[i + 1, j] - rows[i, j]))
+        pieces = np.ceil(largest / step)
+        counts[i] = int(pieces) if 1.0 <= pieces < 2.0**63 else 1
+    out = np.empty((counts.sum() + 1, rows.shape[1]))
+    out[0] = rows[0]
+    row = 1
+    for i in range(counts.shape[0]):
+        for k in range(1, counts[i] + 1):
+            fraction = k / counts[i]
+            for j in range(rows.shape[1]):
+                out[row, j] = rows[i, j] + (rows[i + 1, j] - rows[i, j]) * fraction
+            row += 1
     return out
 
 

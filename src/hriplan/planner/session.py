@@ -39,7 +39,7 @@ from hriplan.planner.outcome import Status
 from hriplan.planner.replay import MotionSetting
 from hriplan.planner.search.seeds import ompl_seed
 from hriplan.planner.timing import TimedPath, at_rest, joined, time_parameterize
-from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryReport
+from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryReport, timed_points
 from hriplan.planner.validate import PathValidation, densify, validate_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, robot_name
@@ -363,7 +363,7 @@ class PlanningSession:
             timed, check, message = self._time_and_check(path, evaluator, motion.group, options, monitor)
         if timed is None:
             return PlanResult(status=Status.TIMING_FAILED, motion=motion, message=message)
-        trajectory = self._file(motion, bound, timed, check, options, scene, evaluator.full(path[0]))
+        trajectory = self._file(motion, path, bound, timed, check, options, evaluator.full(path[0]))
         if monitor is not None:
             report = trajectory.report.model_copy(
                 update={
@@ -454,8 +454,7 @@ class PlanningSession:
             )
         return None, None, message
 
-    def _file(self, motion, bound, timed, check, options, scene, q0) -> TrajectoryFile:
-        path = np.array(motion.path)
+    def _file(self, motion, path, bound, timed, check, options, q0) -> TrajectoryFile:
         report = TrajectoryReport(
             status=Status.SOLVED,
             planner=options.planner,
@@ -472,12 +471,6 @@ class PlanningSession:
             calls=motion.calls,
             rests=timed.rests,
         )
-        # The points as dicts, validated as TrajectoryPoints in the file's one validation (one
-        # model each, validated each: ~0.1 ms more for a few hundred points).
-        points = [
-            {"time_from_start": t, "positions": p, "velocities": v, "accelerations": a}
-            for t, p, v, a in zip(timed.times, timed.positions, timed.velocities, timed.accelerations)
-        ]
         constraints = _resolved(bound)
         start = dict(zip(self.robot.joint_names, q0.tolist()))
         return TrajectoryFile(
@@ -487,7 +480,7 @@ class PlanningSession:
             joint_names=motion.joint_names,
             start=start,
             scene=self.checker.scene,
-            points=points,
+            points=timed_points(timed.times, timed.positions, timed.velocities, timed.accelerations),
             constraints=constraints,
             report=report,
         )

@@ -217,7 +217,10 @@ def at_rest(position: Sequence[float]) -> TimedPath:
 
 def joined(parts: Sequence[TimedPath]) -> TimedPath:
     """Motions timed one after the other, each from rest to rest (each starts where the one before
-    ends), as one: a motion that stops at the junctions, the junction sampled once."""
+    ends), as one: a motion that stops at the junctions, the junction sampled once. One part is
+    itself (its lists not copied)."""
+    if len(parts) == 1:
+        return parts[0]
     first, *rest = parts
     times, rows = list(first.times), [list(first.positions), list(first.velocities), list(first.accelerations)]
     for part in rest:
