@@ -135,6 +135,25 @@ def walk_frames(
                     angular[n, j, r] = angular[n, p, r] + along
 
 
+@njit(cache=True, nogil=True)
+def place_many(
+    qs: np.ndarray, rows: np.ndarray, ints: np.ndarray, asked: np.ndarray, rotation: np.ndarray, origin: np.ndarray
+) -> None:
+    """Per state n (qs (N, nq)): every joint's world frame, as `place_joints`, the joints `asked`
+    (F,) kept, into `rotation` (N, F, 3, 3) and `origin` (N, F, 3): `walk_frames`' frames without
+    its velocities (a distance bound needs none) nor a gather of the asked joints after."""
+    frames, at = np.empty((rows.shape[0], 3, 3)), np.empty((rows.shape[0], 3))
+    for n in range(qs.shape[0]):
+        _world(frames, at)
+        for j in range(1, rows.shape[0]):
+            _place_joint(qs[n], rows, ints, frames, at, j)
+        for f in range(asked.shape[0]):
+            for r in range(3):
+                origin[n, f, r] = at[asked[f], r]
+                for c in range(3):
+                    rotation[n, f, r, c] = frames[asked[f], r, c]
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _world(rotation, origin) -> None:
     """Joint 0's frame, the world's (np.eye would allocate at every call)."""
