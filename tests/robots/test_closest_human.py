@@ -145,8 +145,13 @@ def test_moving_pairs_are_those_whose_chain_holds_a_varying_joint(madar, checker
             if set(range(model.idx_qs[j], model.idx_qs[j] + model.nqs[j])) & set(entries)
         }
         moved = [bool(changed.intersection(model.supports[int(j)])) for j in carriers]
-        assert checker._moving_pairs(qs).tolist() == moved
-    assert checker._moving_pairs(np.repeat(q0[None], 3, axis=0)).sum() == 0
+        route = checker._route(qs)
+        assert route.moving.tolist() == moved
+        # and the entries that move a still pair's part
+        still = {int(c) for j, m in zip(carriers, moved) if not m for c in model.supports[int(j)] if c > 0}
+        entries = {i for c in still for i in range(model.idx_qs[c], model.idx_qs[c] + model.nqs[c])}
+        assert np.flatnonzero(route.still_entries).tolist() == sorted(entries)
+    assert checker._route(np.repeat(q0[None], 3, axis=0)).moving.sum() == 0
 
 
 def test_the_compiled_route_finds_the_same_closest_pair(madar, checker, rng):
@@ -185,3 +190,45 @@ def test_a_palm_inside_a_person_is_measured_by_coal_on_the_compiled_route():
     coal_route = session.checker.closest_human(path)
     assert coal_route[1:] == ("right_hand_palm_link", "v/right_lowerarm") and coal_route[0] < -0.03
     assert session.checker.closest_human(path, nearest_moving) == coal_route
+
+
+def test_what_closest_human_keeps_is_read_again_when_it_moves(madar):
+    """`closest_human` keeps the still pairs' answer, and the compiled route the person's capsules,
+    between calls: after the person is re-posed (by the still left arm, by the moving right hand),
+    with the left arm standing elsewhere, and in a scene set anew, both routes answer as a fresh
+    checker does, to the bit, and as coal over every pair of the full geometry."""
+    pytest.importorskip("numba")
+    from hriplan.safety.person_distance import nearest_moving
+
+    q = madar.configuration(CLEAR)
+    path = np.repeat(q[None], 10, axis=0)
+    path[:, madar.group_indices("right_arm")[0]] += np.linspace(0.0, 0.5, 10)
+    folded = path.copy()
+    folded[:, madar.group_indices("left_arm")[1]] += 0.4  # still along the path, elsewhere
+    left, right = (madar.frame_pose(f"{side}_tool", q)[:3, 3] for side in ("left", "right"))
+    far = HumanSpec(name="bob", position=(0.0, 2.2), yaw=-np.pi / 2)
+    by_left = HumanSpec(name="bob", position=(left[0], left[1] + 0.45), yaw=-np.pi / 2)
+    by_right = HumanSpec(name="bob", position=(right[0], right[1] + 0.45), yaw=-np.pi / 2)
+    checker = CollisionChecker(madar, Scene(humans=[far]))
+    parts = set()
+    for scene, states in [
+        (Scene(humans=[far]), path),
+        (Scene(humans=[by_left]), path),
+        (Scene(humans=[by_left]), folded),
+        (Scene(humans=[by_right]), folded),
+        (Scene(humans=[by_left.model_copy(update={"name": "kim"})]), path),
+    ]:
+        if scene.humans[0].name != checker.scene.humans[0].name:
+            checker.set_scene(scene)
+        elif scene.humans != checker.scene.humans:
+            checker.pose_human(scene.humans[0])
+        fresh = CollisionChecker(madar, scene)
+        for nearest in (None, nearest_moving):
+            found = checker.closest_human(states, nearest)
+            assert found == fresh.closest_human(states, nearest)
+        reference = min(
+            (closest_robot_person(madar.model, fresh.geom_model, fresh.kind, s) for s in states), key=lambda f: f[0]
+        )
+        assert reference[1:] == found[1:] and reference[0] == pytest.approx(found[0], abs=1e-9)
+        parts.add(found[1].split("_")[0])
+    assert parts == {"left", "right"}  # the closest pair both a still part and a moving one

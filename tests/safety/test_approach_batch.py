@@ -648,3 +648,27 @@ def test_a_person_no_moved_part_faces_gets_an_empty_batch():
     nothing = Select(lambda floor, speed: np.ones(floor.shape, dtype=bool), lambda *a: np.ones(a[1].shape, dtype=bool))
     pairs = distances.at(np.zeros((3, model.nq)), np.zeros((3, model.nv)), nothing)
     assert pairs.distance.shape == (3, 0) and pairs.robot_velocity.shape == (3, 0, 3)
+
+
+def test_nearest_is_the_least_of_every_row_measured(handover):
+    """`PersonDistances.nearest` (compiled: it bounds rows, and passes a part whole while its
+    sphere has not moved enough since its bounds were far) names the row and state of the least
+    distance of every row measured by the batch (numpy capsules, coal's other shapes), on a path
+    creeping along the handover, jumping about, and held still; with a ceiling above it too."""
+    pytest.importorskip("hriplan.safety.approach_kernels")
+    session, policy, group, q0, xs, _ = handover
+    monitor = ApproachMonitor(session.robot, session.checker, policy, group, q0)
+    distances = monitor._pairs(monitor.people[0])[0]
+    rng = np.random.default_rng(12)
+    creeping = np.repeat(xs, 3, axis=0) + rng.normal(0.0, 1e-3, (3 * len(xs), xs.shape[1]))
+    jumping = xs[rng.integers(len(xs), size=60)] + rng.normal(0.0, 0.3, (60, xs.shape[1]))
+    for path in (creeping, jumping, np.concatenate([jumping, creeping]), np.repeat(xs[-1:], 5, axis=0)):
+        qs = np.array([monitor.full(x) for x in path])
+        every = distances.at(qs, np.zeros((len(qs), session.robot.model.nv))).distance
+        state, row = np.unravel_index(np.argmin(every), every.shape)  # the first of the least, by state
+        least = every[state, row]
+        distance, *at = distances.nearest(qs)
+        assert at == [state, row] and distance == pytest.approx(least, abs=1e-9)
+        assert distances.nearest(qs, least + 1e-3)[1:] == (state, row)
+        below = distances.nearest(qs, least - 1e-3)  # none within the ceiling: what it measured, if any
+        assert below == (np.inf, -1, -1) or below[0] >= least - 1e-9

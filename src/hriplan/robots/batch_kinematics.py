@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Collection
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import pinocchio as pin
@@ -57,7 +58,6 @@ class BatchKinematics:
         self._walk = None if any(joint is None for joint in walk) else walk
         self._asked = [chain.index(j) for j in self.joints]
         self._data = model.createData()
-        self._tables: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # the compiled walk's, when first asked
 
     def __call__(self, qs: np.ndarray, dqs: np.ndarray) -> Frames:
         """At configurations `qs` (N, nq) moving with joint velocities `dqs` (N, nv)."""
@@ -70,27 +70,43 @@ class BatchKinematics:
     def placements(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The rotations (N, F, 3, 3) and origins (N, F, 3) alone, at configurations `qs`: the
         same numbers as `__call__`'s, without the velocities' walk (a distance bound needs none)."""
-        if self._walk is None or kernels_on():
+        if self._walk is None:
             frames = self(qs, np.zeros((len(qs), self.model.nv)))
             return frames.rotation, frames.origin
+        if kernels_on():  # C-contiguous, as the kernels read them
+            from hriplan.robots.certifier_kernels import place_many  # numba: imported with the kernels on
+
+            rows, ints, _ = self._walk_tables
+            rotation, origin = np.empty((len(qs), len(self.joints), 3, 3)), np.empty((len(qs), len(self.joints), 3))
+            place_many(np.ascontiguousarray(qs, dtype=float), rows, ints, self._asked_rows, rotation, origin)
+            return rotation, origin
         rotation, origin, _, _ = self._walked(qs, None)
         return rotation, origin
+
+    @cached_property
+    def _walk_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The walk as the compiled code reads it (`kernel_fk.walk_tables`), made when first asked."""
+        from hriplan.robots.kernel_fk import walk_tables
+
+        return walk_tables(self._walk)
+
+    @cached_property
+    def _asked_rows(self) -> np.ndarray:
+        """The asked joints' rows in `_walk_tables` (the world first)."""
+        return np.array([k + 1 for k in self._asked], dtype=np.int64)
 
     def _compiled(self, qs: np.ndarray, dqs: np.ndarray) -> Frames:
         """The walk in compiled code (`certifier_kernels.walk_frames`), state by state: the numpy
         walk's passes over (N, 3, 3) arrays cost ~50 us a joint, ten times the arithmetic."""
         from hriplan.robots.certifier_kernels import walk_frames  # numba: imported with the kernels on
-        from hriplan.robots.kernel_fk import walk_tables
 
-        if self._tables is None:
-            self._tables = walk_tables(self._walk)
-        rows, ints, idx_v = self._tables
+        rows, ints, idx_v = self._walk_tables
         n, size = len(qs), len(rows)
         rotation, origin = np.empty((n, size, 3, 3)), np.empty((n, size, 3))
         linear, angular = np.empty((n, size, 3)), np.empty((n, size, 3))
         qs, dqs = np.ascontiguousarray(qs, dtype=float), np.ascontiguousarray(dqs, dtype=float)
         walk_frames(qs, dqs, rows, ints, idx_v, rotation, origin, linear, angular)
-        asked = [k + 1 for k in self._asked]  # the world first
+        asked = self._asked_rows
         return Frames(rotation[:, asked], origin[:, asked], linear[:, asked], angular[:, asked])
 
     def _walked(

@@ -135,6 +135,25 @@ def walk_frames(
                     angular[n, j, r] = angular[n, p, r] + along
 
 
+@njit(cache=True, nogil=True)
+def place_many(
+    qs: np.ndarray, rows: np.ndarray, ints: np.ndarray, asked: np.ndarray, rotation: np.ndarray, origin: np.ndarray
+) -> None:
+    """Per state n (qs (N, nq)): every joint's world frame, as `place_joints`, the joints `asked`
+    (F,) kept, into `rotation` (N, F, 3, 3) and `origin` (N, F, 3): `walk_frames`' frames without
+    its velocities (a distance bound needs none) nor a gather of the asked joints after."""
+    frames, at = np.empty((rows.shape[0], 3, 3)), np.empty((rows.shape[0], 3))
+    for n in range(qs.shape[0]):
+        _world(frames, at)
+        for j in range(1, rows.shape[0]):
+            _place_joint(qs[n], rows, ints, frames, at, j)
+        for f in range(asked.shape[0]):
+            for r in range(3):
+                origin[n, f, r] = at[asked[f], r]
+                for c in range(3):
+                    rotation[n, f, r, c] = frames[asked[f], r, c]
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _world(rotation, origin) -> None:
     """Joint 0's frame, the world's (np.eye would allocate at every call)."""
@@ -631,18 +650,24 @@ def _decided_tables(uncertified, floats, ints, rotation, origin) -> int:
 
 @njit_keyed(mesh_pair_kernels)
 def _verdict(q, floats, ints, work, left, frames) -> int:
+    """`_verdict_of` one state, its arrays unpacked for it (`work`: the scratch, `_scratch`)."""
+    return _verdict_of(q, floats, ints, _unpack(floats, ints), _scratch(work, ints[0]), left, frames)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _verdict_of(q, floats, ints, parts, scratch, left, frames) -> int:
     """TOUCHING if a pair surely touches at `q` (`exact_verdict`, the first found, or a tabled mesh
     pair's triangles: coal would find it collide); -1 if more pairs may touch than `left` holds
     (stopped there); else the tables that do not certify `q` and whose mesh pairs their triangles
     do not prove apart (bit k for table k) plus 2^32 times the count of pairs that may
     touch, whose ids `left` gets from left[1] on: 0 is free. A run of pairs passes at once when
     its level's rows are clear: two nodes' spheres, a geometry and a node's sphere as a pair, a
-    geometry and a part's. `work` holds the joints' frames and the rows as the last state asked
-    left them (those on no joint placed once, when packed). `frames`: None, or every joint's
-    frame at `q` placed by the caller (`_take_moved_joints`)."""
-    joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = _unpack(floats, ints)
+    geometry and a part's. `parts`: `_unpack`'s views; `scratch`: `_scratch`'s, the joints' frames
+    and the rows as the last state asked left them (those on no joint placed once, when packed).
+    `frames`: None, or every joint's frame at `q` placed by the caller (`_take_moved_joints`)."""
+    joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = parts
     tolerance = floats[0]
-    rotation, origin, last, moved, placed = _scratch(work, joint_rows.shape[0])
+    rotation, origin, last, moved, placed = scratch
     if frames is None:
         _place_moved_joints(q, joint_rows, joint_ints, rotation, origin, last, moved)
     else:
@@ -710,8 +735,10 @@ def same_joints(floats, ints, rows, joint_ints) -> bool:
 
 @njit_keyed(mesh_pair_kernels)
 def verdicts(qs, floats, ints, left) -> np.ndarray:
-    """Per state (row n of `left` its pairs that may touch)."""
+    """Per state (row n of `left` its pairs that may touch), the arrays unpacked once for all
+    states: their views made at every state cost ~0.35 us of a UR5 state's ~1.55."""
+    parts, scratch = _unpack(floats, ints), _scratch(floats[ints[11] :], ints[0])
     out = np.empty(qs.shape[0], dtype=np.int64)
     for n in range(qs.shape[0]):
-        out[n] = _verdict(qs[n], floats, ints, floats[ints[11] :], left[n], None)
+        out[n] = _verdict_of(qs[n], floats, ints, parts, scratch, left[n], None)
     return out

@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cached_property
+from itertools import count
 from typing import TYPE_CHECKING
 
 import coal
@@ -65,10 +66,27 @@ def person_distance_data(model: pin.GeometryModel) -> pin.GeometryData:
     return data
 
 
-# (robot model, distance model, joints, states (N, nq), ceiling) -> (distance, state, pair): of the
-# model's pairs whose robot part rides on one of the joints, the least distance over the states, of
-# equal ones the first state, then the first pair; (inf, -1, -1) if none comes within the ceiling.
-NearestPairs = Callable[[pin.Model, pin.GeometryModel, set[int], np.ndarray, float], tuple[float, int, int]]
+# (robot model, distance model, joints, states (N, nq), ceiling, posed) -> (distance, state, pair):
+# of the model's pairs whose robot part rides on one of the joints, the least distance over the
+# states, of equal ones the first state, then the first pair; (inf, -1, -1) if none comes within
+# the ceiling. `posed` changes whenever the model's people are placed anew (what it read of them
+# at the same `posed` stands).
+NearestPairs = Callable[[pin.Model, pin.GeometryModel, frozenset[int], np.ndarray, float, int], tuple[float, int, int]]
+
+# Stamps of placings of the people in a distance model, never the same twice (`_people_placed`).
+_PLACINGS = count(1)
+
+
+@dataclass
+class _Route:
+    """How `closest_human` splits a distance model's pairs for states along which the same
+    entries vary: read once per such split (~0.1 ms a call), with the still pairs' last answer."""
+
+    moving: np.ndarray  # a flag a pair: its robot part rides on a joint a varying entry moves
+    joints: frozenset[int]  # the joints carrying the moving pairs' robot parts
+    still_entries: np.ndarray  # a flag a configuration entry: does it move a still pair's part?
+    # ((when the people were placed, the still entries' values), (distance, pair)) of the last ask
+    still_asked: tuple[tuple[int, bytes], tuple[float, int]] | None = None
 
 
 # A list of colliding pairs in a message is cut to this many characters, so that the message's
@@ -227,6 +245,9 @@ class CollisionChecker:
         # every remembered build placed anew asks: ~40 us each, a dozen a re-plan). Forgotten
         # when the person is posed anew or is another Human (`_posed`, `pose_human`).
         self._placements: dict[str, tuple[list[pin.SE3], np.ndarray]] = {}
+        self._people_placed = 0  # a new `_PLACINGS` stamp whenever the distance model's people are placed
+        # Per distance model and the entries varying along the states: `_Route`.
+        self._routes: MadeFor[_Route] = MadeFor(_REMEMBERED_BUILDS)
         self._statics_placed = 0  # counts placings of what is on no joint: a certifier placed before reads them again
         self._motion: Motion | None = None  # the joints that move, and where the rest stay (`moving`)
         self._held: Held | None = None  # while a view holds pairs still
@@ -746,6 +767,7 @@ class CollisionChecker:
     def _place_person_models(self, name: str) -> None:
         """The same in the distance model and the person's model."""
         placements = self._placed(name)
+        self._people_placed = next(_PLACINGS)
         first = self._distance_slots[name]
         for k, placement in enumerate(placements):
             self._distance_model.geometryObjects[first + k].placement = placement
@@ -953,16 +975,15 @@ class CollisionChecker:
             return [(float("inf"), "", "")] * len(qs)
         qs = np.asarray(qs, dtype=float)
         pairs, _ = self._distance_pair_table()
-        moving = self._moving_pairs(qs)
+        route = self._route(qs)
+        moving = route.moving
         # Per state (distance, pair): the least, and of equal ones the first pair, as one call over all.
         ranked: list[tuple[float, int]] = [(float("inf"), -1)] * len(qs)
-        for part, states in ((~moving, qs[:1]), (moving, qs)):
-            if part.any():
-                with self._only_pairs(part):
-                    found = [self._closest_at(q) for q in states]
-                if len(found) == 1:  # the still parts: the same at every state
-                    found *= len(qs)
-                ranked = [min(r, f) for r, f in zip(ranked, found)]
+        if not moving.all():  # the still parts: the same at every state
+            ranked = [self._still_closest(route, qs[0])] * len(qs)
+        if moving.any():
+            with self._only_pairs(moving):
+                ranked = [min(r, self._closest_at(q)) for r, q in zip(ranked, qs)]
         names = [g.name for g in dm.geometryObjects]
         return [(d, names[pairs[k, 0]], names[pairs[k, 1]]) for d, k in ranked]
 
@@ -988,15 +1009,14 @@ class CollisionChecker:
             return (float("inf"), "", "")
         qs = np.asarray(qs, dtype=float)
         pairs, _ = self._distance_pair_table()
-        moving = self._moving_pairs(qs)
+        route = self._route(qs)
+        moving = route.moving
         best = (float("inf"), 0, -1)  # (distance, state, pair): the least, then the first state, then pair
-        if (~moving).any():
-            with self._only_pairs(~moving):
-                distance, pair = self._closest_at(qs[0])
+        if not moving.all():
+            distance, pair = self._still_closest(route, qs[0])
             best = (distance, 0, pair)
         if moving.any() and nearest is not None:
-            joints = {int(j) for j in self._distance_pair_table()[1][moving]}
-            best = min(best, nearest(self.robot.model, dm, joints, qs, best[0]))
+            best = min(best, nearest(self.robot.model, dm, route.joints, qs, best[0], self._people_placed))
         elif moving.any():
             floor, rows = self._moving_floors(qs, moving)
             first = int(np.argmin(floor.min(axis=1)))
@@ -1036,12 +1056,28 @@ class CollisionChecker:
         index[pairs[:, 0], pairs[:, 1]] = np.arange(len(pairs))
         return floors.reshape(len(qs), -1), index[np.ix_(parts, capsules)].reshape(-1)
 
-    def _moving_pairs(self, qs: np.ndarray) -> np.ndarray:
-        """Which distance-model pairs have their robot part on a joint that a joint varying
-        along `qs` moves."""
-        moved = self._moves[np.ptp(qs, axis=0) > 0.0].any(axis=0)
-        _, joints = self._distance_pair_table()
-        return moved[joints]
+    def _route(self, qs: np.ndarray) -> _Route:
+        """The distance model's `_Route` for the entries varying along `qs` (N, nq): its moving
+        pairs those whose robot part rides on a joint that a varying entry moves."""
+        varying = np.ptp(qs, axis=0) > 0.0
+
+        def route() -> _Route:
+            _, joints = self._distance_pair_table()
+            moving = self._moves[varying].any(axis=0)[joints]
+            still = self._moves[:, joints[~moving]].any(axis=1)
+            return _Route(moving, frozenset(joints[moving].tolist()), still)
+
+        return self._routes.made((self._distance_model,), route, varying.tobytes())
+
+    def _still_closest(self, route: _Route, q: np.ndarray) -> tuple[float, int]:
+        """(distance, pair) of the closest still pair of `route` at `q`: asked of coal again only
+        when the people were placed anew or a still pair's part stands elsewhere (its entries in
+        `q` differ), else the last answer, the same numbers (~50 us a path report)."""
+        key = (self._people_placed, q[route.still_entries].tobytes())
+        if route.still_asked is None or route.still_asked[0] != key:
+            with self._only_pairs(~route.moving):
+                route.still_asked = (key, self._closest_at(q))
+        return route.still_asked[1]
 
     @cached_property
     def _moves(self) -> np.ndarray:

@@ -35,6 +35,10 @@ AGGREGATES = 10
 PADDING, S0, TRAVEL, FACTOR, TOLERANCE, CLOSING, TOUCHING, ROUNDING = range(8)
 # What a row's moved part is: measured here (a capsule, a box, a cylinder about z) or by coal.
 CAPSULE, BOX, CYLINDER, BY_COAL = range(4)
+# `nearest_rows`: a part's bounds are at least those at an earlier state less how far its sphere's
+# centre moved since, less this times (1 m + the centre's and the person's reach from the origin)
+# for their rounding (`_floor` loses ~6e-8 of that sum at worst, its squares' cancellation).
+_MOVED_SLACK = 1e-6
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -326,6 +330,17 @@ def _person_terms(person: tuple) -> np.ndarray:
     return terms
 
 
+@njit(cache=True, nogil=True)
+def _person_reach(person: tuple) -> float:
+    """How far from the origin the person's capsules' axes reach: the most of |centre| + half length."""
+    person_centre, person_half = person[0], person[2]
+    reach = 0.0
+    for s in range(person_centre.shape[0]):
+        p0, p1, p2 = person_centre[s, 0], person_centre[s, 1], person_centre[s, 2]
+        reach = max(reach, math.sqrt(_dot(p0, p1, p2, p0, p1, p2)) + person_half[s])
+    return reach
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _place_parts(
     rotation: np.ndarray,
@@ -512,18 +527,37 @@ def nearest_rows(
     ones; a row is measured only where its bound
     (`_floor`) is within the least found so far and `ceiling` (what the caller found elsewhere),
     so no row left out could come closer or as close. A row this cannot measure is flagged in
-    left (N, K) for coal, as `capsule_rows` flags it."""
+    left (N, K) for coal, as `capsule_rows` flags it. A part whose rows' bounds were all far above
+    at an earlier state and whose sphere has not moved as far since is passed whole (its bounds
+    are a distance's to its centre: they fall no faster than it moves): the rows passed are
+    among those the bound passes, so the same rows are measured (scenario a's path report: the
+    bounds were ~85 of its ~95 us)."""
     robot, rows = geometry
     n_states, n_rows = left.shape
-    centre, centre_sq = np.empty((robot[5].size, 3)), np.empty(robot[5].size)
+    n_parts = robot[5].size
+    centre, centre_sq = np.empty((n_parts, 3)), np.empty(n_parts)
     placed_centre, placed_axis = np.empty((robot[0].size, 3)), np.empty((robot[0].size, 3))
     point, scratch = np.empty(6), np.empty(15)
     terms = _person_terms(person)
+    # Per part: a lower bound on its rows' bounds at this state (-inf: none), where its centre was
+    # at the last, and the least bound of its rows at this one (-inf for a NaN).
+    lower, was, found = np.full(n_parts, -math.inf), np.zeros((n_parts, 3)), np.empty(n_parts)
+    reach = 1.0 + _person_reach(person)
     least, state, row = math.inf, -1, -1  # in locals: read from best at every row they cost more
     for n in range(n_states):
         _place_parts(rotation, origin, n, robot, centre, centre_sq, placed_centre, placed_axis)
+        for p in range(n_parts):
+            d0, d1, d2 = centre[p, 0] - was[p, 0], centre[p, 1] - was[p, 1], centre[p, 2] - was[p, 2]
+            lower[p] -= math.sqrt(_dot(d0, d1, d2, d0, d1, d2)) + _MOVED_SLACK * (reach + math.sqrt(centre_sq[p]))
+            was[p, 0], was[p, 1], was[p, 2] = centre[p, 0], centre[p, 1], centre[p, 2]
+            found[p] = math.inf
         for k in range(n_rows):
+            p = rows[0][k]
+            if lower[p] > min(least, ceiling):  # so is the row's bound
+                found[p] = min(found[p], lower[p])
+                continue
             bound = _floor(centre, centre_sq, terms, robot, rows, person, k, tolerance)
+            found[p] = -math.inf if math.isnan(bound) else min(found[p], bound)
             if bound > min(least, ceiling):
                 continue
             distance = _row_distance(rotation, origin, n, k, placed_centre, placed_axis, rows, person, scratch, point)
@@ -531,4 +565,5 @@ def nearest_rows(
                 left[n, k] = True
             elif distance < least:
                 least, state, row = distance, n, k
+        lower, found = found, lower
     best[0], best[1], best[2] = least, float(state), float(row)

@@ -113,6 +113,8 @@ class PersonDistances:
         spheres = [bounding_sphere(objects[a]) for a in parts]
         self._sphere_centre = np.array([c for c, _ in spheres]).reshape(-1, 3, 1)
         self._sphere_radius = np.array([r for _, r in spheres])
+        # `_kernel_person`'s last answer and the `posed` stamp it was read at (None: not kept).
+        self._person_read: tuple[int | None, tuple[np.ndarray, ...]] = (None, ())
 
     def by_row(self, per_slot: np.ndarray) -> np.ndarray:
         """A value per capsule of the person (`slot_names` order) given to each row of that capsule:
@@ -175,10 +177,14 @@ class PersonDistances:
         rows = (self._part, self._slot, capsule, half, radius, self._frame, *shapes)
         return tuple(np.ascontiguousarray(a) for a in (*robot, *spheres)), tuple(np.ascontiguousarray(a) for a in rows)
 
-    def _kernel_person(self) -> tuple[np.ndarray, ...]:
-        """The person's capsules as the kernels read them (`capsule_rows`' `person`), where she stands now."""
-        centre, axis = self._person_capsules()
-        return centre, axis, self._slot_half, self._slot_radius
+    def _kernel_person(self, posed: int | None = None) -> tuple[np.ndarray, ...]:
+        """The person's capsules as the kernels read them (`capsule_rows`' `person`), where she
+        stands now: read afresh, unless `posed` (a stamp that changes whenever the person is
+        placed anew) is the one the last were read at (reading them costs ~60 us)."""
+        if posed is None or self._person_read[0] != posed:
+            centre, axis = self._person_capsules()
+            self._person_read = (posed, (centre, axis, self._slot_half, self._slot_radius))
+        return self._person_read[1]
 
     def folded(
         self, qs: np.ndarray, dqs: np.ndarray, contact: np.ndarray, caps: np.ndarray, iso: np.ndarray
@@ -208,17 +214,18 @@ class PersonDistances:
             )
         return agg
 
-    def nearest(self, qs: np.ndarray, ceiling: float = np.inf) -> tuple[float, int, int]:
+    def nearest(self, qs: np.ndarray, ceiling: float = np.inf, posed: int | None = None) -> tuple[float, int, int]:
         """The least distance of every row over the configurations `qs` (N, nq): (distance,
         state, row), of equal ones the first state, then the first row; rows whose bound passes
         `ceiling` (a distance the caller has) or the least found are not measured, so (inf, -1,
         -1) when none comes within it. Compiled (`approach_kernels.nearest_rows`): capsules, boxes
-        and cylinders exactly, the rows it leaves (a mesh, a shape touching the person) by coal."""
+        and cylinders exactly, the rows it leaves (a mesh, a shape touching the person) by coal.
+        `posed`: as `_kernel_person`'s."""
         from hriplan.safety import approach_kernels as kernels  # numba: imported with the kernels on
 
         rotation, origin = map(np.ascontiguousarray, self._kinematics.placements(qs))
         best, left = np.empty(3), np.zeros((len(qs), len(self.parts)), dtype=bool)
-        geometry, person = self._kernel_geometry, self._kernel_person()
+        geometry, person = self._kernel_geometry, self._kernel_person(posed)
         kernels.nearest_rows(rotation, origin, geometry, person, BOUND_TOLERANCE, ceiling, best, left)
         found = (float(best[0]), int(best[1]), int(best[2]))
         if left.any():
@@ -320,14 +327,19 @@ def _point_velocity(linear: np.ndarray, angular: np.ndarray, origin: np.ndarray,
 
 
 def nearest_moving(
-    robot_model: pin.Model, model: pin.GeometryModel, joints: Collection[int], qs: np.ndarray, ceiling: float
+    robot_model: pin.Model,
+    model: pin.GeometryModel,
+    joints: Collection[int],
+    qs: np.ndarray,
+    ceiling: float,
+    posed: int | None = None,
 ) -> tuple[float, int, int]:
     """`CollisionChecker.closest_human`'s moving pairs in compiled code: of `model`'s pairs whose
     robot part rides on one of `joints`, the least distance over `qs` (N, nq) as (distance,
     state, pair index in the model), of equal ones the first state, then the first pair; (inf,
-    -1, -1) if none comes within `ceiling` (`PersonDistances.nearest`)."""
+    -1, -1) if none comes within `ceiling` (`PersonDistances.nearest`; `posed` as there)."""
     distances = PersonDistances.of(robot_model, model, joints)
-    distance, state, row = distances.nearest(qs, ceiling)
+    distance, state, row = distances.nearest(qs, ceiling, posed)
     return distance, state, int(distances.pair_index[row]) if row >= 0 else -1
 
 
