@@ -36,8 +36,9 @@ from hriplan.robots.certifier_kernels import (
     place_joints,
     same_joints,
     segment_floor,
-    verdict_of_placed,
+    verdict_of,
     verdict_one,
+    verdict_views,
 )
 from hriplan.robots.certifier_kernels import verdicts as verdict_codes
 from hriplan.robots.collision import CollisionChecker, SeparationZones
@@ -823,7 +824,7 @@ def test_frames_kept_from_the_last_state_are_those_placed_anew(robots, kernels):
 
 
 def test_frames_placed_by_the_caller_are_taken_as_placed_here(robots, kernels):
-    """`verdict_of_placed` (CBiRRT's walk: its joints placed for the margins) gives the verdict,
+    """`verdict_of` given frames (CBiRRT's walk: its joints placed for the margins) gives the verdict,
     frames, placed rows and kept state of `verdict_one` to the bit, over states that keep none,
     some, most or all of the last one's coordinates; tables not the certifier's are told apart."""
     robot = robots["madar"]
@@ -839,11 +840,12 @@ def test_frames_placed_by_the_caller_are_taken_as_placed_here(robots, kernels):
     assert not same_joints(*given, other, joint_ints) and not same_joints(*given, rows[:-1], joint_ints[:-1])
     rotation, origin = np.empty((len(rows), 3, 3)), np.empty((len(rows), 3))
     scratch = slice(ints[11], None)
+    views = verdict_views(*given)  # views of `given`: the verdict writes its scratch there
     codes = set()
     for q in qs:
         place_joints(q, rows, joint_ints, rotation, origin)
         code = verdict_one(q, floats, ints)
-        assert verdict_of_placed(q, *given, rotation, origin) == code
+        assert verdict_of(q, *given, *views, (rotation, origin)) == code
         assert floats[scratch].tobytes() == given[0][scratch].tobytes()
         codes.add(min(code, 1))
     assert {0, 1, TOUCHING} <= codes  # free, pairs left, a pair proven to touch: all taken

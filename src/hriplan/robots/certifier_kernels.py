@@ -650,12 +650,20 @@ def _decided_tables(uncertified, floats, ints, rotation, origin) -> int:
 
 @njit_keyed(mesh_pair_kernels)
 def _verdict(q, floats, ints, work, left, frames) -> int:
-    """`_verdict_of` one state, its arrays unpacked for it (`work`: the scratch, `_scratch`)."""
-    return _verdict_of(q, floats, ints, _unpack(floats, ints), _scratch(work, ints[0]), left, frames)
+    """`verdict_of` one state, its arrays unpacked for it (`work`: the scratch, `_scratch`)."""
+    return verdict_of(q, floats, ints, _unpack(floats, ints), _scratch(work, ints[0]), left, frames)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _verdict_of(q, floats, ints, parts, scratch, left, frames) -> int:
+def verdict_views(floats, ints):
+    """What `verdict_of` takes besides a state, made once for many states (their views made at
+    every state cost ~0.35 us of a UR5 state's ~1.55): `_unpack`'s parts, `_scratch`'s, and the
+    pairs left (at the end of the int array, as `verdict_one` has them)."""
+    return _unpack(floats, ints), _scratch(floats[ints[11] :], ints[0]), ints[ints[20] :]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def verdict_of(q, floats, ints, parts, scratch, left, frames) -> int:
     """TOUCHING if a pair surely touches at `q` (`exact_verdict`, the first found, or a tabled mesh
     pair's triangles: coal would find it collide); -1 if more pairs may touch than `left` holds
     (stopped there); else the tables that do not certify `q` and whose mesh pairs their triangles
@@ -715,14 +723,6 @@ def verdict_one(q, floats, ints) -> int:
     return _verdict(q, floats, ints, floats[ints[11] :], ints[ints[20] :], None)
 
 
-@njit_keyed(mesh_pair_kernels)
-def verdict_of_placed(q, floats, ints, rotation, origin) -> int:
-    """`verdict_one` where the caller placed every joint at `q` already (`place_joints`, into
-    `rotation` and `origin`) with the certifier's own joint tables (`same_joints`): CBiRRT's walk
-    places them for the constraints' margins, and placing them again cost ~0.2 us a state."""
-    return _verdict(q, floats, ints, floats[ints[11] :], ints[ints[20] :], (rotation, origin))
-
-
 @njit(cache=True, nogil=True)
 def same_joints(floats, ints, rows, joint_ints) -> bool:
     """Are `rows` and `joint_ints` (`place_joints`' tables) the certifier's own?"""
@@ -736,9 +736,9 @@ def same_joints(floats, ints, rows, joint_ints) -> bool:
 @njit_keyed(mesh_pair_kernels)
 def verdicts(qs, floats, ints, left) -> np.ndarray:
     """Per state (row n of `left` its pairs that may touch), the arrays unpacked once for all
-    states: their views made at every state cost ~0.35 us of a UR5 state's ~1.55."""
-    parts, scratch = _unpack(floats, ints), _scratch(floats[ints[11] :], ints[0])
+    states (`verdict_views`)."""
+    parts, scratch, _ = verdict_views(floats, ints)
     out = np.empty(qs.shape[0], dtype=np.int64)
     for n in range(qs.shape[0]):
-        out[n] = _verdict_of(qs[n], floats, ints, parts, scratch, left[n], None)
+        out[n] = verdict_of(qs[n], floats, ints, parts, scratch, left[n], None)
     return out

@@ -24,7 +24,7 @@ from hriplan.planner.constraints import compiled, geometry
 from hriplan.planner.constraints.compiled import rows_gradients, term_margins
 from hriplan.planner.search.cbirrt import BLOCKED, COLLIDED, MORE, NEWTON_ITERATIONS, REACHED, UNSURE
 from hriplan.robots import certifier_kernels
-from hriplan.robots.certifier_kernels import TOUCHING, place_joints, same_joints, verdict_of_placed, verdict_one
+from hriplan.robots.certifier_kernels import TOUCHING, place_joints, same_joints, verdict_of, verdict_views
 from hriplan.robots.kernel_cache import njit_keyed
 
 if TYPE_CHECKING:
@@ -150,7 +150,7 @@ def walk(
 ):
     """Steps of `delta` from `start` towards `target`, as `cbirrt._Search.extend` takes them:
     each projected into the bands (when `constrained`) and certified collision free
-    (`certifier_kernels.verdict_one` on the certifier's arrays `certifier`) goes to out[count].
+    (`certifier_kernels.verdict_of` on the certifier's arrays `certifier`) goes to out[count].
     Returns (count, how it ended, the distance left from the last state to the target): REACHED
     at the target, BLOCKED where a step cannot be projected, makes no progress or is thrown more
     than 2 delta, COLLIDED where the certifier proves a step in collision (as the checker would
@@ -161,6 +161,8 @@ def walk(
     joint_rows, joint_ints, rotation, origin = joints
     # A projected step's joints are placed (its margins): the verdict takes their frames.
     placed = constrained and same_joints(floats, ints, joint_rows, joint_ints)
+    # The certifier's arrays unpacked once for the walk's steps (~0.35 us a step otherwise).
+    parts, scratch, left = verdict_views(floats, ints)
     n = start.shape[0]
     x = start.copy()
     distance = 0.0
@@ -190,9 +192,9 @@ def walk(
         for c in range(n):
             q[slots[c]] = step[c]
         if placed:
-            verdict = verdict_of_placed(q, floats, ints, rotation[0], origin[0])
+            verdict = verdict_of(q, floats, ints, parts, scratch, left, (rotation[0], origin[0]))
         else:
-            verdict = verdict_one(q, floats, ints)
+            verdict = verdict_of(q, floats, ints, parts, scratch, left, None)
         if verdict == TOUCHING:
             return count, COLLIDED, distance
         if verdict != 0:
