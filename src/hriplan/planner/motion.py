@@ -480,13 +480,14 @@ def _band_problem(problem: _Problem, options: PlanOptions) -> BandProblem:
 
 
 def _dedupe(states: Sequence[np.ndarray]) -> list[np.ndarray]:
-    """`states` less each that is within 1e-9 (every joint) of the last one kept. One numpy pass
-    where no two neighbours are that close (a search's path: ~4 us a state one by one)."""
+    """`states` less each that is within 1e-9 (every joint) of the last one kept. Neighbours are
+    compared in one numpy pass; a state is compared again only after one was dropped (a
+    search's path repeats its start and goal: ~4 us a state compared one by one)."""
     rows = np.array(states, dtype=float)
-    if (np.abs(np.diff(rows, axis=0)).max(axis=1, initial=0.0) > 1e-9).all():
-        return list(rows)
-    out = [rows[0]]
-    for s in rows[1:]:
-        if np.abs(s - out[-1]).max() > 1e-9:
-            out.append(s)
-    return out
+    close = (np.abs(np.diff(rows, axis=0)).max(axis=1, initial=0.0) <= 1e-9).tolist()
+    kept = [0]
+    for k in range(1, len(rows)):
+        last = kept[-1]
+        if not (close[k - 1] if last == k - 1 else np.abs(rows[k] - rows[last]).max() <= 1e-9):
+            kept.append(k)
+    return list(rows[kept])
