@@ -15,14 +15,16 @@ import shutil
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Annotated, Any, TypeVar
 
 import yaml
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, Field, ValidationError
 
 from hriplan import HriplanError
 
 M = TypeVar("M", bound=BaseModel)
+# A number a file gives: NaN and the infinities are refused, naming the field.
+Finite = Annotated[float, Field(allow_inf_nan=False)]
 
 
 def read_text(path: str | Path, what: str = "file") -> str:

@@ -13,18 +13,16 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from hriplan import HriplanError
-from hriplan.files import parse_data, read_text, validation_message
+from hriplan.files import Finite, parse_data, read_text, validation_message
 from hriplan.planner.replay import MotionSetting
 from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryPoint
 from hriplan.robots.model import load_robot
 from hriplan.robots.scene import Scene
 
-Finite = Annotated[float, Field(allow_inf_nan=False)]
 MESSAGE_FIELDS = ("header", "joint_names", "points")
 # A separator or end line of a YAML stream: ros2 topic echo ends every message with `---`.
 _DOCUMENT_END = re.compile(r"^(?:---|\.\.\.)[ \t]*$", re.MULTILINE)

@@ -20,7 +20,7 @@ from pydantic import (
 )
 
 from hriplan import HriplanError
-from hriplan.files import validation_message
+from hriplan.files import Finite, validation_message
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT
 from hriplan.robots.human import HAND, HumanSpec, Side, hand_they_reach_out
 from hriplan.robots.spatial import Pose
@@ -30,7 +30,6 @@ EXAMPLES_DIR = Path(__file__).with_name("situations")
 # Names become IRI local names and planner frame prefixes (PERSON/head), hence the pattern.
 Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
-Finite = Annotated[float, Field(allow_inf_nan=False)]
 SignedAxis = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
 FillLevel = Literal["Full", "Partial", "Empty"]
 Role = Literal["Receiver", "Giver", "Supervisor", "Collaborator", "Bystander"]

@@ -13,11 +13,11 @@ import math
 from itertools import chain
 from operator import attrgetter, lt
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from hriplan.files import load_model, write_atomically
+from hriplan.files import Finite, load_model, write_atomically
 from hriplan.planner.constraints.spec import ConstraintSpec
 from hriplan.planner.outcome import Status
 from hriplan.robots.descriptions.registry import registered_robot_file
@@ -28,9 +28,6 @@ from hriplan.safety.separation import SafetyMargin
 
 SCHEMA = "hriplan.trajectory"
 SCHEMA_VERSION = 1
-
-
-Finite = Annotated[float, Field(allow_inf_nan=False)]
 
 
 class TrajectoryPoint(BaseModel):

@@ -13,7 +13,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationError, field_validator, model_validator
 
-from hriplan.files import validation_message
+from hriplan.files import Finite, validation_message
 from hriplan.ontology.situation import FillLevel, Name, Role
 from hriplan.planner.constraints.spec import Axis
 from hriplan.planner.options import PLANNERS, Formulation, PlanOptions, Space
@@ -31,7 +31,6 @@ from hriplan.robots.spatial import Pose
 from hriplan.safety.separation import SafetyMargin
 
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
-Finite = Annotated[float, Field(allow_inf_nan=False)]
 
 
 class _Strict(BaseModel):
