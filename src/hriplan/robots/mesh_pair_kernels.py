@@ -125,6 +125,17 @@ def triangles_touch(p: np.ndarray, q: np.ndarray, margin: float) -> bool:
 
 
 @njit(cache=True, inline="always")
+def _cross_parted(ti2, ti1, pose, spread, a, b, i1, i2, j, j1, j2, margin) -> bool:
+    """Does the cross of a's axis i and b's axis j (i1, i2 and j1, j2: the others, in turn)
+    part the boxes (`_boxes_apart`)?"""
+    i = 3 - i1 - i2
+    gap = abs(ti2 * pose[3 * i1 + j] - ti1 * pose[3 * i2 + j])
+    reach = a[3 + i1] * spread[3 * i2 + j] + a[3 + i2] * spread[3 * i1 + j]
+    reach += b[3 + j1] * spread[3 * i + j2] + b[3 + j2] * spread[3 * i + j1]
+    return gap > reach + margin
+
+
+@njit(cache=True, inline="always")
 def _boxes_apart(a: np.ndarray, b: np.ndarray, pose: np.ndarray, spread: np.ndarray, margin: float) -> bool:
     """Are box `a` (centre, half sides) and box `b` carried by `pose` (rotation row-major,
     translation: 12; `spread`: its rotation's absolute values) farther apart than `margin` along
@@ -143,17 +154,18 @@ def _boxes_apart(a: np.ndarray, b: np.ndarray, pose: np.ndarray, spread: np.ndar
             b[3 + j] + spread[j] * a[3] + spread[3 + j] * a[4] + spread[6 + j] * a[5] + margin
         ):
             return True
-    t = (t0, t1, t2)
-    for i in range(3):
-        i1, i2 = (i + 1) % 3, (i + 2) % 3
-        for j in range(3):
-            j1, j2 = (j + 1) % 3, (j + 2) % 3
-            gap = abs(t[i2] * pose[3 * i1 + j] - t[i1] * pose[3 * i2 + j])
-            reach = a[3 + i1] * spread[3 * i2 + j] + a[3 + i2] * spread[3 * i1 + j]
-            reach += b[3 + j1] * spread[3 * i + j2] + b[3 + j2] * spread[3 * i + j1]
-            if gap > reach + margin:
-                return True
-    return False
+    # the 9 edge crosses unrolled (looped, indexing a tuple: decide ~30 % slower on MADAR)
+    return (
+        _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 0, 1, 2, margin)
+        or _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 1, 2, 0, margin)
+        or _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 2, 0, 1, margin)
+        or _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 0, 1, 2, margin)
+        or _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 1, 2, 0, margin)
+        or _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 2, 0, 1, margin)
+        or _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 0, 1, 2, margin)
+        or _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 1, 2, 0, margin)
+        or _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 2, 0, 1, margin)
+    )
 
 
 @njit(cache=True, inline="always")
