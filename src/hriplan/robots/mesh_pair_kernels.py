@@ -154,17 +154,18 @@ def _boxes_apart(a: np.ndarray, b: np.ndarray, pose: np.ndarray, spread: np.ndar
             b[3 + j] + spread[j] * a[3] + spread[3 + j] * a[4] + spread[6 + j] * a[5] + margin
         ):
             return True
-    # the 9 edge crosses unrolled (looped, indexing a tuple: decide ~30 % slower on MADAR)
+    # the 9 edge crosses unrolled (looped, indexing a tuple: decide ~30 % slower on MADAR), all
+    # asked (`|`: they rarely part, so not branching on each is ~2 % faster)
     return (
         _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 0, 1, 2, margin)
-        or _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 1, 2, 0, margin)
-        or _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 2, 0, 1, margin)
-        or _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 0, 1, 2, margin)
-        or _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 1, 2, 0, margin)
-        or _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 2, 0, 1, margin)
-        or _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 0, 1, 2, margin)
-        or _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 1, 2, 0, margin)
-        or _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 2, 0, 1, margin)
+        | _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 1, 2, 0, margin)
+        | _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 2, 0, 1, margin)
+        | _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 0, 1, 2, margin)
+        | _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 1, 2, 0, margin)
+        | _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 2, 0, 1, margin)
+        | _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 0, 1, 2, margin)
+        | _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 1, 2, 0, margin)
+        | _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 2, 0, 1, margin)
     )
 
 
