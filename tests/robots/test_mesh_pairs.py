@@ -282,7 +282,8 @@ def test_a_tree_halves_each_node_across_its_widest_spread(count):
 def test_boxes_are_parted_as_along_their_15_axes():
     """`_boxes_apart` parts two random boxes exactly when one of their 15 axes (each's 3, the 9
     crosses of one's with the other's, unnormalised) parts their projections by more than the
-    margin (an unrolled cross with a wrong index fails here)."""
+    margin (an unrolled cross with a wrong index, or a point called in both boxes that is not,
+    fails here)."""
     from hriplan.robots.mesh_pair_kernels import _boxes_apart
 
     rng = np.random.default_rng(5)
