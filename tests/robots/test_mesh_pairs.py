@@ -277,3 +277,30 @@ def test_a_tree_halves_each_node_across_its_widest_spread(count):
         along = members[:, axis]  # the halves are apart along it (their own order is their children's)
         assert along[: size // 2].max() <= along[size // 2 :].min()
     assert list(depth) == sorted(depth) and np.all(np.diff([depth[n] for n in sorted(depth)]) >= 0)
+
+
+def test_boxes_are_parted_as_along_their_15_axes():
+    """`_boxes_apart` parts two random boxes exactly when one of their 15 axes (each's 3, the 9
+    crosses of one's with the other's, unnormalised) parts their projections by more than the
+    margin (an unrolled cross with a wrong index, or a point called in both boxes that is not,
+    fails here)."""
+    from hriplan.robots.mesh_pair_kernels import _boxes_apart
+
+    rng = np.random.default_rng(5)
+    margin, parted, asked = 1e-3, 0, 0
+    for _ in range(3000):
+        a = np.concatenate([rng.uniform(-0.3, 0.3, 3), rng.uniform(0.01, 0.3, 3)])
+        b = np.concatenate([rng.uniform(-0.3, 0.3, 3), rng.uniform(0.01, 0.3, 3)])
+        rotation = pin.exp3(rng.normal(size=3))
+        translation = rng.uniform(-0.3, 0.3, 3)
+        pose = np.concatenate([rotation.ravel(), translation])
+        t = translation + rotation @ b[:3] - a[:3]
+        axes = [np.eye(3)[i] for i in range(3)] + [rotation[:, j] for j in range(3)]
+        axes += [np.cross(np.eye(3)[i], rotation[:, j]) for i in range(3) for j in range(3)]
+        gaps = [abs(t @ u) - np.abs(u) @ a[3:] - np.abs(rotation.T @ u) @ b[3:] - margin for u in axes]
+        if min(abs(g) for g in gaps) < 1e-9:  # too near the margin for rounding to agree
+            continue
+        expected = max(gaps) > 0.0
+        assert _boxes_apart(a, b, pose, np.abs(pose[:9]), margin) == expected
+        parted, asked = parted + expected, asked + 1
+    assert asked > 2900 and 0.2 * asked < parted < 0.8 * asked

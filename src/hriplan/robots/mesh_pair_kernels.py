@@ -125,6 +125,17 @@ def triangles_touch(p: np.ndarray, q: np.ndarray, margin: float) -> bool:
 
 
 @njit(cache=True, inline="always")
+def _cross_parted(ti2, ti1, pose, spread, a, b, i1, i2, j, j1, j2, margin) -> bool:
+    """Does the cross of a's axis i and b's axis j (i1, i2 and j1, j2: the others, in turn)
+    part the boxes (`_boxes_apart`)?"""
+    i = 3 - i1 - i2
+    gap = abs(ti2 * pose[3 * i1 + j] - ti1 * pose[3 * i2 + j])
+    reach = a[3 + i1] * spread[3 * i2 + j] + a[3 + i2] * spread[3 * i1 + j]
+    reach += b[3 + j1] * spread[3 * i + j2] + b[3 + j2] * spread[3 * i + j1]
+    return gap > reach + margin
+
+
+@njit(cache=True, inline="always")
 def _boxes_apart(a: np.ndarray, b: np.ndarray, pose: np.ndarray, spread: np.ndarray, margin: float) -> bool:
     """Are box `a` (centre, half sides) and box `b` carried by `pose` (rotation row-major,
     translation: 12; `spread`: its rotation's absolute values) farther apart than `margin` along
@@ -138,22 +149,36 @@ def _boxes_apart(a: np.ndarray, b: np.ndarray, pose: np.ndarray, spread: np.ndar
         return True
     if abs(t2) > a[5] + spread[6] * b[3] + spread[7] * b[4] + spread[8] * b[5] + margin:
         return True
+    # b's centre clamped into a's box, if in b's box too, is in both: no axis parts them by the
+    # margin (far above rounding). 62 % of the peg-in-hole's pairs not parted are proven so, without
+    # their 12 other axes: decide ~11 % faster
+    d0 = min(max(t0, -a[3]), a[3]) - t0
+    d1 = min(max(t1, -a[4]), a[4]) - t1
+    d2 = min(max(t2, -a[5]), a[5]) - t2
+    if (
+        abs(pose[0] * d0 + pose[3] * d1 + pose[6] * d2) <= b[3]
+        and abs(pose[1] * d0 + pose[4] * d1 + pose[7] * d2) <= b[4]
+        and abs(pose[2] * d0 + pose[5] * d1 + pose[8] * d2) <= b[5]
+    ):
+        return False
     for j in range(3):
         if abs(pose[j] * t0 + pose[3 + j] * t1 + pose[6 + j] * t2) > (
             b[3 + j] + spread[j] * a[3] + spread[3 + j] * a[4] + spread[6 + j] * a[5] + margin
         ):
             return True
-    t = (t0, t1, t2)
-    for i in range(3):
-        i1, i2 = (i + 1) % 3, (i + 2) % 3
-        for j in range(3):
-            j1, j2 = (j + 1) % 3, (j + 2) % 3
-            gap = abs(t[i2] * pose[3 * i1 + j] - t[i1] * pose[3 * i2 + j])
-            reach = a[3 + i1] * spread[3 * i2 + j] + a[3 + i2] * spread[3 * i1 + j]
-            reach += b[3 + j1] * spread[3 * i + j2] + b[3 + j2] * spread[3 * i + j1]
-            if gap > reach + margin:
-                return True
-    return False
+    # the 9 edge crosses unrolled (looped, indexing a tuple: decide ~30 % slower on MADAR), all
+    # asked (`|`: they rarely part, so not branching on each is ~2 % faster)
+    return (
+        _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 0, 1, 2, margin)
+        | _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 1, 2, 0, margin)
+        | _cross_parted(t2, t1, pose, spread, a, b, 1, 2, 2, 0, 1, margin)
+        | _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 0, 1, 2, margin)
+        | _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 1, 2, 0, margin)
+        | _cross_parted(t0, t2, pose, spread, a, b, 2, 0, 2, 0, 1, margin)
+        | _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 0, 1, 2, margin)
+        | _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 1, 2, 0, margin)
+        | _cross_parted(t1, t0, pose, spread, a, b, 0, 1, 2, 0, 1, margin)
+    )
 
 
 @njit(cache=True, inline="always")
