@@ -408,15 +408,41 @@ def _nearest_along(x0, y0, z0, dx, dy, dz, hx, hy, hz) -> float:
     return 0.5 * (low + high)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _nearest_in_box(rows, a, b):
+    """Row a's segment in row b's box frame, the box's half sides, and the point of the segment
+    nearest the box (`_nearest_along`): what `capsule_in_box` and `capsule_box_floor` read."""
+    x0, y0, z0, dx, dy, dz = _segment_in_box(rows, a, b)
+    hx, hy, hz = rows[b, 19], rows[b, 20], rows[b, 21]
+    t = _nearest_along(x0, y0, z0, dx, dy, dz, hx, hy, hz)
+    return x0, y0, z0, dx, dy, dz, hx, hy, hz, x0 + t * dx, y0 + t * dy, z0 + t * dz
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _reaches_in(near, radius, depth) -> bool:
+    """`capsule_in_box` given `_nearest_in_box`'s answer `near` and the capsule's radius."""
+    _, _, _, _, _, _, hx, hy, hz, px, py, pz = near
+    return _box_gap(px, py, pz, hx, hy, hz) < radius - depth
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _floor_of(near, radius) -> float:
+    """`capsule_box_floor` given `_nearest_in_box`'s answer `near` and the capsule's radius."""
+    x0, y0, z0, dx, dy, dz, hx, hy, hz, px, py, pz = near
+    nx, ny, nz = px - min(max(px, -hx), hx), py - min(max(py, -hy), hy), pz - min(max(pz, -hz), hz)
+    norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if norm == 0.0:
+        return -radius
+    ends = min(nx * x0 + ny * y0 + nz * z0, nx * (x0 + dx) + ny * (y0 + dy) + nz * (z0 + dz))
+    return (ends - (abs(nx) * hx + abs(ny) * hy + abs(nz) * hz)) / norm - radius
+
+
 @njit(cache=True, nogil=True)
 def capsule_in_box(rows, a, b, depth) -> bool:
     """True if row a's capsule reaches more than `depth` into row b's box: the point of its
     segment nearest the box (`_nearest_along`) is nearer than its radius less `depth`. It is a
     point's own distance, so a True holds wherever the search stopped."""
-    x0, y0, z0, dx, dy, dz = _segment_in_box(rows, a, b)
-    hx, hy, hz = rows[b, 19], rows[b, 20], rows[b, 21]
-    t = _nearest_along(x0, y0, z0, dx, dy, dz, hx, hy, hz)
-    return _box_gap(x0 + t * dx, y0 + t * dy, z0 + t * dz, hx, hy, hz) < rows[a, 6] - depth
+    return _reaches_in(_nearest_in_box(rows, a, b), rows[a, 6], depth)
 
 
 @njit(cache=True, nogil=True)
@@ -426,16 +452,7 @@ def capsule_box_floor(rows, a, b) -> float:
     facing it, has the segment's ends (so all of it) on one side and the box's corners on the
     other; their gap along its normal bounds any two points' distance. Any plane would bound
     it: a nearest point found wrong only loosens the bound. Not above 0 where they meet."""
-    x0, y0, z0, dx, dy, dz = _segment_in_box(rows, a, b)
-    hx, hy, hz = rows[b, 19], rows[b, 20], rows[b, 21]
-    t = _nearest_along(x0, y0, z0, dx, dy, dz, hx, hy, hz)
-    px, py, pz = x0 + t * dx, y0 + t * dy, z0 + t * dz
-    nx, ny, nz = px - min(max(px, -hx), hx), py - min(max(py, -hy), hy), pz - min(max(pz, -hz), hz)
-    norm = math.sqrt(nx * nx + ny * ny + nz * nz)
-    if norm == 0.0:
-        return -rows[a, 6]
-    ends = min(nx * x0 + ny * y0 + nz * z0, nx * (x0 + dx) + ny * (y0 + dy) + nz * (z0 + dz))
-    return (ends - (abs(nx) * hx + abs(ny) * hy + abs(nz) * hz)) / norm - rows[a, 6]
+    return _floor_of(_nearest_in_box(rows, a, b), rows[a, 6])
 
 
 @njit(cache=True, nogil=True)
@@ -450,9 +467,10 @@ def exact_verdict(shapes, placed, a, b, tolerance) -> int:
         a, b = b, a
     elif not (shapes[a, EXACT] == EXACT_CAPSULE and shapes[b, EXACT] == EXACT_BOX):
         return 0
-    if capsule_in_box(placed, a, b, tolerance):
+    near = _nearest_in_box(placed, a, b)  # one search for both tests
+    if _reaches_in(near, placed[a, 6], tolerance):
         return TOUCHING
-    return APART if capsule_box_floor(placed, a, b) > tolerance else 0
+    return APART if _floor_of(near, placed[a, 6]) > tolerance else 0
 
 
 @njit(cache=True, nogil=True, inline="always")
