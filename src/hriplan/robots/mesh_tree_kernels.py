@@ -38,19 +38,7 @@ def split(centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         for i in range(waiting):
             n = level[i]
             first, size = nodes[n, FIRST], nodes[n, COUNT]
-            axis, widest = 0, -1.0
-            for a in range(3):
-                low = high = centres[order[first], a]
-                for p in range(first + 1, first + size):
-                    low, high = min(low, centres[order[p], a]), max(high, centres[order[p], a])
-                if high - low > widest:
-                    axis, widest = a, high - low
-            for p in range(size):
-                members[p] = order[first + p]
-                values[p] = centres[members[p], axis]
-            ranked = np.argsort(values[:size], kind="mergesort")
-            for p in range(size):
-                order[first + p] = members[ranked[p]]
+            _halve(centres, order, first, size, members, values)
             half = size // 2
             for start, length, side in ((first, half, LEFT), (first + half, size - half, RIGHT)):
                 nodes[n, side] = made
@@ -76,7 +64,13 @@ def capsule_tree(vertices: np.ndarray, triangles: np.ndarray, leaf: int) -> tupl
     capsules, ends = np.empty((total, 7)), np.empty(total, dtype=np.int64)
     stack = np.empty((128, 2), dtype=np.int64)  # (first, size) waiting: a few levels per halving
     stack[0, 0], stack[0, 1], waiting, made = 0, count, 1, 0
-    values = np.empty(count)
+    values, members = np.empty(count), np.empty(count, dtype=np.int64)
+    centres = np.empty((count, 3))
+    for t in range(count):
+        for a in range(3):
+            centres[t, a] = (
+                vertices[triangles[t, 0], a] + vertices[triangles[t, 1], a] + vertices[triangles[t, 2], a]
+            ) / 3.0
     while waiting:
         waiting -= 1
         first, size = stack[waiting, 0], stack[waiting, 1]
@@ -86,29 +80,32 @@ def capsule_tree(vertices: np.ndarray, triangles: np.ndarray, leaf: int) -> tupl
         made += 1
         if size <= leaf:
             continue
-        axis, widest = 0, -1.0
-        for a in range(3):
-            low, high = np.inf, -np.inf
-            for p in range(size):
-                t = group[p]
-                centre = (
-                    vertices[triangles[t, 0], a] + vertices[triangles[t, 1], a] + vertices[triangles[t, 2], a]
-                ) / 3.0
-                values[p] = centre
-                low, high = min(low, centre), max(high, centre)
-            if high - low > widest:
-                axis, widest = a, high - low
-        for p in range(size):
-            t = group[p]
-            values[p] = (
-                vertices[triangles[t, 0], axis] + vertices[triangles[t, 1], axis] + vertices[triangles[t, 2], axis]
-            ) / 3.0
-        order[first : first + size] = group[np.argsort(values[:size], kind="mergesort")]
+        _halve(centres, order, first, size, members, values)
         half = size // 2
         stack[waiting, 0], stack[waiting, 1] = first + half, size - half  # the second half after the first's subtree
         stack[waiting + 1, 0], stack[waiting + 1, 1] = first, half
         waiting += 2
     return capsules, ends
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _halve(centres, order, first, size, members, values) -> None:
+    """The node order[first : first + size] sorted (stably) by its triangles' centres along the
+    axis they spread most on, the first of equal spreads: its halves are its children
+    (`members` and `values`: scratch of at least `size`)."""
+    axis, widest = 0, -1.0
+    for a in range(3):
+        low = high = centres[order[first], a]
+        for p in range(first + 1, first + size):
+            low, high = min(low, centres[order[p], a]), max(high, centres[order[p], a])
+        if high - low > widest:
+            axis, widest = a, high - low
+    for p in range(size):
+        members[p] = order[first + p]
+        values[p] = centres[members[p], axis]
+    ranked = np.argsort(values[:size], kind="mergesort")
+    for p in range(size):
+        order[first + p] = members[ranked[p]]
 
 
 @njit(cache=True, nogil=True)
