@@ -150,7 +150,7 @@ def test_the_compiled_newton_step_is_the_minimum_norm_solution(rows, rng):
 def test_a_kernel_is_compiled_again_when_a_file_it_calls_into_changes(tmp_path):
     """numba alone would load the caller's cached code, with the callee's old body, after the
     callee's file changed (only the caller's own file keys its cache)."""
-    (tmp_path / "callee.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 1\n")
+    _value_module(tmp_path, "callee", 1)
     (tmp_path / "caller.py").write_text(
         textwrap.dedent(
             """
@@ -165,8 +165,15 @@ def test_a_kernel_is_compiled_again_when_a_file_it_calls_into_changes(tmp_path):
     )
     assert _keyed_value(tmp_path, "caller") == "1"
     assert list((tmp_path / "cache").rglob("*caller*keyed*.nbi"))  # cached
-    (tmp_path / "callee.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 2\n")
+    _value_module(tmp_path, "callee", 2)
     assert _keyed_value(tmp_path, "caller") == "2"
+
+
+def _value_module(tmp_path, name: str, value: int) -> None:
+    """A module `name` whose cached kernel `value()` returns `value`."""
+    (tmp_path / f"{name}.py").write_text(
+        f"from numba import njit\n\n@njit(cache=True)\ndef value():\n    return {value}\n"
+    )
 
 
 def _keyed_value(tmp_path, module: str) -> str:
@@ -185,7 +192,7 @@ def _keyed_value(tmp_path, module: str) -> str:
 def test_a_kernel_keyed_by_a_module_is_keyed_by_what_that_module_is_keyed_by(tmp_path):
     """The certifier's kernels call the mesh pairs' walk (its KEYED_BY): a kernel keyed by the
     certifier only is compiled again when the walk's file changes, two calls down."""
-    (tmp_path / "leaf.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 1\n")
+    _value_module(tmp_path, "leaf", 1)
     (tmp_path / "middle.py").write_text(
         textwrap.dedent(
             """
@@ -214,5 +221,5 @@ def test_a_kernel_keyed_by_a_module_is_keyed_by_what_that_module_is_keyed_by(tmp
     )
     assert _keyed_value(tmp_path, "top") == "1"
     assert list((tmp_path / "cache").rglob("*top*keyed*.nbi"))  # cached
-    (tmp_path / "leaf.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef value():\n    return 2\n")
+    _value_module(tmp_path, "leaf", 2)
     assert _keyed_value(tmp_path, "top") == "2"
