@@ -10,17 +10,27 @@ from __future__ import annotations
 import coal
 import numpy as np
 
-# By mesh: its id, the mesh kept alive with its arrays so that no other takes the id.
+# By mesh (`mesh_key`), the mesh kept alive with its arrays so that no other takes its address.
 _READ: dict[int, tuple[coal.BVHModelBase, np.ndarray, np.ndarray]] = {}
+
+
+def mesh_key(mesh: coal.CollisionGeometry) -> int:
+    """The address of coal's mesh object, which names it for the caches of what is made from a
+    mesh (its arrays, its trees): the robots of one description share their meshes (each file is
+    loaded once, `model.urdf_geometry`), so a hand's new posture or the other arm finds them made;
+    Python's `id` of a wrapper does not (one wrapper per geometry object). Keep the mesh alive
+    beside what is cached, so that no other mesh takes the address."""
+    return mesh.id()
 
 
 def mesh_arrays(mesh: coal.BVHModelBase) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (V, 3) and triangles (T, 3: vertex indices, int64) of a loaded coal mesh, in its
     own frame; read-only (shared by every caller)."""
-    if id(mesh) not in _READ:
+    key = mesh_key(mesh)
+    if key not in _READ:
         vertices = np.array(mesh.vertices(), dtype=float).reshape(-1, 3)
         corners = (mesh.tri_indices(k) for k in range(mesh.num_tris))
         triangles = np.array([(t[0], t[1], t[2]) for t in corners], dtype=np.int64).reshape(-1, 3)
         vertices.flags.writeable = triangles.flags.writeable = False
-        _READ[id(mesh)] = (mesh, vertices, triangles)
-    return _READ[id(mesh)][1:]
+        _READ[key] = (mesh, vertices, triangles)
+    return _READ[key][1:]

@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.robots import mesh_pair_kernels as kernels
-from hriplan.robots.mesh_arrays import mesh_arrays
+from hriplan.robots.mesh_arrays import mesh_arrays, mesh_key
 from hriplan.robots.mesh_tree_kernels import split
 
 # Triangles closer than this (m) or overlapping by less are left to coal: far above rounding
@@ -38,6 +38,18 @@ class MeshTree:
         self.nodes = nodes
         self.boxes = _boxes(self.triangles.reshape(-1, 3, 3), nodes)
 
+    @staticmethod
+    def of(geometry: coal.BVHModelBase) -> MeshTree:
+        """A mesh's tree, made once per mesh (`mesh_key`: ~1-2 ms a MADAR arm link, and the
+        robots of a task and both arms share their meshes)."""
+        key = mesh_key(geometry)
+        if key not in _TREES:
+            _TREES[key] = (geometry, MeshTree(geometry))
+        return _TREES[key][1]
+
+
+_TREES: dict[int, tuple[coal.BVHModelBase, MeshTree]] = {}  # by mesh, kept alive with its tree
+
 
 def _boxes(triangles: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     """Each node's box (centre, half sides) about its triangles (T, 3, 3), in leaf order."""
@@ -54,7 +66,7 @@ class MeshPair:
     found touching lately (`mesh_pair_kernels.decide`'s witnesses)."""
 
     def __init__(self, first: coal.BVHModelBase, second: coal.BVHModelBase) -> None:
-        self.first, self.second = MeshTree(first), MeshTree(second)
+        self.first, self.second = MeshTree.of(first), MeshTree.of(second)
         self.witnesses = np.full((_WITNESSES, 2), -1, dtype=np.int64)
 
     @staticmethod
