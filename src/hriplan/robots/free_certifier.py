@@ -38,7 +38,7 @@ from hriplan.robots.certifier_kernels import (
     verdicts,
 )
 from hriplan.robots.kernel_fk import joint_tables
-from hriplan.robots.mesh_arrays import mesh_arrays, mesh_key
+from hriplan.robots.mesh_arrays import made_from_mesh, mesh_arrays
 from hriplan.robots.mesh_clearance import FINE, ClearanceTable
 from hriplan.robots.mesh_pairs import MARGIN as MESH_MARGIN
 from hriplan.robots.mesh_pairs import MeshPair
@@ -135,19 +135,18 @@ def _mesh_pieces(geometry: pin.GeometryObject, leaf: int = _LEAF) -> tuple[np.nd
     return capsule_tree(local @ placement.rotation.T + placement.translation, triangles, leaf)
 
 
-# By mesh (`mesh_key`, the mesh kept alive with its pieces) and placement: the key itself, not a
-# digest of it, which two meshes could share.
-_PIECES: dict[tuple[int, bytes], tuple[coal.CollisionGeometry, tuple[np.ndarray, np.ndarray]]] = {}
+# By mesh and placement (`made_from_mesh`): the key itself, not a digest of it, which two meshes
+# could share.
+_PIECES: dict[tuple, tuple[coal.CollisionGeometry, tuple[np.ndarray, np.ndarray]]] = {}
 
 
 def _pieces_of(geometry: pin.GeometryObject) -> tuple[np.ndarray, np.ndarray]:
     """`_mesh_pieces` of a mesh (made once per mesh and placement), none for another shape."""
     if not isinstance(geometry.geometry, coal.BVHModelBase):
         return np.zeros((0, 7)), np.zeros(0, dtype=np.int64)
-    key = (mesh_key(geometry.geometry), geometry.placement.homogeneous.tobytes())
-    if key not in _PIECES:
-        _PIECES[key] = (geometry.geometry, _mesh_pieces(geometry))
-    return _PIECES[key][1]
+    return made_from_mesh(
+        _PIECES, geometry.geometry, lambda: _mesh_pieces(geometry), geometry.placement.homogeneous.tobytes()
+    )
 
 
 def _capsule_rows(capsules: np.ndarray) -> np.ndarray:

@@ -7,11 +7,16 @@ and the viewer each read them, and MADAR's first plan read its meshes three time
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TypeVar
+
 import coal
 import numpy as np
 
-# By mesh (`mesh_key`), the mesh kept alive with its arrays so that no other takes its address.
-_READ: dict[int, tuple[coal.BVHModelBase, np.ndarray, np.ndarray]] = {}
+T = TypeVar("T")
+
+# By mesh (`mesh_key`), the mesh kept alive with its arrays (`made_from_mesh`).
+_READ: dict[tuple, tuple[coal.BVHModelBase, tuple[np.ndarray, np.ndarray]]] = {}
 
 
 def mesh_key(mesh: coal.CollisionGeometry) -> int:
@@ -23,14 +28,29 @@ def mesh_key(mesh: coal.CollisionGeometry) -> int:
     return mesh.id()
 
 
+def made_from_mesh(
+    cache: dict[tuple, tuple[coal.CollisionGeometry, T]],
+    mesh: coal.CollisionGeometry,
+    make: Callable[[], T],
+    *more: bytes,
+) -> T:
+    """What `make` makes from `mesh`, made once per mesh (`mesh_key`) and `more` (the rest of its
+    key, e.g. a placement): kept in `cache` beside the mesh, alive with it."""
+    key = (mesh_key(mesh), *more)
+    if key not in cache:
+        cache[key] = (mesh, make())
+    return cache[key][1]
+
+
 def mesh_arrays(mesh: coal.BVHModelBase) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (V, 3) and triangles (T, 3: vertex indices, int64) of a loaded coal mesh, in its
     own frame; read-only (shared by every caller)."""
-    key = mesh_key(mesh)
-    if key not in _READ:
-        vertices = np.array(mesh.vertices(), dtype=float).reshape(-1, 3)
-        corners = (mesh.tri_indices(k) for k in range(mesh.num_tris))
-        triangles = np.array([(t[0], t[1], t[2]) for t in corners], dtype=np.int64).reshape(-1, 3)
-        vertices.flags.writeable = triangles.flags.writeable = False
-        _READ[key] = (mesh, vertices, triangles)
-    return _READ[key][1:]
+    return made_from_mesh(_READ, mesh, lambda: _read(mesh))
+
+
+def _read(mesh: coal.BVHModelBase) -> tuple[np.ndarray, np.ndarray]:
+    vertices = np.array(mesh.vertices(), dtype=float).reshape(-1, 3)
+    corners = (mesh.tri_indices(k) for k in range(mesh.num_tris))
+    triangles = np.array([(t[0], t[1], t[2]) for t in corners], dtype=np.int64).reshape(-1, 3)
+    vertices.flags.writeable = triangles.flags.writeable = False
+    return vertices, triangles

@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from hriplan.robots import mesh_pair_kernels as kernels
-from hriplan.robots.mesh_arrays import mesh_arrays, mesh_key
+from hriplan.robots.mesh_arrays import made_from_mesh, mesh_arrays
 from hriplan.robots.mesh_tree_kernels import split
 
 # Triangles closer than this (m) or overlapping by less are left to coal: far above rounding
@@ -40,15 +40,12 @@ class MeshTree:
 
     @staticmethod
     def of(geometry: coal.BVHModelBase) -> MeshTree:
-        """A mesh's tree, made once per mesh (`mesh_key`: ~1-2 ms a MADAR arm link, and the
+        """A mesh's tree, made once per mesh (`made_from_mesh`: ~1-2 ms a MADAR arm link, and the
         robots of a task and both arms share their meshes)."""
-        key = mesh_key(geometry)
-        if key not in _TREES:
-            _TREES[key] = (geometry, MeshTree(geometry))
-        return _TREES[key][1]
+        return made_from_mesh(_TREES, geometry, lambda: MeshTree(geometry))
 
 
-_TREES: dict[int, tuple[coal.BVHModelBase, MeshTree]] = {}  # by mesh, kept alive with its tree
+_TREES: dict[tuple, tuple[coal.BVHModelBase, MeshTree]] = {}  # by mesh (`made_from_mesh`)
 
 
 def _boxes(triangles: np.ndarray, nodes: np.ndarray) -> np.ndarray:
