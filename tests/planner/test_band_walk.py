@@ -87,6 +87,30 @@ def test_the_compiled_walk_grows_the_python_loops_tree(searches, rng, monkeypatc
     assert expected <= set(ended), set(ended)
 
 
+def test_a_state_the_walk_leaves_unsure_is_answered_by_its_kept_verdict(searches, rng, monkeypatch):
+    """The checker's question about a state the compiled walk could not clear is answered by
+    the verdict the walk kept (`certifier_kernels.verdict_one`), not made again: the state is
+    the scratch's last, bit for bit."""
+    from hriplan.robots.free_certifier import FreeCertifier
+
+    _, compiled, start, (low, high), checker, _ = searches
+    asked = []
+    verdict = FreeCertifier.verdict
+
+    def kept(self, q):
+        nj = len(self._joint_rows)
+        last = self._work[nj * 12 : nj * 12 + len(q)]
+        asked.append(last.tobytes() == np.asarray(q, dtype=float).tobytes())
+        return verdict(self, q)
+
+    monkeypatch.setattr(FreeCertifier, "verdict", kept)
+    tree = _Tree(start)
+    for _ in range(150):
+        index = int(rng.integers(len(tree)))
+        compiled.extend(tree, index, np.clip(tree.nodes[index] + rng.normal(0.0, 0.8, len(start)), low, high), 100)
+    assert len(asked) >= 5 and all(asked)
+
+
 def test_a_walk_that_reaches_its_target_on_its_last_step_has_reached_it(searches, rng):
     python, compiled, start, _, _, _ = searches
     if python.p.constrained:

@@ -776,7 +776,7 @@ def test_node_spheres_hold_their_members_where_the_kernel_places_them(robots, na
     for q in states:
         certifier.verdict(q)
         scratch = len(certifier._joint_rows) * 15  # the joints' frames, state and moves first
-        placed = certifier._work[scratch:].reshape(certifier._rows.shape)
+        placed = certifier._work[scratch : scratch + certifier._rows.size].reshape(certifier._rows.shape)
         centres = _centres(certifier, robot.model, q)
         for node, members in nodes:
             held = np.linalg.norm(centres[members] - placed[node, 0:3], axis=1) + reach[members]
@@ -814,13 +814,51 @@ def test_frames_kept_from_the_last_state_are_those_placed_anew(robots, kernels):
     anew = copy.copy(certifier)
     anew._floats, anew._ints = anew._packed()
     nj = len(certifier._joint_rows)
-    frames, placed = slice(0, nj * 12), slice(nj * 15, None)  # between them: the state and which moved
+    frames = slice(0, nj * 12)
+    placed = slice(nj * 15, nj * 15 + certifier._rows.size)  # between them: the state and which moved
     for q in qs:
         anew._work[nj * 12 : nj * 14] = np.nan  # no state placed: every joint placed anew
         assert certifier.verdict(q) == anew.verdict(q)
         assert np.array_equal(certifier._work[frames], anew._work[frames])
         assert np.array_equal(certifier._work[placed], anew._work[placed])
     assert certifier._work[nj * 12 + 1] == qs[-1, 1]  # the last state is kept
+
+
+def test_a_verdict_asked_again_of_its_state_is_the_one_kept(robots, kernels):
+    """`verdict_one` asked about the state the scratch was last placed at (CBiRRT's walk stops at
+    a state it cannot clear, then the checker asks it) gives the verdict kept there, pairs left
+    and all, reading no row (rows spoilt after it do not change it), whoever placed it: another
+    `verdict_one`, or a batch (`verdicts`) that ended there. The verdicts are those of a
+    certifier that keeps none."""
+    robot = robots["madar"]
+    checker = CollisionChecker(robot, _scene(robot, "madar"))
+    qs = _random_states(robot, 300, 14)
+    checker.in_collision(qs[0])
+    certifier = checker._free_certifier()
+    floats, ints = certifier.packed
+    anew = copy.copy(certifier)
+    anew._floats, anew._ints = anew._packed()
+    nj, rows = len(certifier._joint_rows), certifier._rows.size
+    last, placed = certifier._work[nj * 12 : nj * 14], certifier._work[nj * 15 : nj * 15 + rows].reshape(-1, ROW)
+    on_joints = certifier._carrier != 0
+    told_apart = kept_free = pairs_left = 0
+    for a, b in zip(qs, qs[1:]):
+        anew._work[nj * 12 : nj * 14] = np.nan  # none kept: every verdict made anew
+        expected = anew.verdict(b)
+        assert certifier.verdict(a) == anew.verdict(a)
+        assert certifier.verdict(b) == expected
+        if expected == (0, ()):  # the rows on joints spoilt: placed anew, no state would be free
+            placed[: len(on_joints)][on_joints] = np.nan
+            assert certifier.verdict(b) == expected
+            last[:] = np.nan  # every row placed anew at the next state
+            kept_free += 1
+        certifier.verdict(a)
+        verdict_codes(b[None], floats, ints, np.empty((1, 9), dtype=np.int64))
+        certifier._left[:] = -1  # the pairs left come from what the batch kept
+        assert certifier.verdict(b) == expected
+        told_apart += min(verdict_one(a, *anew.packed), 1) != min(verdict_one(b, *anew.packed), 1)
+        pairs_left += expected is not None and len(expected[1]) > 0
+    assert told_apart > 20 and kept_free > 20 and pairs_left > 20  # each way a kept verdict differs
 
 
 def test_frames_placed_by_the_caller_are_taken_as_placed_here(robots, kernels):

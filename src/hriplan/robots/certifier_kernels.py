@@ -539,14 +539,22 @@ def _unpack(floats, ints):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _scratch(work, nj):
+def _scratch(work, nj, ng):
     """The joints' frames, the state they were placed at (up to 2 nj coordinates) and which moved
-    then, and the placed rows, as views of `work` (made once: an array made at every state cost
+    then, the placed rows, and the verdict at that state (its code, then the ids of its pairs
+    left: `verdict_of`), as views of `work` (made once: an array made at every state cost
     ~0.15 us)."""
     rotation = work[: nj * 9].reshape((nj, 3, 3))
     origin = work[nj * 9 : nj * 12].reshape((nj, 3))
     last, moved = work[nj * 12 : nj * 14], work[nj * 14 : nj * 15]
-    return rotation, origin, last, moved, work[nj * 15 :].reshape((-1, ROW))
+    return (
+        rotation,
+        origin,
+        last,
+        moved,
+        work[nj * 15 : nj * 15 + ng * ROW].reshape((ng, ROW)),
+        work[nj * 15 + ng * ROW :],
+    )
 
 
 @njit(cache=True, nogil=True)
@@ -666,22 +674,28 @@ def _decided_tables(uncertified, floats, ints, rotation, origin) -> int:
     return uncertified
 
 
-@njit_keyed(mesh_pair_kernels)
-def _verdict(q, floats, ints, work, left, frames) -> int:
-    """`verdict_of` one state, its arrays unpacked for it (`work`: the scratch, `_scratch`)."""
-    return verdict_of(q, floats, ints, _unpack(floats, ints), _scratch(work, ints[0]), left, frames)
-
-
 @njit(cache=True, nogil=True, inline="always")
 def verdict_views(floats, ints):
     """What `verdict_of` takes besides a state, made once for many states (their views made at
     every state cost ~0.35 us of a UR5 state's ~1.55): `_unpack`'s parts, `_scratch`'s, and the
     pairs left (at the end of the int array, as `verdict_one` has them)."""
-    return _unpack(floats, ints), _scratch(floats[ints[11] :], ints[0]), ints[ints[20] :]
+    return _unpack(floats, ints), _scratch(floats[ints[11] :], ints[0], ints[1]), ints[ints[20] :]
 
 
 @njit(cache=True, nogil=True, inline="always")
 def verdict_of(q, floats, ints, parts, scratch, left, frames) -> int:
+    """`_verdict_made`, kept in the scratch beside the state it placed (its code, then the ids of
+    its pairs left), whatever the caller: `verdict_one` gives it again for that state."""
+    code = _verdict_made(q, floats, ints, parts, scratch, left, frames)
+    kept = scratch[5]
+    kept[0] = code
+    for i in range(1, (code >> 32) + 1 if code > 0 else 1):
+        kept[i] = left[i]
+    return code
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _verdict_made(q, floats, ints, parts, scratch, left, frames) -> int:
     """TOUCHING if a pair surely touches at `q` (`exact_verdict`, the first found, or a tabled mesh
     pair's triangles: coal would find it collide); -1 if more pairs may touch than `left` holds
     (stopped there); else the tables that do not certify `q` and whose mesh pairs their triangles
@@ -693,7 +707,7 @@ def verdict_of(q, floats, ints, parts, scratch, left, frames) -> int:
     `frames`: None, or every joint's frame at `q` placed by the caller (`_take_moved_joints`)."""
     joint_rows, rows, axis_floats, joint_ints, carrier, pairs, tables, axis_ints, children, bits = parts
     tolerance = floats[0]
-    rotation, origin, last, moved, placed = scratch
+    rotation, origin, last, moved, placed, _ = scratch
     if frames is None:
         _place_moved_joints(q, joint_rows, joint_ints, rotation, origin, last, moved)
     else:
@@ -734,11 +748,31 @@ def verdict_of(q, floats, ints, parts, scratch, left, frames) -> int:
     return uncertified + (count << 32)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _is_last(q, last) -> bool:
+    """Is `q` the state the scratch was last placed at, to the bit (NaN, for none, never is)?"""
+    for i in range(q.shape[0]):
+        if q[i] != last[i] or math.copysign(1.0, q[i]) != math.copysign(1.0, last[i]):
+            return False
+    return True
+
+
 @njit_keyed(mesh_pair_kernels)
 def verdict_one(q, floats, ints) -> int:
-    """`_verdict` of one state (a call from Python: three arrays, the scratch and the pairs left
-    at the ends of the float and int arrays, as each array costs the call ~0.05 us)."""
-    return _verdict(q, floats, ints, floats[ints[11] :], ints[ints[20] :], None)
+    """`verdict_of` one state (a call from Python: three arrays, the scratch and the pairs left
+    at the ends of the float and int arrays, as each array costs the call ~0.05 us). The state
+    the scratch was last placed at gets the verdict kept there, its pairs left copied: CBiRRT's
+    compiled walk stops at a state it cannot clear and asks the checker, whose first question is
+    this one (~9 us a MADAR state near contact, ~330 a peg-in-hole plan)."""
+    left, scratch = ints[ints[20] :], _scratch(floats[ints[11] :], ints[0], ints[1])
+    _, _, last, moved, _, kept = scratch
+    if not _is_last(q, last):
+        return verdict_of(q, floats, ints, _unpack(floats, ints), scratch, left, None)
+    code = int(kept[0])
+    for i in range(1, (code >> 32) + 1 if code > 0 else 1):
+        left[i] = int(kept[i])
+    moved[:] = 0.0  # no joint moved: the scratch as placing `q` again leaves it
+    return code
 
 
 @njit(cache=True, nogil=True)

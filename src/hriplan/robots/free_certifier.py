@@ -338,15 +338,17 @@ class FreeCertifier:
 
     def _scratch(self) -> np.ndarray:
         """The kernel's scratch as packed: the joints' frames, the state they were placed at
-        (none yet) and which moved, then the rows in the world (those on no joint placed now,
-        for good; the kernel places the others)."""
+        (none yet) and which moved, the rows in the world (those on no joint placed now, for
+        good; the kernel places the others), then the verdict at that state (its code and its
+        pairs left, none yet: `certifier_kernels.verdict_of`)."""
         nj = len(self._joint_rows)
-        return np.concatenate([np.zeros(nj * 12), np.full(nj * 2, np.nan), np.zeros(nj), self._rows.reshape(-1)])
+        made = [np.zeros(nj * 12), np.full(nj * 2, np.nan), np.zeros(nj), self._rows.reshape(-1)]
+        return np.concatenate([*made, np.full(ASKED_OF_COAL + 1, np.nan)])
 
     @property
     def _work(self) -> np.ndarray:
         """The kernel's scratch: the last of `_float_parts`, a view of the float array."""
-        return self._floats[-(len(self._joint_rows) * 15 + self._rows.size) :]
+        return self._floats[-(len(self._joint_rows) * 15 + self._rows.size + ASKED_OF_COAL + 1) :]
 
     def _packed(self) -> tuple[np.ndarray, np.ndarray]:
         """All of it in one float and one int array (a numba call costs ~0.05 us an array): the
