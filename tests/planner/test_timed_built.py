@@ -9,6 +9,7 @@ import pytest
 from hriplan.planner import session as session_module
 from hriplan.planner.session import PlanningSession, PlanResult
 from hriplan.planner.timing import TimedPath
+from hriplan.planner.trajectory import TrajectoryFile
 from hriplan.tasks.load import load_task
 from hriplan.tasks.pipeline import TaskRunner
 
@@ -60,3 +61,46 @@ def test_a_solved_result_is_the_validated_one(handover):
         assert built.model_fields_set == validated.model_fields_set
         assert built == validated
         assert built.model_dump_json() == validated.model_dump_json()
+
+
+def test_a_solved_results_trajectory_file_is_the_validated_one(handover):
+    """The file is built around the session's models and the timed samples (`_file`): the one
+    validation makes of the same values, its invariants (times from 0 increasing, a value per
+    joint) checked there, its text and every leaf's type the same."""
+    solved = [r for r in handover[1] if r.solved]
+    for result in solved:
+        built = result.trajectory
+        validated = TrajectoryFile(**{name: getattr(built, name) for name in built.model_fields_set})
+        assert built.model_fields_set == validated.model_fields_set
+        assert built == validated
+        assert built.text() == validated.text()
+        for name in TrajectoryFile.model_fields:
+            assert _types(getattr(built, name)) == _types(getattr(validated, name)), name
+
+
+def test_a_file_of_samples_not_finite_is_still_refused_by_validation(handover):
+    """Only samples all finite are built without validation: a NaN a timing let through is
+    refused with the point and field that hold it, as a file read from disk would be."""
+    import numpy as np
+    from pydantic import ValidationError
+
+    from hriplan.planner.motion import MotionResult
+    from hriplan.planner.problem import PlanOptions
+    from hriplan.planner.validate import PathValidation
+
+    session = PlanningSession("ur5")
+    names = session.robot.joint_names
+    timed = TimedPath(
+        times=[0.0, 0.5, 1.0],
+        positions=[[0.0] * 6, [float("nan")] + [0.1] * 5, [0.2] * 6],
+        velocities=[[0.0] * 6, [0.1] * 6, [0.0] * 6],
+        accelerations=[[0.0] * 6] * 3,
+        path_deviation=0.0,
+    )
+    motion = MotionResult(status="solved", group=session.robot.default_group, joint_names=names)
+    check = PathValidation(valid=True, states_checked=3, constraints=[])
+    path, q0 = np.array([[0.0] * 6, [0.2] * 6]), np.zeros(6)
+    with pytest.raises(ValidationError, match=r"points\.1\.positions\.0"):
+        session._file(motion, path, [], timed, check, PlanOptions(), q0)
+    timed = timed.model_copy(update={"positions": [[0.0] * 6, [0.1] * 6, [0.2] * 6]})
+    assert session._file(motion, path, [], timed, check, PlanOptions(), q0).points[1].positions == [0.1] * 6

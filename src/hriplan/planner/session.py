@@ -39,7 +39,13 @@ from hriplan.planner.outcome import Status
 from hriplan.planner.replay import MotionSetting
 from hriplan.planner.search.seeds import ompl_seed
 from hriplan.planner.timing import TimedPath, at_rest, joined, time_parameterize
-from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryReport, timed_points
+from hriplan.planner.trajectory import (
+    ResolvedConstraint,
+    TrajectoryFile,
+    TrajectoryPoint,
+    TrajectoryReport,
+    timed_points,
+)
 from hriplan.planner.validate import PathValidation, densify, validate_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, robot_name
@@ -471,19 +477,24 @@ class PlanningSession:
             calls=motion.calls,
             rests=timed.rests,
         )
-        constraints = _resolved(bound)
-        start = dict(zip(self.robot.joint_names, q0.tolist()))
-        return TrajectoryFile(
-            robot=self.robot.name,
-            robot_file=self.robot.description.source,
-            hands=self.robot.hand_postures,
-            joint_names=motion.joint_names,
-            start=start,
-            scene=self.checker.scene,
-            points=timed_points(timed.times, timed.positions, timed.velocities, timed.accelerations),
-            constraints=constraints,
-            report=report,
-        )
+        points = timed_points(timed.times, timed.positions, timed.velocities, timed.accelerations)
+        fields = {
+            "robot": self.robot.name,
+            "robot_file": self.robot.description.source,
+            "hands": self.robot.hand_postures,
+            "joint_names": motion.joint_names,
+            "start": dict(zip(self.robot.joint_names, q0.tolist())),
+            "scene": self.checker.scene,
+            "points": points,
+            "constraints": _resolved(bound),
+            "report": report,
+        }
+        if points and isinstance(points[0], TrajectoryPoint):  # every number finite (`timed_points`)
+            # Not validated again: the session's own models, and samples timed from rest to rest
+            # (times from 0 increasing, a value per joint): validation re-reads every point
+            # (~0.07 ms a UR5 motion; tests/planner/test_timed_built.py).
+            return TrajectoryFile.model_construct(**fields)
+        return TrajectoryFile(**fields)  # refused, with the first number that is not finite
 
 
 def _resolved(bound: Iterable[BoundConstraint]) -> list[ResolvedConstraint]:
