@@ -573,6 +573,14 @@ def test_tables_are_asked_as_clearance_table_asks_them(robots):
         assert len(certified) > 300 and 0.05 < certified.mean() < 0.95
 
 
+def _in_scene(robot, name: str, first: np.ndarray) -> tuple[CollisionChecker, FreeCertifier]:
+    """A checker of `robot` in the test scene `_scene` and its certifier, made by asking about
+    the state `first`."""
+    checker = CollisionChecker(robot, _scene(robot, name))
+    checker.in_collision(first)
+    return checker, checker._free_certifier()
+
+
 def _scene(robot, name: str) -> Scene:
     """Boxes, a cylinder, a cone, a ball and two people about the robot's reach."""
     near = {"ur5": (0.45, 0.0), "madar": (0.0, 1.0), "baxter": (0.8, 0.0)}[name]
@@ -597,10 +605,8 @@ def _scene(robot, name: str) -> Scene:
 @pytest.mark.parametrize(("name", "share"), [("ur5", 0.05), ("madar", 0.03), ("baxter", 0.0)])
 def test_certified_states_are_free_for_coal_and_answers_are_the_same(robots, name, share, kernels):
     robot = robots[name]
-    checker = CollisionChecker(robot, _scene(robot, name))
     states = _random_states(robot, STATES, 5)
-    checker.in_collision(states[0])
-    certifier = checker._free_certifier()
+    checker, certifier = _in_scene(robot, name, states[0])
     certified = certifier.free_many(states)
     kernel_switch.use_kernels(False)
     collides = np.array([checker.in_collision(q) for q in states])
@@ -648,10 +654,8 @@ def test_a_certifier_placed_anew_answers_as_one_made_there(robots, kernels):
     it afresh would (its int array was not packed again), and answers as a certifier made in
     the moved scene does."""
     robot = robots["ur5"]
-    checker = CollisionChecker(robot, _scene(robot, "ur5"))
     states = _random_states(robot, 500, 7)
-    checker.in_collision(states[0])
-    certifier = checker._free_certifier()
+    checker, certifier = _in_scene(robot, "ur5", states[0])
     before = certifier.verdicts(states)
     checker.pose_human(HumanSpec(name="bob", position=(0.5, 0.2), yaw=np.pi))
     checker.move_obstacle("ball", Pose(xyz=(0.3, 0.1, 0.5)))
@@ -765,10 +769,8 @@ def test_node_spheres_hold_their_members_where_the_kernel_places_them(robots, na
     """Each link's sphere (placed at every state), person's and part of a person's holds its
     members' spheres (placed here by pinocchio)."""
     robot = robots[name]
-    checker = CollisionChecker(robot, _scene(robot, name))
     states = _random_states(robot, 300, 8)
-    checker.in_collision(states[0])
-    certifier = checker._free_certifier()
+    checker, certifier = _in_scene(robot, name, states[0])
     rows = certifier._link_rows + certifier._group_rows + certifier._part_rows
     nodes = list(zip(rows, certifier._links + certifier._groups + certifier._parts))
     assert len(certifier._links) >= 5 and len(certifier._groups) == 2 and len(certifier._parts) == 8
@@ -807,10 +809,8 @@ def test_frames_kept_from_the_last_state_are_those_placed_anew(robots, kernels):
     its rows: the same verdicts, frames and placed rows, to the bit, as placing all anew, over
     states that keep none, some, most or all of the last one's coordinates."""
     robot = robots["madar"]
-    checker = CollisionChecker(robot, _scene(robot, "madar"))
     qs = _partly_kept_states(robot, 12)
-    checker.in_collision(qs[0])
-    certifier = checker._free_certifier()
+    checker, certifier = _in_scene(robot, "madar", qs[0])
     anew = copy.copy(certifier)
     anew._floats, anew._ints = anew._packed()
     nj = len(certifier._joint_rows)
@@ -831,10 +831,8 @@ def test_a_verdict_asked_again_of_its_state_is_the_one_kept(robots, kernels):
     `verdict_one`, or a batch (`verdicts`) that ended there. The verdicts are those of a
     certifier that keeps none."""
     robot = robots["madar"]
-    checker = CollisionChecker(robot, _scene(robot, "madar"))
     qs = _random_states(robot, 300, 14)
-    checker.in_collision(qs[0])
-    certifier = checker._free_certifier()
+    checker, certifier = _in_scene(robot, "madar", qs[0])
     floats, ints = certifier.packed
     anew = copy.copy(certifier)
     anew._floats, anew._ints = anew._packed()
@@ -894,10 +892,8 @@ def test_node_spheres_skip_only_pairs_clear_alone(robots, name, kernels):
     """Runs of pairs passed by their nodes' spheres leave to coal exactly the pairs that testing
     each pair alone leaves, and skip most pairs of the states near the robot."""
     robot = robots[name]
-    checker = CollisionChecker(robot, _scene(robot, name))
     states = _random_states(robot, STATES, 9)
-    checker.in_collision(states[0])
-    certifier = checker._free_certifier()
+    checker, certifier = _in_scene(robot, name, states[0])
     assert ((certifier._pairs[:, 5:PAIR:3] > 0).sum(axis=0) >= 5).all()  # runs at every level
     left = [None if v is None else (v[0], sorted(v[1])) for v in certifier.verdicts(states)]
     alone = [None if v is None else (v[0], sorted(v[1])) for v in _flat(certifier).verdicts(states)]
