@@ -89,9 +89,10 @@ def test_the_compiled_walk_grows_the_python_loops_tree(searches, rng, monkeypatc
 
 def test_a_state_the_walk_leaves_unsure_is_answered_by_its_kept_verdict(searches, rng, monkeypatch):
     """The checker's question about a state the compiled walk could not clear is answered by
-    the verdict the walk kept (`certifier_kernels.verdict_one`), not made again: the state is
-    the scratch's last, bit for bit."""
-    from hriplan.robots.free_certifier import FreeCertifier
+    the verdict the walk kept (`certifier_kernels.verdict_one`): the state is the scratch's last,
+    bit for bit, and the answer, pairs left included, is the verdict made anew there."""
+    from hriplan.robots.certifier_kernels import verdict_one
+    from hriplan.robots.free_certifier import FreeCertifier, _decoded
 
     _, compiled, start, (low, high), checker, _ = searches
     asked = []
@@ -100,15 +101,20 @@ def test_a_state_the_walk_leaves_unsure_is_answered_by_its_kept_verdict(searches
     def kept(self, q):
         nj = len(self._joint_rows)
         last = self._work[nj * 12 : nj * 12 + len(q)]
-        asked.append(last.tobytes() == np.asarray(q, dtype=float).tobytes())
-        return verdict(self, q)
+        floats, ints = self._floats.copy(), self._ints.copy()
+        at = len(floats) - len(self._work) + nj * 12
+        floats[at : at + nj * 2] = np.nan  # no state placed: the verdict made anew
+        anew = _decoded(verdict_one(q, floats, ints), ints[ints[20] :])
+        answer = verdict(self, q)
+        asked.append((last.tobytes() == np.asarray(q, dtype=float).tobytes(), answer == anew))
+        return answer
 
     monkeypatch.setattr(FreeCertifier, "verdict", kept)
     tree = _Tree(start)
     for _ in range(150):
         index = int(rng.integers(len(tree)))
         compiled.extend(tree, index, np.clip(tree.nodes[index] + rng.normal(0.0, 0.8, len(start)), low, high), 100)
-    assert len(asked) >= 5 and all(asked)
+    assert len(asked) >= 5 and all(last and same for last, same in asked)
 
 
 def test_a_walk_that_reaches_its_target_on_its_last_step_has_reached_it(searches, rng):

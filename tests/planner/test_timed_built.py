@@ -68,8 +68,10 @@ def test_a_solved_results_trajectory_file_is_the_validated_one(handover):
     validation makes of the same values, its invariants (times from 0 increasing, a value per
     joint) checked there, its text and every leaf's type the same."""
     solved = [r for r in handover[1] if r.solved]
+    given = {"robot", "robot_file", "hands", "joint_names", "start", "scene", "points", "constraints", "report"}
     for result in solved:
         built = result.trajectory
+        assert built.model_fields_set == given  # none left to its default
         validated = TrajectoryFile(**{name: getattr(built, name) for name in built.model_fields_set})
         assert built.model_fields_set == validated.model_fields_set
         assert built == validated
@@ -79,8 +81,10 @@ def test_a_solved_results_trajectory_file_is_the_validated_one(handover):
 
 
 def test_a_file_of_samples_not_finite_is_still_refused_by_validation(handover):
-    """Only samples all finite are built without validation: a NaN a timing let through is
-    refused with the point and field that hold it, as a file read from disk would be."""
+    """Only samples all finite, a value per joint named, are built without validation: a NaN a
+    timing let through, or a motion naming fewer joints than its path has, is refused with the
+    point and field that hold it, as a file read from disk would be; a file built holds its own
+    lists."""
     import numpy as np
     from pydantic import ValidationError
 
@@ -103,4 +107,11 @@ def test_a_file_of_samples_not_finite_is_still_refused_by_validation(handover):
     with pytest.raises(ValidationError, match=r"points\.1\.positions\.0"):
         session._file(motion, path, [], timed, check, PlanOptions(), q0)
     timed = timed.model_copy(update={"positions": [[0.0] * 6, [0.1] * 6, [0.2] * 6]})
-    assert session._file(motion, path, [], timed, check, PlanOptions(), q0).points[1].positions == [0.1] * 6
+    built = session._file(motion, path, [], timed, check, PlanOptions(), q0)
+    assert built.points[1].positions == [0.1] * 6
+    # its own lists, as validation would copy them: changing the file changes no motion nor robot
+    assert built.joint_names == motion.joint_names and built.joint_names is not motion.joint_names
+    assert built.hands == session.robot.hand_postures and built.hands is not session.robot.hand_postures
+    fewer = motion.model_copy(update={"joint_names": names[:2]})  # a motion given to `time` by a caller
+    with pytest.raises(ValidationError, match=r"one value per joint \(2\)"):
+        session._file(fewer, path, [], timed, check, PlanOptions(), q0)

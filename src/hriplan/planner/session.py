@@ -481,20 +481,21 @@ class PlanningSession:
         fields = {
             "robot": self.robot.name,
             "robot_file": self.robot.description.source,
-            "hands": self.robot.hand_postures,
-            "joint_names": motion.joint_names,
+            "hands": dict(self.robot.hand_postures),  # the file's own, as validation copies them
+            "joint_names": list(motion.joint_names),
             "start": dict(zip(self.robot.joint_names, q0.tolist())),
             "scene": self.checker.scene,
             "points": points,
             "constraints": _resolved(bound),
             "report": report,
         }
-        if points and isinstance(points[0], TrajectoryPoint):  # every number finite (`timed_points`)
-            # Not validated again: the session's own models, and samples timed from rest to rest
-            # (times from 0 increasing, a value per joint): validation re-reads every point
-            # (~0.07 ms a UR5 motion; tests/planner/test_timed_built.py).
+        # Every number finite (`timed_points` made the points) and a value per joint named: not
+        # validated again, the session's own models and samples timed from rest to rest (times
+        # from 0 increasing); validation re-reads every point (~0.07 ms a UR5 motion;
+        # tests/planner/test_timed_built.py). Else it refuses the file, with the first fault.
+        if points and isinstance(points[0], TrajectoryPoint) and len(points[0].positions) == len(motion.joint_names):
             return TrajectoryFile.model_construct(**fields)
-        return TrajectoryFile(**fields)  # refused, with the first number that is not finite
+        return TrajectoryFile(**fields)
 
 
 def _resolved(bound: Iterable[BoundConstraint]) -> list[ResolvedConstraint]:
