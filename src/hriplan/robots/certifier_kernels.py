@@ -689,9 +689,15 @@ def verdict_of(q, floats, ints, parts, scratch, left, frames) -> int:
     code = _verdict_made(q, floats, ints, parts, scratch, left, frames)
     kept = scratch[5]
     kept[0] = code
-    for i in range(1, (code >> 32) + 1 if code > 0 else 1):
+    for i in range(1, _left_count(code) + 1):
         kept[i] = left[i]
     return code
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _left_count(code) -> int:
+    """How many pair ids a verdict's code says `left` holds from left[1] on (none below 0)."""
+    return code >> 32 if code > 0 else 0
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -769,7 +775,7 @@ def verdict_one(q, floats, ints) -> int:
     if not _is_last(q, last):
         return verdict_of(q, floats, ints, _unpack(floats, ints), scratch, left, None)
     code = int(kept[0])
-    for i in range(1, (code >> 32) + 1 if code > 0 else 1):
+    for i in range(1, _left_count(code) + 1):
         left[i] = int(kept[i])
     moved[:] = 0.0  # no joint moved: the scratch as placing `q` again leaves it
     return code
