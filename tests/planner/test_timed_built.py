@@ -2,6 +2,7 @@
 are made by the code itself): each must equal the validated model of the same values, field types
 and JSON alike, on a real re-plan's outputs (the example handover)."""
 
+import copy
 from pathlib import Path
 
 import pytest
@@ -80,11 +81,11 @@ def test_a_solved_results_trajectory_file_is_the_validated_one(handover):
             assert _types(getattr(built, name)) == _types(getattr(validated, name)), name
 
 
-def test_a_file_of_samples_not_finite_is_still_refused_by_validation(handover):
-    """Only samples all finite, a value per joint named, are built without validation: a NaN a
-    timing let through, or a motion naming fewer joints than its path has, is refused with the
-    point and field that hold it, as a file read from disk would be; a file built holds its own
-    lists."""
+def test_a_timed_path_not_finite_is_refused_and_a_file_naming_fewer_joints_is_validated(handover):
+    """A file's points are built around a TimedPath's lists unchecked, so a TimedPath holds only
+    finite numbers: validation refuses a NaN or an infinity, naming the field; a file of a motion
+    naming fewer joints than its path has is validated, and refused with the point and field, as a
+    file read from disk would be; a file built holds its own lists."""
     import numpy as np
     from pydantic import ValidationError
 
@@ -94,19 +95,26 @@ def test_a_file_of_samples_not_finite_is_still_refused_by_validation(handover):
 
     session = PlanningSession("ur5")
     names = session.robot.joint_names
-    timed = TimedPath(
-        times=[0.0, 0.5, 1.0],
-        positions=[[0.0] * 6, [float("nan")] + [0.1] * 5, [0.2] * 6],
-        velocities=[[0.0] * 6, [0.1] * 6, [0.0] * 6],
-        accelerations=[[0.0] * 6] * 3,
-        path_deviation=0.0,
-    )
+    rows = {
+        "times": [0.0, 0.5, 1.0],
+        "positions": [[0.0] * 6, [0.1] * 6, [0.2] * 6],
+        "velocities": [[0.0] * 6, [0.1] * 6, [0.0] * 6],
+        "accelerations": [[0.0] * 6] * 3,
+    }
+    for field, row, column in (("times", 1, None), ("positions", 1, 0), ("velocities", 1, 5), ("accelerations", 2, 3)):
+        for bad in (float("nan"), float("inf"), -float("inf")):
+            spoiled = copy.deepcopy(rows)
+            if column is None:
+                spoiled[field][row] = bad
+            else:
+                spoiled[field][row][column] = bad
+            where = f"{row}" if column is None else f"{row}\\.{column}"
+            with pytest.raises(ValidationError, match=rf"{field}\.{where}\n"):
+                TimedPath(**spoiled, path_deviation=0.0)
+    timed = TimedPath(**rows, path_deviation=0.0)
     motion = MotionResult(status="solved", group=session.robot.default_group, joint_names=names)
     check = PathValidation(valid=True, states_checked=3, constraints=[])
     path, q0 = np.array([[0.0] * 6, [0.2] * 6]), np.zeros(6)
-    with pytest.raises(ValidationError, match=r"points\.1\.positions\.0"):
-        session._file(motion, path, [], timed, check, PlanOptions(), q0)
-    timed = timed.model_copy(update={"positions": [[0.0] * 6, [0.1] * 6, [0.2] * 6]})
     built = session._file(motion, path, [], timed, check, PlanOptions(), q0)
     assert built.points[1].positions == [0.1] * 6
     # its own lists, as validation would copy them: changing the file changes no motion nor robot

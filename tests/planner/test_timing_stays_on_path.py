@@ -11,6 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 import hriplan.planner.session as session_module
+import hriplan.planner.timing as timing
 from hriplan.cli.main import app
 from hriplan.planner.constraints.spec import BoxConstraint
 from hriplan.planner.motion import JointTarget, MotionResult, plan_motion
@@ -200,27 +201,36 @@ def test_a_search_that_times_out_says_which_constraint_the_direct_motion_breaks(
     assert "; the straight joint line to the goal leaves glass_wall (by 0.15)" in result.message  # half its thickness
 
 
-def test_a_timed_sample_that_is_not_finite_is_refused_by_the_file(ur5, monkeypatch):
-    """The file's points are validated (finite numbers) even though built from the timing's own
-    lists: a NaN or an infinity the timing let through stops the plan there, and the same motion
-    timed as it is gives a file whose points are its samples."""
+def test_a_timed_sample_that_is_not_finite_fails_the_timing(ur5, monkeypatch):
+    """A file's points are built around the timing's own lists unchecked: a NaN or an infinity in
+    its samples (positions: no limit check reads them) fails the timing, so no file is returned and
+    the result says why in one line; the same motion timed as it is gives the planned file."""
     session, group, _ = ur5
     session.set_constraints([])
     start = dict(zip(session.robot.joint_names, session.robot.configuration(A, group).tolist()))
     planned = session.plan(start, JointTarget(values=B.tolist()), PlanOptions(seed=1), group, safety=None)
-    timed = session_module.time_parameterize
-    for bad in (float("nan"), float("inf")):
+    retimed = timing._retimed
+    for bad in (float("nan"), float("inf"), -float("inf")):
 
         def spoiled(*args, bad=bad, **kwargs):
-            made = timed(*args, **kwargs)
-            accelerations = [list(row) for row in made.accelerations]
-            accelerations[len(accelerations) // 2][3] = bad
-            return made.model_copy(update={"accelerations": accelerations})
+            made = retimed(*args, **kwargs)
+            samples = made.samples
 
-        monkeypatch.setattr(session_module, "time_parameterize", spoiled)
-        with pytest.raises(ValueError, match=r"points\.\d+\.accelerations\.3"):
-            session.time(planned.motion, PlanOptions(seed=1), safety=None)
-    monkeypatch.setattr(session_module, "time_parameterize", timed)
+            def spoiled_samples(times):
+                positions, velocities, accelerations = samples(times)
+                positions = positions.copy()
+                positions[len(positions) // 2, 3] = bad
+                return positions, velocities, accelerations
+
+            made.samples = spoiled_samples
+            return made
+
+        monkeypatch.setattr(timing, "_retimed", spoiled)
+        result = session.time(planned.motion, PlanOptions(seed=1), safety=None)
+        assert not result.solved and result.trajectory is None
+        assert result.message.endswith("the timed motion holds a number that is not finite (NaN or infinite)")
+        assert "\n" not in result.message
+    monkeypatch.setattr(timing, "_retimed", retimed)
     again = session.time(planned.motion, PlanOptions(seed=1), safety=None).trajectory
     assert [p.model_dump() for p in again.points] == [p.model_dump() for p in planned.trajectory.points]
     assert type(again.points[0]).__name__ == "TrajectoryPoint" and again.points[1].time_from_start > 0.0

@@ -1,6 +1,7 @@
 """A trajectory file's points: built around a timed motion's own lists (`timed_points`) they are
-the validated points, the file's text the same; a number that is not finite and a file that is
-not a motion are refused with the validated file's messages."""
+the validated points, the file's text the same; a file that is not a motion is refused with the
+validated file's messages. (A timed motion's numbers are finite by its type: test_timed_built.py,
+test_timing_stays_on_path.py.)"""
 
 import json
 
@@ -54,29 +55,6 @@ def test_built_points_are_the_validated_ones_around_the_same_lists():
     assert _file(built).text() == _file(_as_dicts(rows)).text()
     built[0].positions = [1.0, 2.0, 3.0]  # their fields set is one, holding every field
     assert built[0].positions == [1.0, 2.0, 3.0] and built[1].model_fields_set == set(TrajectoryPoint.model_fields)
-
-
-@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -float("inf")])
-@pytest.mark.parametrize("row", [0, 1, 2, 3])
-def test_a_number_not_finite_is_refused_as_the_validated_file_refuses_it(bad, row):
-    rows = _samples()
-    if row == 0:
-        rows[0][5] = bad
-    else:
-        rows[row][5][2] = bad
-    points = timed_points(*rows)
-    assert points == _as_dicts(rows)  # left to the file's validation
-    field = ["time_from_start", "positions.2", "velocities.2", "accelerations.2"][row]
-    with pytest.raises(ValidationError, match=rf"points\.5\.{field}\n"):
-        _file(points)
-
-
-def test_sums_that_overflow_are_validated_and_kept():
-    rows = _samples()
-    rows[1][3][0], rows[1][4][0] = 1e308, 1e308  # finite, their sum is not
-    points = timed_points(*rows)
-    assert points == _as_dicts(rows)
-    assert _file(points).points[4].positions[0] == 1e308
 
 
 @pytest.mark.parametrize(

@@ -7,6 +7,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from hriplan import HriplanError
 from hriplan.planner.constraints.binding import bind
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.planner.constraints.spec import BoxConstraint, FrameRef, OrientationConstraint
@@ -20,6 +21,7 @@ from hriplan.planner.validate import (
 )
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.human import HumanSpec
+from hriplan.robots.kernel_switch import kernels_on, use_kernels
 from hriplan.robots.scene import Scene, table
 from hriplan.robots.spatial import Pose
 from independent import densified
@@ -78,6 +80,24 @@ def test_densify_is_the_segments_one_at_a_time(rng):
         assert np.array_equal(densify(rows, step), densified(rows, step))  # an array, as is
         assert np.array_equal(rows, kept)
     assert densify([np.zeros(3)], 0.01).shape == (1, 3)
+
+
+@pytest.mark.parametrize("kernels", [False, True])
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -float("inf")])
+def test_a_path_not_finite_is_refused_in_one_line(kernels, bad):
+    """A NaN or an infinity cannot be split into steps (its segment's count is no number): one
+    line, with the kernels on or off, rather than arrays of any size."""
+    rows = np.zeros((4, 3))
+    rows[2, 1] = bad
+    before = kernels_on()
+    use_kernels(kernels)
+    try:
+        with pytest.raises(
+            HriplanError, match=r"^a path to validate holds a number that is not finite \(NaN or infinite\)$"
+        ):
+            densify(rows, 0.01)
+    finally:
+        use_kernels(before)
 
 
 @pytest.fixture(scope="module")

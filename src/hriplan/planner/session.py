@@ -42,7 +42,6 @@ from hriplan.planner.timing import TimedPath, at_rest, joined, time_parameterize
 from hriplan.planner.trajectory import (
     ResolvedConstraint,
     TrajectoryFile,
-    TrajectoryPoint,
     TrajectoryReport,
     timed_points,
 )
@@ -489,11 +488,11 @@ class PlanningSession:
             "constraints": _resolved(bound),
             "report": report,
         }
-        # Every number finite (`timed_points` made the points) and a value per joint named: not
+        # Every number finite (a TimedPath's, by its type) and a value per joint named: not
         # validated again, the session's own models and samples timed from rest to rest (times
         # from 0 increasing); validation re-reads every point (~0.07 ms a UR5 motion;
         # tests/planner/test_timed_built.py). Else it refuses the file, with the first fault.
-        if points and isinstance(points[0], TrajectoryPoint) and len(points[0].positions) == len(motion.joint_names):
+        if points and len(points[0].positions) == len(motion.joint_names):
             return TrajectoryFile.model_construct(**fields)
         return TrajectoryFile(**fields)
 

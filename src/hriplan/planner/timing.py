@@ -20,6 +20,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from hriplan import HriplanError
+from hriplan.files import Finite
 from hriplan.planner.natural_spline import NaturalSpline
 from hriplan.recent import Recent
 from hriplan.robots.kernel_switch import kernels_on
@@ -125,14 +126,16 @@ that keeps a limit (inf: none); on path derivatives q'(s) that is the largest pa
 
 
 class TimedPath(BaseModel):
-    """A sampled joint trajectory (like trajectory_msgs/JointTrajectory): row i is at times[i]."""
+    """A sampled joint trajectory (like trajectory_msgs/JointTrajectory): row i is at times[i].
+    Every number finite (validation refuses the others; `time_parameterize` checks its arrays), so
+    a file's points are built around these lists as they are (`trajectory.timed_points`)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    times: list[float]
-    positions: list[list[float]]
-    velocities: list[list[float]]
-    accelerations: list[list[float]]
+    times: list[Finite]
+    positions: list[list[Finite]]
+    velocities: list[list[Finite]]
+    accelerations: list[list[Finite]]
     path_deviation: float
     """Max per-joint distance (rad) of the followed spline from the input polyline."""
     rests: int = 0
@@ -196,8 +199,11 @@ def time_parameterize(
         raise HriplanError(f"the timed motion exceeds the speed allowed near people by {100 * (1 / worst - 1):.1f}%")
     _check_limits(velocities, vmax, 1.0 + _VELOCITY_SLACK, "velocity")
     _check_limits(accelerations, amax, 1.0 + _ACCELERATION_SLACK, "acceleration")
-    # Not validated again: `tolist` of float64 arrays gives lists (of lists) of floats, `deviation`
-    # is a float (about 0.2 ms a re-plan's two motions saved; tests/planner/test_timed_built.py).
+    if not all(np.isfinite(rows).all() for rows in (times, positions, velocities, accelerations)):
+        raise HriplanError("the timed motion holds a number that is not finite (NaN or infinite)")
+    # Not validated again: `tolist` of finite float64 arrays gives lists (of lists) of finite
+    # floats, `deviation` is a float (about 0.2 ms a re-plan's two motions saved;
+    # tests/planner/test_timed_built.py).
     return TimedPath.model_construct(
         times=times.tolist(),
         positions=positions.tolist(),

@@ -9,8 +9,6 @@ schema is versioned.
 from __future__ import annotations
 
 import json
-import math
-from itertools import chain
 from operator import attrgetter, lt
 from pathlib import Path
 from typing import Literal
@@ -45,20 +43,11 @@ _set = object.__setattr__
 
 def timed_points(
     times: list[float], positions: list[list[float]], velocities: list[list[float]], accelerations: list[list[float]]
-) -> list[TrajectoryPoint] | list[dict[str, object]]:
-    """A timed motion's samples (lists of floats, as `TimedPath` holds them) as a file's points.
-
-    Every number finite: TrajectoryPoints around those very lists, as validation would make them
-    (`model_construct`'s steps) without copying the lists: a third of the objects, so half the
-    young collections of a UR5 timing (~300 points). Else the samples as dicts, for the file's
-    validation to refuse with its message. (A sum of floats is finite only if each is; one that
-    overflows is merely validated.)"""
-    total = sum(chain.from_iterable(positions), sum(chain.from_iterable(velocities), sum(times)))
-    if not math.isfinite(sum(chain.from_iterable(accelerations), total)):
-        return [
-            {"time_from_start": t, "positions": p, "velocities": v, "accelerations": a}
-            for t, p, v, a in zip(times, positions, velocities, accelerations)
-        ]
+) -> list[TrajectoryPoint]:
+    """A timed motion's samples (a `TimedPath`'s lists, finite by its type) as a file's points:
+    TrajectoryPoints around those very lists, as validation would make them (`model_construct`'s
+    steps) without copying the lists: a third of the objects, so half the young collections of a
+    UR5 timing (~300 points)."""
     points = []
     for t, p, v, a in zip(times, positions, velocities, accelerations):
         point = object.__new__(TrajectoryPoint)

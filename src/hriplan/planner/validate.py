@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 from pydantic import BaseModel
 
+from hriplan import HriplanError
 from hriplan.planner.constraints.evaluator import ConstraintEvaluator
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.kernel_switch import kernels_on
@@ -44,8 +45,10 @@ def densify(states: Sequence[np.ndarray], step: float) -> np.ndarray:
     one numpy pass (the same floating-point operations as one row at a time, so the same bits).
     `states`: an (m, n) array or m rows, read in one conversion (row by row: ~0.1 ms a timed path).
     With the kernels on one compiled call (`path_kernels.densified`, the same bits; ~20 numpy
-    calls cost ~50 us, three a plan)."""
+    calls cost ~50 us, three a plan). A number that is not finite cannot be split: HriplanError."""
     rows = np.asarray(states, dtype=float)
+    if not np.isfinite(rows).all():
+        raise HriplanError("a path to validate holds a number that is not finite (NaN or infinite)")
     if kernels_on() and rows.ndim == 2 and len(rows) and step > 0.0:  # numba raises on / 0.0
         from hriplan.planner import path_kernels  # numba: imported with the kernels on
 
