@@ -5,6 +5,7 @@ The geometry is checked here with the URDF's own kinematics (tests/independent.p
 the planner's evaluator."""
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -201,10 +202,12 @@ def test_a_search_that_times_out_says_which_constraint_the_direct_motion_breaks(
     assert "; the straight joint line to the goal leaves glass_wall (by 0.15)" in result.message  # half its thickness
 
 
-def test_a_timed_sample_that_is_not_finite_fails_the_timing(ur5, monkeypatch):
-    """A file's points are built around the timing's own lists unchecked: a NaN or an infinity in
-    its samples (positions: no limit check reads them) fails the timing, so no file is returned and
-    the result says why in one line; the same motion timed as it is gives the planned file."""
+@pytest.mark.parametrize("row", [0, 1, 2, None])  # positions, velocities, accelerations; the duration
+def test_a_timed_sample_that_is_not_finite_fails_the_timing(ur5, monkeypatch, row):
+    """A file's points are built around the timing's own lists unchecked, and no limit check
+    reads a NaN (its comparisons are false): a NaN or an infinity in its samples fails the timing,
+    so no file is returned and the result says why in one line; the same motion timed as it is
+    gives the planned file."""
     session, group, _ = ur5
     session.set_constraints([])
     start = dict(zip(session.robot.joint_names, session.robot.configuration(A, group).tolist()))
@@ -217,11 +220,12 @@ def test_a_timed_sample_that_is_not_finite_fails_the_timing(ur5, monkeypatch):
             samples = made.samples
 
             def spoiled_samples(times):
-                positions, velocities, accelerations = samples(times)
-                positions = positions.copy()
-                positions[len(positions) // 2, 3] = bad
-                return positions, velocities, accelerations
+                rows = [values.copy() for values in samples(times)]
+                rows[row][len(rows[row]) // 2, 3] = bad
+                return tuple(rows)
 
+            if row is None:  # a trajectory that ends at no number
+                return SimpleNamespace(path_interval=np.array([0.0, bad]), samples=samples)
             made.samples = spoiled_samples
             return made
 

@@ -184,11 +184,13 @@ def time_parameterize(
     for _ in range(_SPEED_LIMIT_RETRIES + 1):
         trajectory = _retimed(path, s, vmax, amax, None if limit is None else (limit, factor))
         duration = float(trajectory.path_interval[1])
+        _refuse_not_finite(duration)
         # Samples on the sample_dt grid strictly before the end, then the end itself; a grid time
         # within a millionth of a period of the end counts as the end, so the last step is not ~0.
         count = int(np.ceil(duration / sample_dt - 1e-6))
         times = np.append(sample_dt * np.arange(count), duration)
         positions, velocities, accelerations = trajectory.samples(times)
+        _refuse_not_finite(positions, velocities, accelerations)
         if speed_scale is None:
             break
         worst = float(np.min(speed_scale(positions, velocities)))
@@ -199,8 +201,6 @@ def time_parameterize(
         raise HriplanError(f"the timed motion exceeds the speed allowed near people by {100 * (1 / worst - 1):.1f}%")
     _check_limits(velocities, vmax, 1.0 + _VELOCITY_SLACK, "velocity")
     _check_limits(accelerations, amax, 1.0 + _ACCELERATION_SLACK, "acceleration")
-    if not all(np.isfinite(rows).all() for rows in (times, positions, velocities, accelerations)):
-        raise HriplanError("the timed motion holds a number that is not finite (NaN or infinite)")
     # Not validated again: `tolist` of finite float64 arrays gives lists (of lists) of finite
     # floats, `deviation` is a float (about 0.2 ms a re-plan's two motions saved;
     # tests/planner/test_timed_built.py).
@@ -211,6 +211,13 @@ def time_parameterize(
         accelerations=accelerations.tolist(),
         path_deviation=deviation,
     )
+
+
+def _refuse_not_finite(*values: float | np.ndarray) -> None:
+    """A TimedPath is built from these without validation, and no limit check reads a NaN (its
+    comparisons are false): refuse one here, in one line, before anything uses it."""
+    if not all(np.isfinite(v).all() for v in values):
+        raise HriplanError("the timed motion holds a number that is not finite (NaN or infinite)")
 
 
 def at_rest(position: Sequence[float]) -> TimedPath:
