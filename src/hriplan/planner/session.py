@@ -39,12 +39,7 @@ from hriplan.planner.outcome import Status
 from hriplan.planner.replay import MotionSetting
 from hriplan.planner.search.seeds import ompl_seed
 from hriplan.planner.timing import TimedPath, at_rest, joined, time_parameterize
-from hriplan.planner.trajectory import (
-    ResolvedConstraint,
-    TrajectoryFile,
-    TrajectoryReport,
-    timed_points,
-)
+from hriplan.planner.trajectory import ResolvedConstraint, TrajectoryFile, TrajectoryReport, timed_points
 from hriplan.planner.validate import PathValidation, densify, validate_path
 from hriplan.robots.collision import CollisionChecker
 from hriplan.robots.descriptions.registry import DEFAULT_ROBOT, robot_name
@@ -488,7 +483,7 @@ class PlanningSession:
             "constraints": _resolved(bound),
             "report": report,
         }
-        # Every number finite (a TimedPath's, by its type) and a value per joint named: not
+        # Every number finite (checked where the TimedPath was made) and a value per joint named: not
         # validated again, the session's own models and samples timed from rest to rest (times
         # from 0 increasing); validation re-reads every point (~0.07 ms a UR5 motion;
         # tests/planner/test_timed_built.py). Else it refuses the file, with the first fault.

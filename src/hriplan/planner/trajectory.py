@@ -44,7 +44,7 @@ _set = object.__setattr__
 def timed_points(
     times: list[float], positions: list[list[float]], velocities: list[list[float]], accelerations: list[list[float]]
 ) -> list[TrajectoryPoint]:
-    """A timed motion's samples (a `TimedPath`'s lists, finite by its type) as a file's points:
+    """A timed motion's samples (a `TimedPath`'s lists, finite: checked where it is made) as a file's points:
     TrajectoryPoints around those very lists, as validation would make them (`model_construct`'s
     steps) without copying the lists: a third of the objects, so half the young collections of a
     UR5 timing (~300 points)."""
