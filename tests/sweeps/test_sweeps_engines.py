@@ -182,6 +182,28 @@ def test_batch_from_the_command_line_then_its_report(tmp_path):
     ).read_text()
 
 
+def test_an_interrupt_right_after_a_variant_was_kept_counts_it(tmp_path, monkeypatch):
+    """Ctrl-C or SIGTERM can land after the store kept a variant's rows and before the sweep
+    counted it: the count it says is kept is the variants whose rows the folder holds."""
+    from hriplan.sweeps.results import ResultStore, read_results
+    from hriplan.sweeps.run import SweepInterrupted
+
+    kept_rows = ResultStore.add
+    calls = []
+
+    def add_then_interrupted(self, rows):
+        kept_rows(self, rows)
+        calls.append(len(rows))
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(ResultStore, "add", add_then_interrupted)
+    variants = expand(GIVE, [parse_vary("planning.seed=1:4:1")])
+    with pytest.raises(SweepInterrupted, match=r"^interrupted: 2 variants kept in "):
+        run_sweep(variants, tmp_path / "s", LocalEngine(1), plan=False, progress=False)
+    assert len({r["key"] for r in read_results(tmp_path / "s")}) == 2
+
+
 @pytest.mark.parametrize(
     ("signal_name", "code", "engine"), [("SIGINT", 130, "local"), ("SIGTERM", 143, "local"), ("SIGTERM", 143, "ray")]
 )

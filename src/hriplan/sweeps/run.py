@@ -169,21 +169,19 @@ def run_sweep(
         ]
         write_atomically(directory / MANIFEST, json.dumps(manifest, indent=1))
         bar = Progress(len(todo)) if progress and todo else None
-        done = 0
 
         def deliver(variant: Variant, rows: list[Row]) -> None:
-            nonlocal done
             store.add([row | {"mode": identity["mode"]} for row in _keep_trajectories(directory, variant, rows)])
-            done += 1
             if bar is not None:
                 bar.advance()
 
         try:
             if todo:
                 engine.run(todo, plan, deliver, work)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt:  # counted from the folder: it may land as the store keeps a variant
             store.compact(csv)
-            raise SweepInterrupted(len(variants) - len(todo) + done, directory) from None
+            kept = len({v.key for v in variants} & store.finished_keys())
+            raise SweepInterrupted(kept, directory) from None
         finally:
             if bar is not None:
                 bar.close()
